@@ -1,0 +1,70 @@
+// args.h: the command line every step shares, plus a step's own flags.
+//
+//   --volume PATH|phantom   --dims NX,NY,NZ  --endian little|big  --spacing SX,SY,SZ
+//   --view top|front|side|all  --out DIR  --no-window  --debug-pixel X,Y  --threads N  --help
+// A step adds its own (--threshold, --slice, ...) before parse(). Any bad flag or number
+// throws InputError naming the flag and what was expected.
+#pragma once
+#include <string>
+#include <vector>
+#include "volume.h"
+
+namespace ctlab {
+
+struct Options {
+    std::string step;                 // e.g. "03_depth_shading": names the PNGs and the summary
+    std::string volume;               // "" = data/CThead when present, else the phantom
+    bool has_dims = false;            // --dims given: a generic raw file
+    bool has_endian = false, has_spacing = false;
+    RawFormat raw;                    // --dims, --endian, --spacing
+    std::string view = "all";         // top, front, side or all
+    std::string out = "out";          // folder for the PNGs
+    bool no_window = false;
+    bool has_debug_pixel = false;
+    int debug_x = 0, debug_y = 0;     // image column and row
+    int threads = 1;                  // resolved: --threads N, default all cores
+    std::string window_script;        // tests only: events to inject into the preview window
+};
+
+class Args {
+public:
+    Args(std::string step, std::string summary);
+
+    // A step's own flags. Values are checked against [min, max] when parsed.
+    void add_int(const std::string& flag, int* target, int min, int max, const std::string& help);
+    void add_double(const std::string& flag, double* target, double min, double max,
+                    const std::string& help);
+    void add_choice(const std::string& flag, std::string* target,
+                    const std::vector<std::string>& choices, const std::string& help);
+    void add_string(const std::string& flag, std::string* target, const std::string& help);
+    void add_switch(const std::string& flag, bool* target, const std::string& help);
+
+    // Parses argv. --help prints the usage and exits with status 0.
+    Options parse(int argc, char** argv);
+
+    std::string usage() const;
+
+private:
+    enum class Kind { integer, real, choice, text, on_off };
+    struct Flag {
+        std::string name;
+        Kind kind;
+        void* target;
+        double min, max;
+        std::vector<std::string> choices;
+        std::string help;
+    };
+    std::string step_, summary_;
+    std::vector<Flag> flags_;
+};
+
+// Strict number parsing: the whole text must be a number in [min, max]. Throw InputError
+// "FLAG: expected WHAT, got 'TEXT'".
+int parse_int(const std::string& flag, const std::string& text, int min, int max);
+double parse_double(const std::string& flag, const std::string& text, double min, double max);
+
+// Loads what --volume names: the phantom, a CThead file, or a raw file with --dims.
+// The default (no --volume) is data/CThead when present, else the phantom.
+Volume load_volume(const Options& options);
+
+}  // namespace ctlab

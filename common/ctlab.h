@@ -1,0 +1,19 @@
+// ctlab.h: the one header a step includes. It brings the boring code (common/) and the
+// standard headers the steps use, so a step file starts with a single #include.
+#pragma once
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+#include "args.h"
+#include "error.h"
+#include "image.h"
+#include "phantom.h"
+#include "render.h"
+#include "step.h"
+#include "vec3.h"
+#include "view.h"
+#include "volume.h"

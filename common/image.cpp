@@ -1,0 +1,79 @@
+// image.cpp: PNG output (stb_image_write), written atomically.
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#include <stb_image_write.h>
+#include "image.h"
+#include <sys/stat.h>
+#include <unistd.h>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <vector>
+#include "error.h"
+
+namespace ctlab {
+
+unsigned char to_byte(float value) {
+    // Clamp in float first: casting 256.0f (or NaN) to a byte is undefined behaviour.
+    if (!(value > 0.0f)) return 0;  // also catches NaN
+    if (value >= 1.0f) return 255;
+    return static_cast<unsigned char>(value * 255.0f + 0.5f);
+}
+
+void make_folder(const std::string& path) {
+    if (path.empty()) return;
+    std::string partial;
+    size_t start = 0;
+    while (start <= path.size()) {
+        size_t slash = path.find('/', start);
+        if (slash == std::string::npos) slash = path.size();
+        partial = path.substr(0, slash);
+        start = slash + 1;
+        if (partial.empty() || partial == ".") continue;
+        struct stat info {};
+        if (stat(partial.c_str(), &info) == 0) {
+            if (!S_ISDIR(info.st_mode)) {
+                throw InputError("cannot write to '" + path + "': '" + partial +
+                                 "' is a file, not a folder");
+            }
+            continue;
+        }
+        if (mkdir(partial.c_str(), 0777) != 0 && errno != EEXIST) {
+            throw InputError("cannot create folder '" + partial + "': " + std::strerror(errno));
+        }
+    }
+}
+
+static void write_bytes(void* context, void* data, int size) {
+    std::FILE* file = static_cast<std::FILE*>(context);
+    std::fwrite(data, 1, static_cast<size_t>(size), file);
+}
+
+void write_png(const Image& image, const std::string& path) {
+    const size_t slash = path.rfind('/');
+    if (slash != std::string::npos) make_folder(path.substr(0, slash));
+    std::vector<unsigned char> bytes(static_cast<size_t>(image.width) * image.height * 3);
+    for (size_t n = 0; n < image.pixels.size(); ++n) {
+        bytes[3 * n + 0] = to_byte(image.pixels[n].r);
+        bytes[3 * n + 1] = to_byte(image.pixels[n].g);
+        bytes[3 * n + 2] = to_byte(image.pixels[n].b);
+    }
+    // Write beside the target, then rename: the PNG appears whole or not at all.
+    const std::string temporary = path + ".tmp" + std::to_string(getpid());
+    std::FILE* file = std::fopen(temporary.c_str(), "wb");
+    if (!file) throw InputError("cannot write '" + path + "': " + std::strerror(errno));
+    const int encoded = stbi_write_png_to_func(write_bytes, file, image.width, image.height, 3,
+                                               bytes.data(), image.width * 3);
+    const bool write_failed = std::ferror(file) != 0;
+    const bool close_failed = std::fclose(file) != 0;
+    if (!encoded || write_failed || close_failed) {
+        std::remove(temporary.c_str());
+        throw InputError("cannot write '" + path + "' (disk full or no permission?)");
+    }
+    if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+        const std::string reason = std::strerror(errno);
+        std::remove(temporary.c_str());
+        throw InputError("cannot write '" + path + "': " + reason);
+    }
+}
+
+}  // namespace ctlab

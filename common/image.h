@@ -1,0 +1,38 @@
+// image.h: a float RGB picture and its PNG output.
+#pragma once
+#include <string>
+#include <vector>
+
+namespace ctlab {
+
+struct Rgb {
+    float r = 0, g = 0, b = 0;  // linear 0..1; values outside are clamped only when written
+};
+
+inline Rgb grey(float value) { return {value, value, value}; }
+
+struct Image {
+    int width = 0, height = 0;
+    std::vector<Rgb> pixels;  // row-major, row y = image row (top row first)
+
+    Image() = default;
+    Image(int w, int h) : width(w), height(h), pixels(static_cast<size_t>(w) * h) {}
+    Rgb& at(int x, int y) { return pixels[static_cast<size_t>(y) * width + x]; }
+    const Rgb& at(int x, int y) const { return pixels[static_cast<size_t>(y) * width + x]; }
+};
+
+// 0..1 float to a byte: clamped in floating point first (NaN counts as 0), then rounded.
+unsigned char to_byte(float value);
+
+// Writes an 8-bit RGB PNG through a temporary file renamed into place, so a reader never
+// sees a half-written PNG. Throws InputError when the folder cannot be written.
+void write_png(const Image& image, const std::string& path);
+
+// Reads a PNG (any bit depth stb_image reads) or a binary PPM (P6, maxval 255) as 0..1 RGB.
+// Throws InputError naming the file and the problem.
+Image read_image(const std::string& path);
+
+// Creates a folder and its parents (like mkdir -p). Throws InputError when it cannot.
+void make_folder(const std::string& path);
+
+}  // namespace ctlab

@@ -1,0 +1,85 @@
+// render.h: work counters, timing, per-pixel traces and the parallel pixel loop.
+#pragma once
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <thread>
+#include <vector>
+#include "image.h"
+#include "view.h"
+
+namespace ctlab {
+
+// How much a render did. Every step prints all of these in its summary line.
+struct Work {
+    uint64_t samples = 0;     // samples visited along rays (voxels read, or interpolated)
+    uint64_t skipped = 0;     // samples classified transparent and not shaded
+    uint64_t gradients = 0;   // gradient evaluations
+    uint64_t terminated = 0;  // rays stopped early (first hit found, or opacity saturated)
+    uint64_t hits = 0;        // rays that met a surface
+
+    void add(const Work& other) {
+        samples += other.samples;
+        skipped += other.skipped;
+        gradients += other.gradients;
+        terminated += other.terminated;
+        hits += other.hits;
+    }
+};
+
+class Timer {
+public:
+    Timer() : start_(std::chrono::steady_clock::now()) {}
+    double ms() const {
+        return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_)
+            .count();
+    }
+
+private:
+    std::chrono::steady_clock::time_point start_;
+};
+
+// What one ray did, sample by sample: filled only when a pixel is being debugged.
+class Trace {
+public:
+    void add(const char* format, ...) __attribute__((format(printf, 2, 3)));
+    const std::vector<std::string>& lines() const { return lines_; }
+
+private:
+    std::vector<std::string> lines_;
+};
+
+// Calls row(y, work) for every image row, rows shared among `threads` threads. Each thread
+// counts into its own Work, summed at the end, so the result does not depend on threads.
+template <class RowFunction>
+void parallel_rows(int height, int threads, Work& total, RowFunction row) {
+    threads = std::max(1, std::min(threads, height));
+    if (threads == 1) {
+        for (int y = 0; y < height; ++y) row(y, total);
+        return;
+    }
+    std::atomic<int> next_row{0};
+    std::vector<Work> work(threads);
+    std::vector<std::thread> pool;
+    for (int n = 0; n < threads; ++n) {
+        pool.emplace_back([&, n] {
+            for (int y = next_row++; y < height; y = next_row++) row(y, work[n]);
+        });
+    }
+    for (auto& thread : pool) thread.join();
+    for (const Work& w : work) total.add(w);
+}
+
+// Every pixel of a view: pixel(x, y, work) -> Rgb, rows in parallel.
+template <class PixelFunction>
+Image render_image(const View& view, int threads, Work& work, PixelFunction pixel) {
+    Image image(view.width, view.height);
+    parallel_rows(view.height, threads, work, [&](int y, Work& row_work) {
+        for (int x = 0; x < view.width; ++x) image.at(x, y) = pixel(x, y, row_work);
+    });
+    return image;
+}
+
+}  // namespace ctlab

@@ -1,0 +1,134 @@
+// step.cpp: the part of every main() that is not the lesson.
+#include "step.h"
+#include <unistd.h>
+#include <cstdio>
+#include <new>
+#include "error.h"
+#include "window.h"
+
+namespace ctlab {
+
+std::string output_path(const Options& options, const View& view) {
+    return options.out + "/" + options.step + "_" + view.name + ".png";
+}
+
+Image render_view(const Options& options, const View& view, const Renderer& renderer,
+                  Work& work) {
+    if (renderer.image) return renderer.image(view, work);
+    return render_image(view, options.threads, work, [&](int x, int y, Work& pixel_work) {
+        return renderer.ray(view, x, y, pixel_work, nullptr);
+    });
+}
+
+static void print_summary(const Options& options, const View& view, const Renderer& renderer,
+                          const Work& work, double ms) {
+    std::printf("step=%s view=%s size=%dx%d time_ms=%.2f threads=%d samples=%llu skipped=%llu "
+                "gradients=%llu terminated=%llu hits=%llu",
+                options.step.c_str(), view.name.c_str(), view.width, view.height, ms,
+                options.threads, static_cast<unsigned long long>(work.samples),
+                static_cast<unsigned long long>(work.skipped),
+                static_cast<unsigned long long>(work.gradients),
+                static_cast<unsigned long long>(work.terminated),
+                static_cast<unsigned long long>(work.hits));
+    if (!renderer.knob.name.empty()) {
+        std::printf(" %s=%s", renderer.knob.name.c_str(), renderer.knob.value().c_str());
+    }
+    if (renderer.settings) std::printf(" %s", renderer.settings().c_str());
+    std::printf("\n");
+    std::fflush(stdout);
+}
+
+void print_trace(const Options& options, const View& view, const Renderer& renderer, int x,
+                 int y) {
+    const char* axis_names[] = {"k", "j", "i"};  // the ray axis of top, front, side
+    std::printf("debug pixel x=%d y=%d view=%s step=%s (ray over %s, %d samples)\n", x, y,
+                view.name.c_str(), options.step.c_str(), axis_names[int(view.axis)],
+                view.ray_length);
+    Work work;
+    Trace trace;
+    const Rgb pixel = renderer.ray(view, x, y, work, &trace);
+    for (const std::string& line : trace.lines()) std::printf("  %s\n", line.c_str());
+    std::printf("pixel x=%d y=%d rgb=(%.6f, %.6f, %.6f) png=(%d, %d, %d) samples=%llu\n", x, y,
+                pixel.r, pixel.g, pixel.b, to_byte(pixel.r), to_byte(pixel.g), to_byte(pixel.b),
+                static_cast<unsigned long long>(work.samples));
+    std::fflush(stdout);
+}
+
+static bool inside(const View& view, int x, int y) {
+    return x >= 0 && y >= 0 && x < view.width && y < view.height;
+}
+
+int run_views(const Options& options, const Volume& volume, const Renderer& renderer) {
+    const std::vector<View> views = views_named(volume, options.view);
+
+    // Refuse bad requests before any work, so nothing is half done.
+    if (options.has_debug_pixel) {
+        bool anywhere = false;
+        for (const View& view : views) anywhere = anywhere || inside(view, options.debug_x,
+                                                                     options.debug_y);
+        if (!anywhere) {
+            throw InputError("--debug-pixel " + std::to_string(options.debug_x) + "," +
+                             std::to_string(options.debug_y) + " is outside the " +
+                             views[0].name + " image (" + std::to_string(views[0].width) + "x" +
+                             std::to_string(views[0].height) + "); X is the column, Y the row");
+        }
+    }
+    make_folder(options.out);
+    if (access(options.out.c_str(), W_OK) != 0) {
+        throw InputError("--out: cannot write to folder '" + options.out + "'");
+    }
+
+    for (const View& view : views) {
+        Work work;
+        const Timer timer;
+        const Image image = render_view(options, view, renderer, work);
+        const double ms = timer.ms();
+        write_png(image, output_path(options, view));
+        print_summary(options, view, renderer, work, ms);
+        if (options.has_debug_pixel) {
+            if (inside(view, options.debug_x, options.debug_y)) {
+                print_trace(options, view, renderer, options.debug_x, options.debug_y);
+            } else {
+                std::printf("note: debug pixel %d,%d is outside the %s image (%dx%d)\n",
+                            options.debug_x, options.debug_y, view.name.c_str(), view.width,
+                            view.height);
+            }
+        }
+    }
+
+    if (!window_wanted(options)) return 0;
+    Preview preview;
+    preview.step = options.step;
+    preview.views = views_named(volume, "all");
+    preview.current = int(views[0].axis);
+    preview.render = [&](const View& view, Work& work) {
+        const Timer timer;
+        Image image = render_view(options, view, renderer, work);
+        print_summary(options, view, renderer, work, timer.ms());
+        return image;
+    };
+    preview.trace = [&](const View& view, int x, int y) {
+        print_trace(options, view, renderer, x, y);
+    };
+    preview.knob = renderer.knob;
+    preview.save_path = [&](const View& view) { return output_path(options, view); };
+    show_preview(options, preview);
+    return 0;
+}
+
+int guarded_main(const char* step, const std::function<int()>& body) {
+    try {
+        return body();
+    } catch (const InputError& error) {
+        std::fprintf(stderr, "%s: error: %s\n", step, error.what());
+        return exit_bad_input;
+    } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "%s: error: out of memory (is the volume too large?)\n", step);
+        return exit_bad_input;
+    } catch (const std::exception& error) {
+        std::fprintf(stderr, "%s: internal error: %s\n", step, error.what());
+        return 1;
+    }
+}
+
+}  // namespace ctlab

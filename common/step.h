@@ -1,0 +1,52 @@
+// step.h: what every step's main() does after its lesson: render each view, write the PNG,
+// print the summary line, trace a debug pixel, then open the preview window.
+#pragma once
+#include <functional>
+#include <string>
+#include "args.h"
+#include "image.h"
+#include "render.h"
+#include "view.h"
+#include "volume.h"
+
+namespace ctlab {
+
+// One ray, with its trace when trace != nullptr. The same function renders the image.
+using RayFunction = std::function<Rgb(const View&, int x, int y, Work&, Trace*)>;
+// A whole picture (optional: the default runs the ray function over every pixel in parallel).
+using ImageFunction = std::function<Image(const View&, Work&)>;
+
+// The step's main parameter, on the preview window's Up/Down (+/-) keys.
+struct Knob {
+    std::string name;                         // "threshold", "slice", ...
+    std::function<void(const View&, int steps)> adjust;  // +1 per Up, -1 per Down
+    std::function<std::string()> value;       // current value, for the title and summary
+};
+
+struct Renderer {
+    RayFunction ray;
+    ImageFunction image;                      // empty: render_image() over `ray`
+    Knob knob;                                // name empty: no knob
+    std::function<std::string()> settings;    // extra "key=value ..." for the summary line
+};
+
+// Renders every selected view: PNG to OUT/STEP_VIEW.png, one summary line each, the
+// --debug-pixel trace, then the window unless --no-window or no display. Returns 0.
+int run_views(const Options& options, const Volume& volume, const Renderer& renderer);
+
+// The image of one view, as run_views renders it (used by tests, the window and tools).
+Image render_view(const Options& options, const View& view, const Renderer& renderer,
+                  Work& work);
+
+// Prints the trace of pixel (x, y): a header, one line per sample, the final pixel value.
+void print_trace(const Options& options, const View& view, const Renderer& renderer, int x,
+                 int y);
+
+// "out/03_depth_shading_front.png"
+std::string output_path(const Options& options, const View& view);
+
+// Runs body(); any InputError (or other exception) becomes one line on stderr
+// "STEP: error: ..." and exit status 2 (1 for an unexpected internal error).
+int guarded_main(const char* step, const std::function<int()>& body);
+
+}  // namespace ctlab

@@ -1,0 +1,61 @@
+// view.cpp: image size and ray axis for each of the three views.
+#include "view.h"
+#include "error.h"
+
+namespace ctlab {
+
+View make_view(const Volume& volume, ViewAxis axis) {
+    View view;
+    view.axis = axis;
+    switch (axis) {
+        case ViewAxis::top:  // image (i, j), ray down k
+            view.name = "top";
+            view.width = volume.nx;
+            view.height = volume.ny;
+            view.ray_length = volume.nz;
+            view.ray_spacing = volume.sz;
+            view.pixel_width = volume.sx;
+            view.pixel_height = volume.sy;
+            break;
+        case ViewAxis::front:  // image (i, k), ray along j from the face
+            view.name = "front";
+            view.width = volume.nx;
+            view.height = volume.nz;
+            view.ray_length = volume.ny;
+            view.ray_spacing = volume.sy;
+            view.pixel_width = volume.sx;
+            view.pixel_height = volume.sz;
+            break;
+        case ViewAxis::side:  // image (j, k), ray along i
+            view.name = "side";
+            view.width = volume.ny;
+            view.height = volume.nz;
+            view.ray_length = volume.nx;
+            view.ray_spacing = volume.sx;
+            view.pixel_width = volume.sy;
+            view.pixel_height = volume.sz;
+            break;
+    }
+    return view;
+}
+
+Vec3 volume_direction(const View& view, float along_x, float along_y, float along_ray) {
+    switch (view.axis) {
+        case ViewAxis::top: return {along_x, along_y, along_ray};    // x = i, y = j, ray = k
+        case ViewAxis::front: return {along_x, along_ray, along_y};  // x = i, y = k, ray = j
+        default: return {along_ray, along_x, along_y};               // x = j, y = k, ray = i
+    }
+}
+
+std::vector<View> views_named(const Volume& volume, const std::string& which) {
+    if (which == "top") return {make_view(volume, ViewAxis::top)};
+    if (which == "front") return {make_view(volume, ViewAxis::front)};
+    if (which == "side") return {make_view(volume, ViewAxis::side)};
+    if (which == "all") {
+        return {make_view(volume, ViewAxis::top), make_view(volume, ViewAxis::front),
+                make_view(volume, ViewAxis::side)};
+    }
+    throw InputError("--view: expected top, front, side or all, got '" + which + "'");
+}
+
+}  // namespace ctlab

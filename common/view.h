@@ -1,0 +1,50 @@
+// view.h: the three axis-aligned views and how image pixels map to voxels.
+//
+//   top   = image (x, y) = (i, j), the ray runs over k (from the crown down)
+//   front = image (x, y) = (i, k), the ray runs over j (from the face backwards)
+//   side  = image (x, y) = (j, k), the ray runs over i
+// Image row y = k in front and side, so the head stands upright. Rays start at index 0.
+#pragma once
+#include <string>
+#include <vector>
+#include "vec3.h"
+#include "volume.h"
+
+namespace ctlab {
+
+enum class ViewAxis { top, front, side };
+
+struct Voxel {
+    int i, j, k;
+};
+
+struct View {
+    ViewAxis axis = ViewAxis::top;
+    std::string name;        // "top", "front" or "side"
+    int width = 0;           // image columns
+    int height = 0;          // image rows
+    int ray_length = 0;      // samples along a ray (voxels along the ray axis)
+    double ray_spacing = 1;  // distance between two samples along the ray, in spacing units
+    double pixel_width = 1;  // physical size of a pixel across (x) and down (y): for display
+    double pixel_height = 1;
+
+    // The voxel seen at sample t along the ray through pixel (x, y).
+    Voxel voxel(int x, int y, int t) const {
+        switch (axis) {
+            case ViewAxis::top: return {x, y, t};
+            case ViewAxis::front: return {x, t, y};
+            default: return {t, x, y};
+        }
+    }
+};
+
+View make_view(const Volume& volume, ViewAxis axis);
+
+// A direction given in the view's frame (along image x to the right, along image y down,
+// along the ray away from the viewer) as components along the volume axes i, j, k.
+Vec3 volume_direction(const View& view, float along_x, float along_y, float along_ray);
+
+// "top", "front", "side" -> views; "all" -> all three. Throws InputError otherwise.
+std::vector<View> views_named(const Volume& volume, const std::string& which);
+
+}  // namespace ctlab

@@ -1,0 +1,34 @@
+// window.h: the SDL2 preview window. It is a layer on top: every step works without it.
+//
+// Keys: 1/2/3 top/front/side; Up/Down or +/- change the step's knob and re-render (render
+// time in the title); left click prints that pixel's trace; S saves a PNG; Esc/Q quits.
+#pragma once
+#include <functional>
+#include <string>
+#include <vector>
+#include "args.h"
+#include "step.h"
+#include "view.h"
+
+namespace ctlab {
+
+struct Preview {
+    std::string step;                                   // "05_interpolated_hits"
+    std::vector<View> views;                            // the views the user can switch among
+    int current = 0;                                    // index into views
+    std::function<Image(const View&, Work&)> render;    // re-render the view
+    std::function<void(const View&, int x, int y)> trace;  // print one pixel's trace
+    Knob knob;                                          // Up/Down; name empty: none
+    std::function<std::string(const View&)> save_path;  // where S writes
+};
+
+// True when a window can be tried: not --no-window, and DISPLAY or WAYLAND_DISPLAY is set.
+bool window_wanted(const Options& options);
+
+// Opens the window and runs until the user quits. Returns false (having printed one note)
+// when no window could be opened; the caller has already written its PNGs.
+// options.window_script (tests): comma-separated events injected after the first frame,
+// e.g. "key:2,key:Up,click:40:30,save,quit".
+bool show_preview(const Options& options, Preview& preview);
+
+}  // namespace ctlab
