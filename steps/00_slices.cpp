@@ -5,7 +5,7 @@
 // Builds on:  nothing: this is the first step.
 // Handout:    handouts/00_slices.md
 // Run:        make run STEP=00 ARGS="--view front --slice 128"
-// Reference:  data/reference/00_slices_<view>.png is this step's default run on the phantom.
+// Reference:  data/reference/00_slices_<view>.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 

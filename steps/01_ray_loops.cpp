@@ -5,7 +5,7 @@
 // Builds on:  00_slices (the same min..max grey mapping).
 // Handout:    handouts/01_ray_loops.md
 // Run:        make run STEP=01 ARGS="--view side"
-// Reference:  data/reference/01_ray_loops_<view>.png is this step's default run on the phantom.
+// Reference:  data/reference/01_ray_loops_<view>.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 

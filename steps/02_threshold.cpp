@@ -5,7 +5,7 @@
 // Builds on:  01_ray_loops.
 // Handout:    handouts/02_threshold.md
 // Run:        make run STEP=02 ARGS="--threshold 400 --view front"
-// Reference:  data/reference/02_threshold_<view>.png is this step's default run on the phantom.
+// Reference:  data/reference/02_threshold_<view>.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 

@@ -4,7 +4,7 @@
 // Builds on:  02_threshold.
 // Handout:    handouts/03_depth_shading.md
 // Run:        make run STEP=03 ARGS="--view side"
-// Reference:  data/reference/03_depth_shading_<view>.png is this step's default run on the phantom.
+// Reference:  data/reference/03_depth_shading_<view>.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 

@@ -5,7 +5,7 @@
 // Builds on:  03_depth_shading.
 // Handout:    handouts/04_gradient_lighting.md
 // Run:        make run STEP=04 ARGS="--light-angle 60 --view front"
-// Reference:  data/reference/04_gradient_lighting_<view>.png is this step's default run on the phantom.
+// Reference:  data/reference/04_gradient_lighting_<view>.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
@@ -63,9 +63,12 @@ static float derivative(Sample sample, int n, int count, double spacing) {
 static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
     const int i = voxel.i, j = voxel.j, k = voxel.k;
     ++work.gradients;
-    return {derivative([&](int m) { return double(volume.at(m, j, k)); }, i, volume.nx, volume.sx),
-            derivative([&](int m) { return double(volume.at(i, m, k)); }, j, volume.ny, volume.sy),
-            derivative([&](int m) { return double(volume.at(i, j, m)); }, k, volume.nz, volume.sz)};
+    auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
+    auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
+    auto along_k = [&](int m) { return double(volume.at(i, j, m)); };
+    return {derivative(along_i, i, volume.nx, volume.sx),
+            derivative(along_j, j, volume.ny, volume.sy),
+            derivative(along_k, k, volume.nz, volume.sz)};
 }
 //< lesson: gradient
 

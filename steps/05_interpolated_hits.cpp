@@ -5,12 +5,13 @@
 // Builds on:  04_gradient_lighting.
 // Handout:    handouts/05_interpolated_hits.md
 // Run:        make run STEP=05 ARGS="--view front"
-// Reference:  data/reference/05_interpolated_hits_<view>.png is this step's default run on the phantom.
+// Reference:  data/reference/05_interpolated_hits_<view>.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
 constexpr const char* step_name = "05_interpolated_hits";
 constexpr int bone_threshold = 400;  // CT value: bone starts about 300; 400 keeps it clean
+constexpr int threshold_key_step = 50;      // CT units per Up/Down key press
 constexpr double default_light_angle = 30;  // degrees to the right of the viewer
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
@@ -20,8 +21,6 @@ struct Params {
     int threshold = bone_threshold;  // a hit is a value strictly above this
     double light_angle = default_light_angle;
 };
-
-constexpr int threshold_key_step = 50;      // CT units per Up/Down key press
 
 struct Hit {
     bool found = false;
@@ -72,9 +71,12 @@ static float derivative(Sample sample, int n, int count, double spacing) {
 static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
     const int i = voxel.i, j = voxel.j, k = voxel.k;
     ++work.gradients;
-    return {derivative([&](int m) { return double(volume.at(m, j, k)); }, i, volume.nx, volume.sx),
-            derivative([&](int m) { return double(volume.at(i, m, k)); }, j, volume.ny, volume.sy),
-            derivative([&](int m) { return double(volume.at(i, j, m)); }, k, volume.nz, volume.sz)};
+    auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
+    auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
+    auto along_k = [&](int m) { return double(volume.at(i, j, m)); };
+    return {derivative(along_i, i, volume.nx, volume.sx),
+            derivative(along_j, j, volume.ny, volume.sy),
+            derivative(along_k, k, volume.nz, volume.sz)};
 }
 
 // The gradient at a fractional position t along the ray: interpolated between the voxels on
