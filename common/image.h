@@ -28,7 +28,8 @@ unsigned char to_byte(float value);
 // sees a half-written PNG. Throws InputError when the folder cannot be written.
 void write_png(const Image& image, const std::string& path);
 
-// Reads a PNG (any bit depth stb_image reads) or a binary PPM (P6, maxval 255) as 0..1 RGB.
+// Reads a PNG (any bit depth stb_image reads) or a PPM (P6 or P3, maxval up to 65535) as
+// 0..1 RGB.
 // Throws InputError naming the file and the problem.
 Image read_image(const std::string& path);
 
