@@ -1,0 +1,182 @@
+// test_phantom.cpp: the built-in head. Size, spacing, range and determinism, then spot checks
+// at places handouts/phantom.md names (voxel i, j, k = mm x - 0.5, y - 0.5, (z - 1) / 2).
+#include <doctest/doctest.h>
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include "error.h"
+#include "phantom.h"
+
+using namespace ctlab;
+
+namespace {
+
+// The full phantom, made once for all tests (about 50 ms).
+const Volume& phantom() {
+    static const Volume volume = make_phantom();
+    return volume;
+}
+
+// Classic transfer-function classes (numerics.md): the phantom must be unambiguous about them.
+bool is_air(int value) { return value < -300; }
+bool is_skin(int value) { return value >= -300 && value < 50; }
+bool is_bone(int value) { return value >= 400; }
+
+}  // namespace
+
+TEST_CASE("phantom: CThead's dims and spacing, named phantom") {
+    const Volume& volume = phantom();
+    CHECK(volume.nx == cthead_nx);
+    CHECK(volume.ny == cthead_ny);
+    CHECK(volume.nz == cthead_nz);
+    CHECK(volume.sx == 1.0);
+    CHECK(volume.sy == 1.0);
+    CHECK(volume.sz == 2.0);
+    CHECK(volume.name == "phantom");
+    CHECK(volume.data.size() == volume.voxel_count());
+}
+
+TEST_CASE("phantom: deterministic, and make_phantom is make_phantom_sized(256, 256, 113)") {
+    const Volume again = make_phantom();
+    CHECK(again.data == phantom().data);
+    const Volume sized = make_phantom_sized(256, 256, 113);
+    CHECK(sized.data == phantom().data);
+    CHECK(sized.sz == 2.0);
+}
+
+TEST_CASE("phantom: value range like CThead, the maximum is the filling") {
+    const Volume& volume = phantom();
+    CHECK(volume.min_value >= -1117);
+    CHECK(volume.min_value <= -900);
+    CHECK(volume.max_value == 2248);
+    int16_t low = volume.data[0], high = volume.data[0];
+    int filling_voxels = 0;
+    for (int16_t value : volume.data) {
+        low = std::min(low, value);
+        high = std::max(high, value);
+        if (value == 2248) ++filling_voxels;
+    }
+    CHECK(low == volume.min_value);
+    CHECK(high == volume.max_value);
+    CHECK(filling_voxels > 0);
+    CHECK(filling_voxels < 50);  // a small filling, not a slab
+    CHECK(volume.at(106, 60, 80) == 2248);  // on an upper molar, where the handout says
+}
+
+TEST_CASE("phantom: every value sits in a documented band, none near a TF boundary") {
+    // Bands from handouts/phantom.md; -300, 50, 300 and 400 all fall in the gaps between.
+    const int bands[][2] = {{-1020, -880}, {-100, 42}, {65, 85}, {190, 210}, {410, 1930},
+                            {2248, 2248}};
+    int outside = 0;
+    for (int16_t value : phantom().data) {
+        bool found = false;
+        for (const auto& band : bands) found = found || (value >= band[0] && value <= band[1]);
+        if (!found) ++outside;
+    }
+    CHECK(outside == 0);
+}
+
+TEST_CASE("phantom: anatomy where the handout says it is") {
+    const Volume& v = phantom();
+    SUBCASE("corners are air") {
+        CHECK(is_air(v.at(0, 0, 0)));
+        CHECK(is_air(v.at(255, 0, 0)));
+        CHECK(is_air(v.at(0, 255, 112)));
+        CHECK(is_air(v.at(255, 255, 112)));
+    }
+    SUBCASE("the slice at the crown, k = 0, is almost all air") {
+        int air_voxels = 0;
+        for (int j = 0; j < v.ny; ++j)
+            for (int i = 0; i < v.nx; ++i) air_voxels += is_air(v.at(i, j, 0));
+        CHECK(air_voxels > 0.98 * v.nx * v.ny);
+    }
+    SUBCASE("brain in the middle, ventricles beside it") {
+        CHECK(v.at(128, 128, 50) >= 0);
+        CHECK(v.at(128, 128, 50) < 50);
+        CHECK(v.at(118, 122, 40) >= 5);   // left lateral ventricle: CSF about 10
+        CHECK(v.at(118, 122, 40) <= 15);
+    }
+    SUBCASE("skull: bone at the crown, outer and inner tables denser than the diploe") {
+        for (int k = 7; k <= 11; ++k) CHECK(is_bone(v.at(128, 128, k)));
+        CHECK(is_skin(v.at(128, 128, 5)));  // scalp above the skull
+        CHECK(is_skin(v.at(128, 128, 12)));  // fluid and brain below it
+        // Across the side of the skull at mid height (1 mm voxels): the tables' middles.
+        const int outer = v.at(58, 128, 50), diploe = v.at(61, 128, 50);
+        const int inner = v.at(64, 128, 50);
+        CHECK(outer >= 1600);
+        CHECK(diploe >= 800);
+        CHECK(diploe <= 1000);
+        CHECK(inner >= 1600);
+    }
+    SUBCASE("eye balls near the face (small j), about 15") {
+        for (int i : {95, 160}) {
+            CHECK(v.at(i, 51, 51) >= 10);
+            CHECK(v.at(i, 51, 51) <= 20);
+        }
+    }
+    SUBCASE("a ray into the face meets skin before anything dense") {
+        int first = 0;
+        while (first < v.ny && is_air(v.at(128, first, 52))) ++first;
+        REQUIRE(first < 60);
+        CHECK(is_skin(v.at(128, first, 52)));
+        CHECK(is_skin(v.at(128, first + 1, 52)));
+    }
+    SUBCASE("maxillary sinus: air inside the face bones") {
+        CHECK(v.at(107, 67, 66) <= -880);
+        CHECK(v.at(107, 67, 66) >= -920);
+    }
+    SUBCASE("spine: a vertebral body in the neck at large k") {
+        CHECK(is_bone(v.at(128, 139, 105)));
+        CHECK(is_bone(v.at(128, 139, 112)));
+    }
+    SUBCASE("head rest behind the head at large j, transparent to the classic TF") {
+        CHECK(v.at(128, 227, 50) >= 100);
+        CHECK(v.at(128, 227, 50) < 300);
+        CHECK(is_air(v.at(128, 232, 50)));
+    }
+}
+
+TEST_CASE("phantom: the bone surface found by interpolation follows the skull") {
+    // Rays down from the crown at j = 128: where linear interpolation between samples crosses
+    // 400 against where the outer table's ellipsoid (centre 128, 128, 100 mm; semi-axes 72,
+    // 89, 86 mm) really is. Graded surface voxels keep this within a third of a slice.
+    const Volume& v = phantom();
+    const double y = 128.5;  // mm, the centre of row j = 128
+    for (int i = 70; i <= 186; ++i) {
+        int k = 0;
+        while (v.at(i, 128, k) <= 400) ++k;
+        const double before = v.at(i, 128, k - 1), after = v.at(i, 128, k);
+        const double t = k - 1 + (400 - before) / (after - before);
+        const double x = i + 0.5;  // mm
+        const double z = 100 - 86 * std::sqrt(1 - std::pow((x - 128) / 72, 2) -
+                                               std::pow((y - 128) / 89, 2));
+        CAPTURE(i);
+        CHECK(std::fabs(t - (z - 1) / 2) < 0.4);  // slices: voxel k is at z = 2k + 1 mm
+    }
+}
+
+TEST_CASE("phantom: other sizes keep the head's physical size and never crash") {
+    const int sizes[][3] = {{1, 1, 1}, {2, 3, 4}, {1, 256, 113}, {32, 32, 16}};
+    for (const auto& size : sizes) {
+        const Volume v = make_phantom_sized(size[0], size[1], size[2]);
+        CAPTURE(size[0]);
+        CAPTURE(size[1]);
+        CAPTURE(size[2]);
+        CHECK(v.nx == size[0]);
+        CHECK(v.ny == size[1]);
+        CHECK(v.nz == size[2]);
+        CHECK(v.data.size() == v.voxel_count());
+        CHECK(v.nx * v.sx == doctest::Approx(256));
+        CHECK(v.ny * v.sy == doctest::Approx(256));
+        CHECK(v.nz * v.sz == doctest::Approx(226));
+        CHECK(v.min_value <= v.max_value);
+    }
+    // One voxel: the centre of the head, which is brain.
+    const Volume one = make_phantom_sized(1, 1, 1);
+    CHECK(is_skin(one.data[0]));
+    // One column on the mid-sagittal plane x = 128 mm: the spine is still there.
+    const Volume column = make_phantom_sized(1, 256, 113);
+    CHECK(is_bone(column.at(0, 139, 105)));
+    CHECK_THROWS_AS(make_phantom_sized(0, 1, 1), InputError);
+    CHECK_THROWS_AS(make_phantom_sized(1, -5, 1), InputError);
+}
