@@ -1,0 +1,195 @@
+// transfer_function.cpp: the .tf text format (see data/tf/classic.tf) and its checks.
+#include "transfer_function.h"
+#include <sys/stat.h>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+#include "error.h"
+#include "volume.h"
+
+namespace ctlab {
+
+// The same ranges as data/tf/classic.tf, for runs from a folder without data/.
+static const char* const classic_text =
+    "-300    50 constant 1.0 0.79 0.6 0.12 skin\n"
+    " 300 32768 constant 1.0 1.0  1.0 0.8  bone\n";
+static const char* const classic_source = "built-in-classic";
+
+namespace {
+
+// Reads one line's fields and reports problems as "SOURCE:LINE: ...".
+struct LineReader {
+    std::string source;
+    int line = 0;
+
+    [[noreturn]] void fail(const std::string& message) const {
+        throw InputError(source + ":" + std::to_string(line) + ": " + message);
+    }
+
+    int ct_value(const std::string& name, const std::string& text) const {
+        errno = 0;
+        char* end = nullptr;
+        const long value = std::strtol(text.c_str(), &end, 10);
+        if (*end != '\0' || errno == ERANGE) {
+            fail(name + " must be a whole CT value, got '" + text + "'");
+        }
+        if (value < lowest_ct_value || value > ct_value_end) {
+            fail(name + " must be from " + std::to_string(lowest_ct_value) + " to " +
+                 std::to_string(ct_value_end) + ", got " + text);
+        }
+        return int(value);
+    }
+
+    // A colour channel or an opacity: a number from 0 to 1 (NaN and infinity refused).
+    float unit_number(const std::string& name, const std::string& text) const {
+        char* end = nullptr;
+        const double value = std::strtod(text.c_str(), &end);
+        if (*end != '\0') fail(name + " must be a number from 0 to 1, got '" + text + "'");
+        if (std::isnan(value)) fail(name + " is not a number (" + text + "), expected 0 to 1");
+        if (!(value >= 0 && value <= 1)) {
+            fail(name + " must be from 0 to 1, got " + text);
+        }
+        return float(value);
+    }
+
+    // Four fields from `first` on: R G B A.
+    Rgba colour(const std::vector<std::string>& fields, size_t first,
+                const std::string& which) const {
+        return {unit_number(which + "red", fields[first]),
+                unit_number(which + "green", fields[first + 1]),
+                unit_number(which + "blue", fields[first + 2]),
+                unit_number(which + "opacity", fields[first + 3])};
+    }
+};
+
+std::string range_text(const TfRange& range) {
+    return "[" + std::to_string(range.from) + ", " + std::to_string(range.to) + ")";
+}
+
+bool looks_like_number(const std::string& text) {
+    char* end = nullptr;
+    std::strtod(text.c_str(), &end);
+    return end != text.c_str() && *end == '\0';
+}
+
+}  // namespace
+
+TransferFunction parse_transfer_function(const std::string& text, const std::string& source) {
+    TransferFunction tf;
+    tf.source = source;
+    std::istringstream lines(text);
+    std::string line_text;
+    LineReader reader{source, 0};
+    while (std::getline(lines, line_text)) {
+        ++reader.line;
+        const size_t comment = line_text.find('#');
+        if (comment != std::string::npos) line_text.erase(comment);
+        std::istringstream words(line_text);
+        std::vector<std::string> fields;
+        for (std::string word; words >> word;) fields.push_back(word);
+        if (fields.empty()) continue;
+
+        // FROM TO KIND, then 4 numbers (constant) or 8 (ramp), then an optional label.
+        if (fields.size() < 3) {
+            reader.fail("expected FROM TO constant|ramp R G B A ..., got '" + line_text + "'");
+        }
+        TfRange range;
+        range.line = reader.line;
+        range.from = reader.ct_value("FROM", fields[0]);
+        range.to = reader.ct_value("TO", fields[1]);
+        if (fields[2] != "constant" && fields[2] != "ramp") {
+            reader.fail("the kind must be constant or ramp, got '" + fields[2] + "'");
+        }
+        range.ramp = fields[2] == "ramp";
+        const size_t numbers = range.ramp ? 8 : 4;
+        if (fields.size() != 3 + numbers && fields.size() != 4 + numbers) {
+            reader.fail("a " + fields[2] + " range has FROM TO " + fields[2] + ", " +
+                        std::to_string(numbers) + " numbers (" +
+                        (range.ramp ? "R G B A at FROM, R G B A at TO" : "R G B A") +
+                        ") and an optional label: " + std::to_string(fields.size()) +
+                        " fields found");
+        }
+        if (range.from >= range.to) {
+            reader.fail("FROM must be below TO, got " + fields[0] + " " + fields[1] +
+                        " (the range is FROM <= value < TO)");
+        }
+        range.start = reader.colour(fields, 3, range.ramp ? "start " : "");
+        range.end = range.ramp ? reader.colour(fields, 7, "end ") : range.start;
+        if (fields.size() == 4 + numbers) {
+            range.label = fields.back();
+            if (looks_like_number(range.label)) {
+                reader.fail("the label must be a name, got the number " + range.label +
+                            " (too many numbers?)");
+            }
+        }
+
+        // Sorted, not overlapping, and every label once.
+        if (!tf.ranges.empty()) {
+            const TfRange& previous = tf.ranges.back();
+            if (range.from < previous.from) {
+                reader.fail("ranges must be sorted by FROM: " + range_text(range) +
+                            " comes after " + range_text(previous) + " on line " +
+                            std::to_string(previous.line));
+            }
+            if (range.from < previous.to) {
+                reader.fail("the range " + range_text(range) + " overlaps " +
+                            range_text(previous) + " on line " + std::to_string(previous.line));
+            }
+        }
+        if (!range.label.empty()) {
+            if (const TfRange* same = find_range(tf, range.label)) {
+                reader.fail("the label '" + range.label + "' is already used on line " +
+                            std::to_string(same->line));
+            }
+        }
+        tf.ranges.push_back(range);
+    }
+    return tf;
+}
+
+static bool file_exists(const std::string& path) {
+    struct stat info {};
+    return stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
+}
+
+TransferFunction load_transfer_function(const std::string& path) {
+    if (path.empty()) {
+        if (!file_exists(classic_tf_path)) return classic_transfer_function();
+        return load_transfer_function(classic_tf_path);
+    }
+    std::vector<unsigned char> bytes;
+    try {
+        bytes = read_file_bytes(path);
+    } catch (const InputError& error) {
+        throw InputError(std::string("--tf: ") + error.what());
+    }
+    return parse_transfer_function(std::string(bytes.begin(), bytes.end()), path);
+}
+
+TransferFunction classic_transfer_function() {
+    return parse_transfer_function(classic_text, classic_source);
+}
+
+const TfRange* find_range(const TransferFunction& tf, const std::string& label) {
+    for (const TfRange& range : tf.ranges) {
+        if (range.label == label) return &range;
+    }
+    return nullptr;
+}
+
+void set_opacity(TransferFunction& tf, const std::string& label, double opacity,
+                 const std::string& flag) {
+    if (!(opacity >= 0 && opacity <= 1)) {
+        throw InputError(flag + ": expected an opacity from 0 to 1, got " +
+                         std::to_string(opacity));
+    }
+    for (TfRange& range : tf.ranges) {
+        if (range.label != label) continue;
+        range.start.a = range.end.a = float(opacity);
+        return;
+    }
+    throw InputError(flag + ": " + tf.source + " has no range labelled '" + label + "'");
+}
+
+}  // namespace ctlab

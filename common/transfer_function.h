@@ -1,0 +1,58 @@
+// transfer_function.h: reading a transfer function file (data/tf/*.tf) into a list of ranges.
+//
+// Only the boring part lives here: the text format, its checks and its error messages. Turning
+// the ranges into a lookup table is the lesson of step 06 (and stays in the steps).
+// The format is described at the top of data/tf/classic.tf.
+#pragma once
+#include <string>
+#include <vector>
+
+namespace ctlab {
+
+// Colour and opacity of one CT value.
+struct Rgba {
+    float r = 0, g = 0, b = 0;  // colour, 0..1
+    float a = 0;                // opacity, 0..1, for one unit of length (a voxel at spacing 1)
+};
+
+// The CT values a range can cover: every int16. A range's TO is exclusive, so TO = 32768
+// reaches the top value 32767.
+constexpr int lowest_ct_value = -32768;
+constexpr int ct_value_end = 32768;  // one past the highest int16
+
+struct TfRange {
+    int from = 0, to = 0;  // CT values from <= value < to (half open)
+    bool ramp = false;     // false: `start` everywhere; true: linear from `start` at from to
+                           // `end` at to
+    Rgba start, end;       // end == start for a constant range
+    std::string label;     // optional name, e.g. "skin": how the command line refers to it
+    int line = 0;          // where the range is in its file, for messages
+};
+
+struct TransferFunction {
+    std::string source;           // the file it came from, or "built-in-classic"
+    std::vector<TfRange> ranges;  // sorted by `from`, never overlapping; gaps are transparent
+};
+
+// The default --tf, relative to the working folder (like data/CThead).
+constexpr const char* classic_tf_path = "data/tf/classic.tf";
+
+// Parses the text of a .tf file. Every problem throws InputError "SOURCE:LINE: what was wrong".
+TransferFunction parse_transfer_function(const std::string& text, const std::string& source);
+
+// Reads and parses a file. An empty path means the default: data/tf/classic.tf when present,
+// else the built-in classic table (the same ranges, for runs from another folder).
+TransferFunction load_transfer_function(const std::string& path);
+
+// The classic table (skin and bone) without any file; a test checks it equals classic.tf.
+TransferFunction classic_transfer_function();
+
+// The range with this label, or nullptr when there is none.
+const TfRange* find_range(const TransferFunction& tf, const std::string& label);
+
+// Sets the opacity (0..1) of the range with this label, at both ends of a ramp. Throws
+// InputError "FLAG: SOURCE has no range labelled LABEL" when there is no such range.
+void set_opacity(TransferFunction& tf, const std::string& label, double opacity,
+                 const std::string& flag);
+
+}  // namespace ctlab

@@ -1,0 +1,258 @@
+// 07_compositing_order.cpp: the same picture front to back, and stopping when it is opaque.
+//
+// New here:   front-to-back compositing with the accumulated transparency T; early ray
+//             termination once T is below a threshold; the background blended in at the end;
+//             --order both renders the two orders and measures how far apart they are.
+// Builds on:  06_transfer_function.
+// Handout:    handouts/07_compositing_order.md
+// Run:        make run STEP=07 ARGS="--order both --ert 0.01 --view top"
+// Reference:  data/reference/07_compositing_order_<view>.png: the default run, on the phantom.
+#include "common/ctlab.h"
+using namespace ctlab;
+
+constexpr const char* step_name = "07_compositing_order";
+constexpr const char* skin_label = "skin";  // the range --skin-opacity and the knob change
+constexpr double skin_key_step = 0.02;      // opacity per Up/Down key press
+constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
+constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
+constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
+constexpr float diff_scale = 100;  // the difference picture shows |f2b - b2f| times this, so
+                                   // the default termination's largest error (0.01) is white
+
+struct Params {
+    std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
+    double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
+    double ert = default_ert;  // early ray termination threshold for T
+    std::string order = "f2b";  // f2b, b2f, or both (compared)
+};
+
+// What a ray has gathered so far, front to back (in double, as step 06 explains).
+struct Accumulated {
+    double r = 0, g = 0, b = 0;  // colour, each sample weighted by its opacity and T
+    double transparency = 1;     // T: the share of what lies further back that still shows
+};
+
+// The lookup table: one RGBA entry per CT value, -32768..32767. The entry of `value` is
+// entries[value - lowest_ct_value], so any int16 is a valid index. A new table is transparent.
+struct Lut {
+    std::vector<Rgba> entries = std::vector<Rgba>(ct_value_end - lowest_ct_value);
+};
+
+//> lesson: lookup_table
+// The colour a fraction f of the way from a to b (f = 0 gives a exactly).
+static Rgba mix(const Rgba& a, const Rgba& b, float f) {
+    return {a.r + f * (b.r - a.r), a.g + f * (b.g - a.g), a.b + f * (b.b - a.b),
+            a.a + f * (b.a - a.a)};
+}
+
+// The table of a transfer function: classifying a sample is then a single read. Values no
+// range covers stay transparent. A ramp goes linearly from its start at `from` to its end at
+// `to`.
+static Lut build_lut(const TransferFunction& tf) {
+    Lut lut;  // every entry {0, 0, 0, 0}
+    for (const TfRange& range : tf.ranges) {
+        const float width = float(range.to - range.from);
+        for (int value = range.from; value < range.to; ++value) {
+            const float f = range.ramp ? float(value - range.from) / width : 0.0f;
+            lut.entries[value - lowest_ct_value] = mix(range.start, range.end, f);
+        }
+    }
+    return lut;
+}
+//< lesson: lookup_table
+
+//> lesson: back_to_front
+// Back to front, as the lecture first draws it: start with the background at the far end of
+// the ray and walk towards the viewer. Each sample covers what lies behind it and lets
+// 1 - sigma of it through: C = sigma*L*c + (1 - sigma)*C, with L = 1 (unlit) for now.
+// A transparent sample (sigma = 0) changes nothing: skip it. The sums run in double: near 1
+// a float only resolves 6e-8, so 1 - sigma for a tiny sigma would be far off.
+static Rgb composite_back_to_front(const Volume& volume, const View& view, int x, int y,
+                                   const Lut& lut, Work& work, Trace* trace) {
+    double r = background.r, g = background.g, b = background.b;  // C
+    for (int t = view.ray_length - 1; t >= 0; --t) {
+        const Voxel voxel = view.voxel(x, y, t);
+        const int value = volume.at(voxel.i, voxel.j, voxel.k);
+        const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
+        ++work.samples;
+        if (sample.a == 0.0f) {
+            ++work.skipped;
+            if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", t,
+                                  voxel.i, voxel.j, voxel.k, value);
+            continue;
+        }
+        const double light = 1.0;  // unlit: step 08 lights the samples
+        const double sigma = sample.a;
+        r = sigma * light * sample.r + (1 - sigma) * r;
+        g = sigma * light * sample.g + (1 - sigma) * g;
+        b = sigma * light * sample.b + (1 - sigma) * b;
+        if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
+                              "C=(%.6f, %.6f, %.6f)", t, voxel.i, voxel.j, voxel.k, value,
+                              sample.r, sample.g, sample.b, sample.a, r, g, b);
+    }
+    return {float(r), float(g), float(b)};
+}
+//< lesson: back_to_front
+
+//> lesson: front_to_back
+// Front to back: from the viewer into the volume, keeping T, the share of what lies further
+// back that still shows: C += T*sigma*L*c, then T *= 1 - sigma, from C = 0 and T = 1.
+// T only shrinks, so once it is below the threshold the rest of the ray can change C by less
+// than T*max(c): stop there (early ray termination). Even with --ert 0, stop once T is below
+// 1e-300: nothing behind can show, and one more sample (T times 1 - sigma, at least 6e-8 for
+// a float sigma < 1) could make T subnormal (below 2.2e-308), where arithmetic is slow.
+static Accumulated composite_front_to_back(const Volume& volume, const View& view, int x, int y,
+                                           const Lut& lut, const Params& params,
+                                           Work& work, Trace* trace) {
+    const double stop_below = std::max(params.ert, min_transparency);
+    Accumulated ray;
+    for (int t = 0; t < view.ray_length; ++t) {
+        const Voxel voxel = view.voxel(x, y, t);
+        const int value = volume.at(voxel.i, voxel.j, voxel.k);
+        const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
+        ++work.samples;
+        if (sample.a == 0.0f) {
+            ++work.skipped;
+            if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", t,
+                                  voxel.i, voxel.j, voxel.k, value);
+            continue;
+        }
+        const double light = 1.0;  // unlit: step 08 lights the samples
+        const double weight = ray.transparency * sample.a * light;
+        ray.r += weight * sample.r;
+        ray.g += weight * sample.g;
+        ray.b += weight * sample.b;
+        ray.transparency *= 1 - double(sample.a);
+        if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
+                              "C=(%.6f, %.6f, %.6f) T=%.6g", t, voxel.i, voxel.j, voxel.k,
+                              value, sample.r, sample.g, sample.b, sample.a, ray.r, ray.g,
+                              ray.b, ray.transparency);
+        if (ray.transparency < stop_below && t + 1 < view.ray_length) {
+            ++work.terminated;
+            if (trace) trace->add("T=%.3g < %.3g: early ray termination at t=%d, %d samples "
+                                  "not visited", ray.transparency, stop_below, t,
+                                  view.ray_length - 1 - t);
+            break;
+        }
+    }
+    return ray;
+}
+
+// What the ray left transparent shows the background: C + T*background.
+static Rgb over_background(const Accumulated& ray) {
+    return {float(ray.r + ray.transparency * background.r),
+            float(ray.g + ray.transparency * background.g),
+            float(ray.b + ray.transparency * background.b)};
+}
+//< lesson: front_to_back
+
+// --order both: the tool that checks the lesson, not part of it (the student skeleton keeps
+// it). What it measures on one view:
+struct OrderComparison {
+    double max_diff = 0;              // largest |f2b - b2f| over every channel of every pixel
+    double ert_skipped_fraction = 0;  // share of the samples (all visited by b2f) f2b skipped
+};
+
+// Renders a view in both orders and returns the front-to-back picture; the difference
+// |f2b - b2f| * diff_scale goes to OUT/STEP_VIEW_diff.png. The orders are algebraically equal:
+// without early termination they agree to rounding, with it to ert * max(colour).
+static Image compare_orders(const Options& options, const Volume& volume, const View& view,
+                            const Lut& lut, const Params& params, Work& work,
+                            OrderComparison& comparison) {
+    Work f2b_work, b2f_work;  // the summary line reports the f2b render
+    const Image f2b = render_image(view, options.threads, f2b_work, [&](int x, int y, Work& w) {
+        return over_background(composite_front_to_back(volume, view, x, y, lut, params, w,
+                                                        nullptr));
+    });
+    const Image b2f = render_image(view, options.threads, b2f_work, [&](int x, int y, Work& w) {
+        return composite_back_to_front(volume, view, x, y, lut, w, nullptr);
+    });
+    Image diff(view.width, view.height);
+    comparison.max_diff = 0;
+    for (size_t n = 0; n < f2b.pixels.size(); ++n) {
+        const Rgb& a = f2b.pixels[n];
+        const Rgb& b = b2f.pixels[n];
+        const Rgb d = {std::abs(a.r - b.r), std::abs(a.g - b.g), std::abs(a.b - b.b)};
+        comparison.max_diff = std::max({comparison.max_diff, double(d.r), double(d.g),
+                                        double(d.b)});
+        diff.pixels[n] = {diff_scale * d.r, diff_scale * d.g, diff_scale * d.b};
+    }
+    comparison.ert_skipped_fraction = 1 - double(f2b_work.samples) / double(b2f_work.samples);
+    write_png(diff, options.out + "/" + options.step + "_" + view.name + "_diff.png");
+    work.add(f2b_work);
+    return f2b;
+}
+
+// A number as the summary line shows it: "0.12", "1e-05".
+static std::string number(double value) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", value);
+    return text;
+}
+
+int main(int argc, char** argv) {
+    return guarded_main(step_name, [&] {
+        // --- Options: the shared flags plus this step's own ---
+        Params params;
+        Args args(step_name, "Translucent skin over bone, composited front to back with early "
+                             "ray termination (or back to front, or both compared).");
+        args.add_string("--tf", &params.tf_path,
+                        "transfer function file (default data/tf/classic.tf)");
+        args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
+                        "opacity of the range labelled skin (default: as the file says)");
+        args.add_double("--ert", &params.ert, 0, 1,
+                        "stop a ray once its transparency T is below this (0: never)");
+        args.add_choice("--order", &params.order, {"f2b", "b2f", "both"},
+                        "compositing order; both: compare them (writes *_diff.png)");
+        const Options options = args.parse(argc, argv);
+
+        // --- Transfer function: the file, then its lookup table ---
+        TransferFunction tf = load_transfer_function(params.tf_path);
+        if (params.skin_opacity >= 0) {
+            set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
+        }
+        Lut lut = build_lut(tf);
+
+        // --- Volume ---
+        const Volume volume = load_volume(options);
+
+        // --- Render: one ray per pixel ---
+        Renderer renderer;
+        renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
+            if (params.order == "b2f") {
+                return composite_back_to_front(volume, view, x, y, lut, work, trace);
+            }
+            return over_background(
+                composite_front_to_back(volume, view, x, y, lut, params, work, trace));
+        };
+        OrderComparison comparison;  // filled by each --order both render
+        if (params.order == "both") {
+            renderer.image = [&](const View& view, Work& work) {
+                return compare_orders(options, volume, view, lut, params, work, comparison);
+            };
+        }
+        renderer.knob = {"skin_opacity",
+                         [&](const View&, int steps) {
+                             const TfRange* skin = find_range(tf, skin_label);
+                             if (!skin) return;  // this file has no skin range to change
+                             const double opacity = skin->start.a + steps * skin_key_step;
+                             set_opacity(tf, skin_label, std::clamp(opacity, 0.0, 1.0), "key");
+                             lut = build_lut(tf);
+                         },
+                         [&] {
+                             const TfRange* skin = find_range(tf, skin_label);
+                             return skin ? number(skin->start.a) : std::string("none");
+                         }};
+        renderer.settings = [&] {
+            std::string text = "tf=" + tf.source + " order=" + params.order +
+                               " ert=" + number(params.ert);
+            if (params.order != "both") return text;
+            return text + " max_order_diff=" + number(comparison.max_diff) +
+                   " ert_skipped_fraction=" + number(comparison.ert_skipped_fraction) +
+                   " diff_scale=" + number(diff_scale);
+        };
+
+        // --- Output: a PNG and a summary line per view, then the preview window ---
+        return run_views(options, volume, renderer);
+    });
+}
