@@ -1,7 +1,7 @@
 #!/bin/sh
 # Installs the Debian packages ctlab needs, if any are missing.
 # As root it runs apt-get; otherwise it prints the one sudo command to run and stops.
-packages="g++ make pkg-config libsdl2-dev libstb-dev doctest-dev xvfb xauth"
+packages="g++ make pkg-config libsdl2-dev libstb-dev doctest-dev xvfb xauth xdotool"
 missing=""
 for package in $packages; do
     dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" \

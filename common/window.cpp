@@ -1,0 +1,455 @@
+// window.cpp: the SDL2 preview window (see window.h for the keys).
+//
+// Each image pixel is drawn as a block of scale_x by scale_y window pixels (whole numbers), so
+// the head keeps its aspect (front and side rows are 2 units tall in CThead) and a click maps
+// back to exactly one image pixel. Everything runs on the main thread, driven by SDL_WaitEvent.
+#include "window.h"
+#include <SDL.h>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <string>
+#include <vector>
+#include "error.h"
+#include "image.h"
+#include "render.h"
+
+namespace ctlab {
+
+namespace {
+
+constexpr int max_window_width = 1024;  // window pixels: the zoom is chosen to fit in these
+constexpr int max_window_height = 800;
+constexpr int min_window_width = 240;   // window pixels: tiny images sit centred in this
+constexpr int min_window_height = 120;
+constexpr int max_zoom = 64;            // a 1 x 1 volume should not ask for a 800 x 800 block
+
+// Where the image sits in the window: pixel (x, y) covers window pixels
+// [left + x*scale_x, left + (x+1)*scale_x) by [top + y*scale_y, top + (y+1)*scale_y).
+struct Layout {
+    int scale_x = 1, scale_y = 1;  // window pixels per image pixel, across and down
+    int left = 0, top = 0;         // window position of the image's top-left corner
+
+    int drawn_width(const Image& image) const { return image.width * scale_x; }
+    int drawn_height(const Image& image) const { return image.height * scale_y; }
+};
+
+// The largest whole zoom at which the view fits max_window_*, with rows and columns stretched
+// by their physical size (pixel_width, pixel_height) relative to the smaller of the two.
+Layout fit_view(const View& view) {
+    const bool sizes_valid = view.pixel_width > 0 && view.pixel_height > 0;  // false for NaN too
+    const double smaller = sizes_valid ? std::min(view.pixel_width, view.pixel_height) : 1.0;
+    const double aspect_x = sizes_valid ? view.pixel_width / smaller : 1.0;  // >= 1
+    const double aspect_y = sizes_valid ? view.pixel_height / smaller : 1.0;
+    const int width = std::max(1, view.width), height = std::max(1, view.height);
+    const int limit_x = std::max(1, max_window_width / width);  // largest scale that fits
+    const int limit_y = std::max(1, max_window_height / height);
+
+    auto layout_at = [&](int zoom) {
+        Layout layout;
+        layout.scale_x = std::max(1, static_cast<int>(std::lround(zoom * aspect_x)));
+        layout.scale_y = std::max(1, static_cast<int>(std::lround(zoom * aspect_y)));
+        return layout;
+    };
+    int zoom = 1;
+    while (zoom < max_zoom) {
+        const Layout next = layout_at(zoom + 1);
+        if (next.scale_x > limit_x || next.scale_y > limit_y) break;
+        ++zoom;
+    }
+    Layout layout = layout_at(zoom);
+    // A very uneven spacing may not fit even at zoom 1: give up some aspect, not the screen.
+    layout.scale_x = std::min(layout.scale_x, limit_x);
+    layout.scale_y = std::min(layout.scale_y, limit_y);
+    return layout;
+}
+
+// The window size that shows `view` under `layout`, with a little room around tiny images.
+void window_size_for(const View& view, const Layout& layout, int* width, int* height) {
+    *width = std::max(min_window_width, view.width * layout.scale_x);
+    *height = std::max(min_window_height, view.height * layout.scale_y);
+}
+
+// One injected event of --window-script, already turned into what SDL would deliver.
+struct ScriptEvent {
+    std::string text;     // the token as written, for error messages
+    bool is_click = false;
+    SDL_Keycode key = SDLK_UNKNOWN;
+    SDL_Scancode scancode = SDL_SCANCODE_UNKNOWN;
+    int x = 0, y = 0;     // click: image column and row
+};
+
+struct KeyName {
+    const char* name;     // as written in the script and printed as "window: key=NAME"
+    SDL_Keycode key;
+    SDL_Scancode scancode;
+};
+
+const KeyName script_keys[] = {
+    {"1", SDLK_1, SDL_SCANCODE_1},           {"2", SDLK_2, SDL_SCANCODE_2},
+    {"3", SDLK_3, SDL_SCANCODE_3},           {"Up", SDLK_UP, SDL_SCANCODE_UP},
+    {"Down", SDLK_DOWN, SDL_SCANCODE_DOWN},  {"plus", SDLK_KP_PLUS, SDL_SCANCODE_KP_PLUS},
+    {"minus", SDLK_MINUS, SDL_SCANCODE_MINUS}, {"s", SDLK_s, SDL_SCANCODE_S},
+    {"q", SDLK_q, SDL_SCANCODE_Q},           {"Escape", SDLK_ESCAPE, SDL_SCANCODE_ESCAPE},
+};
+
+// "key:2,key:Up,click:40:30,save,quit" -> events. Throws InputError on anything else.
+std::vector<ScriptEvent> parse_script(const std::string& script) {
+    std::vector<ScriptEvent> events;
+    if (script.empty()) return events;
+    const std::string expected =
+        "--window-script: expected comma-separated key:1|2|3|Up|Down|plus|minus|s|q|Escape, "
+        "click:X:Y, save or quit, got '";
+    size_t start = 0;
+    while (start <= script.size()) {
+        size_t comma = script.find(',', start);
+        if (comma == std::string::npos) comma = script.size();
+        ScriptEvent event;
+        event.text = script.substr(start, comma - start);
+        start = comma + 1;
+
+        std::string key_name;
+        if (event.text == "save") key_name = "s";
+        else if (event.text == "quit") key_name = "q";
+        else if (event.text.rfind("key:", 0) == 0) key_name = event.text.substr(4);
+
+        if (event.text.rfind("click:", 0) == 0) {
+            const std::string place = event.text.substr(6);
+            const size_t colon = place.find(':');
+            if (colon == std::string::npos) throw InputError(expected + event.text + "'");
+            const int limit = 1 << 20;  // pixels: far beyond any image
+            event.is_click = true;
+            event.x = parse_int("--window-script click X", place.substr(0, colon), 0, limit);
+            event.y = parse_int("--window-script click Y", place.substr(colon + 1), 0, limit);
+        } else {
+            for (const KeyName& known : script_keys) {
+                if (key_name == known.name) {
+                    event.key = known.key;
+                    event.scancode = known.scancode;
+                }
+            }
+            if (event.key == SDLK_UNKNOWN) throw InputError(expected + event.text + "'");
+        }
+        events.push_back(event);
+    }
+    return events;
+}
+
+// What a key does in the preview (several keys share a meaning).
+enum class Action { none, view_top, view_front, view_side, knob_up, knob_down, save, quit };
+
+Action action_of(SDL_Keycode key) {
+    switch (key) {
+        case SDLK_1: case SDLK_KP_1: return Action::view_top;
+        case SDLK_2: case SDLK_KP_2: return Action::view_front;
+        case SDLK_3: case SDLK_KP_3: return Action::view_side;
+        // SDLK_EQUALS: the "+" key pressed without shift on most layouts.
+        case SDLK_UP: case SDLK_PLUS: case SDLK_EQUALS: case SDLK_KP_PLUS: return Action::knob_up;
+        case SDLK_DOWN: case SDLK_MINUS: case SDLK_KP_MINUS: return Action::knob_down;
+        case SDLK_s: return Action::save;
+        case SDLK_q: case SDLK_ESCAPE: return Action::quit;
+        default: return Action::none;
+    }
+}
+
+// The name a key prints as: the script's name for it, so a log reads like the script.
+std::string key_name(SDL_Keycode key) {
+    switch (key) {
+        case SDLK_KP_1: return "1";
+        case SDLK_KP_2: return "2";
+        case SDLK_KP_3: return "3";
+        case SDLK_PLUS: case SDLK_EQUALS: case SDLK_KP_PLUS: return "plus";
+        case SDLK_MINUS: case SDLK_KP_MINUS: return "minus";
+        default: break;
+    }
+    for (const KeyName& known : script_keys) {
+        if (known.key == key) return known.name;
+    }
+    return SDL_GetKeyName(key);
+}
+
+// Owns the SDL objects, so they are released on every way out (including exceptions).
+struct Session {
+    SDL_Window* window = nullptr;
+    SDL_Renderer* renderer = nullptr;
+    SDL_Texture* texture = nullptr;
+    int texture_width = 0, texture_height = 0;
+
+    ~Session() {
+        if (texture) SDL_DestroyTexture(texture);
+        if (renderer) SDL_DestroyRenderer(renderer);
+        if (window) SDL_DestroyWindow(window);
+        SDL_Quit();
+    }
+};
+
+bool no_window() {
+    std::fprintf(stderr, "note: no window (SDL: %s); the PNGs are written\n", SDL_GetError());
+    return false;
+}
+
+// The preview's state between events.
+class PreviewWindow {
+public:
+    PreviewWindow(Preview& preview, Session& session) : preview_(preview), session_(session) {}
+
+    const View& view() const { return preview_.views[preview_.current]; }
+
+    // Renders the current view, uploads it and shows it, with the render time in the title.
+    void render() {
+        const std::string rendering = preview_.step + " | " + view().name + " | rendering...";
+        SDL_SetWindowTitle(session_.window, rendering.c_str());
+        Timer timer;
+        Work work;
+        image_ = preview_.render(view(), work);
+        const double ms = timer.ms();
+
+        SDL_SetWindowTitle(session_.window, title(ms).c_str());
+        upload();
+        draw();
+    }
+
+    // Switches to the view along `axis` (resizing the window to its zoom) and renders it.
+    void show_view(ViewAxis axis) {
+        for (size_t n = 0; n < preview_.views.size(); ++n) {
+            if (preview_.views[n].axis != axis) continue;
+            if (static_cast<int>(n) == preview_.current) return;  // already shown
+            preview_.current = static_cast<int>(n);
+            fit_window();
+            render();
+            return;
+        }
+        std::printf("window: this run has no such view\n");
+    }
+
+    // Sizes the window for the current view's zoom (before its first render).
+    void fit_window() {
+        layout_ = fit_view(view());
+        int width = 0, height = 0;
+        window_size_for(view(), layout_, &width, &height);
+        SDL_SetWindowSize(session_.window, width, height);
+    }
+
+    void change_knob(int steps) {
+        if (preview_.knob.name.empty() || !preview_.knob.adjust) return;  // this step has none
+        preview_.knob.adjust(view(), steps);
+        std::printf("window: %s=%s\n", preview_.knob.name.c_str(),
+                    preview_.knob.value ? preview_.knob.value().c_str() : "?");
+        std::fflush(stdout);
+        render();
+    }
+
+    void save() {
+        const std::string path = preview_.save_path(view());
+        try {
+            write_png(image_, path);
+            std::printf("saved %s\n", path.c_str());
+        } catch (const std::exception& error) {
+            std::fprintf(stderr, "note: not saved: %s\n", error.what());  // keep the window
+        }
+    }
+
+    // A left click at window position (wx, wy): the trace of the pixel under it, if any.
+    void click(int wx, int wy) {
+        const int dx = wx - layout_.left, dy = wy - layout_.top;
+        // Floor division by hand: dx / scale_x rounds -1 up to pixel 0.
+        const int x = dx < 0 ? -1 : dx / layout_.scale_x;
+        const int y = dy < 0 ? -1 : dy / layout_.scale_y;
+        if (x < 0 || y < 0 || x >= image_.width || y >= image_.height) {
+            std::printf("window: click outside the image\n");
+            return;
+        }
+        std::printf("window: click x=%d y=%d\n", x, y);
+        std::fflush(stdout);
+        if (preview_.trace) preview_.trace(view(), x, y);
+    }
+
+    // Window position of the centre of image pixel (x, y): where an injected click lands.
+    void window_position(int x, int y, int* wx, int* wy) const {
+        *wx = layout_.left + x * layout_.scale_x + layout_.scale_x / 2;
+        *wy = layout_.top + y * layout_.scale_y + layout_.scale_y / 2;
+    }
+
+    // Repaints the last image, centred in the window as it is now (after a resize, too).
+    void draw() {
+        int window_width = 0, window_height = 0;
+        SDL_GetWindowSize(session_.window, &window_width, &window_height);
+        layout_.left = std::max(0, (window_width - layout_.drawn_width(image_)) / 2);
+        layout_.top = std::max(0, (window_height - layout_.drawn_height(image_)) / 2);
+
+        const Uint8 margin_grey = 40;  // dark surround, so the image's own black edge shows
+        SDL_SetRenderDrawColor(session_.renderer, margin_grey, margin_grey, margin_grey, 255);
+        SDL_RenderClear(session_.renderer);
+        const SDL_Rect target = {layout_.left, layout_.top, layout_.drawn_width(image_),
+                                 layout_.drawn_height(image_)};
+        SDL_RenderCopy(session_.renderer, session_.texture, nullptr, &target);
+        SDL_RenderPresent(session_.renderer);
+    }
+
+private:
+    // "05_interpolated_hits | front | threshold=400 | 12.3 ms"
+    std::string title(double ms) const {
+        std::string text = preview_.step + " | " + view().name;
+        if (!preview_.knob.name.empty() && preview_.knob.value) {
+            text += " | " + preview_.knob.name + "=" + preview_.knob.value();
+        }
+        char time[32];
+        std::snprintf(time, sizeof time, " | %.1f ms", ms);
+        return text + time;
+    }
+
+    // Copies the float image into the RGB24 texture (made anew when the size changes).
+    void upload() {
+        if (!session_.texture || session_.texture_width != image_.width ||
+            session_.texture_height != image_.height) {
+            if (session_.texture) SDL_DestroyTexture(session_.texture);
+            session_.texture = SDL_CreateTexture(session_.renderer, SDL_PIXELFORMAT_RGB24,
+                                                 SDL_TEXTUREACCESS_STATIC, image_.width,
+                                                 image_.height);
+            if (!session_.texture) {
+                throw std::runtime_error(std::string("SDL_CreateTexture: ") + SDL_GetError());
+            }
+            session_.texture_width = image_.width;
+            session_.texture_height = image_.height;
+        }
+        std::vector<unsigned char> bytes(image_.pixels.size() * 3);
+        for (size_t n = 0; n < image_.pixels.size(); ++n) {
+            bytes[3 * n + 0] = to_byte(image_.pixels[n].r);
+            bytes[3 * n + 1] = to_byte(image_.pixels[n].g);
+            bytes[3 * n + 2] = to_byte(image_.pixels[n].b);
+        }
+        SDL_UpdateTexture(session_.texture, nullptr, bytes.data(), image_.width * 3);
+    }
+
+    Preview& preview_;
+    Session& session_;
+    Layout layout_;
+    Image image_;
+};
+
+// Pushes script event `event` as the SDL event a user would cause, followed by `next_marker`:
+// the marker comes out of the queue only after the event has been handled, so the next
+// event is pushed only then and the order is the script's.
+void push_script_event(const ScriptEvent& script, const PreviewWindow& preview,
+                       Uint32 window_id, Uint32 next_marker) {
+    SDL_Event event;
+    SDL_zero(event);
+    if (script.is_click) {
+        event.type = SDL_MOUSEBUTTONDOWN;
+        event.button.windowID = window_id;
+        event.button.button = SDL_BUTTON_LEFT;
+        event.button.state = SDL_PRESSED;
+        event.button.clicks = 1;
+        preview.window_position(script.x, script.y, &event.button.x, &event.button.y);
+    } else {
+        event.type = SDL_KEYDOWN;
+        event.key.windowID = window_id;
+        event.key.state = SDL_PRESSED;
+        event.key.keysym.sym = script.key;
+        event.key.keysym.scancode = script.scancode;
+    }
+    event.common.timestamp = SDL_GetTicks();
+    SDL_PushEvent(&event);
+
+    SDL_Event marker;
+    SDL_zero(marker);
+    marker.type = next_marker;
+    SDL_PushEvent(&marker);
+}
+
+}  // namespace
+
+bool window_wanted(const Options& options) {
+    if (options.no_window) return false;
+    const char* x11 = std::getenv("DISPLAY");
+    const char* wayland = std::getenv("WAYLAND_DISPLAY");
+    return (x11 && *x11) || (wayland && *wayland);
+}
+
+bool show_preview(const Options& options, Preview& preview) {
+    const std::vector<ScriptEvent> script = parse_script(options.window_script);
+    if (preview.views.empty()) return false;
+    preview.current = std::clamp(preview.current, 0, static_cast<int>(preview.views.size()) - 1);
+
+    SDL_SetHint(SDL_HINT_RENDER_SCALE_QUALITY, "nearest");  // zoomed pixels stay square blocks
+    // On X11, SDL drops a click that arrives just as the window gains focus: here it traces.
+    SDL_SetHint(SDL_HINT_MOUSE_FOCUS_CLICKTHROUGH, "1");
+    if (SDL_Init(SDL_INIT_VIDEO) != 0) {
+        no_window();
+        SDL_Quit();
+        return false;
+    }
+    Session session;  // from here on, its destructor cleans up (and calls SDL_Quit)
+    // When no display answers, SDL quietly falls back to drivers that show nothing; a
+    // window nobody can see would then wait forever for a key. Only allowed when asked for.
+    const std::string driver = SDL_GetCurrentVideoDriver() ? SDL_GetCurrentVideoDriver() : "";
+    const char* requested = std::getenv("SDL_VIDEODRIVER");
+    if ((driver == "offscreen" || driver == "dummy") && !(requested && driver == requested)) {
+        SDL_SetError("no display answered, only the invisible '%s' driver", driver.c_str());
+        return no_window();
+    }
+    int width = 0, height = 0;
+    const View& first = preview.views[preview.current];
+    window_size_for(first, fit_view(first), &width, &height);
+    session.window = SDL_CreateWindow(preview.step.c_str(), SDL_WINDOWPOS_CENTERED,
+                                      SDL_WINDOWPOS_CENTERED, width, height,
+                                      SDL_WINDOW_RESIZABLE);
+    if (!session.window) return no_window();
+    session.renderer = SDL_CreateRenderer(session.window, -1, SDL_RENDERER_ACCELERATED);
+    if (!session.renderer) {
+        // No GPU (Xvfb, remote X): SDL's own software renderer always works.
+        session.renderer = SDL_CreateRenderer(session.window, -1, SDL_RENDERER_SOFTWARE);
+    }
+    if (!session.renderer) return no_window();
+
+    PreviewWindow window(preview, session);
+    window.fit_window();
+    window.render();
+
+    const Uint32 window_id = SDL_GetWindowID(session.window);
+    const Uint32 next_marker = SDL_RegisterEvents(1);  // "push the next script event"
+    size_t next_script = 0;
+    if (!script.empty() && next_marker != static_cast<Uint32>(-1)) {
+        push_script_event(script[next_script++], window, window_id, next_marker);
+    }
+
+    SDL_Event event;
+    while (SDL_WaitEvent(&event)) {
+        if (event.type == SDL_QUIT) break;
+        if (event.type == next_marker) {
+            if (next_script < script.size()) {
+                push_script_event(script[next_script++], window, window_id, next_marker);
+            }
+        } else if (event.type == SDL_WINDOWEVENT) {
+            if (event.window.event == SDL_WINDOWEVENT_CLOSE) break;
+            if (event.window.event == SDL_WINDOWEVENT_EXPOSED ||
+                event.window.event == SDL_WINDOWEVENT_SIZE_CHANGED) {
+                window.draw();
+            }
+        } else if (event.type == SDL_MOUSEBUTTONDOWN && event.button.button == SDL_BUTTON_LEFT) {
+            window.click(event.button.x, event.button.y);
+        } else if (event.type == SDL_KEYDOWN) {
+            const Action action = action_of(event.key.keysym.sym);
+            const bool repeatable = action == Action::knob_up || action == Action::knob_down;
+            if (action == Action::none || (event.key.repeat && !repeatable)) continue;
+            std::printf("window: key=%s\n", key_name(event.key.keysym.sym).c_str());
+            std::fflush(stdout);
+            switch (action) {
+                case Action::view_top: window.show_view(ViewAxis::top); break;
+                case Action::view_front: window.show_view(ViewAxis::front); break;
+                case Action::view_side: window.show_view(ViewAxis::side); break;
+                case Action::knob_up: window.change_knob(+1); break;
+                case Action::knob_down: window.change_knob(-1); break;
+                case Action::save: window.save(); break;
+                case Action::quit: return true;
+                case Action::none: break;
+            }
+        }
+        std::fflush(stdout);
+    }
+    return true;
+}
+
+}  // namespace ctlab

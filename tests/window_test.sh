@@ -1,0 +1,156 @@
+#!/bin/sh
+# window_test.sh: the preview window for real, on a virtual X display (xvfb-run). A step opens
+# its window and is driven by --window-script (keys and a click pushed as SDL events after the
+# first frame): view switch, knob change with re-render, pixel trace, save, quit. Then, when
+# xdotool is installed, real X input: a pointer click and key presses through the X server.
+#
+#   sh tests/window_test.sh BUILD      (from the repository root; make test runs it)
+set -u
+
+# --- Inner mode: run inside xvfb-run by the xdotool check below -----------------------------
+# window_test.sh --xdotool STEP_BINARY OUT_FOLDER LOG: opens the window, clicks image pixel
+# (100, 50) of the top view with the real pointer, presses 3 (side view), then q.
+if [ "${1:-}" = "--xdotool" ]; then
+    binary=$2 out=$3 log=$4
+    name=$(basename "$binary")
+    "$binary" --volume phantom --view top --out "$out" > "$log" 2>&1 &
+    pid=$!
+    # wait_for PATTERN: until the log has a line matching it (at most about 20 s)
+    wait_for() {
+        tries=0
+        until grep -q "$1" "$log"; do
+            tries=$((tries + 1))
+            [ "$tries" -gt 100 ] && { echo "xdotool: timed out waiting for '$1'"; return 1; }
+            sleep 0.2
+        done
+    }
+    finish() { kill "$pid" 2>/dev/null; wait "$pid"; exit 1; }
+    # The title is set once the first frame is drawn: "02_threshold | top | ...".
+    window='' tries=0
+    while [ -z "$window" ]; do
+        window=$(xdotool search --name "^$name [|]" 2>/dev/null | head -n 1)
+        tries=$((tries + 1))
+        [ "$tries" -gt 100 ] && { echo "xdotool: no window named $name"; finish; }
+        [ -z "$window" ] && sleep 0.2
+    done
+    eval "$(xdotool getwindowgeometry --shell "$window")"  # sets X, Y, WIDTH, HEIGHT
+    # The image sits centred, each pixel a block of whole window pixels (image size: summary).
+    size=$(sed -n 's/^step=.* view=top size=\([0-9]*x[0-9]*\) .*/\1/p' "$log" | head -n 1)
+    [ -n "$size" ] || { echo "xdotool: no top summary line"; finish; }
+    image_width=${size%x*} image_height=${size#*x}
+    scale_x=$((WIDTH / image_width)) scale_y=$((HEIGHT / image_height))
+    left=$(((WIDTH - image_width * scale_x) / 2)) top=$(((HEIGHT - image_height * scale_y) / 2))
+    click_x=$((X + left + 100 * scale_x + scale_x / 2))
+    click_y=$((Y + top + 50 * scale_y + scale_y / 2))
+    xdotool mousemove "$click_x" "$click_y" click 1
+    wait_for '^debug pixel x=100 y=50 view=top' || {
+        echo "(window ${WIDTH}x$HEIGHT at $X,$Y on $DISPLAY, clicked $click_x,$click_y)"
+        finish
+    }
+    # With no window manager the keyboard follows the pointer, which is over the window.
+    xdotool key 3
+    wait_for '^step=.* view=side ' || finish
+    xdotool key q
+    tries=0
+    while kill -0 "$pid" 2>/dev/null; do
+        tries=$((tries + 1))
+        [ "$tries" -gt 50 ] && { echo "xdotool: the step did not quit on q"; finish; }
+        sleep 0.2
+    done
+    wait "$pid"
+    exit $?
+fi
+
+# --- The test --------------------------------------------------------------------------------
+build=${1:-build}
+passed=0
+failed=0
+ok() { passed=$((passed + 1)); }
+bad() { echo "window test: FAILED: $*"; failed=$((failed + 1)); }
+check() {  # check DESCRIPTION COMMAND...: the command must succeed
+    description=$1
+    shift
+    if "$@"; then ok; else bad "$description"; fi
+}
+
+if ! command -v xvfb-run > /dev/null 2>&1; then
+    echo "window test: SKIPPED (xvfb-run not installed)"
+    exit 1  # make deps installs it: missing here means the set-up failed
+fi
+binary=$build/02_threshold
+[ -x "$binary" ] || binary=$build/01_ray_loops
+[ -x "$binary" ] || { echo "window test: no $build/02_threshold or 01_ray_loops built"; exit 1; }
+work=$(mktemp -d) || exit 1
+trap 'rm -rf "$work"' EXIT INT TERM
+# SAN=1 builds: LeakSanitizer is off for the windowed runs only. SDL_Init opens a D-Bus
+# connection that libdbus never frees (SDL 2.26 does not call dbus_shutdown); the headless
+# tests still check our own code for leaks. ASan and UBSan stay on.
+ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+export ASAN_OPTIONS
+xvfb() { timeout 60 xvfb-run -a -s "-screen 0 1280x1024x24" "$@"; }
+
+# after LINE PATTERN: some line after the first line equal to LINE matches PATTERN
+after() { awk -v mark="$1" -v pattern="$2" '$0 == mark { seen = 1; next }
+                                           seen && $0 ~ pattern { found = 1 }
+                                           END { exit !found }' "$work/stdout"; }
+
+# --- Scripted SDL events -----------------------------------------------------------------------
+xvfb "$binary" --volume phantom --view top --out "$work/out" \
+    --window-script "key:2,key:Up,click:100:50,save,quit" > "$work/stdout" 2> "$work/stderr"
+status=$?
+check "the step exits with status 0 (got $status; 124 = timed out)" [ "$status" -eq 0 ]
+check "the window opened (stderr: $(head -c 300 "$work/stderr"))" \
+    test -z "$(grep 'no window' "$work/stderr")"
+check "the window renders its first frame (a second top summary)" \
+    [ "$(grep -c '^step=.* view=top ' "$work/stdout")" -ge 2 ]
+check "key 2 re-renders the front view" after "window: key=2" '^step=.* view=front '
+
+# 02_threshold's knob is its threshold (step 01 has none). Up prints "window: NAME=VALUE".
+knob=''
+[ "$(basename "$binary")" = 02_threshold ] && knob=threshold
+if [ -n "$knob" ]; then
+    check "key Up prints the new $knob" after "window: key=Up" "^window: $knob="
+    # NAME=VALUE of the front summary lines before and after the key.
+    before=$(awk '/^window: key=Up$/ { exit } /^step=.* view=front /' "$work/stdout" |
+             tail -n 1 | tr ' ' '\n' | grep "^$knob=")
+    after_up=$(awk 'seen && /^step=.* view=front / { print; exit }
+                    /^window: key=Up$/ { seen = 1 }' "$work/stdout" | tr ' ' '\n' |
+               grep "^$knob=")
+    changed=no
+    [ -n "$before" ] && [ -n "$after_up" ] && [ "$before" != "$after_up" ] && changed=yes
+    check "key Up re-renders with a new $knob (before '$before', after '$after_up')" \
+        [ "$changed" = yes ]
+else
+    check "key Up is handled (this step has no knob)" grep -qx "window: key=Up" "$work/stdout"
+fi
+
+check "the click names image pixel 100,50" grep -qx "window: click x=100 y=50" "$work/stdout"
+check "the click prints the trace of pixel 100,50 in the front view" \
+    after "window: click x=100 y=50" '^debug pixel x=100 y=50 view=front '
+saved=$(sed -n 's/^saved //p' "$work/stdout" | head -n 1)
+check "S prints 'saved PATH'" [ -n "$saved" ]
+check "the saved file '$saved' exists" test -f "$saved"
+magic=$(od -An -tx1 -N8 "$saved" 2>/dev/null | tr -d ' \n')
+check "the saved file is a PNG (magic bytes: '$magic')" [ "$magic" = "89504e470d0a1a0a" ]
+check "q quits the window" grep -qx "window: key=q" "$work/stdout"
+
+# --- Real X input (optional: needs xdotool) ----------------------------------------------------
+if command -v xdotool > /dev/null 2>&1; then
+    xvfb sh "$0" --xdotool "$binary" "$work/real_out" "$work/real.log" > "$work/real.stdout" 2>&1
+    status=$?
+    check "real X input: the run completes (status $status; $(cat "$work/real.stdout"))" \
+        [ "$status" -eq 0 ]
+    check "real X input: a pointer click traces pixel 100,50 of the top view" \
+        grep -q '^debug pixel x=100 y=50 view=top ' "$work/real.log"
+    check "real X input: key 3 shows the side view" grep -q '^step=.* view=side ' "$work/real.log"
+    check "real X input: key q quits" grep -qx "window: key=q" "$work/real.log"
+else
+    echo "window test: real X input not tried (xdotool not installed)"
+fi
+
+if [ "$failed" -ne 0 ]; then
+    echo "window test: stdout of the scripted run:"
+    cut -c 1-160 "$work/stdout" | grep -v '^  t=' | sed 's/^/    /'
+fi
+echo "window test: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
