@@ -190,6 +190,7 @@ Options Args::parse(int argc, char** argv) {
             options.out = take_value();
             if (options.out.empty()) throw InputError("--out: expected a folder");
         } else if (flag == "--no-window") {
+            if (has_value) throw InputError(flag + ": takes no value");
             options.no_window = true;
         } else if (flag == "--debug-pixel") {
             const auto parts = split_list(flag, take_value(), 2, "X,Y (image column, row)");

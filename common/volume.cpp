@@ -46,7 +46,9 @@ static uint64_t expected_bytes(const RawFormat& format) {
     if (format.nx < 1 || format.ny < 1 || format.nz < 1) {
         throw InputError("--dims must be at least 1,1,1, got " + dims_text(format));
     }
-    const uint64_t voxels = uint64_t(format.nx) * uint64_t(format.ny) * uint64_t(format.nz);
+    // Checked after each product: three ints up to 2^31 could wrap 64 bits (2^22 cubed = 0).
+    const uint64_t slice = uint64_t(format.nx) * uint64_t(format.ny);
+    const uint64_t voxels = slice > max_voxels ? max_voxels + 1 : slice * uint64_t(format.nz);
     if (voxels > max_voxels) {
         throw InputError("--dims " + dims_text(format) + " is over the limit of " +
                          std::to_string(max_voxels) + " voxels");

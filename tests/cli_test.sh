@@ -1,0 +1,167 @@
+#!/bin/sh
+# cli_test.sh: every step's real binary on the command line. --help; bad input (exit status 2,
+# one line on stderr naming the problem, no PNG written); a good run (one PNG and one summary
+# line per view); --debug-pixel (a trace ending with the pixel).
+#
+#   sh tests/cli_test.sh BUILD      (make test runs it with BUILD = build)
+#
+# Prints one line per failure and a last line "cli test: N passed, M failed"; exit status 1
+# when anything failed, 2 when it could not run.
+set -u
+build=${1:?usage: sh tests/cli_test.sh BUILD}
+cd "$(dirname "$0")/.." || exit 2
+[ -d steps ] || { echo "cli test: run from the repository (no steps/ here)" >&2; exit 2; }
+
+cthead_bytes=14811136  # 256 x 256 x 113 int16
+passed=0
+failed=0
+work=$(mktemp -d) || exit 2
+trap 'rm -rf "$work"' EXIT INT TERM
+
+pass() { passed=$((passed + 1)); }
+fail() {
+    failed=$((failed + 1))
+    echo "FAIL: $*"
+}
+# check CONDITION_STATUS DESCRIPTION: counts a pass when the status before it was 0.
+check() {
+    if [ "$1" -eq 0 ]; then pass; else fail "$2"; fi
+}
+
+# Bad input files: missing, a folder, empty, one byte short of CThead, a regular file
+# standing where a folder should be.
+missing="$work/missing_volume"
+folder="$work/a_folder"
+empty="$work/empty_volume"
+short="$work/short_volume"
+regular="$work/regular_file"
+mkdir "$folder"
+: > "$empty"
+: > "$regular"
+dd if=/dev/zero of="$short" bs=1 count=0 seek=$((cthead_bytes - 1)) 2> /dev/null
+[ "$(wc -c < "$short")" -eq $((cthead_bytes - 1)) ] || { echo "cli test: dd failed" >&2; exit 2; }
+
+# A 4x3x2 big-endian raw volume: value n*100 - 1000 for voxel n (min -1000, max 1300).
+raw="$work/small_big_endian.raw"
+: > "$raw"
+n=0
+while [ $n -lt 24 ]; do
+    value=$(( (n * 100 - 1000) & 65535 ))
+    printf "\\$(printf %o $((value >> 8)))\\$(printf %o $((value & 255)))" >> "$raw"
+    n=$((n + 1))
+done
+[ "$(wc -c < "$raw")" -eq 48 ] || { echo "cli test: could not write $raw" >&2; exit 2; }
+
+# expect_bad STEP TEXT ARGS...: exit status 2, exactly one line on stderr, of the form
+# "STEP: error: ..." and containing TEXT; no PNG anywhere under the --out folder.
+expect_bad() {
+    step=$1
+    text=$2
+    shift 2
+    out="$work/bad_out"
+    rm -rf "$out"
+    "$build/$step" --no-window --out "$out" "$@" > "$work/stdout" 2> "$work/stderr"
+    status=$?
+    what="$step $*"
+    if [ $status -ne 2 ]; then
+        fail "$what: exit status $status, expected 2"
+        return
+    fi
+    if [ "$(wc -l < "$work/stderr")" -ne 1 ]; then
+        fail "$what: expected one line on stderr, got: $(cat "$work/stderr")"
+        return
+    fi
+    if ! grep -q "^$step: error: " "$work/stderr" || ! grep -qF -- "$text" "$work/stderr"; then
+        fail "$what: stderr does not say '$step: error: ...$text...': $(cat "$work/stderr")"
+        return
+    fi
+    if [ -n "$(find "$out" -name '*.png*' 2> /dev/null)" ]; then
+        fail "$what: wrote a PNG despite the error"
+        return
+    fi
+    pass
+}
+
+# The four bytes a PNG starts with, as hex.
+png_magic() { dd if="$1" bs=4 count=1 2> /dev/null | od -An -tx1 | tr -d ' \n'; }
+
+steps=0
+for source in steps/[0-9][0-9]_*.cpp; do
+    step=$(basename "$source" .cpp)
+    steps=$((steps + 1))
+    if [ ! -x "$build/$step" ]; then
+        fail "$build/$step is not built"
+        continue
+    fi
+
+    # --help: the usage on stdout, status 0, nothing on stderr.
+    "$build/$step" --help > "$work/stdout" 2> "$work/stderr"
+    status=$?
+    [ $status -eq 0 ] && grep -q "^usage: build/$step " "$work/stdout" && [ ! -s "$work/stderr" ]
+    check $? "$step --help: status $status, or no 'usage: build/$step' line, or stderr output"
+
+    # Bad input: each names what is wrong.
+    expect_bad "$step" "$missing" --volume "$missing"
+    expect_bad "$step" "'$folder' is a folder" --volume "$folder"
+    expect_bad "$step" "has 0 bytes" --volume "$empty"
+    expect_bad "$step" "has $((cthead_bytes - 1)) bytes" --volume "$short"
+    expect_bad "$step" "over the limit" --volume "$raw" --dims 4194304,4194304,4194304
+    expect_bad "$step" "voxel limit" --volume phantom --dims 4194304,4194304,4194304
+    expect_bad "$step" "'--bogus'" --volume phantom --bogus
+    expect_bad "$step" "--view" --volume phantom --view bogus
+    expect_bad "$step" "--threads" --volume phantom --threads 0
+    expect_bad "$step" "--debug-pixel 9999,9999 is outside" --volume phantom --debug-pixel 9999,9999
+    expect_bad "$step" "--debug-pixel" --volume phantom --debug-pixel a,b
+    expect_bad "$step" "--threshold" --volume phantom --threshold abc
+    expect_bad "$step" "/proc/ctlab" --volume phantom --out /proc/ctlab
+    expect_bad "$step" "is a file, not a folder" --volume phantom --out "$regular/out"
+
+    # A good run: one PNG and one summary line per view, nothing on stderr.
+    out="$work/good_$step"
+    "$build/$step" --volume phantom --no-window --out "$out" > "$work/stdout" 2> "$work/stderr"
+    status=$?
+    [ $status -eq 0 ] && [ ! -s "$work/stderr" ]
+    check $? "$step --volume phantom: status $status, stderr: $(cat "$work/stderr")"
+    for view_size in top:256x256 front:256x113 side:256x113; do
+        view=${view_size%%:*}
+        size=${view_size#*:}
+        png="$out/${step}_$view.png"
+        [ -f "$png" ] && [ "$(png_magic "$png")" = 89504e47 ]
+        check $? "$step: $png missing or not a PNG"
+        count=$(grep -c "^step=$step view=$view size=$size time_ms=[0-9.]* .*samples=[0-9]" \
+            "$work/stdout")
+        [ "$count" -eq 1 ]
+        check $? "$step: expected one summary line 'step=$step view=$view size=$size time_ms=..\
+ samples=..', got $count"
+    done
+    [ -z "$(find "$out" -name '*.tmp*' 2> /dev/null)" ]
+    check $? "$step: temporary files left in $out"
+
+    # --debug-pixel: the trace of one ray, its last line the pixel (image column 128, row 60).
+    "$build/$step" --volume phantom --no-window --out "$out" --view front --debug-pixel 128,60 \
+        > "$work/stdout" 2> "$work/stderr"
+    status=$?
+    last=$(tail -n 1 "$work/stdout")
+    trace_lines=$(sed -n '/^debug pixel x=128 y=60 view=front/,$p' "$work/stdout" | wc -l)
+    [ $status -eq 0 ] && [ "$trace_lines" -ge 3 ] &&
+        echo "$last" | grep -q '^pixel x=128 y=60 rgb=([0-9.]*, [0-9.]*, [0-9.]*) png=('
+    check $? "$step --debug-pixel 128,60: status $status, $trace_lines trace lines, last: $last"
+done
+[ $steps -ge 6 ]
+check $? "found only $steps steps in steps/"
+
+# A generic raw file: --dims, --endian big; the loader's line and the side view's size.
+step=$(basename "$(ls steps/[0-9][0-9]_*.cpp | tail -n 1)" .cpp)
+"$build/$step" --volume "$raw" --dims 4,3,2 --endian big --view side --no-window \
+    --out "$work/raw_out" > "$work/stdout" 2> "$work/stderr"
+status=$?
+[ $status -eq 0 ] && grep -q "dims=4x3x2 spacing=1,1,1 min=-1000 max=1300" "$work/stdout" &&
+    grep -q "^step=$step view=side size=3x2 " "$work/stdout" &&
+    [ -f "$work/raw_out/${step}_side.png" ]
+check $? "$step --volume raw --dims 4,3,2 --endian big: status $status: $(cat "$work/stdout")"
+expect_bad "$step" "has 48 bytes" --volume "$raw" --dims 4,3,3 --endian big
+expect_bad "$step" "--dims" --volume "$raw" --dims 0,1,1
+expect_bad "$step" "--spacing" --volume "$raw" --dims 4,3,2 --spacing 1,0,1
+
+echo "cli test: $passed passed, $failed failed"
+[ $failed -eq 0 ]
