@@ -15,6 +15,15 @@ SDL_LIBS   := $(shell pkg-config --libs sdl2 2>/dev/null)
 CPPFLAGS += $(SDL_CFLAGS)
 LDLIBS   += $(SDL_LIBS) -pthread
 
+# `make fuzz` builds with FUZZ=1: clang, libFuzzer instrumentation, ASan and UBSan.
+ifeq ($(FUZZ),1)
+BUILD    ?= build-fuzz
+CXX      := clang++
+CXXFLAGS += -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer \
+            -fno-sanitize-recover=all
+LDFLAGS  += -fsanitize=fuzzer,address,undefined
+endif
+
 # `make test SAN=1`: AddressSanitizer + UndefinedBehaviorSanitizer, in a build folder of its own.
 ifeq ($(SAN),1)
 BUILD    ?= build-san
@@ -24,6 +33,12 @@ else
 BUILD    ?= build
 endif
 
+# stb_image (compiled into image_read.o) calls memcpy(NULL, p, 0) for a PNG whose first IDAT
+# chunk is empty: harmless, but UBSan's nonnull check stops there. Found by `make fuzz`.
+ifneq ($(SAN)$(FUZZ),)
+$(BUILD)/common/image_read.o: CXXFLAGS += -fno-sanitize=nonnull-attribute
+endif
+
 STEP_SOURCES   := $(sort $(wildcard steps/[0-9][0-9]_*.cpp))
 STEP_NAMES     := $(basename $(notdir $(STEP_SOURCES)))
 STEP_BINARIES  := $(addprefix $(BUILD)/,$(STEP_NAMES))
@@ -31,11 +46,14 @@ COMMON_SOURCES := $(wildcard common/*.cpp)
 COMMON_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(COMMON_SOURCES))
 TOOL_SOURCES   := $(wildcard tools/*.cpp)
 TOOL_BINARIES  := $(patsubst tools/%.cpp,$(BUILD)/%,$(TOOL_SOURCES))
-TEST_SOURCES   := $(wildcard tests/*.cpp)
+TEST_SOURCES   := $(wildcard tests/*.cpp) tests/fuzz/targets.cpp  # targets: crash replays
 TEST_OBJECTS   := $(patsubst %.cpp,$(BUILD)/%.o,$(TEST_SOURCES))
 LIBCTLAB       := $(BUILD)/libctlab.a
 
 .PHONY: all help deps demo test run diff clean $(STEP_NAMES)
+.PHONY: reference student check-student handouts  # the instructor and student kit, below
+.PHONY: fuzz fuzz-build
+.PHONY: bench study  # measuring: speed, and error against run time
 .DEFAULT_GOAL := all
 
 # Build every step and tool.
@@ -49,7 +67,18 @@ help:
 	@echo "make run STEP=NN [ARGS='--view front']   build and run step NN"
 	@echo "make diff STEP=NN   what step NN adds to step NN-1"
 	@echo "make deps       install the Debian packages ctlab needs (as root)"
-	@echo "make clean      remove build/ and out/"
+	@echo "make fuzz [FUZZ_SECONDS=N]   build the libFuzzer harnesses (clang) into build-fuzz/"
+	@echo "                and run each for N seconds (default 60)"
+	@echo "make clean      remove build/, build-san/, build-fuzz/ and out/"
+	@echo "make reference [VOLUME=CThead REFERENCE=DIR]   render data/reference/manifest.txt's"
+	@echo "                images: the phantom into data/reference/, or VOLUME into REFERENCE"
+	@echo "make student [FORCE=1]   generate student/: the lab with every lesson function a stub"
+	@echo "make check-student   build student/, render every step, check against the reference"
+	@echo "make handouts   refresh the code listings in handouts/*.md from the steps' markers"
+	@echo "make bench      time every step and view, 1 thread and all cores, against a naive"
+	@echo "                loop: out/bench.md (run it on an idle machine)"
+	@echo "make study      error against run time of the methods (depth, step size, early"
+	@echo "                termination, float/double): out/study/ (a minute or two)"
 
 # Install missing Debian packages (as root: apt-get; otherwise prints the one sudo command).
 deps:
@@ -70,6 +99,7 @@ test: deps
 	$(BUILD)/ctlab_tests
 	@sh tests/cli_test.sh $(BUILD)
 	@sh tests/window_test.sh $(BUILD)
+	@sh tests/student_test.sh $(BUILD)
 
 # One step by name: `make 03_depth_shading`.
 $(STEP_NAMES): %: $(BUILD)/%
@@ -79,13 +109,76 @@ run: $(BUILD)/$(notdir $(basename $(wildcard steps/$(STEP)_*.cpp)))
 
 # What step NN teaches: its diff against step NN-1.
 diff:
-	@previous=$$(printf '%02d' $$(( 10#$(STEP) - 1 ))); \
+	@previous=$$(printf '%02d' $$(expr $(STEP) - 1)); \
 	 old=$$(ls steps/$${previous}_*.cpp 2>/dev/null); new=$$(ls steps/$(STEP)_*.cpp 2>/dev/null); \
 	 if [ -z "$$new" ] || [ -z "$$old" ]; then echo "make diff: no step $(STEP) or no step before it"; exit 2; fi; \
 	 diff -u "$$old" "$$new" || true
 
 clean:
-	rm -rf build build-san out
+	rm -rf build build-san build-fuzz out
+
+# --- Measuring: speed and accuracy -----------------------------------------------------------
+# Every step and view timed with 1 thread and with all cores, and against a naive loop of the
+# same step (tools/bench.cpp): out/bench.md. Timing needs an idle machine: check `uptime`.
+bench: $(BUILD)/bench
+	$(BUILD)/bench --out out/bench.md
+
+# Error against run time of each method and parameter, and the stiff numerical cases
+# (tools/study.cpp): out/study/error_vs_time.csv, .png and .md, out/study/numerics.md.
+study: $(BUILD)/study
+	$(BUILD)/study --out out/study
+
+# --- Instructor and student kit: references, student skeletons, handout listings ----------
+# Render every step and view, and the variants data/reference/manifest.txt lists, into
+# data/reference/ on the phantom; or, given VOLUME=path/to/CThead, into REFERENCE=folder.
+reference: $(STEP_BINARIES)
+	@sh tools/make_reference.sh $(BUILD) "$(VOLUME)" "$(REFERENCE)"
+
+# Generate student/: the lab with each lesson function's body a TODO stub (tools/make_student).
+# Refuses to overwrite files changed since the last generation unless FORCE=1.
+student: $(BUILD)/make_student
+	$(BUILD)/make_student --to student $(if $(filter 1,$(FORCE)),--force)
+
+# Build student/ (generated first if missing), render every step on the phantom into
+# student/out/ and check it against data/reference/. Stubbed steps fail until written.
+check-student: $(BUILD)/check
+	@[ -f student/.ctlab-student ] || $(MAKE) --no-print-directory student
+	@$(MAKE) --no-print-directory -C student all
+	@rm -f student/out/[0-9][0-9]_*.png  # a step that fails now must not pass on old pictures
+	@for source in student/steps/[0-9][0-9]_*.cpp; do \
+	    step=$$(basename $$source .cpp); \
+	    student/$(BUILD)/$$step --volume phantom --view all --no-window --out student/out \
+	        > /dev/null || echo "check-student: $$step stopped with an error"; \
+	done
+	$(BUILD)/check --submission student/out --reference data/reference
+
+# Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.
+handouts: $(BUILD)/handout_listings
+	$(BUILD)/handout_listings
+
+# --- Fuzzing: tests/fuzz/fuzz_NAME.cpp; what each harness checks is in tests/fuzz/targets.cpp --
+# Each runs FUZZ_SECONDS on build-fuzz/corpus/NAME (kept between runs), seeded from
+# tests/fuzz/seeds/NAME and the crash inputs kept in tests/fuzz/regressions/NAME. A crash
+# stops the run and leaves its input in build-fuzz/crashes/NAME/: copy it to
+# tests/fuzz/regressions/NAME/, where `make test` replays it (tests/test_fuzz_regressions.cpp).
+FUZZ_HARNESSES := raw cthead tf image
+FUZZ_SECONDS   ?= 60
+fuzz:
+	@sh tools/install-deps.sh fuzz
+	@$(MAKE) --no-print-directory FUZZ=1 fuzz-build
+	@for name in $(FUZZ_HARNESSES); do \
+	    mkdir -p build-fuzz/corpus/$$name build-fuzz/crashes/$$name; \
+	    kept=tests/fuzz/regressions/$$name; [ -d $$kept ] || kept=; \
+	    build-fuzz/fuzz_$$name -max_total_time=$(FUZZ_SECONDS) -close_fd_mask=1 \
+	        -print_final_stats=1 -artifact_prefix=build-fuzz/crashes/$$name/ \
+	        build-fuzz/corpus/$$name tests/fuzz/seeds/$$name $$kept \
+	        > build-fuzz/$$name.log 2>&1 || { tail -n 40 build-fuzz/$$name.log; \
+	        echo "fuzz: $$name crashed; input in build-fuzz/crashes/$$name/"; exit 1; }; \
+	    echo "fuzz: $$name: $$(sed -n 's/^stat::number_of_executed_units: *//p' \
+	        build-fuzz/$$name.log) runs in $(FUZZ_SECONDS) s, no crash"; \
+	done
+
+fuzz-build: $(addprefix $(BUILD)/fuzz_,$(FUZZ_HARNESSES))
 
 # --- Rules ---------------------------------------------------------------------------------
 $(BUILD)/%.o: %.cpp
@@ -99,6 +192,9 @@ $(BUILD)/%: $(BUILD)/steps/%.o $(LIBCTLAB)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 $(BUILD)/%: $(BUILD)/tools/%.o $(LIBCTLAB)
+	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
+$(BUILD)/fuzz_%: $(BUILD)/tests/fuzz/fuzz_%.o $(BUILD)/tests/fuzz/targets.o $(LIBCTLAB)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 $(BUILD)/ctlab_tests: $(TEST_OBJECTS) $(LIBCTLAB)

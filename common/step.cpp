@@ -73,7 +73,11 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
                              std::to_string(views[0].height) + "); X is the column, Y the row");
         }
     }
-    make_folder(options.out);
+    try {
+        make_folder(options.out);
+    } catch (const InputError& error) {
+        throw InputError(std::string("--out: ") + error.what());  // name the flag to change
+    }
     if (access(options.out.c_str(), W_OK) != 0) {
         throw InputError("--out: cannot write to folder '" + options.out + "'");
     }
@@ -83,6 +87,12 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         const Timer timer;
         const Image image = render_view(options, view, renderer, work);
         const double ms = timer.ms();
+        if (image.width != view.width || image.height != view.height) {
+            throw InputError("the " + view.name + " render is " + std::to_string(image.width) +
+                             "x" + std::to_string(image.height) + " but the view is " +
+                             std::to_string(view.width) + "x" + std::to_string(view.height) +
+                             " (is a lesson function still a TODO stub?)");
+        }
         write_png(image, output_path(options, view));
         print_summary(options, view, renderer, work, ms);
         if (options.has_debug_pixel) {

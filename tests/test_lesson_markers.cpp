@@ -1,0 +1,122 @@
+// test_lesson_markers.cpp: the marker reader behind make student, make handouts and the
+// handout test (tools/lesson_markers.h), on small sources with known answers.
+#include <doctest/doctest.h>
+#include <string>
+#include "tools/lesson_markers.h"
+
+namespace {
+
+const std::string source =
+    "#include \"common/ctlab.h\"\n"
+    "//> lesson: lookup\n"
+    "// A table.\n"
+    "struct Table {\n"
+    "    int size() const { return 3; }  // a member: not a lesson function\n"
+    "};\n"
+    "\n"
+    "// Sums; a brace in a string \"{\" or a comment { must not count.\n"
+    "template <class Sample>\n"
+    "static float total(Sample sample, int count = 3, const char* label = \"}\") {\n"
+    "    float sum = 0;  // }\n"
+    "    for (int n = 0; n < count; ++n) sum += sample(n);\n"
+    "    return sum + (label[0] == '}' ? 0 : 1);\n"
+    "}\n"
+    "//< lesson: lookup\n"
+    "\n"
+    "//> lesson: print\n"
+    "static void print(const Table& table, int, const Table) {\n"
+    "    std::printf(\"%d\\n\", table.size());\n"
+    "}\n"
+    "auto twice = [](int v) { return 2 * v; };\n"
+    "//< lesson: print\n";
+
+}  // namespace
+
+TEST_CASE("regions are the lines between the markers") {
+    const auto regions = lesson::find_regions(source, "test.cpp");
+    REQUIRE(regions.size() == 2);
+    CHECK(regions[0].name == "lookup");
+    CHECK(regions[0].line == 2);
+    CHECK(lesson::region_text(source, regions[0]).rfind("// A table.\n", 0) == 0);
+    CHECK(lesson::region_text(source, regions[1]) ==
+          "static void print(const Table& table, int, const Table) {\n"
+          "    std::printf(\"%d\\n\", table.size());\n"
+          "}\n"
+          "auto twice = [](int v) { return 2 * v; };\n");
+}
+
+TEST_CASE("lesson functions: top level only, braces in strings and comments ignored") {
+    const auto regions = lesson::find_regions(source, "test.cpp");
+    const auto lookup = lesson::find_functions(source, regions[0], "test.cpp");
+    REQUIRE(lookup.size() == 1);  // Table::size is inside a struct
+    CHECK(lookup[0].name == "total");
+    CHECK(lookup[0].return_type == "float");
+    CHECK(lookup[0].is_template);
+    CHECK(lookup[0].is_static);
+    CHECK(lookup[0].parameters == std::vector<std::string>{"sample", "count", "label"});
+    CHECK(source[lookup[0].body_open] == '{');
+    CHECK(source.substr(lookup[0].body_close, 2) == "}\n");
+    CHECK(lesson::function_text(source, lookup[0]).rfind("// Sums;", 0) == 0);
+
+    const auto print = lesson::find_functions(source, regions[1], "test.cpp");
+    REQUIRE(print.size() == 1);  // the lambda is a variable, not a function
+    CHECK(print[0].name == "print");
+    CHECK(print[0].return_type == "void");
+    CHECK(print[0].parameters == std::vector<std::string>{"table"});  // the others are unnamed
+}
+
+TEST_CASE("masking keeps offsets and newlines, blanks comments and literals") {
+    const std::string code = "int a = '{'; // {\nconst char* s = \"}\"; /* { */ int b = 1'000;\n";
+    const std::string masked = lesson::mask_code(code);
+    CHECK(masked.size() == code.size());
+    CHECK(masked.find('{') == std::string::npos);
+    CHECK(masked.find('}') == std::string::npos);
+    CHECK(masked.find('\n') == code.find('\n'));
+    CHECK(masked.find("int b = 1'000;") != std::string::npos);
+}
+
+TEST_CASE("bad markers are errors that name the file and line") {
+    auto error_of = [](const std::string& text) {
+        try {
+            lesson::find_regions(text, "bad.cpp");
+        } catch (const ctlab::InputError& error) {
+            return std::string(error.what());
+        }
+        return std::string();
+    };
+    CHECK(error_of("//> lesson: a\n") == "bad.cpp:1: region 'a' is never closed (//< lesson: a)");
+    CHECK(error_of("//< lesson: a\n") == "bad.cpp:1: 'a' closes no open region");
+    CHECK(error_of("//> lesson: a\n//> lesson: b\n").rfind("bad.cpp:2: region 'b' opens", 0) == 0);
+    CHECK(error_of("//> lesson: a\n//< lesson: b\n").rfind("bad.cpp:2: 'b' closes region 'a'", 0) ==
+          0);
+    CHECK(error_of("//> lesson: a\n//< lesson: a\n//> lesson: a\n//< lesson: a\n") ==
+          "bad.cpp:3: region 'a' is used twice");
+    CHECK(error_of("//> lesson: two words\n").rfind("bad.cpp:1: expected a marker name", 0) == 0);
+}
+
+TEST_CASE("listings: found, refreshed, and errors for a missing marker") {
+    const std::string markdown =
+        "Text.\n<!-- listing: steps/x.cpp print -->\n```cpp\nold\n```\nMore.\n";
+    const auto listings = lesson::find_listings(markdown, "h.md");
+    REQUIRE(listings.size() == 1);
+    CHECK(listings[0].path == "steps/x.cpp");
+    CHECK(listings[0].marker == "print");
+    CHECK(listings[0].function.empty());
+    CHECK(listings[0].line == 2);
+    CHECK(markdown.substr(listings[0].content_begin,
+                          listings[0].content_end - listings[0].content_begin) == "old\n");
+    const std::string refreshed =
+        lesson::refresh_listings(markdown, listings, [&](const lesson::Listing& listing) {
+            return lesson::listing_text(source, listing, "h.md");
+        });
+    CHECK(refreshed.find("```cpp\nstatic void print(") != std::string::npos);
+    CHECK(refreshed.find("old") == std::string::npos);
+
+    lesson::Listing missing = listings[0];
+    missing.marker = "nowhere";
+    CHECK_THROWS_WITH_AS(lesson::listing_text(source, missing, "h.md"),
+                         "h.md:2: listing names marker 'nowhere', which steps/x.cpp does not have",
+                         ctlab::InputError);
+    CHECK_THROWS_AS(lesson::find_listings("<!-- listing: a.cpp m -->\nno fence\n", "h.md"),
+                    ctlab::InputError);
+}

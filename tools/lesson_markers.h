@@ -1,0 +1,501 @@
+// lesson_markers.h: the lesson regions of the step sources and the listings that quote them.
+// Shared by tools/make_student.cpp (stubs), tools/handout_listings.cpp (refreshes listings)
+// and tests/test_handouts.cpp (checks them). Header-only: each tool is a single .cpp file.
+//
+// In a step, a region is a run of whole lines between two marker lines:
+//     //> lesson: first_hit
+//     ... the code the handout quotes and the student skeleton stubs ...
+//     //< lesson: first_hit
+// Regions do not nest, a name is used once per file, and the braces between the markers
+// balance. A function defined at the top level of a region (not inside a struct) is a lesson
+// function: the student skeleton keeps its comments and signature and stubs its body.
+//
+// In a handout, a listing is a marker comment (at the start of a line) and a fenced block:
+//     <!-- listing: steps/05_interpolated_hits.cpp first_hit -->        (a whole region)
+//     <!-- listing: steps/05_interpolated_hits.cpp gradient gradient_along_ray -->  (one function)
+// The block holds the exact text of the region (marker lines left out), or of the function
+// with the comment lines above it.
+#pragma once
+#include <cctype>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+#include "error.h"
+
+namespace lesson {
+
+using ctlab::InputError;
+
+struct Region {
+    std::string name;
+    size_t begin = 0, end = 0;  // offsets of the text between the marker lines
+    int line = 0;               // line number of the opening marker, from 1
+};
+
+struct Function {
+    std::string name;
+    std::string return_type;              // "void", "float", "Hit", ...; "" for a constructor
+    std::vector<std::string> parameters;  // parameter names; unnamed ones are left out
+    bool is_static = false, is_template = false;
+    size_t start = 0;      // first line of its comment block (or of its code if none)
+    size_t header = 0;     // first code line: `template <...>` or the signature
+    size_t body_open = 0;  // its `{`
+    size_t body_close = 0; // the matching `}`
+};
+
+struct Listing {
+    std::string path, marker, function;  // function "" = the whole region
+    int line = 0;                        // line of the <!-- listing: --> comment, from 1
+    size_t content_begin = 0, content_end = 0;  // the text between the fences
+};
+
+inline std::string read_text(const std::string& path) {
+    std::ifstream file(path, std::ios::binary);
+    if (!file) throw InputError("cannot read '" + path + "'");
+    std::ostringstream text;
+    text << file.rdbuf();
+    return text.str();
+}
+
+inline bool is_identifier_char(char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+}
+
+inline std::string trim(const std::string& text) {
+    const size_t first = text.find_first_not_of(" \t\r\n");
+    if (first == std::string::npos) return "";
+    return text.substr(first, text.find_last_not_of(" \t\r\n") - first + 1);
+}
+
+inline int line_of(const std::string& text, size_t offset) {
+    int line = 1;
+    for (size_t n = 0; n < offset && n < text.size(); ++n) line += text[n] == '\n';
+    return line;
+}
+
+inline size_t line_start(const std::string& text, size_t offset) {
+    const size_t newline = offset == 0 ? std::string::npos : text.rfind('\n', offset - 1);
+    return newline == std::string::npos ? 0 : newline + 1;
+}
+
+// The source with comments, preprocessor lines and the insides of string and character
+// literals blanked (newlines kept), so braces and names can be found by plain scanning.
+inline std::string mask_code(const std::string& source) {
+    std::string masked = source;
+    auto blank = [&](size_t from, size_t to) {
+        for (size_t n = from; n < to && n < masked.size(); ++n) {
+            if (masked[n] != '\n') masked[n] = ' ';
+        }
+    };
+    size_t n = 0;
+    bool line_has_code = false;  // a `#` after code is not a directive
+    while (n < source.size()) {
+        const char c = source[n];
+        const char next = n + 1 < source.size() ? source[n + 1] : '\0';
+        if (c == '\n') {
+            line_has_code = false;
+            ++n;
+        } else if (c == '#' && !line_has_code) {  // directive, with continued lines
+            size_t end = n;
+            while (end < source.size() && !(source[end] == '\n' && source[end - 1] != '\\')) ++end;
+            blank(n, end);
+            n = end;
+        } else if (c == '/' && next == '/') {
+            const size_t end = source.find('\n', n);
+            blank(n, end == std::string::npos ? source.size() : end);
+            n = end == std::string::npos ? source.size() : end;
+        } else if (c == '/' && next == '*') {
+            const size_t end = source.find("*/", n + 2);
+            const size_t stop = end == std::string::npos ? source.size() : end + 2;
+            blank(n, stop);
+            n = stop;
+        } else if (c == '"' && n > 0 && source[n - 1] == 'R' &&
+                   (n < 2 || !is_identifier_char(source[n - 2]) || source[n - 2] == '8' ||
+                    source[n - 2] == 'u' || source[n - 2] == 'U' || source[n - 2] == 'L')) {
+            const size_t paren = source.find('(', n);  // R"delimiter( ... )delimiter"
+            const std::string close = paren == std::string::npos
+                ? "\"" : ")" + source.substr(n + 1, paren - n - 1) + "\"";
+            const size_t end = source.find(close, n + 1);
+            const size_t stop = end == std::string::npos ? source.size() : end + close.size();
+            blank(n + 1, stop - 1);
+            n = stop;
+            line_has_code = true;
+        } else if (c == '"' || (c == '\'' && !(n > 0 && std::isxdigit(
+                                    static_cast<unsigned char>(source[n - 1]))))) {
+            size_t end = n + 1;  // a quote after a digit is a digit separator (1'000)
+            while (end < source.size() && source[end] != c && source[end] != '\n') {
+                end += source[end] == '\\' ? 2 : 1;
+            }
+            blank(n + 1, end);
+            n = end + 1;
+            line_has_code = true;
+        } else {
+            if (!std::isspace(static_cast<unsigned char>(c))) line_has_code = true;
+            ++n;
+        }
+    }
+    return masked;
+}
+
+// Every region of a step source, in order. Throws InputError "PATH:LINE: ..." for unbalanced,
+// nested, mismatched or repeated markers.
+inline std::vector<Region> find_regions(const std::string& source, const std::string& path) {
+    const std::string open_marker = "//> lesson:", close_marker = "//< lesson:";
+    std::vector<Region> regions;
+    bool inside = false;
+    Region current;
+    size_t at = 0;
+    int line = 0;
+    while (at < source.size()) {
+        ++line;
+        size_t end = source.find('\n', at);
+        const size_t next = end == std::string::npos ? source.size() : end + 1;
+        const std::string text = trim(source.substr(at, next - at));
+        const bool opens = text.rfind(open_marker, 0) == 0;
+        const bool closes = text.rfind(close_marker, 0) == 0;
+        if (opens || closes) {
+            const std::string name = trim(text.substr(open_marker.size()));
+            const std::string where = path + ":" + std::to_string(line) + ": ";
+            bool good_name = !name.empty();
+            for (char c : name) good_name = good_name && is_identifier_char(c);
+            if (!good_name) {
+                throw InputError(where + "expected a marker name of letters, digits and _, got '" +
+                                 name + "'");
+            }
+            if (opens) {
+                if (inside) {
+                    throw InputError(where + "region '" + name + "' opens inside region '" +
+                                     current.name + "' (regions do not nest)");
+                }
+                for (const Region& region : regions) {
+                    if (region.name == name) {
+                        throw InputError(where + "region '" + name + "' is used twice");
+                    }
+                }
+                current = Region{name, next, next, line};
+                inside = true;
+            } else {
+                if (!inside) throw InputError(where + "'" + name + "' closes no open region");
+                if (name != current.name) {
+                    throw InputError(where + "'" + name + "' closes region '" + current.name +
+                                     "' (opened on line " + std::to_string(current.line) + ")");
+                }
+                current.end = at;
+                regions.push_back(current);
+                inside = false;
+            }
+        }
+        at = next;
+    }
+    if (inside) {
+        throw InputError(path + ":" + std::to_string(current.line) + ": region '" +
+                         current.name + "' is never closed (//< lesson: " + current.name + ")");
+    }
+    return regions;
+}
+
+inline const Region* find_region(const std::vector<Region>& regions, const std::string& name) {
+    for (const Region& region : regions) {
+        if (region.name == name) return &region;
+    }
+    return nullptr;
+}
+
+// The identifiers and punctuation of a masked piece of code, e.g. "static", "Hit", "(".
+inline std::vector<std::string> tokens(const std::string& code) {
+    std::vector<std::string> result;
+    for (size_t n = 0; n < code.size();) {
+        if (std::isspace(static_cast<unsigned char>(code[n]))) {
+            ++n;
+        } else if (is_identifier_char(code[n])) {
+            size_t end = n;
+            while (end < code.size() && is_identifier_char(code[end])) ++end;
+            result.push_back(code.substr(n, end - n));
+            n = end;
+        } else if (code.compare(n, 2, "::") == 0 || code.compare(n, 2, "->") == 0 ||
+                   code.compare(n, 2, "&&") == 0 || code.compare(n, 2, "[[") == 0 ||
+                   code.compare(n, 2, "]]") == 0) {
+            result.push_back(code.substr(n, 2));
+            n += 2;
+        } else {
+            result.push_back(code.substr(n, 1));
+            ++n;
+        }
+    }
+    return result;
+}
+
+inline std::string join(const std::vector<std::string>& parts, size_t from, size_t to) {
+    std::string text;
+    for (size_t n = from; n < to && n < parts.size(); ++n) {
+        const bool word = is_identifier_char(parts[n][0]);
+        const bool after_word = !text.empty() && is_identifier_char(text.back());
+        text += (word && after_word ? " " : "") + parts[n];
+    }
+    return text;
+}
+
+// The name of one parameter ("const Volume& volume" -> "volume"), "" when it has none.
+inline std::string parameter_name(const std::vector<std::string>& parameter) {
+    static const std::vector<std::string> not_names = {
+        "const", "volatile", "int", "float", "double", "char", "bool", "long", "short",
+        "unsigned", "signed", "auto", "void", "size_t"};
+    size_t end = parameter.size();
+    for (size_t n = 0; n < parameter.size(); ++n) {
+        if (parameter[n] == "=" || parameter[n] == "[") {  // default value, array bound
+            end = n;
+            break;
+        }
+    }
+    if (end < 2 || !is_identifier_char(parameter[end - 1][0])) return "";
+    const std::string& name = parameter[end - 1];
+    if (parameter[end - 2] == "::") return "";
+    for (const std::string& word : not_names) {
+        if (name == word) return "";
+    }
+    bool type_before = false;  // "const Foo" has no name: Foo is its type
+    for (size_t n = 0; n + 1 < end; ++n) {
+        type_before = type_before || (parameter[n] != "const" && parameter[n] != "volatile");
+    }
+    return type_before ? name : "";
+}
+
+// Reads a function header (masked code from the end of the previous declaration to its `{`).
+// Returns false when it is not a function definition (a struct, an initialised variable...).
+inline bool parse_header(const std::string& header, Function& function) {
+    std::vector<std::string> words = tokens(header);
+    size_t n = 0;
+    if (n < words.size() && words[n] == "template") {  // skip `template <...>`
+        function.is_template = true;
+        int angle = 0;
+        for (++n; n < words.size(); ++n) {
+            if (words[n] == "<") ++angle;
+            if (words[n] == ">" && --angle == 0) break;
+        }
+        ++n;
+    }
+    static const std::vector<std::string> not_functions = {
+        "struct", "class", "union", "enum", "namespace", "extern", "typedef", "using"};
+    if (n >= words.size()) return false;
+    for (const std::string& word : not_functions) {
+        if (words[n] == word) return false;
+    }
+    size_t open = n;  // the parameter list's `(`
+    while (open < words.size() && words[open] != "(") {
+        if (words[open] == "=") return false;  // a variable initialised with a lambda
+        ++open;
+    }
+    if (open >= words.size() || open == n || !is_identifier_char(words[open - 1][0])) {
+        return false;
+    }
+    function.name = words[open - 1];
+    // The parameter names, splitting at commas outside brackets.
+    int depth = 0;
+    size_t close = open + 1;
+    std::vector<std::string> parameter;
+    for (; close < words.size(); ++close) {
+        const std::string& word = words[close];
+        if (word == "(" || word == "<" || word == "[" || word == "{") ++depth;
+        if (word == ")" || word == ">" || word == "]" || word == "}") {
+            if (depth == 0) break;
+            --depth;
+        }
+        if (depth == 0 && word == ",") {
+            const std::string name = parameter_name(parameter);
+            if (!name.empty()) function.parameters.push_back(name);
+            parameter.clear();
+        } else {
+            parameter.push_back(word);
+        }
+    }
+    if (close >= words.size()) return false;
+    const std::string last = parameter_name(parameter);
+    if (!last.empty()) function.parameters.push_back(last);
+    // After the list: qualifiers, a trailing return type or a constructor's initialisers.
+    std::string trailing_type;
+    for (size_t m = close + 1; m < words.size(); ++m) {
+        const std::string& word = words[m];
+        if (word == "->") {
+            trailing_type = join(words, m + 1, words.size());
+            break;
+        }
+        if (word == ":") break;
+        if (word != "const" && word != "noexcept" && word != "override" && word != "final" &&
+            word != "&" && word != "&&") {
+            return false;
+        }
+    }
+    // The return type: what precedes the name, less the specifiers and attributes.
+    std::vector<std::string> type;
+    for (size_t m = n; m + 1 < open; ++m) {
+        const std::string& word = words[m];
+        if (word == "[[") {
+            while (m + 1 < open && words[m] != "]]") ++m;
+            continue;
+        }
+        if (word == "static") function.is_static = true;
+        if (word == "static" || word == "inline" || word == "constexpr" || word == "virtual" ||
+            word == "friend" || word == "explicit") {
+            continue;
+        }
+        type.push_back(word);
+    }
+    if (!type.empty() && type.back() == "::") return false;  // Class::member: not in a region
+    function.return_type = trailing_type.empty() ? join(type, 0, type.size()) : trailing_type;
+    return true;
+}
+
+// The functions defined at the top level of one region. Throws InputError when the region's
+// braces do not balance.
+inline std::vector<Function> find_functions(const std::string& source, const std::string& masked,
+                                            const Region& region, const std::string& path) {
+    std::vector<Function> functions;
+    int depth = 0, parens = 0;
+    size_t statement = region.begin;  // where the current top-level declaration starts
+    bool in_function = false;
+    Function current;
+    for (size_t n = region.begin; n < region.end; ++n) {
+        const char c = masked[n];
+        if (c == '(') ++parens;
+        if (c == ')') --parens;
+        if (c == ';' && depth == 0) statement = n + 1;
+        if (c == '{') {
+            if (depth == 0 && parens == 0) {
+                Function function;
+                if (parse_header(masked.substr(statement, n - statement), function)) {
+                    // Comments start at the first non-blank line; code at the first code line.
+                    size_t first = statement;
+                    while (first < n && std::isspace(static_cast<unsigned char>(source[first]))) {
+                        ++first;
+                    }
+                    size_t code = statement;
+                    while (code < n && std::isspace(static_cast<unsigned char>(masked[code]))) {
+                        ++code;
+                    }
+                    function.start = line_start(source, first);
+                    function.header = line_start(source, code);
+                    function.body_open = n;
+                    current = function;
+                    in_function = true;
+                }
+            }
+            ++depth;
+        }
+        if (c == '}') {
+            if (--depth < 0) break;
+            if (depth == 0) {
+                if (in_function) {
+                    current.body_close = n;
+                    functions.push_back(current);
+                    in_function = false;
+                }
+                statement = n + 1;
+            }
+        }
+    }
+    if (depth != 0 || parens != 0) {
+        throw InputError(path + ":" + std::to_string(region.line) + ": region '" + region.name +
+                         "': its braces or parentheses do not balance between the markers");
+    }
+    return functions;
+}
+
+inline std::vector<Function> find_functions(const std::string& source, const Region& region,
+                                            const std::string& path) {
+    return find_functions(source, mask_code(source), region, path);
+}
+
+// The text a listing quotes: the whole region, or one function with its comment lines.
+inline std::string region_text(const std::string& source, const Region& region) {
+    return source.substr(region.begin, region.end - region.begin);
+}
+
+inline std::string function_text(const std::string& source, const Function& function) {
+    size_t end = source.find('\n', function.body_close);
+    end = end == std::string::npos ? source.size() : end + 1;
+    return source.substr(function.start, end - function.start);
+}
+
+// The listings of a handout, in order. Throws InputError "PATH:LINE: ..." for a listing
+// comment that is malformed or not followed by a ```cpp block.
+inline std::vector<Listing> find_listings(const std::string& markdown, const std::string& path) {
+    const std::string opener = "<!-- listing:";
+    std::vector<Listing> listings;
+    for (size_t at = markdown.find(opener); at != std::string::npos;
+         at = markdown.find(opener, at + 1)) {
+        if (at > 0 && markdown[at - 1] != '\n') continue;  // only at the start of a line
+        Listing listing;
+        listing.line = line_of(markdown, at);
+        const std::string where = path + ":" + std::to_string(listing.line) + ": ";
+        const size_t close = markdown.find("-->", at);
+        const size_t line_end = markdown.find('\n', at);
+        if (close == std::string::npos || close > line_end) {
+            throw InputError(where + "expected '<!-- listing: FILE MARKER [FUNCTION] -->' "
+                             "on one line");
+        }
+        std::istringstream words(markdown.substr(at + opener.size(), close - at - opener.size()));
+        words >> listing.path >> listing.marker >> listing.function;
+        std::string extra;
+        if (listing.marker.empty() || (words >> extra)) {
+            throw InputError(where + "expected '<!-- listing: FILE MARKER [FUNCTION] -->'");
+        }
+        const std::string fence = "```cpp\n";
+        if (line_end == std::string::npos || markdown.compare(line_end + 1, fence.size(), fence)) {
+            throw InputError(where + "the listing comment must be followed by a ```cpp line");
+        }
+        listing.content_begin = line_end + 1 + fence.size();
+        const size_t closing = markdown.find("\n```", listing.content_begin - 1);
+        if (closing == std::string::npos) {
+            throw InputError(where + "the ```cpp block is not closed");
+        }
+        listing.content_end = closing + 1;
+        listings.push_back(listing);
+    }
+    return listings;
+}
+
+// What a listing should hold, given the source of the file it names. Throws InputError
+// naming the handout line when the marker or the function does not exist.
+inline std::string listing_text(const std::string& source, const Listing& listing,
+                                const std::string& handout) {
+    const std::string where = handout + ":" + std::to_string(listing.line) + ": ";
+    const std::vector<Region> regions = find_regions(source, listing.path);
+    const Region* region = find_region(regions, listing.marker);
+    if (!region) {
+        throw InputError(where + "listing names marker '" + listing.marker + "', which " +
+                         listing.path + " does not have");
+    }
+    if (listing.function.empty()) return region_text(source, *region);
+    for (const Function& function : find_functions(source, *region, listing.path)) {
+        if (function.name == listing.function) return function_text(source, function);
+    }
+    throw InputError(where + "listing names function '" + listing.function + "', which is " +
+                     "not defined in region '" + listing.marker + "' of " + listing.path);
+}
+
+// The file a listing names, read from the repository folder `root`.
+inline std::string read_listed_file(const std::string& root, const Listing& listing,
+                                    const std::string& handout) {
+    try {
+        return read_text(root + "/" + listing.path);
+    } catch (const InputError&) {
+        throw InputError(handout + ":" + std::to_string(listing.line) + ": listing names '" +
+                         listing.path + "', which does not exist");
+    }
+}
+
+// A handout with every listing replaced by `text_of(listing)`.
+template <class TextOf>
+std::string refresh_listings(const std::string& markdown, const std::vector<Listing>& listings,
+                             TextOf text_of) {
+    std::string result;
+    size_t copied = 0;
+    for (const Listing& listing : listings) {
+        result += markdown.substr(copied, listing.content_begin - copied) + text_of(listing);
+        copied = listing.content_end;
+    }
+    return result + markdown.substr(copied);
+}
+
+}  // namespace lesson

@@ -1,0 +1,112 @@
+#!/bin/sh
+# make_reference.sh: renders the reference images that data/reference/manifest.txt lists.
+#
+#   sh tools/make_reference.sh BUILD [VOLUME] [REFERENCE]      (what `make reference` runs)
+#
+# Without VOLUME: the phantom, into data/reference/ (or REFERENCE). With VOLUME (a CThead
+# file), REFERENCE is required, so the phantom's references are never overwritten by accident.
+# Every step in steps/ gets its default run whether the manifest lists it or not. Images the
+# manifest no longer produces (NN_*.png) are removed from REFERENCE.
+set -u
+build=${1:?usage: make_reference.sh BUILD [VOLUME] [REFERENCE]}
+volume=${2:-}
+reference=${3:-}
+manifest=data/reference/manifest.txt
+
+fail() { echo "make reference: $*" >&2; exit 2; }
+
+[ -f "$manifest" ] || fail "no $manifest (run from the repository root)"
+if [ -z "$volume" ]; then
+    volume=phantom
+    reference=${reference:-data/reference}
+else
+    [ -f "$volume" ] || fail "VOLUME=$volume: no such file"
+    [ -n "$reference" ] || fail "VOLUME=$volume needs REFERENCE=folder (data/reference holds \
+the phantom's images), e.g. make reference VOLUME=$volume REFERENCE=ref-cthead"
+    [ "${reference%/}" != data/reference ] || fail "REFERENCE=data/reference is the phantom's: \
+choose another folder for VOLUME=$volume"
+fi
+mkdir -p "$reference" || fail "cannot create $reference"
+
+work=$(mktemp -d) || fail "cannot create a temporary folder"
+trap 'rm -rf "$work"' EXIT INT TERM
+
+# The runs: each step's default run unless the manifest lists it, then the manifest's lines,
+# each as "NAME ARGUMENTS".
+: > "$work/runs"
+for source in steps/[0-9][0-9]_*.cpp; do
+    step=$(basename "$source" .cpp)
+    grep -q "^$step:" "$manifest" || echo "$step" >> "$work/runs"
+done
+line_number=0
+while IFS= read -r line || [ -n "$line" ]; do
+    line_number=$((line_number + 1))
+    case "$line" in '' | '#'*) continue ;; esac
+    case "$line" in *:*) ;; *) fail "$manifest:$line_number: expected 'NAME: ARGUMENTS'" ;; esac
+    name=${line%%:*}
+    arguments=${line#*:}
+    case "$arguments" in *--volume* | *--out* | *--no-window* | *--debug-pixel*)
+        fail "$manifest:$line_number: --volume, --out, --no-window and --debug-pixel are \
+set by make reference" ;;
+    esac
+    echo "$name $arguments" >> "$work/runs"
+done < "$manifest"
+
+# Everything is rendered into $work/images first: a run that fails leaves REFERENCE as it was.
+: > "$work/made"
+mkdir -p "$work/images" || fail "cannot create a temporary folder"
+runs=0
+while read -r name arguments; do
+    # NAME is a step (its default run) or STEP_VARIANT; the step is steps/NN_*.cpp.
+    number=$(echo "$name" | sed -n 's/^\([0-9][0-9]\)_.*/\1/p')
+    [ -n "$number" ] || fail "'$name': expected NN_name or NN_name_VARIANT"
+    source=$(ls steps/"$number"_*.cpp 2>/dev/null | head -n 1)
+    [ -n "$source" ] || fail "'$name': there is no step $number in steps/"
+    step=$(basename "$source" .cpp)
+    variant=
+    if [ "$name" != "$step" ]; then
+        variant=${name#"$step"_}
+        [ "$variant" != "$name" ] || fail "'$name' does not start with the step name $step"
+        echo "$variant" | grep -qx '[a-z0-9]*' ||
+            fail "'$name': a variant is lower-case letters and digits, got '$variant'"
+    fi
+    [ -x "$build/$step" ] || fail "$build/$step is not built (make all)"
+
+    rm -rf "$work/out"
+    # The arguments are split at spaces on purpose: they are flags and plain values.
+    # shellcheck disable=SC2086
+    if ! "$build/$step" --volume "$volume" --no-window --out "$work/out" $arguments \
+            > "$work/log" 2>&1; then
+        cat "$work/log" >&2
+        fail "$name failed: $build/$step --volume $volume $arguments"
+    fi
+    images=
+    for image in "$work/out/$step"_*.png; do
+        [ -f "$image" ] || fail "$name wrote no ${step}_*.png"
+        rest=$(basename "$image" .png)
+        rest=${rest#"$step"_}                 # the view, e.g. front (or front_diff)
+        target=${step}_$rest${variant:+_$variant}.png
+        mv "$image" "$work/images/$target" || fail "cannot move $image"
+        echo "$target" >> "$work/made"
+        images="$images $target"
+    done
+    echo "$name:$images"
+    runs=$((runs + 1))
+done < "$work/runs"
+
+for image in "$work/images"/*.png; do
+    mv "$image" "$reference/" || fail "cannot write $reference/$(basename "$image")"
+done
+# Images the manifest no longer makes would mislead the checker and the handouts.
+for image in "$reference"/[0-9][0-9]_*.png; do
+    [ -f "$image" ] || continue
+    if ! grep -qx "$(basename "$image")" "$work/made"; then
+        rm -f "$image" && echo "removed $image: no longer in $manifest"
+    fi
+done
+if [ "${reference%/}" != data/reference ]; then
+    cp "$manifest" "$reference/manifest.txt"  # the folder says how it was made
+    echo "volume: $volume" > "$reference/volume.txt"
+fi
+echo "make reference: $(wc -l < "$work/made") images from $runs runs into $reference/ \
+(volume $volume)"
