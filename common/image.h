@@ -33,6 +33,10 @@ void write_png(const Image& image, const std::string& path);
 // Throws InputError naming the file and the problem.
 Image read_image(const std::string& path);
 
+// The same from the bytes of a file already in memory; `name` stands for the file in the
+// messages (read_image reads the file and calls this; the fuzz tests call it directly).
+Image read_image_bytes(const std::vector<unsigned char>& bytes, const std::string& name);
+
 // Creates a folder and its parents (like mkdir -p). Throws InputError when it cannot.
 void make_folder(const std::string& path);
 

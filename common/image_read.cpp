@@ -21,6 +21,9 @@ namespace ctlab {
 namespace {
 
 constexpr int max_image_side = 16384;  // pixels: refuse anything wider or taller, unread
+// Pixels in all: refused before decoding. stb sizes its buffer from the header, so a tiny
+// damaged PNG claiming 16384 x 16384 would otherwise ask for gigabytes.
+constexpr long long max_image_pixels = 4096LL * 4096;
 constexpr int max_ppm_maxval = 65535;  // PPM samples are 1 or 2 bytes (big-endian)
 
 [[noreturn]] void fail(const std::string& path, const std::string& problem) {
@@ -34,12 +37,12 @@ std::vector<unsigned char> read_bytes(const std::string& path) {
     if (status.type() == fs::file_type::not_found) fail(path, "no such file");
     if (error) fail(path, "cannot be read (" + error.message() + ")");
     if (fs::is_directory(status)) fail(path, "is a folder, not an image file");
+    if (!fs::is_regular_file(status)) fail(path, "is not an ordinary file");  // /dev/zero...
     std::ifstream file(path, std::ios::binary);
     if (!file) fail(path, "cannot be opened for reading");
     std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(file)),
                                      std::istreambuf_iterator<char>());
     if (file.bad()) fail(path, "read error");
-    if (bytes.empty()) fail(path, "is empty (0 bytes), not an image");
     return bytes;
 }
 
@@ -48,10 +51,10 @@ void check_size(const std::string& path, long long width, long long height) {
         fail(path, "has an empty picture (" + std::to_string(width) + "x" +
                        std::to_string(height) + ")");
     }
-    if (width > max_image_side || height > max_image_side) {
+    if (width > max_image_side || height > max_image_side || width * height > max_image_pixels) {
         fail(path, "is " + std::to_string(width) + "x" + std::to_string(height) +
-                       " pixels: larger than the " + std::to_string(max_image_side) +
-                       " pixel limit per side");
+                       " pixels: larger than the limit (" + std::to_string(max_image_side) +
+                       " per side, " + std::to_string(max_image_pixels) + " in all)");
     }
 }
 
@@ -62,10 +65,36 @@ bool is_png(const std::vector<unsigned char>& bytes) {
     return bytes.size() >= 8 && std::memcmp(bytes.data(), signature, 8) == 0;
 }
 
+// Walks the chunks (length, type, data, CRC) up to IEND: each must fit in the file. stb
+// allocates what a chunk's length claims before reading it, so a damaged length in a tiny
+// file would otherwise ask for gigabytes (found by `make fuzz`).
+void check_png_chunks(const std::string& path, const std::vector<unsigned char>& bytes) {
+    constexpr size_t signature_size = 8, chunk_overhead = 12;  // length, type, CRC
+    size_t position = signature_size;
+    while (position < bytes.size()) {
+        if (bytes.size() - position < chunk_overhead) {
+            fail(path, "is a truncated PNG (its last chunk is cut short)");
+        }
+        const unsigned char* chunk = bytes.data() + position;
+        const size_t length = (size_t(chunk[0]) << 24) | (size_t(chunk[1]) << 16) |
+                              (size_t(chunk[2]) << 8) | size_t(chunk[3]);
+        const std::string type(reinterpret_cast<const char*>(chunk + 4), 4);
+        const size_t left = bytes.size() - position - chunk_overhead;
+        if (length > left) {
+            fail(path, "is a damaged or truncated PNG (a chunk claims " + std::to_string(length) +
+                           " bytes, the file has " + std::to_string(left) + " left)");
+        }
+        if (type == "IEND") return;
+        position += chunk_overhead + length;
+    }
+    // No IEND: stb says what is wrong.
+}
+
 Image read_png(const std::string& path, const std::vector<unsigned char>& bytes) {
     if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max())) {
         fail(path, "is too large a file for a PNG we can read");
     }
+    check_png_chunks(path, bytes);
     const int length = static_cast<int>(bytes.size());
     int width = 0, height = 0, channels = 0;
     // The header first: the size is checked before stb allocates the pixels.
@@ -116,11 +145,20 @@ public:
         check_size(path_, width, height);
         maxval_ = number("maxval", max_ppm_maxval);
         if (maxval_ < 1) fail(path_, "has maxval 0 (expected 1..65535)");
-        Image image(static_cast<int>(width), static_cast<int>(height));
+        const size_t samples = static_cast<size_t>(width * height * 3);
         if (binary) {
             // Exactly one whitespace byte separates maxval from the raster (no comment).
             if (at_end()) fail(path_, "is truncated: no pixel data after the header");
             ++position_;
+            check_available(samples * (maxval_ > 255 ? 2 : 1), "bytes of pixel data");
+        } else {
+            // Cheap early check: every sample needs a digit and a separator (the last one
+            // may end the file).
+            check_available(2 * samples - 1, "bytes for the text samples");
+        }
+        // Only now, with the data known to be there, the picture is allocated.
+        Image image(static_cast<int>(width), static_cast<int>(height));
+        if (binary) {
             read_binary(image);
         } else {
             read_text(image);
@@ -177,14 +215,17 @@ private:
         return static_cast<float>(static_cast<double>(value) / maxval_);
     }
 
-    void read_binary(Image& image) {
-        const size_t bytes_per_sample = maxval_ > 255 ? 2 : 1;
-        const size_t needed = image.pixels.size() * 3 * bytes_per_sample;
+    // At least `needed` bytes after the header, else the file is truncated.
+    void check_available(size_t needed, const std::string& what) const {
         const size_t available = bytes_.size() - position_;
         if (available < needed) {
-            fail(path_, "is truncated: " + std::to_string(available) + " bytes of pixel data, " +
-                            "expected " + std::to_string(needed));
+            fail(path_, "is truncated: " + std::to_string(available) + " " + what +
+                            ", expected at least " + std::to_string(needed));
         }
+    }
+
+    void read_binary(Image& image) {
+        const size_t bytes_per_sample = maxval_ > 255 ? 2 : 1;
         const unsigned char* data = bytes_.data() + position_;
         auto next = [&]() -> long long {
             long long value = *data++;
@@ -199,11 +240,6 @@ private:
     }
 
     void read_text(Image& image) {
-        // Cheap early check: every sample needs a digit and a separator.
-        const size_t samples = image.pixels.size() * 3;
-        if (bytes_.size() - position_ + 1 < 2 * samples) {
-            fail(path_, "is truncated: too short for " + std::to_string(samples) + " samples");
-        }
         for (Rgb& pixel : image.pixels) {
             pixel.r = sample(number("sample", max_ppm_maxval));
             pixel.g = sample(number("sample", max_ppm_maxval));
@@ -223,11 +259,13 @@ bool is_ppm(const std::vector<unsigned char>& bytes) {
 
 }  // namespace
 
-Image read_image(const std::string& path) {
-    const std::vector<unsigned char> bytes = read_bytes(path);
-    if (is_png(bytes)) return read_png(path, bytes);
-    if (is_ppm(bytes)) return PpmReader(path, bytes).read();
-    fail(path, "is not a PNG or PPM (P6/P3) image");
+Image read_image_bytes(const std::vector<unsigned char>& bytes, const std::string& name) {
+    if (bytes.empty()) fail(name, "is empty (0 bytes), not an image");
+    if (is_png(bytes)) return read_png(name, bytes);
+    if (is_ppm(bytes)) return PpmReader(name, bytes).read();
+    fail(name, "is not a PNG or PPM (P6/P3) image");
 }
+
+Image read_image(const std::string& path) { return read_image_bytes(read_bytes(path), path); }
 
 }  // namespace ctlab

@@ -18,12 +18,23 @@ static const char* const classic_source = "built-in-classic";
 
 namespace {
 
+// A piece of the file quoted in a message: at most 40 characters, so that a damaged file
+// cannot flood the terminal.
+std::string shown(const std::string& text) {
+    constexpr size_t longest = 40;
+    return text.size() <= longest ? text : text.substr(0, longest) + "...";
+}
+
 // Reads one line's fields and reports problems as "SOURCE:LINE: ...".
 struct LineReader {
     std::string source;
     int line = 0;
 
-    [[noreturn]] void fail(const std::string& message) const {
+    // Control characters of a binary or damaged file become '?': the message stays one line.
+    [[noreturn]] void fail(std::string message) const {
+        for (char& c : message) {
+            if ((c >= 0 && c < ' ') || c == 127) c = '?';
+        }
         throw InputError(source + ":" + std::to_string(line) + ": " + message);
     }
 
@@ -31,12 +42,13 @@ struct LineReader {
         errno = 0;
         char* end = nullptr;
         const long value = std::strtol(text.c_str(), &end, 10);
-        if (*end != '\0' || errno == ERANGE) {
-            fail(name + " must be a whole CT value, got '" + text + "'");
+        // The whole field must be the number (a NUL byte inside would end c_str() early).
+        if (end != text.c_str() + text.size() || errno == ERANGE) {
+            fail(name + " must be a whole CT value, got '" + shown(text) + "'");
         }
         if (value < lowest_ct_value || value > ct_value_end) {
             fail(name + " must be from " + std::to_string(lowest_ct_value) + " to " +
-                 std::to_string(ct_value_end) + ", got " + text);
+                 std::to_string(ct_value_end) + ", got " + shown(text));
         }
         return int(value);
     }
@@ -45,10 +57,14 @@ struct LineReader {
     float unit_number(const std::string& name, const std::string& text) const {
         char* end = nullptr;
         const double value = std::strtod(text.c_str(), &end);
-        if (*end != '\0') fail(name + " must be a number from 0 to 1, got '" + text + "'");
-        if (std::isnan(value)) fail(name + " is not a number (" + text + "), expected 0 to 1");
+        if (end != text.c_str() + text.size()) {
+            fail(name + " must be a number from 0 to 1, got '" + shown(text) + "'");
+        }
+        if (std::isnan(value)) {
+            fail(name + " is not a number (" + shown(text) + "), expected 0 to 1");
+        }
         if (!(value >= 0 && value <= 1)) {
-            fail(name + " must be from 0 to 1, got " + text);
+            fail(name + " must be from 0 to 1, got " + shown(text));
         }
         return float(value);
     }
@@ -92,14 +108,15 @@ TransferFunction parse_transfer_function(const std::string& text, const std::str
 
         // FROM TO KIND, then 4 numbers (constant) or 8 (ramp), then an optional label.
         if (fields.size() < 3) {
-            reader.fail("expected FROM TO constant|ramp R G B A ..., got '" + line_text + "'");
+            reader.fail("expected FROM TO constant|ramp R G B A ..., got '" + shown(line_text) +
+                        "'");
         }
         TfRange range;
         range.line = reader.line;
         range.from = reader.ct_value("FROM", fields[0]);
         range.to = reader.ct_value("TO", fields[1]);
         if (fields[2] != "constant" && fields[2] != "ramp") {
-            reader.fail("the kind must be constant or ramp, got '" + fields[2] + "'");
+            reader.fail("the kind must be constant or ramp, got '" + shown(fields[2]) + "'");
         }
         range.ramp = fields[2] == "ramp";
         const size_t numbers = range.ramp ? 8 : 4;
@@ -139,7 +156,7 @@ TransferFunction parse_transfer_function(const std::string& text, const std::str
         }
         if (!range.label.empty()) {
             if (const TfRange* same = find_range(tf, range.label)) {
-                reader.fail("the label '" + range.label + "' is already used on line " +
+                reader.fail("the label '" + shown(range.label) + "' is already used on line " +
                             std::to_string(same->line));
             }
         }

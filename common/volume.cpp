@@ -22,9 +22,12 @@ std::vector<unsigned char> read_file_bytes(const std::string& path) {
         throw InputError("cannot open '" + path + "': " + std::strerror(errno));
     }
     if (S_ISDIR(info.st_mode)) throw InputError("'" + path + "' is a folder, not a file");
+    // A device such as /dev/zero never ends: only ordinary files are read.
+    if (!S_ISREG(info.st_mode)) throw InputError("'" + path + "' is not an ordinary file");
     std::FILE* file = std::fopen(path.c_str(), "rb");
     if (!file) throw InputError("cannot open '" + path + "': " + std::strerror(errno));
     std::vector<unsigned char> bytes;
+    bytes.reserve(size_t(info.st_size));  // one allocation, not a doubling series
     unsigned char buffer[1 << 16];
     size_t count;
     while ((count = std::fread(buffer, 1, sizeof buffer, file)) > 0) {

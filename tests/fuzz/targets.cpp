@@ -1,0 +1,350 @@
+// targets.cpp: the fuzz targets (see targets.h). Each decides from the input alone whether
+// the code under test must accept it or refuse it, and checks that it did.
+#include "targets.h"
+#include <sys/stat.h>
+#include <unistd.h>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include "common/args.h"
+#include "common/compare.h"
+#include "common/error.h"
+#include "common/image.h"
+#include "common/transfer_function.h"
+#include "common/volume.h"
+
+// The targets' own checking loops, run over every voxel of a CThead, need no coverage
+// feedback: without it they run many times faster in the fuzzer (clang only).
+#if defined(__clang__)
+#define NOT_FUZZED __attribute__((no_sanitize("coverage")))
+#else
+#define NOT_FUZZED
+#endif
+
+namespace ctlab_fuzz {
+
+namespace {
+
+// Checks a promise; the text says which one. (A literal stays a literal: no string is built
+// for a promise kept, in loops that run for every voxel or table entry.)
+void require(bool kept, const char* promise) {
+    if (!kept) throw Broken(promise);
+}
+void require(bool kept, const std::string& promise) {
+    if (!kept) throw Broken(promise);
+}
+
+// What every refusal must look like: one line, something said.
+void check_message(const ctlab::InputError& error, const std::string& starts_with = "") {
+    const std::string message = error.what();
+    require(!message.empty(), "an InputError with an empty message");
+    require(message.find_first_of("\n\r") == std::string::npos,
+            "an InputError message over more than one line: " + message);
+    require(message.rfind(starts_with, 0) == 0,
+            "an InputError message not starting with '" + starts_with + "': " + message);
+}
+
+// The next byte of the input, 0 when it is used up.
+struct Bytes {
+    const uint8_t* data;
+    size_t size;
+    size_t next = 0;
+    uint8_t byte() { return next < size ? data[next++] : 0; }
+    int32_t int32() {
+        uint32_t value = 0;
+        for (int n = 0; n < 4; ++n) value |= uint32_t(byte()) << (8 * n);
+        return int32_t(value);
+    }
+    double spacing() { return int8_t(byte()) / 16.0; }  // -8 .. 7.9375, zero and negatives too
+    std::vector<unsigned char> rest() const {
+        return next < size ? std::vector<unsigned char>(data + next, data + size)
+                           : std::vector<unsigned char>();
+    }
+};
+
+NOT_FUZZED int16_t voxel_value(const std::vector<unsigned char>& bytes, size_t n, ctlab::Endian endian) {
+    const unsigned low = bytes[2 * n + (endian == ctlab::Endian::little ? 0 : 1)];
+    const unsigned high = bytes[2 * n + (endian == ctlab::Endian::little ? 1 : 0)];
+    return int16_t(uint16_t(low | (high << 8)));
+}
+
+// A loaded volume against the bytes it came from: size, every value, min and max.
+NOT_FUZZED void check_volume(const ctlab::Volume& volume, const ctlab::RawFormat& format,
+                  const std::vector<unsigned char>& bytes) {
+    require(volume.nx == format.nx && volume.ny == format.ny && volume.nz == format.nz,
+            "the volume's dims differ from the format's");
+    require(volume.sx == format.sx && volume.sy == format.sy && volume.sz == format.sz,
+            "the volume's spacing differs from the format's");
+    require(volume.data.size() == volume.voxel_count(), "data size != nx*ny*nz");
+    require(volume.data.size() * 2 == bytes.size(), "data size != bytes / 2");
+    int low = 32767, high = -32768;
+    for (size_t n = 0; n < volume.data.size(); ++n) {
+        const int16_t value = voxel_value(bytes, n, format.endian);
+        if (volume.data[n] != value) throw Broken("voxel " + std::to_string(n) + " is wrong");
+        low = std::min(low, int(value));
+        high = std::max(high, int(value));
+    }
+    require(volume.min_value == low && volume.max_value == high, "wrong min or max");
+    // The last voxel through at(): the index arithmetic reaches the end exactly.
+    require(volume.at(volume.nx - 1, volume.ny - 1, volume.nz - 1) == volume.data.back(),
+            "at(nx-1, ny-1, nz-1) is not the last value");
+}
+
+// Whether dims and spacing are valid, as the loader documents it (volume.h, args.h).
+bool valid_format(const ctlab::RawFormat& format) {
+    if (format.nx < 1 || format.ny < 1 || format.nz < 1) return false;
+    const double voxels = double(format.nx) * format.ny * format.nz;  // exact below 2^53
+    return voxels <= double(ctlab::max_voxels) && format.sx > 0 && format.sy > 0 &&
+           format.sz > 0;
+}
+
+// A folder of this process for the CThead target's files: in memory (/dev/shm) when it can.
+std::string scratch_folder() {
+    static std::string folder;
+    if (!folder.empty()) return folder;
+    struct stat info {};
+    const char* base = stat("/dev/shm", &info) == 0 && S_ISDIR(info.st_mode) &&
+                               access("/dev/shm", W_OK) == 0
+                           ? "/dev/shm"
+                           : (std::getenv("TMPDIR") ? std::getenv("TMPDIR") : "/tmp");
+    folder = std::string(base) + "/ctlab_fuzz_" + std::to_string(getpid());
+    mkdir(folder.c_str(), 0700);
+    mkdir((folder + "/a_folder").c_str(), 0700);
+    std::atexit([] {
+        std::remove((folder + "/CThead").c_str());
+        rmdir((folder + "/a_folder").c_str());
+        rmdir(folder.c_str());
+    });
+    return folder;
+}
+
+// Writes `bytes`, then extends or cuts the file to `size` bytes (a sparse tail reads as
+// zeros: the size is all the loader may look at before it refuses the file).
+void write_file(const std::string& path, const std::vector<unsigned char>& bytes, size_t size) {
+    std::FILE* file = std::fopen(path.c_str(), "wb");
+    require(file != nullptr, "cannot write the scratch file " + path);
+    const size_t written = std::fwrite(bytes.data(), 1, bytes.size(), file);
+    const bool sized = std::fflush(file) == 0 && ftruncate(fileno(file), off_t(size)) == 0;
+    std::fclose(file);
+    require(written == bytes.size() && sized, "cannot write the scratch file " + path);
+}
+
+// `pattern` repeated to `size` bytes (zeros when it is empty). Doubling copies: a loop of
+// two-byte copies would take seconds under the sanitizers.
+NOT_FUZZED std::vector<unsigned char> repeated(const std::vector<unsigned char>& pattern, size_t size) {
+    std::vector<unsigned char> bytes(size);
+    if (pattern.empty() || size == 0) return bytes;
+    size_t filled = std::min(pattern.size(), size);
+    std::memcpy(bytes.data(), pattern.data(), filled);
+    while (filled < size) {
+        const size_t copy = std::min(filled, size - filled);
+        std::memcpy(bytes.data() + filled, bytes.data(), copy);
+        filled += copy;
+    }
+    return bytes;
+}
+
+}  // namespace
+
+void raw_volume(const uint8_t* data, size_t size) {
+    // Byte 0: bit 0 big-endian; bit 1 dims as three int32 (any value: zero, negative, huge);
+    // bit 2 dims that fit the data (nz from the size); bit 3 spacing from three bytes.
+    Bytes input{data, size};
+    const uint8_t flags = input.byte();
+    ctlab::RawFormat format;
+    format.endian = flags & 1 ? ctlab::Endian::big : ctlab::Endian::little;
+    if (flags & 2) {
+        format.nx = input.int32();
+        format.ny = input.int32();
+        format.nz = input.int32();
+    } else {
+        format.nx = input.byte();
+        format.ny = input.byte();
+        format.nz = input.byte();
+    }
+    if (flags & 8) {
+        format.sx = input.spacing();
+        format.sy = input.spacing();
+        format.sz = input.spacing();
+    }
+    std::vector<unsigned char> bytes = input.rest();
+    if ((flags & 4) && format.nx > 0 && format.ny > 0) {
+        const size_t slice = size_t(format.nx) * size_t(format.ny);
+        format.nz = int(std::min<size_t>(bytes.size() / 2 / slice, 1 << 20));
+        bytes.resize(std::min(bytes.size(), slice * size_t(format.nz) * 2));
+    }
+    const bool valid = valid_format(format) &&
+                       bytes.size() == 2 * size_t(format.nx) * format.ny * format.nz;
+    try {
+        const ctlab::Volume volume = ctlab::volume_from_bytes(bytes, format, "fuzz.raw");
+        require(valid, "volume_from_bytes accepted invalid dims, spacing or size");
+        check_volume(volume, format, bytes);
+    } catch (const ctlab::InputError& error) {
+        check_message(error);
+        require(!valid, std::string("volume_from_bytes refused a valid input: ") + error.what());
+    }
+}
+
+void cthead_file(const uint8_t* data, size_t size) {
+    // Byte 0: bits 0-1 the file size: 0 the rest of the input as it is, 1 exactly CThead's
+    // (the rest repeated), 2 one byte short, 3 one byte long; bit 2 --endian big; bit 3
+    // --spacing from three bytes; bit 4 the path is a folder; bit 5 the path is missing.
+    Bytes input{data, size};
+    const uint8_t flags = input.byte();
+    ctlab::Options options;
+    options.has_endian = (flags & 4) != 0;
+    options.raw.endian = options.has_endian ? ctlab::Endian::big : ctlab::Endian::little;
+    ctlab::RawFormat expected;
+    expected.nx = ctlab::cthead_nx;
+    expected.ny = ctlab::cthead_ny;
+    expected.nz = ctlab::cthead_nz;
+    expected.sx = ctlab::cthead_sx;
+    expected.sy = ctlab::cthead_sy;
+    expected.sz = ctlab::cthead_sz;
+    expected.endian = options.raw.endian;
+    if (flags & 8) {
+        options.has_spacing = true;
+        expected.sx = options.raw.sx = input.spacing();
+        expected.sy = options.raw.sy = input.spacing();
+        expected.sz = options.raw.sz = input.spacing();
+    }
+    // Only an exact-size file is read: the others are written as the pattern, then cut or
+    // extended to their size.
+    std::vector<unsigned char> bytes = input.rest();
+    size_t file_size = bytes.size();
+    const int size_mode = flags & 3;
+    if (size_mode == 1) bytes = repeated(bytes, ctlab::cthead_bytes);
+    if (size_mode != 0) file_size = ctlab::cthead_bytes - (size_mode == 2) + (size_mode == 3);
+    const std::string folder = scratch_folder();
+    const std::string file = folder + "/CThead";
+    options.volume = flags & 16 ? folder + "/a_folder" : flags & 32 ? folder + "/missing" : file;
+    write_file(file, bytes, file_size);
+    const bool valid = !(flags & 48) && file_size == ctlab::cthead_bytes &&
+                       expected.sx > 0 && expected.sy > 0 && expected.sz > 0;
+    try {
+        const ctlab::Volume volume = ctlab::load_volume(options);
+        require(valid, "load_volume accepted a wrong file or spacing");
+        check_volume(volume, expected, bytes);
+    } catch (const ctlab::InputError& error) {
+        check_message(error);
+        require(!valid, std::string("load_volume refused a valid CThead: ") + error.what());
+    }
+}
+
+void transfer_function(const uint8_t* data, size_t size) {
+    const std::string source = "fuzz.tf";
+    const std::string text(reinterpret_cast<const char*>(data), size);
+    ctlab::TransferFunction tf;
+    try {
+        tf = ctlab::parse_transfer_function(text, source);
+    } catch (const ctlab::InputError& error) {
+        check_message(error, source + ":");
+        const std::string after = std::string(error.what()).substr(source.size() + 1);
+        require(!after.empty() && after[0] >= '1' && after[0] <= '9',
+                std::string("no line number in: ") + error.what());
+        return;
+    }
+    // Sorted, not overlapping, inside the int16 values, colours and opacities in 0..1.
+    auto unit = [](float v) { return std::isfinite(v) && v >= 0 && v <= 1; };
+    auto unit_rgba = [&](const ctlab::Rgba& c) {
+        return unit(c.r) && unit(c.g) && unit(c.b) && unit(c.a);
+    };
+    for (size_t n = 0; n < tf.ranges.size(); ++n) {
+        const ctlab::TfRange& range = tf.ranges[n];
+        require(range.from >= ctlab::lowest_ct_value && range.to <= ctlab::ct_value_end,
+                "a range outside the int16 values");
+        require(range.from < range.to, "an empty or reversed range");
+        require(unit_rgba(range.start) && unit_rgba(range.end), "a colour outside 0..1");
+        require(range.line >= 1, "a range without its line");
+        if (n > 0) {
+            require(range.from >= tf.ranges[n - 1].to, "overlapping or unsorted ranges");
+            require(range.line > tf.ranges[n - 1].line, "ranges out of line order");
+        }
+        if (!range.label.empty()) {
+            require(ctlab::find_range(tf, range.label) == &range, "a label used twice");
+        }
+    }
+    // The lookup table as steps 06-08 build it: every index inside, every entry in 0..1.
+    constexpr float rounding = 1e-6f;  // a ramp's a + f (b - a) may pass b by a rounding error
+    std::vector<ctlab::Rgba> lut(ctlab::ct_value_end - ctlab::lowest_ct_value);
+    for (const ctlab::TfRange& range : tf.ranges) {
+        const float width = float(range.to - range.from);
+        for (int value = range.from; value < range.to; ++value) {
+            const float f = range.ramp ? float(value - range.from) / width : 0.0f;
+            const ctlab::Rgba& a = range.start;
+            const ctlab::Rgba& b = range.end;
+            const ctlab::Rgba entry = {a.r + f * (b.r - a.r), a.g + f * (b.g - a.g),
+                                       a.b + f * (b.b - a.b), a.a + f * (b.a - a.a)};
+            for (float channel : {entry.r, entry.g, entry.b, entry.a}) {
+                require(std::isfinite(channel) && channel >= -rounding &&
+                            channel <= 1 + rounding,
+                        "a lookup-table entry outside 0..1");
+            }
+            lut.at(size_t(value - ctlab::lowest_ct_value)) = entry;
+        }
+    }
+    // --skin-opacity on the first labelled range, and on a label that is not there.
+    for (const ctlab::TfRange& range : tf.ranges) {
+        if (range.label.empty()) continue;
+        ctlab::set_opacity(tf, range.label, 0.5, "--fuzz");
+        require(ctlab::find_range(tf, range.label)->start.a == 0.5f, "set_opacity did not set");
+        break;
+    }
+    try {
+        ctlab::set_opacity(tf, "no such label!", 0.5, "--fuzz");
+        throw Broken("set_opacity found a label no range can have");
+    } catch (const ctlab::InputError& error) {
+        check_message(error, "--fuzz: ");
+    }
+}
+
+void image_file(const uint8_t* data, size_t size) {
+    const std::string name = "fuzz.image";
+    const std::vector<unsigned char> bytes(data, data + size);
+    ctlab::Image image;
+    try {
+        image = ctlab::read_image_bytes(bytes, name);
+    } catch (const ctlab::InputError& error) {
+        check_message(error, "'" + name + "': ");
+        return;
+    }
+    constexpr int max_side = 16384;
+    require(image.width >= 1 && image.height >= 1 && image.width <= max_side &&
+                image.height <= max_side,
+            "a picture size outside 1..16384");
+    require(image.pixels.size() == size_t(image.width) * size_t(image.height),
+            "pixels != width * height");
+    for (const ctlab::Rgb& p : image.pixels) {
+        require(std::isfinite(p.r) && std::isfinite(p.g) && std::isfinite(p.b) && p.r >= 0 &&
+                    p.g >= 0 && p.b >= 0 && p.r <= 1 && p.g <= 1 && p.b <= 1,
+                "a pixel outside 0..1");
+    }
+    // What the checker does next: compare, and draw the heat map (small pictures only).
+    constexpr size_t heat_map_pixels = 1 << 16;
+    const ctlab::Comparison same = ctlab::compare_images(image, image, 2);
+    require(same.pass && same.max_abs == 0, "a picture differs from itself");
+    if (image.pixels.size() <= heat_map_pixels) {
+        const ctlab::Image heat = ctlab::diff_heat_map(image, image, 2, true);
+        require(heat.width == image.width && heat.height >= image.height,
+                "a heat map of the wrong size");
+    }
+    // A picture of another size is refused, naming both.
+    const ctlab::Image other(image.width == 1 ? 2 : 1, 1);
+    try {
+        ctlab::compare_images(other, image, 2, "a", "b");
+        throw Broken("compare_images accepted pictures of different sizes");
+    } catch (const ctlab::InputError& error) {
+        check_message(error);
+    }
+}
+
+const std::vector<Target>& targets() {
+    static const std::vector<Target> all = {{"raw", raw_volume},
+                                            {"cthead", cthead_file},
+                                            {"tf", transfer_function},
+                                            {"image", image_file}};
+    return all;
+}
+
+}  // namespace ctlab_fuzz
