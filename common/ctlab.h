@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 #include "args.h"
+#include "bricks.h"
 #include "error.h"
 #include "image.h"
 #include "not_done.h"

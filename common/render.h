@@ -16,6 +16,7 @@ namespace ctlab {
 struct Work {
     uint64_t samples = 0;     // samples visited along rays (voxels read, or interpolated)
     uint64_t skipped = 0;     // samples classified transparent and not shaded
+    uint64_t leapt = 0;       // samples never visited: they lay in a brick known to be empty
     uint64_t gradients = 0;   // gradient evaluations
     uint64_t terminated = 0;  // rays stopped early (first hit found, or opacity saturated)
     uint64_t hits = 0;        // rays that met a surface
@@ -23,6 +24,7 @@ struct Work {
     void add(const Work& other) {
         samples += other.samples;
         skipped += other.skipped;
+        leapt += other.leapt;
         gradients += other.gradients;
         terminated += other.terminated;
         hits += other.hits;

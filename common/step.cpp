@@ -23,10 +23,11 @@ Image render_view(const Options& options, const View& view, const Renderer& rend
 static void print_summary(const Options& options, const View& view, const Renderer& renderer,
                           const Work& work, double ms) {
     std::printf("step=%s view=%s size=%dx%d time_ms=%.2f threads=%d samples=%llu skipped=%llu "
-                "gradients=%llu terminated=%llu hits=%llu",
+                "leapt=%llu gradients=%llu terminated=%llu hits=%llu",
                 options.step.c_str(), view.name.c_str(), view.width, view.height, ms,
                 options.threads, static_cast<unsigned long long>(work.samples),
                 static_cast<unsigned long long>(work.skipped),
+                static_cast<unsigned long long>(work.leapt),
                 static_cast<unsigned long long>(work.gradients),
                 static_cast<unsigned long long>(work.terminated),
                 static_cast<unsigned long long>(work.hits));

@@ -34,6 +34,7 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
+    bool no_leaping = false;     // read every sample, even in bricks known to be empty
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -105,6 +106,36 @@ static float value_along_ray(const Volume& volume, const View& view, int x, int 
 }
 //< lesson: sample_along_ray
 
+// Empty space: the volume's bricks (common/bricks.h: the smallest and largest value of each
+// 8x8x8 block of voxels) and, for the current table, the ones it leaves wholly transparent.
+struct EmptySpace {
+    Bricks bricks;
+    std::vector<uint8_t> empty;  // one flag per brick, 1: transparent; none: leap over nothing
+
+    bool is_empty(const Voxel& voxel) const {
+        return !empty.empty() && empty[bricks.index(voxel.i, voxel.j, voxel.k)];
+    }
+};
+
+//> lesson: empty_space
+// Which bricks the table leaves wholly transparent: those where no value from the brick's min
+// to its max has an opacity. opaque_before[n] counts the entries below n that have one, so
+// each brick is one subtraction, however wide its range. Run again whenever the table changes.
+static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
+    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
+    for (size_t n = 0; n < lut.entries.size(); ++n) {
+        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
+    }
+    std::vector<uint8_t> empty(bricks.count());
+    for (size_t b = 0; b < bricks.count(); ++b) {
+        const int low = bricks.ranges[b].min - lowest_ct_value;
+        const int high = bricks.ranges[b].max - lowest_ct_value;
+        empty[b] = opaque_before[high + 1] == opaque_before[low];
+    }
+    return empty;
+}
+//< lesson: empty_space
+
 //> lesson: gradient
 // The derivative along one axis at index n (of count samples, spacing apart); sample(m) reads
 // the volume at index m on that axis. Central inside, one-sided at the border: never outside.
@@ -170,17 +201,33 @@ static Vec3 light_direction(const View& view, double angle) {
 // a float sigma < 1) could make T subnormal (below 2.2e-308), where arithmetic is slow.
 // Samples are `step` physical units apart and each stands for `step` units of the volume's
 // depth; the light L (0..1) darkens the colour only, never the opacity.
+// A sample reads the voxels on either side of it; when the first lies in a brick the table
+// leaves wholly transparent, the second is covered too (a brick's range includes the voxel
+// past it). Leap on to the sample at or just before that brick's end: every sample between
+// lies inside the brick, and that one is checked in turn.
 static Accumulated composite_front_to_back(const Volume& volume, const View& view, int x, int y,
-                                           const Lut& lut, const Params& params,
-                                           Work& work, Trace* trace) {
+                                           const Lut& lut, const EmptySpace& space,
+                                           const Params& params, Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const double depth = view.ray_length * view.ray_spacing;  // physical units along the ray
     const int sample_count = std::max(1, int(std::lround(depth / params.step)));
+    const double voxels_per_sample = params.step / view.ray_spacing;
     const Vec3 to_light = params.unlit ? Vec3{} : light_direction(view, params.light_angle);
     Accumulated ray;
     for (int n = 0; n < sample_count; ++n) {
-        const double t = n * params.step;                  // physical units from the first voxel
-        const double position = t / view.ray_spacing;     // the same in voxels, fractional
+        const double t = n * params.step;                // physical units from the first voxel
+        const double position = n * voxels_per_sample;  // the same in voxels, fractional
+        const int voxel_before = std::min(int(position), view.ray_length - 1);
+        if (space.is_empty(view.voxel(x, y, voxel_before))) {
+            const int brick_end = (voxel_before / brick_size + 1) * brick_size;  // voxels
+            const int next = std::min(sample_count,
+                                      std::max(n + 1, int(brick_end / voxels_per_sample)));
+            work.leapt += next - n;
+            if (trace) trace->add("t=%7.2f..%.2f empty brick up to voxel %d: %d samples leapt "
+                                  "over", t, (next - 1) * params.step, brick_end - 1, next - n);
+            n = next - 1;
+            continue;
+        }
         const float value = value_along_ray(volume, view, x, y, position);
         // The entry of the whole value at or below it (the range [from, to) it falls into):
         // value - lowest_ct_value >= 0, so int() rounds down.
@@ -249,6 +296,8 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
+        args.add_switch("--no-leaping", &params.no_leaping,
+                        "read every sample, even in bricks the table leaves transparent");
         const Options options = args.parse(argc, argv);
 
         // --- Transfer function: the file, then its lookup table for this step size ---
@@ -258,14 +307,20 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
-        // --- Volume ---
+        // --- Volume, and the bricks the table leaves empty ---
         const Volume volume = load_volume(options);
+        EmptySpace space;
+        if (!params.no_leaping) space.bricks = make_bricks(volume);
+        auto update_empty_space = [&] {
+            if (!params.no_leaping) space.empty = find_empty_bricks(space.bricks, lut);
+        };
+        update_empty_space();
 
         // --- Render: one ray per pixel ---
         Renderer renderer;
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            return over_background(
-                composite_front_to_back(volume, view, x, y, lut, params, work, trace));
+            return over_background(composite_front_to_back(volume, view, x, y, lut, space, params,
+                                                           work, trace));
         };
         renderer.knob = {"step",
                          [&](const View&, int steps) {
@@ -273,6 +328,7 @@ int main(int argc, char** argv) {
                                  params.step * std::pow(step_key_factor, steps), min_step,
                                  max_step);
                              lut = build_lut(tf, opacity_ratio(params));
+                             update_empty_space();
                          },
                          [&] { return number(params.step); }};
         renderer.settings = [&] {
@@ -282,7 +338,8 @@ int main(int argc, char** argv) {
                    " ert=" + number(params.ert) +
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
-                   " correction=" + (params.no_correction ? "off" : "on");
+                   " correction=" + (params.no_correction ? "off" : "on") +
+                   " leaping=" + (params.no_leaping ? "off" : "on");
         };
 
         // --- Output: a PNG and a summary line per view, then the preview window ---

@@ -63,6 +63,7 @@ void check_same_for_every_thread_count(const std::string& step,
             CHECK(identical(one.images[v], many.images[v]));
             CHECK(one.works[v].samples == many.works[v].samples);
             CHECK(one.works[v].skipped == many.works[v].skipped);
+            CHECK(one.works[v].leapt == many.works[v].leapt);
             CHECK(one.works[v].gradients == many.works[v].gradients);
             CHECK(one.works[v].terminated == many.works[v].terminated);
             CHECK(one.works[v].hits == many.works[v].hits);

@@ -322,11 +322,14 @@ Image render_08(const View& view, const step08::Params& params, int threads, Wor
                 double* ms = nullptr) {
     const step08::Lut lut = step08::build_lut(classic_transfer_function(),
                                               step08::opacity_ratio(params));
+    step08::EmptySpace space;  // leaping over empty bricks, as the step does by default
+    space.bricks = make_bricks(phantom());
+    space.empty = step08::find_empty_bricks(space.bricks, lut);
     auto render = [&] {
         work = Work();
         return render_image(view, threads, work, [&](int x, int y, Work& w) {
             return step08::over_background(step08::composite_front_to_back(
-                phantom(), view, x, y, lut, params, w, nullptr));
+                phantom(), view, x, y, lut, space, params, w, nullptr));
         });
     };
     Image image;
@@ -342,17 +345,27 @@ Image render_08(const View& view, const step08::Params& params, int threads, Wor
 // until T is exactly 0 (after passing through subnormal values).
 template <class Real>
 Rgb composite_front_to_back_in(const View& view, int x, int y, const step08::Lut& lut,
-                               const step08::Params& params, Work& work) {
+                               const step08::EmptySpace& space, const step08::Params& params,
+                               Work& work) {
     const Volume& volume = phantom();
     const double stop_below = std::max(params.ert, step08::min_transparency);
     const double depth = view.ray_length * view.ray_spacing;
     const int sample_count = std::max(1, int(std::lround(depth / params.step)));
+    const double voxels_per_sample = params.step / view.ray_spacing;
     const Vec3 to_light = params.unlit ? Vec3{}
                                        : step08::light_direction(view, params.light_angle);
     Real r = 0, g = 0, b = 0, transparency = 1;
     for (int n = 0; n < sample_count; ++n) {
-        const double t = n * params.step;
-        const double position = t / view.ray_spacing;
+        const double position = n * voxels_per_sample;
+        const int voxel_before = std::min(int(position), view.ray_length - 1);
+        if (space.is_empty(view.voxel(x, y, voxel_before))) {
+            const int brick_end = (voxel_before / brick_size + 1) * brick_size;
+            const int next = std::min(sample_count,
+                                      std::max(n + 1, int(brick_end / voxels_per_sample)));
+            work.leapt += next - n;
+            n = next - 1;
+            continue;
+        }
         const float value = step08::value_along_ray(volume, view, x, y, position);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
@@ -383,11 +396,14 @@ template <class Real>
 Image render_08_in(const View& view, const step08::Params& params, Work& work, double* ms) {
     const step08::Lut lut = step08::build_lut(classic_transfer_function(),
                                               step08::opacity_ratio(params));
+    step08::EmptySpace space;  // leaping over empty bricks, as step 08 does
+    space.bricks = make_bricks(phantom());
+    space.empty = step08::find_empty_bricks(space.bricks, lut);
     Image image;
     *ms = median_ms([&] {
         work = Work();
         image = render_image(view, 1, work, [&](int x, int y, Work& w) {
-            return composite_front_to_back_in<Real>(view, x, y, lut, params, w);
+            return composite_front_to_back_in<Real>(view, x, y, lut, space, params, w);
         });
     });
     return image;
@@ -455,6 +471,9 @@ void ert_study() {
     std::printf("ert: early ray termination thresholds, top view of the phantom, 1 thread\n");
     const View view = make_view(phantom(), ViewAxis::top);
     const step07::Lut lut07 = step07::build_lut(classic_transfer_function());
+    step07::EmptySpace space07;  // leaping over empty bricks, as the step does by default
+    space07.bricks = make_bricks(phantom());
+    space07.empty = step07::find_empty_bricks(space07.bricks, lut07);
     Image full07, full08;
     for (const double ert : {0.0, 0.001, 0.01, 0.05, 0.1}) {
         step07::Params params07;
@@ -465,7 +484,7 @@ void ert_study() {
             work = Work();
             image = render_image(view, 1, work, [&](int x, int y, Work& w) {
                 return step07::over_background(step07::composite_front_to_back(
-                    phantom(), view, x, y, lut07, params07, w, nullptr));
+                    phantom(), view, x, y, lut07, space07, params07, w, nullptr));
             });
         });
         if (ert == 0) full07 = image;
@@ -630,7 +649,7 @@ step07::Accumulated f2b_column(const Volume& volume, const TransferFunction& tf,
     step07::Params params;
     params.ert = ert;
     return step07::composite_front_to_back(volume, make_view(volume, ViewAxis::top), 0, 0,
-                                           step07::build_lut(tf), params, work, nullptr);
+                                           step07::build_lut(tf), {}, params, work, nullptr);
 }
 
 Rgb b2f_column(const Volume& volume, const TransferFunction& tf, Work& work) {
@@ -793,7 +812,8 @@ void compositing_cases() {
                 Work work;
                 const step08::Accumulated ray = step08::composite_front_to_back(
                     volume, make_view(volume, ViewAxis::top), 0, 0,
-                    step08::build_lut(tf, step08::opacity_ratio(params)), params, work, nullptr);
+                    step08::build_lut(tf, step08::opacity_ratio(params)), {}, params, work,
+                    nullptr);
                 worst = std::max(worst, std::abs(ray.transparency - exact) / exact);
             }
             if (spacing == 1) {
@@ -803,7 +823,8 @@ void compositing_cases() {
                 Work work;
                 const step08::Accumulated ray = step08::composite_front_to_back(
                     volume, make_view(volume, ViewAxis::top), 0, 0,
-                    step08::build_lut(tf, step08::opacity_ratio(params)), params, work, nullptr);
+                    step08::build_lut(tf, step08::opacity_ratio(params)), {}, params, work,
+                    nullptr);
                 add_case("slab a = 0.12, 20 units, step 0.5 NOT corrected: T", test_c, exact,
                          ray.transparency);
             }
