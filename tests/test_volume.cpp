@@ -2,6 +2,7 @@
 // update_range, the three views' pixel-to-voxel mapping, and the shared command line.
 #include <doctest/doctest.h>
 #include <sys/stat.h>
+#include <algorithm>
 #include <climits>
 #include <cmath>
 #include <cstdint>
@@ -9,6 +10,7 @@
 #include <thread>
 #include <vector>
 #include "args.h"
+#include "bricks.h"
 #include "error.h"
 #include "harness.h"
 #include "view.h"
@@ -347,6 +349,51 @@ TEST_CASE("update_range: min and max over the whole volume") {
     update_range(empty);  // nothing to scan: the range stays as it was
     CHECK(empty.min_value == 0);
     CHECK(empty.max_value == 0);
+}
+
+TEST_CASE("bricks: a ramp's brick ranges are its corner values, the far faces included") {
+    // f = 3i + 5j + 7k - 1000 grows along every axis, so a brick's smallest value is at its
+    // first corner and its largest at the last voxel it covers: brick_size past the first
+    // corner (the overlap), or the volume's last voxel. Dims that are not multiples of 8.
+    Volume volume;
+    volume.nx = 19, volume.ny = 10, volume.nz = 17;
+    for (int k = 0; k < volume.nz; ++k)
+        for (int j = 0; j < volume.ny; ++j)
+            for (int i = 0; i < volume.nx; ++i)
+                volume.data.push_back(int16_t(3 * i + 5 * j + 7 * k - 1000));
+    auto f = [](int i, int j, int k) { return 3 * i + 5 * j + 7 * k - 1000; };
+    const Bricks bricks = make_bricks(volume);
+    CHECK(bricks.bx == 3);
+    CHECK(bricks.by == 2);
+    CHECK(bricks.bz == 3);
+    REQUIRE(bricks.count() == 18);
+    for (int c = 0; c < bricks.bz; ++c)
+        for (int b = 0; b < bricks.by; ++b)
+            for (int a = 0; a < bricks.bx; ++a) {
+                CAPTURE(a);
+                CAPTURE(b);
+                CAPTURE(c);
+                const int i = a * brick_size, j = b * brick_size, k = c * brick_size;
+                const size_t n = bricks.index(i, j, k);
+                CHECK(n == size_t((c * bricks.by + b) * bricks.bx + a));
+                CHECK(bricks.ranges[n].min == f(i, j, k));
+                CHECK(bricks.ranges[n].max == f(std::min(i + brick_size, volume.nx - 1),
+                                                 std::min(j + brick_size, volume.ny - 1),
+                                                 std::min(k + brick_size, volume.nz - 1)));
+            }
+    // A voxel's brick is the one its indices divided by brick_size name.
+    CHECK(bricks.index(18, 9, 16) == bricks.count() - 1);
+    CHECK(bricks.index(7, 7, 7) == 0);
+    CHECK(bricks.index(8, 0, 0) == 1);
+
+    // One voxel: one brick, its own value.
+    Volume one;
+    one.nx = one.ny = one.nz = 1;
+    one.data = {-32768};
+    const Bricks single = make_bricks(one);
+    REQUIRE(single.count() == 1);
+    CHECK(single.ranges[0].min == -32768);
+    CHECK(single.ranges[0].max == -32768);
 }
 
 // --- Views ---------------------------------------------------------------------------------
