@@ -86,7 +86,7 @@ private:
     std::vector<char*> pointers_;
 };
 
-// --- The steps, run in-process (test_steps.cpp includes every steps/NN_name.cpp) ---------
+// --- The steps, run in-process (test_steps.cpp includes tools/all_steps.h) -----------------
 
 using StepMain = int (*)(int argc, char** argv);
 

@@ -75,7 +75,7 @@ TEST_CASE("golden: the tests include every step in steps/") {
     }
     CHECK_MESSAGE(missing.empty(),
                   "steps not compiled into the tests (add them to "
-                  "tests/test_steps.cpp's list):"
+                  "tools/all_steps.h):"
                       << missing);
     CHECK(in_tests == in_folder);
     CHECK(in_folder.size() >= 6);

@@ -2,11 +2,10 @@
 // one-voxel-thick and int16-extreme volumes); every step, later ones too, for NaN on those
 // volumes, for thread-count independence, and for the debug trace against the image.
 //
-// Each step is compiled here inside a namespace of its own, so its lesson functions
-// (step04::gradient_at, step05::first_hit, ...) can be called directly; its main() becomes
-// an ordinary function. A step includes only common/ctlab.h, already included (and guarded),
-// so nothing else lands in the namespace. The namespaces sit in an unnamed one, so other
-// test files may include the same steps without a clash at link time.
+// Each step is compiled here inside a namespace of its own (tools/all_steps.h), so its lesson
+// functions (step04::gradient_at, step05::first_hit, ...) can be called directly; its main()
+// becomes an ordinary function. The namespaces sit in an unnamed one, so other test files may
+// include the same steps without a clash at link time.
 #include <doctest/doctest.h>
 #include "common/ctlab.h"
 #include <cmath>
@@ -40,33 +39,7 @@ int harness_run_views(const ctlab::Options& options, const ctlab::Volume& volume
 #define load_volume harness_load_volume
 #define run_views harness_run_views
 namespace {
-namespace step00 {
-#include "../steps/00_slices.cpp"
-}
-namespace step01 {
-#include "../steps/01_ray_loops.cpp"
-}
-namespace step02 {
-#include "../steps/02_threshold.cpp"
-}
-namespace step03 {
-#include "../steps/03_depth_shading.cpp"
-}
-namespace step04 {
-#include "../steps/04_gradient_lighting.cpp"
-}
-namespace step05 {
-#include "../steps/05_interpolated_hits.cpp"
-}
-namespace step06 {
-#include "../steps/06_transfer_function.cpp"
-}
-namespace step07 {
-#include "../steps/07_compositing_order.cpp"
-}
-namespace step08 {
-#include "../steps/08_lit_compositing.cpp"
-}
+#include "tools/all_steps.h"
 }  // namespace
 #undef load_volume
 #undef run_views
@@ -74,14 +47,12 @@ namespace step08 {
 namespace ctlab_test {
 
 const std::vector<StepEntry>& included_steps() {
-    // A new step: add its namespace and #include above, and a line here.
-    static const std::vector<StepEntry> steps = {
-        {step00::step_name, &step00::main}, {step01::step_name, &step01::main},
-        {step02::step_name, &step02::main}, {step03::step_name, &step03::main},
-        {step04::step_name, &step04::main}, {step05::step_name, &step05::main},
-        {step06::step_name, &step06::main}, {step07::step_name, &step07::main},
-        {step08::step_name, &step08::main},
-    };
+    // A new step: add it to tools/all_steps.h.
+    static const std::vector<StepEntry> steps = [] {
+        std::vector<StepEntry> entries;
+        for (const IncludedStep& step : all_steps) entries.push_back({step.name, step.main});
+        return entries;
+    }();
     return steps;
 }
 

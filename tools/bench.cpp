@@ -14,9 +14,9 @@
 // defaults (say "--tf data/tf/transparent.tf --steps 07"); the naive loop still runs the
 // defaults, so its pictures then differ, and the targets are only met at default settings.
 //
-// The steps are compiled in here, each in a namespace of its own (as tests/test_steps.cpp
-// does), and their main() runs in-process: load_volume() hands them the benchmark's volume
-// and run_views() hands the benchmark their renderer, exactly as they built it.
+// The steps are compiled in here, each in a namespace of its own (all_steps.h, as in
+// tests/test_steps.cpp), and their main() runs in-process: load_volume() hands them the
+// benchmark's volume and run_views() hands the benchmark their renderer, as they built it.
 #include "common/ctlab.h"
 #include <sys/stat.h>
 #include <cstdarg>
@@ -45,33 +45,7 @@ int bench_run_views(const ctlab::Options& options, const ctlab::Volume& volume,
 
 #define load_volume bench_load_volume
 #define run_views bench_run_views
-namespace step00 {
-#include "../steps/00_slices.cpp"
-}
-namespace step01 {
-#include "../steps/01_ray_loops.cpp"
-}
-namespace step02 {
-#include "../steps/02_threshold.cpp"
-}
-namespace step03 {
-#include "../steps/03_depth_shading.cpp"
-}
-namespace step04 {
-#include "../steps/04_gradient_lighting.cpp"
-}
-namespace step05 {
-#include "../steps/05_interpolated_hits.cpp"
-}
-namespace step06 {
-#include "../steps/06_transfer_function.cpp"
-}
-namespace step07 {
-#include "../steps/07_compositing_order.cpp"
-}
-namespace step08 {
-#include "../steps/08_lit_compositing.cpp"
-}
+#include "all_steps.h"
 #undef load_volume
 #undef run_views
 
@@ -93,13 +67,11 @@ struct Step {
     StepMain main;
 };
 
-const std::vector<Step> steps = {
-    {step00::step_name, &step00::main}, {step01::step_name, &step01::main},
-    {step02::step_name, &step02::main}, {step03::step_name, &step03::main},
-    {step04::step_name, &step04::main}, {step05::step_name, &step05::main},
-    {step06::step_name, &step06::main}, {step07::step_name, &step07::main},
-    {step08::step_name, &step08::main},
-};
+const std::vector<Step> steps = [] {
+    std::vector<Step> list;
+    for (const IncludedStep& step : all_steps) list.push_back({step.name, step.main});
+    return list;
+}();
 
 // Runs a step's main() with these flags; use() receives the renderer it built.
 void with_renderer(const Step& step, const Volume& volume, std::vector<std::string> flags,
