@@ -28,7 +28,8 @@ struct Bricks {
 
     // The brick that holds voxel (i, j, k) (indices are never negative).
     size_t index(int i, int j, int k) const {
-        return (size_t(k / brick_size) * by + j / brick_size) * bx + i / brick_size;
+        return (size_t(unsigned(k) / brick_size) * by + unsigned(j) / brick_size) * bx +
+               unsigned(i) / brick_size;
     }
     size_t count() const { return ranges.size(); }
 };
