@@ -14,6 +14,9 @@ SDL_CFLAGS := $(shell pkg-config --cflags sdl2 2>/dev/null)
 SDL_LIBS   := $(shell pkg-config --libs sdl2 2>/dev/null)
 CPPFLAGS += $(SDL_CFLAGS)
 LDLIBS   += $(SDL_LIBS) -pthread
+# The builds inside demo, test and check-student use every core, unless make was given -j.
+JOBS     ?= $(shell nproc 2>/dev/null || echo 1)
+PARALLEL  = $(if $(filter -j%,$(MAKEFLAGS)),,-j$(JOBS))
 
 # `make fuzz` builds with FUZZ=1: clang, libFuzzer instrumentation, ASan and UBSan.
 ifeq ($(FUZZ),1)
@@ -93,7 +96,7 @@ deps:
 
 # Render every step and every view on the phantom into out/, headless.
 demo: deps
-	@$(MAKE) --no-print-directory all
+	@$(MAKE) --no-print-directory $(PARALLEL) all
 	@for step in $(STEP_NAMES); do \
 	    $(BUILD)/$$step --volume phantom --view all --no-window --out out || exit 1; \
 	done
@@ -102,7 +105,7 @@ demo: deps
 
 # Every test: unit, analytic and golden tests (doctest), then the command-line and window tests.
 test: deps
-	@$(MAKE) --no-print-directory all $(BUILD)/ctlab_tests
+	@$(MAKE) --no-print-directory $(PARALLEL) all $(BUILD)/ctlab_tests
 	$(BUILD)/ctlab_tests
 	@sh tests/cli_test.sh $(BUILD)
 	@sh tests/bad_input_test.sh $(BUILD)
@@ -151,7 +154,7 @@ student: $(BUILD)/make_student
 # student/out/ and check it against data/reference/. Stubbed steps fail until written.
 check-student: $(BUILD)/check
 	@[ -f student/.ctlab-student ] || $(MAKE) --no-print-directory student
-	@$(MAKE) --no-print-directory -C student all
+	@$(MAKE) --no-print-directory -C student $(PARALLEL) all
 	@rm -f student/out/[0-9][0-9]_*.png  # a step that fails now must not pass on old pictures
 	@for source in student/steps/[0-9][0-9]_*.cpp; do \
 	    step=$$(basename $$source .cpp); \

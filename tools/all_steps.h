@@ -1,12 +1,13 @@
 // all_steps.h: every step compiled into one program, each inside a namespace of its own
 // (step00 ... step08), for the programs that run the steps in-process: the tests
-// (tests/test_steps.cpp) and the benchmark (tools/bench.cpp). A step's lesson functions are
+// (tests/test_steps.cpp), the benchmark (tools/bench.cpp) and the study (tools/study.cpp). A step's lesson functions are
 // then step04::gradient_at and the like, and its main() an ordinary function.
 //
 // Include it once per program, after common/ctlab.h (a step includes only that, and it is
-// guarded, so nothing else lands in the namespaces), and with load_volume and run_views
-// #defined as the includer's own stand-ins: a step's main() then takes its volume from the
-// includer and hands it its renderer instead of writing PNGs. #undef them afterwards.
+// guarded, so nothing else lands in the namespaces). To run a step's main() in-process, first
+// #define load_volume and run_views as the includer's own stand-ins (#undef them after): the
+// step then takes its volume from the includer and hands it its renderer instead of writing
+// PNGs. tools/study.cpp calls only lesson functions and needs neither.
 //
 // A new step adds its namespace here and a line to all_steps; nothing else changes.
 // No #pragma once: including it twice in one program is a mistake the compiler should report.

@@ -34,24 +34,9 @@
 #include <xmmintrin.h>  // the MXCSR register: flush-to-zero and denormals-are-zero
 #endif
 
-namespace step03 {
-#include "../steps/03_depth_shading.cpp"
-}
-namespace step04 {
-#include "../steps/04_gradient_lighting.cpp"
-}
-namespace step05 {
-#include "../steps/05_interpolated_hits.cpp"
-}
-namespace step06 {
-#include "../steps/06_transfer_function.cpp"
-}
-namespace step07 {
-#include "../steps/07_compositing_order.cpp"
-}
-namespace step08 {
-#include "../steps/08_lit_compositing.cpp"
-}
+// The steps, each in a namespace of its own (step03::first_hit, ...); their main() is not
+// run here, so load_volume and run_views keep their own meaning.
+#include "all_steps.h"
 #include "machine_load.h"
 #include "plot.h"
 
