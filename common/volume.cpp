@@ -62,13 +62,24 @@ static uint64_t expected_bytes(const RawFormat& format) {
     return voxels * 2;
 }
 
+// "1 byte", "48 bytes".
+static std::string byte_count(uint64_t count) {
+    return std::to_string(count) + (count == 1 ? " byte" : " bytes");
+}
+
+// "'F' has 48 bytes, expected exactly 72 for 4x3x3 int16 voxels".
+static std::string size_mismatch(const std::string& name, uint64_t size, uint64_t expected,
+                                 const std::string& what) {
+    return "'" + name + "' has " + byte_count(size) + ", expected exactly " +
+           std::to_string(expected) + " for " + what;
+}
+
 Volume volume_from_bytes(const std::vector<unsigned char>& bytes, const RawFormat& format,
                          const std::string& name) {
     const uint64_t expected = expected_bytes(format);
     if (bytes.size() != expected) {
-        throw InputError("'" + name + "' has " + std::to_string(bytes.size()) + " bytes, but " +
-                         dims_text(format) + " int16 voxels need exactly " +
-                         std::to_string(expected));
+        throw InputError(size_mismatch(name, bytes.size(), expected,
+                                       dims_text(format) + " int16 voxels"));
     }
     const size_t voxels = expected / 2;
     Volume volume;
@@ -99,8 +110,7 @@ static void check_size(const std::string& path, uint64_t expected, const std::st
     }
     if (S_ISDIR(info.st_mode)) throw InputError("'" + path + "' is a folder, not a file");
     if (uint64_t(info.st_size) != expected) {
-        throw InputError("'" + path + "' has " + std::to_string(info.st_size) +
-                         " bytes, but " + what + " needs exactly " + std::to_string(expected));
+        throw InputError(size_mismatch(path, uint64_t(info.st_size), expected, what));
     }
 }
 

@@ -67,9 +67,9 @@ echo "my notes, not a picture" > "$work/notes.png"
 w=$work
 cat > "$work/table" << EOF
 02_threshold --volume $w/one_byte
-  says: '$w/one_byte' has 1 bytes, but CThead (256x256x113 int16) needs exactly $cthead_bytes
+  says: '$w/one_byte' has 1 byte, expected exactly $cthead_bytes for CThead (256x256x113 int16)
 02_threshold --volume $w/one_long
-  says: '$w/one_long' has $((cthead_bytes + 1)) bytes, but CThead
+  says: '$w/one_long' has $((cthead_bytes + 1)) bytes, expected exactly $cthead_bytes for CThead
 02_threshold --volume /dev/zero
   says: '/dev/zero' has 0 bytes
 02_threshold --volume ""
@@ -89,7 +89,7 @@ cat > "$work/table" << EOF
 02_threshold --volume $w/raw48 --dims 65536,65536,65536
   says: --dims 65536x65536x65536 is over the limit
 02_threshold --volume $w/raw48 --dims 4,3,3
-  says: '$w/raw48' has 48 bytes, but 4x3x3 int16 voxels needs exactly 72
+  says: '$w/raw48' has 48 bytes, expected exactly 72 for 4x3x3 int16 voxels
 02_threshold --volume $w/raw48 --dims 4,3,2 --spacing 1,0,1
   says: --spacing: expected three positive numbers SX,SY,SZ
 02_threshold --volume $w/raw48 --dims 4,3,2 --spacing 1,1,-1
@@ -274,7 +274,7 @@ else
         "$build/02_threshold" $huge --no-window --out "$out" > /dev/null 2> "$work/stderr"
 fi
 status=$?
-if [ $status -eq 2 ] && grep -qF "has 48 bytes, but 2048x2048x512 int16 voxels" "$work/stderr"; then
+if [ $status -eq 2 ] && grep -qF "has 48 bytes, expected exactly 4294967296 for 2048x2048x512 int16 voxels" "$work/stderr"; then
     pass
 else
     fail "huge dims on a 48-byte file: status $status: $(head -c 300 "$work/stderr")"
