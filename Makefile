@@ -62,6 +62,7 @@ LIBCTLAB       := $(BUILD)/libctlab.a
 
 .PHONY: all help deps demo test run diff clean $(STEP_NAMES)
 .PHONY: reference student check-student handouts  # the instructor and student kit, below
+.PHONY: carry  # in a student tree: your functions forward into later steps
 .PHONY: fuzz fuzz-build
 .PHONY: bench study  # measuring: speed, and error against run time
 .DEFAULT_GOAL := all
@@ -76,6 +77,8 @@ help:
 	@echo "make NN_name    build one step, e.g. make 03_depth_shading"
 	@echo "make run STEP=NN [ARGS='--view front']   build and run step NN"
 	@echo "make diff STEP=NN   what step NN adds to step NN-1"
+	@echo "make carry [STEP=NN]   student tree: copy your lesson functions into the later steps"
+	@echo "                that use them unchanged (only where they are still stubs)"
 	@echo "make deps       install the Debian packages ctlab needs (as root)"
 	@echo "make fuzz [FUZZ_SECONDS=N]   build the libFuzzer harnesses (clang) into build-fuzz/"
 	@echo "                and run each for N seconds (default 60)"
@@ -118,10 +121,13 @@ $(STEP_NAMES): %: $(BUILD)/%
 run: $(BUILD)/$(notdir $(basename $(wildcard steps/$(STEP)_*.cpp)))
 	$< $(ARGS)
 
-# What step NN teaches: its diff against step NN-1.
+# What step NN teaches: its diff against step NN-1. In a student tree, of the steps as they
+# were handed out (.ctlab/pristine/, written by make student), not of the student's own code.
+DIFF_STEPS := $(if $(wildcard .ctlab-student),$(if $(wildcard .ctlab/pristine/steps),.ctlab/pristine/steps,steps),steps)
 diff:
 	@previous=$$(printf '%02d' $$(expr $(STEP) - 1)); \
-	 old=$$(ls steps/$${previous}_*.cpp 2>/dev/null); new=$$(ls steps/$(STEP)_*.cpp 2>/dev/null); \
+	 old=$$(ls $(DIFF_STEPS)/$${previous}_*.cpp 2>/dev/null); \
+	 new=$$(ls $(DIFF_STEPS)/$(STEP)_*.cpp 2>/dev/null); \
 	 if [ -z "$$new" ] || [ -z "$$old" ]; then echo "make diff: no step $(STEP) or no step before it"; exit 2; fi; \
 	 diff -u "$$old" "$$new" || true
 
@@ -162,6 +168,11 @@ check-student: $(BUILD)/check
 	        > /dev/null || echo "check-student: $$step stopped with an error"; \
 	done
 	$(BUILD)/check --submission student/out --reference data/reference
+
+# In a student tree: copy the student's lesson functions forward into the later steps that use
+# them unchanged, where those are still the generated stubs (tools/carry.cpp, .ctlab/carry.txt).
+carry: $(BUILD)/carry
+	$(BUILD)/carry $(if $(STEP),--step $(STEP))
 
 # Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.
 handouts: $(BUILD)/handout_listings

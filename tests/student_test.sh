@@ -1,8 +1,12 @@
 #!/bin/sh
 # student_test.sh: the student skeleton (make student). Generated into a temporary folder, it
-# differs from the lab only inside the lesson regions; two of its steps build, run, print
-# their TODO line once per function and fail the checker, while the lab's own steps pass;
-# regenerating refuses to overwrite a student's edit.
+# differs from the lab only inside the lesson regions; no file in it holds a lesson body of the
+# solution (tools/find_answers); it has its start-here README, builds every target on its own,
+# and still builds after a lesson function's signature changes; `make carry` takes a function
+# the student wrote into the later steps that use it unchanged, never over the student's work;
+# `make diff` shows the steps as handed out; two of its steps build, run, print their TODO line
+# once per function and fail the checker, while the lab's own steps pass; regenerating refuses
+# to overwrite a student's edit.
 #
 #   sh tests/student_test.sh BUILD      (from the repository root; make test runs it)
 set -u
@@ -21,7 +25,7 @@ if [ -f .ctlab-student ]; then
     echo "student test: 0 passed, 0 failed (skipped: this is a generated student tree)"
     exit 0
 fi
-for tool in make_student check handout_listings; do
+for tool in make_student check handout_listings find_answers carry; do
     [ -x "$build/$tool" ] || { echo "student test: $build/$tool is not built"; exit 1; }
 done
 work=$(mktemp -d) || exit 1
@@ -36,6 +40,24 @@ outside_regions() {
          /^[ \t]*\/\/> lesson:/ { inside = 1 }' "$1"
 }
 
+# The lines between `//> lesson: NAME` and `//< lesson: NAME` of FILE.
+region() {
+    awk -v name="$1" '$0 ~ "^[ \t]*//< lesson: *" name "[ \t]*$" { inside = 0 }
+                      inside { print }
+                      $0 ~ "^[ \t]*//> lesson: *" name "[ \t]*$" { inside = 1 }' "$2"
+}
+# replace_region NAME FILE CONTENT_FILE: the region's lines become CONTENT_FILE's.
+replace_region() {
+    awk -v name="$1" -v content="$3" '
+        $0 ~ "^[ \t]*//< lesson: *" name "[ \t]*$" { inside = 0 }
+        !inside { print }
+        $0 ~ "^[ \t]*//> lesson: *" name "[ \t]*$" {
+            inside = 1
+            while ((getline line < content) > 0) print line
+            close(content)
+        }' "$2" > "$2.new" && mv "$2.new" "$2"
+}
+
 # --- Generation -----------------------------------------------------------------------------
 expect "make_student writes $student" "$build/make_student" --to "$student" > "$work/generate.log"
 
@@ -46,13 +68,15 @@ for source in steps/[0-9][0-9]_*.cpp; do
     outside_regions "$generated" > "$work/student.txt" 2>/dev/null
     expect "$generated differs from $source outside the lesson regions" \
         cmp -s "$work/lab.txt" "$work/student.txt"
-    expect "$generated has no stub: not_done(\"$step\", ...)" \
-        grep -q "not_done(\"$step\"," "$generated"
+    expect "$generated has no stub: not_done(step_name, ...)" \
+        grep -q "not_done(step_name, \"" "$generated"
+    expect "$student/.ctlab/pristine/$source is the step as generated" \
+        cmp -s "$generated" "$student/.ctlab/pristine/$source"
 done
 # Everything else is copied unchanged (the handouts quote the stubs instead of the solution).
 copies=0
 for file in $(sed -n 's/^[0-9a-f]*  //p' "$student/.ctlab-student"); do
-    case "$file" in steps/* | handouts/*) continue ;; esac
+    case "$file" in steps/* | handouts/* | README.md | LAB.md | .ctlab/*) continue ;; esac
     cmp -s "$file" "$student/$file" || bad "$student/$file is not a copy of $file"
     copies=$((copies + 1))
 done
@@ -62,6 +86,188 @@ if [ -f handouts/README.md ]; then
         sh -c "cd '$student' && '$here/$build/handout_listings' --check > /dev/null"
 fi
 
+# --- The start-here README, the lab's README, the carry record ------------------------------
+expect "$student/README.md says how to check: make check STEP=NN" \
+    grep -q "make check STEP=NN" "$student/README.md"
+for topic in "make carry" "make diff STEP=NN" "--debug-pixel" "not started" "What you write"; do
+    expect "$student/README.md explains '$topic'" grep -q -- "$topic" "$student/README.md"
+done
+for source in steps/[0-9][0-9]_*.cpp; do
+    step=$(basename "$source" .cpp)
+    expect "$student/README.md lists $step" grep -q "(handouts/$step.md)" "$student/README.md"
+done
+expect "the lab's README.md is $student/LAB.md" cmp -s README.md "$student/LAB.md"
+expect "$student/.ctlab/carry.txt carries first_hit from 02 into 03" \
+    grep -q "^03_[a-z_]* first_hit 02_[a-z_]* [0-9a-f]*\$" "$student/.ctlab/carry.txt"
+
+# --- No answers in the student tree -------------------------------------------------------
+# Every file (steps, tools, tests, handouts, data, README) is searched for every lesson body of
+# the solution, whole or by its distinctive lines. The search itself is tested first: it must
+# find the solution's own steps, and a body pasted re-indented into a handout.
+"$build/find_answers" --solution . --in steps > "$work/self.txt" 2>&1
+expect "find_answers finds the answers in the solution's own steps (exit 1)" [ $? -eq 1 ]
+for source in steps/[0-9][0-9]_*.cpp; do
+    expect "find_answers finds the lesson bodies of $source" grep -q "^$source:" "$work/self.txt"
+done
+mkdir -p "$work/planted/handouts"
+planted=$(ls steps/05_*.cpp 2>/dev/null || ls steps/[0-9][0-9]_*.cpp | tail -n 1)
+marker=$(sed -n 's|^[ \t]*//> lesson: *||p' "$planted" | head -n 1)
+{
+    echo "A paragraph, then a listing that quotes the solution re-indented:"
+    echo '```cpp'
+    region "$marker" "$planted" | sed 's/^ *//'
+    echo '```'
+} > "$work/planted/handouts/leak.md"
+# One line of it alone in a sentence: the longest statement of the region.
+line=$(region "$marker" "$planted" | grep -v '^ *//' | grep ';$' | sed 's/^ *//' |
+       awk '{ print length, $0 }' |
+       sort -rn | head -n 1 | cut -d' ' -f2-)
+printf 'As the solution writes it, %s and so on.\n' "$line" > "$work/planted/handouts/line.md"
+"$build/find_answers" --solution . --in "$work/planted" > "$work/planted.txt" 2>&1
+expect "find_answers finds a lesson body pasted into a handout (exit 1)" [ $? -eq 1 ]
+expect "find_answers names the handout holding the whole body" \
+    grep -q "planted/handouts/leak.md:[0-9]*: .*the whole body" "$work/planted.txt"
+expect "find_answers finds one solution line quoted in a sentence" \
+    grep -q "planted/handouts/line.md:1: " "$work/planted.txt"
+"$build/find_answers" --solution . --in "$student" > "$work/answers.txt" 2>&1
+expect "the student tree holds no lesson body of the solution (find_answers exit 0)" \
+    [ $? -eq 0 ]
+grep "^$student" "$work/answers.txt" | sed "s|^$student/|  student/|" | head -n 40
+
+# --- The student tree builds every target on its own -------------------------------------
+# common/ and tests/ are copied unchanged: reuse the lab's compiled objects for them (not for a
+# file that includes a step: the student's steps are stubs), and compile the rest without
+# optimisation, which is enough to show that it builds.
+reuse_objects() {
+    for file in common/*; do cmp -s "$file" "$student/$file" || return 0; done
+    [ -f "$build/libctlab.a" ] || return 0
+    mkdir -p "$student/$build"
+    cp -R "$build/common" "$student/$build/" && cp "$build/libctlab.a" "$student/$build/"
+    if [ -d "$build/tests" ]; then
+        for object in $(find "$build/tests" -name '*.o'); do
+            depends=${object%.o}.d
+            [ -f "$depends" ] && ! grep -q 'steps/' "$depends" || continue
+            mkdir -p "$student/$(dirname "$object")"
+            cp "$object" "$depends" "$student/$(dirname "$object")/"
+        done
+    fi
+    find "$student/$build" -type f -exec touch {} +  # newer than the fresh copies
+}
+reuse_objects
+san=
+[ "$build" = build-san ] && san=SAN=1
+student_make() {  # student_make TARGET...: make in the student tree, quietly, log in build.log
+    # shellcheck disable=SC2086
+    env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$student" -j2 BUILD="$build" OPT=-O0 \
+        $san "$@" > "$work/build.log" 2>&1
+}
+if student_make all "$build/ctlab_tests"; then ok; else
+    bad "the student tree builds every target: make -C $student all $build/ctlab_tests"
+    tail -n 30 "$work/build.log"
+fi
+
+# --- make carry: a function written once serves the later steps -------------------------
+# Inside the test only: step 02's first_hit filled in from the solution.
+step02=$(ls steps/02_*.cpp 2>/dev/null)
+if [ -n "$step02" ] && grep -q '^0[3-9]_[a-z_]* first_hit 02_' "$student/.ctlab/carry.txt"; then
+    region first_hit "$step02" > "$work/first_hit_02.txt"
+    replace_region first_hit "$student/$step02" "$work/first_hit_02.txt"
+    expect "make carry runs in the student tree" student_make carry
+    carried=$(sed -n 's/^\(0[3-9]_[a-z_]*\) first_hit .*/\1/p' "$student/.ctlab/carry.txt" |
+              tr '\n' ' ')
+    for step in $carried; do
+        region first_hit "$student/steps/$step.cpp" > "$work/first_hit_carried.txt"
+        expect "make carry: $step's first_hit is the student's from 02" \
+            cmp -s "$work/first_hit_02.txt" "$work/first_hit_carried.txt"
+    done
+    for source in "$student"/steps/0[3-9]_*.cpp; do
+        step=$(basename "$source" .cpp)
+        case " $carried " in *" $step "*) continue ;; esac
+        grep -q '//> lesson: first_hit' "$source" || continue
+        expect "make carry leaves $step's first_hit, which differs in the solution, a stub" \
+            sh -c "sed -n '/lesson: first_hit/,/lesson: first_hit/p' '$source' | grep -q not_done"
+    done
+    # The student's 02 builds and passes; 03 now lacks only its own shade().
+    first_carried=$(echo $carried | cut -d' ' -f1)
+    if student_make "$(basename "$step02" .cpp)" "$first_carried"; then
+        ok
+        "$student/$build/$(basename "$step02" .cpp)" --volume phantom --view front --no-window \
+            --out "$work/carry_out" > /dev/null 2>&1
+        expect "the student's step 02 passes the checker" "$build/check" \
+            "$work/carry_out/$(basename "$step02" .cpp)_front.png" \
+            "data/reference/$(basename "$step02" .cpp)_front.png" > /dev/null
+        "$student/$build/$first_carried" --volume phantom --view front --no-window \
+            --out "$work/carry_out" > /dev/null 2> "$work/todo_carried.txt"
+        expect "$first_carried no longer says first_hit() is not written" \
+            sh -c "! grep -q 'first_hit() is not written' '$work/todo_carried.txt'"
+    else
+        bad "the student tree builds 02 and $first_carried after make carry"
+        tail -n 30 "$work/build.log"
+    fi
+    # Never over the student's work: a changed 03 stays, and 04 takes 03's version.
+    third=$(echo $carried | cut -d' ' -f1)
+    fourth=$(echo $carried | cut -d' ' -f2 -s)
+    { echo "// first_hit as I rewrote it in $third"; cat "$work/first_hit_02.txt"; } \
+        > "$work/first_hit_mine.txt"
+    replace_region first_hit "$student/steps/$third.cpp" "$work/first_hit_mine.txt"
+    { echo "// changed again in 02"; cat "$work/first_hit_02.txt"; } > "$work/first_hit_again.txt"
+    replace_region first_hit "$student/$step02" "$work/first_hit_again.txt"
+    if [ -n "$fourth" ]; then
+        region first_hit "$student/.ctlab/pristine/steps/$fourth.cpp" > "$work/stub.txt"
+        replace_region first_hit "$student/steps/$fourth.cpp" "$work/stub.txt"
+    fi
+    "$student/$build/carry" --tree "$student" > "$work/carry.txt" 2>&1
+    expect "carry runs again (exit 0)" [ $? -eq 0 ]
+    region first_hit "$student/steps/$third.cpp" > "$work/after.txt"
+    expect "carry keeps the first_hit the student rewrote in $third" \
+        cmp -s "$work/first_hit_mine.txt" "$work/after.txt"
+    expect "carry says it kept $third's first_hit" grep -q "^$third: first_hit(): kept" \
+        "$work/carry.txt"
+    if [ -n "$fourth" ]; then
+        region first_hit "$student/steps/$fourth.cpp" > "$work/after.txt"
+        expect "carry brings $third's version into $fourth's stub" \
+            cmp -s "$work/first_hit_mine.txt" "$work/after.txt"
+    fi
+    "$student/$build/carry" --tree "$student" --step "${third%%_*}" > "$work/carry.txt" 2>&1
+    expect "carry --step ${third%%_*} looks at that step only" \
+        sh -c "! grep -v '^${third}: \\|^carry: ' '$work/carry.txt'"
+
+    # --- make diff in the kit: the steps as handed out, not the student's code -------------
+    env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$student" diff STEP="${third%%_*}" \
+        > "$work/diff.txt" 2>&1
+    expect "make diff STEP=${third%%_*} runs in the student tree" [ -s "$work/diff.txt" ]
+    expect "make diff in the kit does not show the student's own code" \
+        sh -c "! grep -q 'as I rewrote it\\|changed again' '$work/diff.txt'"
+    expect "make diff in the kit shows what ${third%%_*} changes (its shade)" \
+        grep -q '^[-+].*shade(' "$work/diff.txt"
+else
+    bad "no step 02 with a first_hit carried to later steps: the carry test did not run"
+fi
+
+# --- A lesson function's signature changes: every target still builds ---------------------
+# Step 01's mip_top (nothing outside step 01 names it), then step 02's first_hit (tests,
+# bench and study must not compile a step's lesson functions: they run the step binaries).
+change_signature() {  # FILE FUNCTION: adds a first parameter `int unused_first` to FUNCTION
+    sed -i "s/\\(static [A-Za-z]* $2(\\)/\\1int unused_first, /; s/\\([^a-z_]$2(\\)\\(volume\\)/\\1 0, \\2/" "$1"
+    sed -i "s/static \\([A-Za-z]*\\) $2( 0, /static \\1 $2(/" "$1"
+    grep -q "$2(int unused_first, " "$1" && grep -q "$2( 0, volume" "$1"
+}
+for change in "01 mip_top" "02 first_hit"; do
+    set -- $change
+    source=$(ls "$student"/steps/$1_*.cpp 2>/dev/null)
+    [ -n "$source" ] || continue
+    if ! change_signature "$source" "$2"; then
+        bad "could not change $2's signature in $source (the test's sed)"
+        continue
+    fi
+    if student_make all "$build/ctlab_tests"; then ok; else
+        bad "after $2() in $source takes a new parameter, the student tree builds every target"
+        grep -m 5 'error' "$work/build.log"
+    fi
+done
+cp "$student/.ctlab/pristine/steps/"01_*.cpp "$student/.ctlab/pristine/steps/"02_*.cpp \
+    "$student/steps/"
+
 # --- Two steps: build, run, check --------------------------------------------------------------
 # The second step (02, the first surface) and the last one: the skeleton must work for
 # every step, including ones added later.
@@ -70,22 +276,10 @@ last=$(ls steps/[0-9][0-9]_*.cpp | tail -n 1)
 chosen=$(basename "$first" .cpp)
 [ "$last" != "$first" ] && chosen="$chosen $(basename "$last" .cpp)"
 
-# common/ is copied unchanged: reuse the lab's compiled library instead of compiling it again.
-same_common=yes
-for file in common/*; do cmp -s "$file" "$student/$file" || same_common=no; done
-if [ "$same_common" = yes ] && [ -f "$build/libctlab.a" ]; then
-    mkdir -p "$student/$build"
-    cp -R "$build/common" "$student/$build/" && cp "$build/libctlab.a" "$student/$build/"
-    find "$student/$build/common" -type f -exec touch {} +  # newer than the fresh copies
-    touch "$student/$build/libctlab.a"
+if student_make $chosen; then ok; else
+    bad "the student tree builds: make -C $student $chosen"
+    cat "$work/build.log"
 fi
-san=
-[ "$build" = build-san ] && san=SAN=1
-# shellcheck disable=SC2086
-expect "the student tree builds: make -C $student $chosen" \
-    env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$student" -j2 BUILD="$build" $san $chosen \
-    > "$work/build.log" 2>&1
-[ "$failed" -eq 0 ] || cat "$work/build.log"
 
 for step in $chosen; do
     reference=data/reference/${step}_front.png

@@ -58,6 +58,15 @@ inline std::string read_text(const std::string& path) {
     return text.str();
 }
 
+// 64-bit FNV-1a, as 16 hex digits: enough to notice that a file or a function was edited.
+inline std::string content_hash(const std::string& text) {
+    unsigned long long hash = 14695981039346656037ull;
+    for (unsigned char c : text) hash = (hash ^ c) * 1099511628211ull;
+    std::string hex(16, '0');
+    for (int n = 15; n >= 0; --n, hash >>= 4) hex[n] = "0123456789abcdef"[hash & 15];
+    return hex;
+}
+
 inline bool is_identifier_char(char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
 }
@@ -496,6 +505,151 @@ std::string refresh_listings(const std::string& markdown, const std::vector<List
         copied = listing.content_end;
     }
     return result + markdown.substr(copied);
+}
+
+}  // namespace lesson
+
+// --- Answers: the lesson bodies of a solution, and copies of them anywhere else -------------
+// The student tree must not hold the body of any lesson function (tools/find_answers.cpp,
+// tests/student_test.sh). An answer is found as the whole body, whitespace-normalised, or as
+// one of its distinctive code lines: long enough to mean something, and found nowhere in the
+// solution outside the lesson bodies (so a line a stub, a main() or common/ also has is not
+// an answer).
+namespace lesson {
+
+// Every run of whitespace as one space, trimmed; offsets[n] is where character n came from.
+inline std::string collapse_spaces(const std::string& text, std::vector<size_t>* offsets = nullptr) {
+    std::string result;
+    if (offsets) offsets->clear();
+    bool space = false;
+    for (size_t n = 0; n < text.size(); ++n) {
+        if (std::isspace(static_cast<unsigned char>(text[n]))) {
+            space = !result.empty();
+            continue;
+        }
+        if (space) {
+            result += ' ';
+            if (offsets) offsets->push_back(n);
+            space = false;
+        }
+        result += text[n];
+        if (offsets) offsets->push_back(n);
+    }
+    return result;
+}
+
+// One line of code without its trailing // comment (masked: the same line from mask_code).
+inline std::string code_of_line(const std::string& line, const std::string& masked) {
+    int quotes = 0;
+    for (size_t n = 0; n + 1 < line.size() && n < masked.size(); ++n) {
+        if (masked[n] == '"') ++quotes;
+        if (quotes % 2 == 0 && line.compare(n, 2, "//") == 0 && masked[n] == ' ') {
+            return line.substr(0, n);
+        }
+    }
+    return line;
+}
+
+struct Answer {
+    std::string step, function;  // "02_threshold", "first_hit"
+    std::string text;            // whitespace-normalised: a whole body, or one code line
+    bool whole_body = false;
+};
+
+constexpr size_t shortest_answer_line = 24;  // normalised characters; shorter lines are common
+
+// The solution's lesson bodies and their code lines (not yet filtered: see distinctive_answers)
+// and, in `elsewhere`, the normalised code lines of the source outside those bodies.
+inline std::vector<Answer> lesson_bodies(const std::string& source, const std::string& path,
+                                         const std::string& step,
+                                         std::vector<std::string>& elsewhere) {
+    std::vector<Answer> answers;
+    const std::string masked = mask_code(source);
+    std::vector<std::pair<size_t, size_t>> bodies;  // [open, close] offsets
+    for (const Region& region : find_regions(source, path)) {
+        for (const Function& function : find_functions(source, masked, region, path)) {
+            bodies.push_back({function.body_open, function.body_close});
+            const std::string body =
+                source.substr(function.body_open + 1, function.body_close - function.body_open - 1);
+            answers.push_back({step, function.name, collapse_spaces(body), true});
+            const std::string masked_body =
+                masked.substr(function.body_open + 1, function.body_close - function.body_open - 1);
+            std::istringstream lines(body), masked_lines(masked_body);
+            std::string line, masked_line;
+            while (std::getline(lines, line) && std::getline(masked_lines, masked_line)) {
+                const std::string code = collapse_spaces(code_of_line(line, masked_line));
+                if (!code.empty()) answers.push_back({step, function.name, code, false});
+            }
+        }
+    }
+    // The rest of the source, line by line.
+    std::string outside = source, outside_masked = masked;
+    for (auto body = bodies.rbegin(); body != bodies.rend(); ++body) {
+        outside.erase(body->first + 1, body->second - body->first - 1);
+        outside_masked.erase(body->first + 1, body->second - body->first - 1);
+    }
+    std::istringstream lines(outside), masked_lines(outside_masked);
+    std::string line, masked_line;
+    while (std::getline(lines, line) && std::getline(masked_lines, masked_line)) {
+        const std::string code = collapse_spaces(code_of_line(line, masked_line));
+        if (!code.empty()) elsewhere.push_back(code);
+    }
+    return answers;
+}
+
+// A loop header alone ("for (int t = 0; t < view.ray_length; ++t) {") says how to walk, not
+// what the lesson computes: any code that walks a ray or an image has one.
+inline bool is_loop_header(const std::string& line) {
+    return (line.rfind("for (", 0) == 0 || line.rfind("while (", 0) == 0) &&
+           line.back() == '{';
+}
+
+// Keeps whole bodies, and the lines of at least shortest_answer_line characters that no
+// `elsewhere` line equals, that are no loop header, and that lesson functions of only one name
+// have (a line shared by first_hit and composite_front_to_back is plumbing, such as reading
+// the voxel at t); one Answer per distinct text.
+inline std::vector<Answer> distinctive_answers(const std::vector<Answer>& candidates,
+                                               const std::vector<std::string>& elsewhere) {
+    std::vector<Answer> result;
+    for (const Answer& answer : candidates) {
+        if (answer.text.empty()) continue;
+        if (!answer.whole_body) {
+            if (answer.text.size() < shortest_answer_line || is_loop_header(answer.text)) {
+                continue;
+            }
+            bool common = false;
+            for (const std::string& line : elsewhere) common = common || line == answer.text;
+            for (const Answer& other : candidates) {
+                common = common || (!other.whole_body && other.text == answer.text &&
+                                    other.function != answer.function);
+            }
+            if (common) continue;
+        }
+        bool seen = false;
+        for (const Answer& kept : result) seen = seen || kept.text == answer.text;
+        if (!seen) result.push_back(answer);
+    }
+    return result;
+}
+
+struct Leak {
+    const Answer* answer;
+    int line;  // in the file searched, from 1
+};
+
+// Where the answers occur in `text` (any file: code, markdown, data), whitespace-normalised.
+inline std::vector<Leak> find_answers(const std::string& text, const std::vector<Answer>& answers) {
+    std::vector<size_t> offsets;
+    const std::string collapsed = collapse_spaces(text, &offsets);
+    std::vector<Leak> leaks;
+    for (const Answer& answer : answers) {
+        for (size_t at = collapsed.find(answer.text); at != std::string::npos;
+             at = collapsed.find(answer.text, at + 1)) {
+            leaks.push_back({&answer, line_of(text, offsets[at])});
+            if (answer.whole_body) break;  // once is enough
+        }
+    }
+    return leaks;
 }
 
 }  // namespace lesson

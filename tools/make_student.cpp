@@ -3,16 +3,24 @@
 //
 //   build/make_student [--from DIR] [--to DIR] [--force]     (defaults: . and student)
 //
-// Copies Makefile, README.md, .gitignore, common/, tools/, tests/, data/ (not data/CThead) and
-// handouts/. Each steps/NN_name.cpp is copied with the body of every function defined in a
-// lesson region (tools/lesson_markers.h) replaced by a stub that compiles and runs:
+// Copies Makefile, .gitignore, common/, tools/, tests/, data/ (not data/CThead) and handouts/.
+// Each steps/NN_name.cpp is copied with the body of every function defined in a lesson region
+// (tools/lesson_markers.h) replaced by a stub that compiles and runs:
 //     {
 //         not_done("NN_name", "first_hit", volume, view, x, y, threshold, work, trace);
 //         return {};
 //     }
 // Comments, signatures, structs and constants stay; nothing outside the regions changes.
 // The handouts' listings are refreshed from the stubbed steps, so they quote what the student
-// has. DIR/.ctlab-student lists every generated file with its hash: regenerating refuses to
+// has. Besides, it writes:
+//   README.md          the student's "start here" (tools/student_README.md, with a table of
+//                      the steps and their functions); the lab's README.md becomes LAB.md;
+//   .ctlab/pristine/   the stubbed steps as generated: `make diff` in the kit compares these,
+//                      so that it shows what a step teaches, not the student's own code;
+//   .ctlab/carry.txt   which lesson functions a step takes unchanged from an earlier one (the
+//                      same text in the solution): `make carry` (tools/carry.cpp) copies the
+//                      student's own version forward into the later step's stub.
+// DIR/.ctlab-student lists every generated file with its hash: regenerating refuses to
 // overwrite a file changed since (a student's work) unless --force is given.
 #include <algorithm>
 #include <cctype>
@@ -34,9 +42,15 @@ namespace {
 
 const char* const record_name = ".ctlab-student";  // marks a generated tree, lists its files
 // What a student tree holds besides steps/: enough to build, test and read the lab.
-const std::vector<std::string> copied = {"Makefile", "README.md", ".gitignore", "common",
-                                         "tools",    "tests",     "data",       "handouts"};
-const std::vector<std::string> not_copied = {"data/CThead"};  // not ours to hand out
+const std::vector<std::string> copied = {"Makefile", ".gitignore", "common", "tools",
+                                         "tests",    "data",       "handouts"};
+const std::vector<std::string> not_copied = {
+    "data/CThead",               // not ours to hand out
+    "tools/student_README.md"};  // becomes README.md
+const char* const readme_template = "tools/student_README.md";
+const char* const readme_steps = "{{steps}}";    // where the template wants the table
+const char* const pristine_folder = ".ctlab/pristine/";
+const char* const carry_record = ".ctlab/carry.txt";
 constexpr size_t stub_width = 96;  // columns: stub calls wrap before this
 const char* const usage_text =
     "usage: make_student [--from DIR] [--to DIR] [--force]\n"
@@ -75,18 +89,11 @@ Settings parse_arguments(int argc, char** argv) {
     return settings;
 }
 
-// 64-bit FNV-1a: enough to notice that a file was edited.
-std::string content_hash(const std::string& text) {
-    uint64_t hash = 14695981039346656037ull;
-    for (unsigned char c : text) hash = (hash ^ c) * 1099511628211ull;
-    char hex[17];
-    std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(hash));
-    return hex;
-}
-
-// "    not_done("02_threshold", "first_hit", volume, view, ...);", wrapped before stub_width.
+// "    not_done(step_name, "first_hit", volume, view, ...);", wrapped before stub_width. `step`
+// is the step's own step_name constant, or its name in quotes when it has none: with the
+// constant, a function's stub reads the same in every step, and `make diff` shows no change.
 std::string not_done_call(const std::string& step, const lesson::Function& function) {
-    std::vector<std::string> arguments = {"\"" + step + "\"", "\"" + function.name + "\""};
+    std::vector<std::string> arguments = {step, "\"" + function.name + "\""};
     for (const std::string& name : function.parameters) arguments.push_back(name);
     const std::string indent = "    ", open = "not_done(";
     std::string text = indent + open, line = text;
@@ -126,6 +133,13 @@ std::string stub_step(const std::string& source, const std::string& path,
     std::string result = source;
     const std::vector<lesson::Region> regions = lesson::find_regions(source, path);
     const std::string masked = lesson::mask_code(source);
+    const std::vector<std::string> words = lesson::tokens(masked);
+    bool has_step_name = false;  // `constexpr const char* step_name = "NN_name";`
+    for (size_t n = 0; n + 2 < words.size(); ++n) {
+        has_step_name = has_step_name ||
+                        (words[n] == "*" && words[n + 1] == "step_name" && words[n + 2] == "=");
+    }
+    const std::string step_argument = has_step_name ? "step_name" : "\"" + step + "\"";
     for (auto region = regions.rbegin(); region != regions.rend(); ++region) {
         const auto functions = lesson::find_functions(source, masked, *region, path);
         if (functions.empty()) {
@@ -136,7 +150,7 @@ std::string stub_step(const std::string& source, const std::string& path,
             const std::string where =
                 path + ":" + std::to_string(lesson::line_of(source, function->header)) + ": ";
             result.replace(function->body_open, function->body_close + 1 - function->body_open,
-                           stub_body(step, *function, where));
+                           stub_body(step_argument, *function, where));
             ++stubbed;
         }
     }
@@ -156,6 +170,101 @@ std::string stub_step(const std::string& source, const std::string& path,
     std::sort(unused_at.rbegin(), unused_at.rend());
     for (size_t at : unused_at) result.insert(at, "[[maybe_unused]] ");
     return result;
+}
+
+// One step's lesson functions: the solution's text of each (comments, signature, body) and
+// the stub's, by name.
+struct StepFunctions {
+    std::string step, title;  // "02_threshold", "where does the ray first meet bone?"
+    std::vector<std::string> names;
+    std::map<std::string, std::string> solution, stub;
+};
+
+std::map<std::string, std::string> function_texts(const std::string& source,
+                                                  const std::string& path,
+                                                  std::vector<std::string>* names = nullptr) {
+    std::map<std::string, std::string> texts;
+    const std::string masked = lesson::mask_code(source);
+    for (const lesson::Region& region : lesson::find_regions(source, path)) {
+        for (const auto& function : lesson::find_functions(source, masked, region, path)) {
+            texts[function.name] = lesson::function_text(source, function);
+            if (names) names->push_back(function.name);
+        }
+    }
+    return texts;
+}
+
+StepFunctions step_functions(const std::string& step, const std::string& solution,
+                             const std::string& stubbed, const std::string& path) {
+    StepFunctions functions;
+    functions.step = step;
+    functions.solution = function_texts(solution, path, &functions.names);
+    functions.stub = function_texts(stubbed, path);
+    // The title: what follows "NN_name.cpp: " on the first line.
+    const std::string first_line = solution.substr(0, solution.find('\n'));
+    const size_t colon = first_line.find(".cpp: ");
+    if (colon != std::string::npos) functions.title = lesson::trim(first_line.substr(colon + 6));
+    return functions;
+}
+
+// The step before `n` that defines `name` last, or -1.
+int defined_before(const std::vector<StepFunctions>& steps, size_t n, const std::string& name) {
+    for (size_t m = n; m-- > 0;) {
+        if (steps[m].solution.count(name)) return int(m);
+    }
+    return -1;
+}
+
+// .ctlab/carry.txt: "TO_STEP FUNCTION FROM_STEP STUB_HASH" for every lesson function whose
+// solution text equals that of the last earlier step defining it. STUB_HASH is the hash of
+// the function's stub as generated in TO_STEP: `make carry` replaces only a function that is
+// still that stub, never one the student wrote.
+std::string carry_text(const std::vector<StepFunctions>& steps) {
+    std::string text =
+        "# Lesson functions a step takes unchanged from an earlier step (make_student wrote\n"
+        "# this file). `make carry [STEP=NN]` copies your version from FROM_STEP into TO_STEP\n"
+        "# while TO_STEP still has the stub whose hash is STUB_HASH: never over your work.\n"
+        "# TO_STEP FUNCTION FROM_STEP STUB_HASH\n";
+    for (size_t n = 0; n < steps.size(); ++n) {
+        for (const std::string& name : steps[n].names) {
+            const int before = defined_before(steps, n, name);
+            if (before < 0 || steps[before].solution.at(name) != steps[n].solution.at(name)) {
+                continue;
+            }
+            text += steps[n].step + " " + name + " " + steps[before].step + " " +
+                    lesson::content_hash(steps[n].stub.at(name)) + "\n";
+        }
+    }
+    return text;
+}
+
+// README.md of the student tree: the template with a table of the steps.
+std::string student_readme(const fs::path& from, const std::vector<StepFunctions>& steps) {
+    std::string table =
+        "| step | handout | what it teaches | you write | `make carry` brings |\n"
+        "|---|---|---|---|---|\n";
+    for (size_t n = 0; n < steps.size(); ++n) {
+        std::string write, carried;
+        for (const std::string& name : steps[n].names) {
+            const int before = defined_before(steps, n, name);
+            const bool same = before >= 0 &&
+                              steps[before].solution.at(name) == steps[n].solution.at(name);
+            std::string& list = same ? carried : write;
+            list += std::string(list.empty() ? "" : ", ") + "`" + name + "`" +
+                    (same ? " (" + steps[before].step.substr(0, 2) + ")" : "");
+        }
+        table += "| " + steps[n].step.substr(0, 2) + " | [" + steps[n].step + "](handouts/" +
+                 steps[n].step + ".md) | " + steps[n].title + " | " +
+                 (write.empty() ? "-" : write) + " | " + (carried.empty() ? "-" : carried) +
+                 " |\n";
+    }
+    std::string text = lesson::read_text((from / readme_template).string());
+    const size_t at = text.find(readme_steps);
+    if (at == std::string::npos) {
+        throw InputError(std::string(readme_template) + ": no " + readme_steps +
+                         " line for the table of steps");
+    }
+    return text.replace(at, std::string(readme_steps).size(), table);
 }
 
 // Relative paths of the files to copy (sorted), "steps/..." excluded.
@@ -196,7 +305,7 @@ void check_destination(const fs::path& to, bool force) {
         if (space == std::string::npos) continue;
         const std::string relative = line.substr(space + 2);
         const fs::path file = to / relative;
-        if (!fs::exists(file) || content_hash(lesson::read_text(file.string())) !=
+        if (!fs::exists(file) || lesson::content_hash(lesson::read_text(file.string())) !=
                                      line.substr(0, space)) {
             changed += "\n  " + (to / relative).generic_string();
             ++count;
@@ -233,7 +342,7 @@ int generate(const Settings& settings) {
 
     // Everything is generated in memory first: nothing is written if a step cannot be stubbed.
     std::map<std::string, std::string> tree;  // relative path -> content
-    int steps = 0, stubbed = 0;
+    std::vector<fs::path> step_paths;
     for (const auto& item : fs::directory_iterator(from / "steps")) {
         const std::string name = item.path().filename().string();
         const auto digit = [](char c) { return std::isdigit(static_cast<unsigned char>(c)); };
@@ -241,10 +350,23 @@ int generate(const Settings& settings) {
             name[2] != '_' || item.path().extension() != ".cpp") {
             continue;  // only steps/NN_name.cpp
         }
-        const std::string relative = "steps/" + name;
-        tree[relative] = stub_step(lesson::read_text(item.path().string()), relative,
-                                   item.path().stem().string(), stubbed);
-        ++steps;
+        step_paths.push_back(item.path());
+    }
+    std::sort(step_paths.begin(), step_paths.end());
+    int stubbed = 0;
+    std::vector<StepFunctions> steps;
+    for (const fs::path& path : step_paths) {
+        const std::string relative = "steps/" + path.filename().string();
+        const std::string solution = lesson::read_text(path.string());
+        const std::string step = path.stem().string();
+        tree[relative] = stub_step(solution, relative, step, stubbed);
+        tree[pristine_folder + relative] = tree[relative];
+        steps.push_back(step_functions(step, solution, tree[relative], relative));
+    }
+    tree[carry_record] = carry_text(steps);
+    tree["README.md"] = student_readme(from, steps);
+    if (fs::is_regular_file(from / "README.md")) {
+        tree["LAB.md"] = lesson::read_text((from / "README.md").string());
     }
     for (const std::string& relative : files_to_copy(from)) {
         tree[relative] = lesson::read_text((from / relative).string());
@@ -272,15 +394,15 @@ int generate(const Settings& settings) {
     for (const auto& [relative, text] : tree) {
         write_file(to / relative, text);
         const fs::path original = from / relative;
-        if (relative.rfind("steps/", 0) != 0) {
+        if (fs::exists(original) && relative.rfind("steps/", 0) != 0) {
             fs::permissions(to / relative, fs::status(original).permissions());
         }
-        record += content_hash(text) + "  " + relative + "\n";
+        record += lesson::content_hash(text) + "  " + relative + "\n";
     }
     write_file(to / record_name, record);
     std::printf("make_student: wrote %s/: %d steps, %d lesson functions stubbed, %zu files. "
-                "Build it with: make -C %s\n", settings.to.c_str(), steps, stubbed, tree.size(),
-                settings.to.c_str());
+                "Start with %s/README.md\n", settings.to.c_str(), int(steps.size()), stubbed,
+                tree.size(), settings.to.c_str());
     return 0;
 }
 

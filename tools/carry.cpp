@@ -1,0 +1,192 @@
+// carry.cpp: in a student tree, copies the student's own lesson functions forward into the
+// later steps that use them unchanged (`make carry [STEP=NN]`), so that each is written once.
+//
+//   build/carry [--step NN] [--tree DIR]       (default: every step, in the tree .)
+//
+// make_student writes DIR/.ctlab/carry.txt: one line "TO_STEP FUNCTION FROM_STEP STUB_HASH"
+// per lesson function that TO_STEP takes unchanged from FROM_STEP in the solution. For each
+// line (in step order, so 02 -> 03 -> 04 carries in one run):
+//   - FROM_STEP's function still a stub (it calls not_done): nothing to carry yet;
+//   - TO_STEP's function no longer the stub generated there (STUB_HASH): the student wrote or
+//     changed it, and it is left alone;
+//   - otherwise TO_STEP's function (comment lines, signature and body) is replaced by
+//     FROM_STEP's, and the rest of the file is untouched.
+// Prints one line per function it looked at. Exit 0, or 2 for bad input (no record, a step
+// that does not parse).
+#include <cctype>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+#include "error.h"
+#include "tools/lesson_markers.h"
+
+using ctlab::InputError;
+namespace fs = std::filesystem;
+
+namespace {
+
+const char* const record_path = ".ctlab/carry.txt";
+const char* const usage_text =
+    "usage: carry [--step NN] [--tree DIR]\n"
+    "In a student tree (default .), copies your version of each lesson function that a later\n"
+    "step uses unchanged into that step, where it is still the generated stub. Never\n"
+    "overwrites a function you wrote. --step NN: only into step NN.\n";
+
+struct Settings {
+    std::string step;  // "" = every step; else the two digits
+    std::string tree = ".";
+};
+
+Settings parse_arguments(int argc, char** argv) {
+    Settings settings;
+    for (int a = 1; a < argc; ++a) {
+        const std::string arg = argv[a];
+        auto value = [&]() -> std::string {
+            if (a + 1 >= argc || std::string(argv[a + 1]).empty()) {
+                throw InputError(arg + ": expected a value after it");
+            }
+            return argv[++a];
+        };
+        if (arg == "--step") {
+            settings.step = value();
+            if (settings.step.size() == 1) settings.step = "0" + settings.step;
+            if (settings.step.size() != 2 || !std::isdigit((unsigned char)settings.step[0]) ||
+                !std::isdigit((unsigned char)settings.step[1])) {
+                throw InputError("--step: expected a step number like 03, got '" +
+                                 settings.step + "'");
+            }
+        } else if (arg == "--tree") {
+            settings.tree = value();
+        } else if (arg == "--help" || arg == "-h") {
+            std::printf("%s", usage_text);
+            std::exit(0);
+        } else {
+            throw InputError("unknown argument '" + arg + "' (see carry --help)");
+        }
+    }
+    return settings;
+}
+
+struct Line {
+    std::string to, function, from, stub_hash;
+};
+
+std::vector<Line> read_record(const fs::path& tree) {
+    const fs::path path = tree / record_path;
+    if (!fs::is_regular_file(path)) {
+        throw InputError("no " + path.generic_string() + ": make carry works in a student tree "
+                         "made by make student");
+    }
+    std::vector<Line> lines;
+    std::istringstream text(lesson::read_text(path.string()));
+    std::string line;
+    while (std::getline(text, line)) {
+        if (line.empty() || line[0] == '#') continue;
+        std::istringstream words(line);
+        Line entry;
+        if (!(words >> entry.to >> entry.function >> entry.from >> entry.stub_hash)) {
+            throw InputError(path.generic_string() + ": cannot read the line '" + line + "'");
+        }
+        lines.push_back(entry);
+    }
+    return lines;
+}
+
+// The function `name` of a step source, or false when the step has none.
+bool find_function(const std::string& source, const std::string& path, const std::string& name,
+                   lesson::Function& found) {
+    const std::string masked = lesson::mask_code(source);
+    for (const lesson::Region& region : lesson::find_regions(source, path)) {
+        for (const auto& function : lesson::find_functions(source, masked, region, path)) {
+            if (function.name == name) {
+                found = function;
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+// A stub calls not_done(...) (common/not_done.h): such a body is still to write.
+bool is_stub(const std::string& function_text) {
+    for (const std::string& word : lesson::tokens(lesson::mask_code(function_text))) {
+        if (word == "not_done") return true;
+    }
+    return false;
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+    const fs::path temporary = path.string() + ".carry-tmp";
+    {
+        std::ofstream file(temporary, std::ios::binary);
+        file << text;
+        file.close();
+        if (!file) throw InputError("cannot write '" + temporary.string() + "'");
+    }
+    fs::rename(temporary, path);  // never a half-written step
+}
+
+int run(const Settings& settings) {
+    const fs::path tree = settings.tree;
+    int carried = 0, kept = 0, waiting = 0;
+    for (const Line& line : read_record(tree)) {
+        if (!settings.step.empty() && line.to.compare(0, 2, settings.step) != 0) continue;
+        const std::string to_path = "steps/" + line.to + ".cpp";
+        const std::string from_path = "steps/" + line.from + ".cpp";
+        const std::string what = line.to + ": " + line.function + "()";
+        if (!fs::exists(tree / to_path) || !fs::exists(tree / from_path)) {
+            std::printf("%s: skipped, %s or %s is missing\n", what.c_str(), to_path.c_str(),
+                        from_path.c_str());
+            continue;
+        }
+        const std::string from_source = lesson::read_text((tree / from_path).string());
+        std::string to_source = lesson::read_text((tree / to_path).string());
+        lesson::Function from_function, to_function;
+        if (!find_function(from_source, from_path, line.function, from_function)) {
+            std::printf("%s: skipped, %s has no %s() in a lesson region any more\n",
+                        what.c_str(), from_path.c_str(), line.function.c_str());
+            continue;
+        }
+        if (!find_function(to_source, to_path, line.function, to_function)) {
+            std::printf("%s: skipped, %s has no %s() in a lesson region any more\n",
+                        what.c_str(), to_path.c_str(), line.function.c_str());
+            continue;
+        }
+        const std::string from_text = lesson::function_text(from_source, from_function);
+        const std::string to_text = lesson::function_text(to_source, to_function);
+        if (is_stub(from_text)) {
+            std::printf("%s: not yet, write it in %s first\n", what.c_str(), line.from.c_str());
+            ++waiting;
+        } else if (to_text == from_text) {
+            std::printf("%s: already the same as in %s\n", what.c_str(), line.from.c_str());
+        } else if (lesson::content_hash(to_text) != line.stub_hash) {
+            std::printf("%s: kept, you have changed it there (it differs from %s's)\n",
+                        what.c_str(), line.from.c_str());
+            ++kept;
+        } else {
+            size_t end = to_source.find('\n', to_function.body_close);
+            end = end == std::string::npos ? to_source.size() : end + 1;
+            to_source.replace(to_function.start, end - to_function.start, from_text);
+            write_text(tree / to_path, to_source);
+            std::printf("%s: carried from %s\n", what.c_str(), line.from.c_str());
+            ++carried;
+        }
+    }
+    std::printf("carry: %d function(s) carried, %d kept as you wrote them, %d still to write "
+                "in an earlier step\n", carried, kept, waiting);
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run(parse_arguments(argc, argv));
+    } catch (const std::exception& error) {  // InputError, or a filesystem error
+        std::fprintf(stderr, "carry: error: %s\n", error.what());
+        return ctlab::exit_bad_input;
+    }
+}

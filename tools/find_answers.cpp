@@ -1,0 +1,167 @@
+// find_answers.cpp: looks for the solution's lesson bodies in a folder, e.g. a generated
+// student tree, which must hold none (issue #10; tests/student_test.sh runs it).
+//
+//   build/find_answers --solution DIR --in DIR [--list]
+//
+// The answers are the bodies of the lesson functions of DIR/steps/NN_*.cpp (the functions in
+// the `//> lesson:` regions, tools/lesson_markers.h): each whole body, whitespace-normalised,
+// and each of its distinctive code lines (24 characters or more, comment left out, and found
+// nowhere in the solution outside the lesson bodies: not in a main(), a stub or common/).
+// Every file under --in is searched, whatever its kind (code, handouts, data, build scripts),
+// with whitespace normalised, so a re-indented copy or a handout listing is found as well.
+// Prints one line per find, "FILE:LINE: STEP FUNCTION(): LINE-OR-BODY", and exits 1 when
+// there is any, 0 when there is none, 2 for bad arguments. --list prints the answers searched.
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+#include "error.h"
+#include "tools/lesson_markers.h"
+
+using ctlab::InputError;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int exit_found = 1;
+constexpr size_t shown_characters = 70;  // of an answer, in a report line
+const char* const usage_text =
+    "usage: find_answers --solution DIR --in DIR [--list]\n"
+    "Searches every file under --in for the bodies of the lesson functions of\n"
+    "--solution's steps (whole, or one distinctive line); exit 1 when one is found.\n";
+
+struct Settings {
+    std::string solution, in;
+    bool list = false;
+};
+
+Settings parse_arguments(int argc, char** argv) {
+    Settings settings;
+    for (int a = 1; a < argc; ++a) {
+        const std::string arg = argv[a];
+        auto value = [&]() -> std::string {
+            if (a + 1 >= argc || std::string(argv[a + 1]).empty()) {
+                throw InputError(arg + ": expected a folder after it");
+            }
+            return argv[++a];
+        };
+        if (arg == "--solution") {
+            settings.solution = value();
+        } else if (arg == "--in") {
+            settings.in = value();
+        } else if (arg == "--list") {
+            settings.list = true;
+        } else if (arg == "--help" || arg == "-h") {
+            std::printf("%s", usage_text);
+            std::exit(0);
+        } else {
+            throw InputError("unknown argument '" + arg + "' (see find_answers --help)");
+        }
+    }
+    if (settings.solution.empty() || settings.in.empty()) {
+        throw InputError("expected --solution DIR and --in DIR (see find_answers --help)");
+    }
+    if (!fs::is_directory(fs::path(settings.solution) / "steps")) {
+        throw InputError("--solution: '" + settings.solution + "' has no steps/ folder");
+    }
+    if (!fs::is_directory(settings.in)) {
+        throw InputError("--in: '" + settings.in + "' is not a folder");
+    }
+    return settings;
+}
+
+std::vector<fs::path> files_under(const fs::path& folder, const std::string& extension = "") {
+    std::vector<fs::path> files;
+    for (const auto& item : fs::recursive_directory_iterator(folder)) {
+        if (item.is_regular_file() && !item.is_symlink() &&
+            (extension.empty() || item.path().extension() == extension)) {
+            files.push_back(item.path());
+        }
+    }
+    std::sort(files.begin(), files.end());
+    return files;
+}
+
+bool is_step(const fs::path& path) {
+    const std::string name = path.filename().string();
+    return name.size() > 3 && std::isdigit(static_cast<unsigned char>(name[0])) &&
+           std::isdigit(static_cast<unsigned char>(name[1])) && name[2] == '_' &&
+           path.extension() == ".cpp";
+}
+
+std::vector<lesson::Answer> solution_answers(const fs::path& solution) {
+    std::vector<lesson::Answer> candidates;
+    std::vector<std::string> elsewhere;
+    for (const fs::path& path : files_under(solution / "steps", ".cpp")) {
+        if (!is_step(path)) continue;
+        const std::string relative = fs::relative(path, solution).generic_string();
+        const auto found = lesson::lesson_bodies(lesson::read_text(path.string()), relative,
+                                                 path.stem().string(), elsewhere);
+        candidates.insert(candidates.end(), found.begin(), found.end());
+    }
+    if (candidates.empty()) {
+        throw InputError("--solution: no lesson function in '" + solution.string() + "/steps'");
+    }
+    // common/ is everybody's: a line it has is no answer.
+    if (fs::is_directory(solution / "common")) {
+        for (const fs::path& path : files_under(solution / "common")) {
+            const std::string text = lesson::read_text(path.string());
+            const std::string masked = lesson::mask_code(text);
+            size_t at = 0;
+            while (at < text.size()) {
+                size_t end = text.find('\n', at);
+                if (end == std::string::npos) end = text.size();
+                const std::string code = lesson::collapse_spaces(lesson::code_of_line(
+                    text.substr(at, end - at), masked.substr(at, end - at)));
+                if (!code.empty()) elsewhere.push_back(code);
+                at = end + 1;
+            }
+        }
+    }
+    std::sort(elsewhere.begin(), elsewhere.end());
+    elsewhere.erase(std::unique(elsewhere.begin(), elsewhere.end()), elsewhere.end());
+    return lesson::distinctive_answers(candidates, elsewhere);
+}
+
+std::string shown(const std::string& text) {
+    return text.size() <= shown_characters ? text : text.substr(0, shown_characters - 3) + "...";
+}
+
+int run(const Settings& settings) {
+    const std::vector<lesson::Answer> answers = solution_answers(settings.solution);
+    if (settings.list) {
+        for (const lesson::Answer& answer : answers) {
+            std::printf("%s %s(): %s%s\n", answer.step.c_str(), answer.function.c_str(),
+                        answer.whole_body ? "body: " : "", shown(answer.text).c_str());
+        }
+    }
+    int found = 0;
+    size_t files = 0;
+    for (const fs::path& path : files_under(settings.in)) {
+        ++files;
+        const std::string text = lesson::read_text(path.string());
+        for (const lesson::Leak& leak : lesson::find_answers(text, answers)) {
+            std::printf("%s:%d: %s %s(): %s%s\n", path.generic_string().c_str(), leak.line,
+                        leak.answer->step.c_str(), leak.answer->function.c_str(),
+                        leak.answer->whole_body ? "the whole body" : "",
+                        leak.answer->whole_body ? "" : shown(leak.answer->text).c_str());
+            ++found;
+        }
+    }
+    std::fprintf(stderr, "find_answers: %zu answers (bodies and lines) searched in %zu files "
+                 "under %s: %d found\n", answers.size(), files, settings.in.c_str(), found);
+    return found > 0 ? exit_found : 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run(parse_arguments(argc, argv));
+    } catch (const std::exception& error) {  // InputError, or a filesystem error
+        std::fprintf(stderr, "find_answers: error: %s\n", error.what());
+        return ctlab::exit_bad_input;
+    }
+}
