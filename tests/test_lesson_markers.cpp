@@ -120,3 +120,48 @@ TEST_CASE("listings: found, refreshed, and errors for a missing marker") {
     CHECK_THROWS_AS(lesson::find_listings("<!-- listing: a.cpp m -->\nno fence\n", "h.md"),
                     ctlab::InputError);
 }
+
+TEST_CASE("answers: a lesson body is found whole or by a distinctive line, whitespace ignored") {
+    const std::string step =
+        "constexpr const char* step_name = \"02_x\";\n"
+        "//> lesson: hit\n"
+        "// The first sample above the threshold.\n"
+        "static int hit(const int* values, int count, int threshold) {\n"
+        "    for (int t = 0; t < count; ++t) {  // a loop header alone is no answer\n"
+        "        if (values[t] > threshold) return t;\n"
+        "        const int shared_with_main = count - 1;\n"
+        "    }\n"
+        "    return -1;\n"
+        "}\n"
+        "//< lesson: hit\n"
+        "int main() {\n"
+        "    const int count = 3;\n"
+        "        const int shared_with_main = count - 1;\n"
+        "    return shared_with_main;\n"
+        "}\n";
+    std::vector<std::string> elsewhere;
+    const auto candidates = lesson::lesson_bodies(step, "steps/02_x.cpp", "02_x", elsewhere);
+    const auto answers = lesson::distinctive_answers(candidates, elsewhere);
+    std::vector<std::string> texts;
+    for (const auto& answer : answers) texts.push_back(answer.text);
+    // The whole body; the one distinctive line. Not the loop header (no answer), not the
+    // line main() has too, not "return -1;" (too short to say anything), not the comment.
+    REQUIRE(texts.size() == 2);
+    CHECK(answers[0].whole_body);
+    CHECK(answers[0].function == "hit");
+    CHECK(texts[0].find("for (int t = 0; t < count; ++t) { // a loop header") == 0);
+    CHECK(texts[1] == "if (values[t] > threshold) return t;");
+
+    // Re-indented in a handout: the line is found, on its own line number.
+    const std::string handout = "# Notes\n\n```cpp\nif (values[t] >   threshold)\n"
+                                "  return t;\n```\n";
+    const auto leaks = lesson::find_answers(handout, answers);
+    REQUIRE(leaks.size() == 1);
+    CHECK(leaks[0].line == 4);
+    CHECK(leaks[0].answer->text == texts[1]);
+    // The stub and the rest of the step hold no answer.
+    CHECK(lesson::find_answers("static int hit(const int* values, int count, int threshold) {\n"
+                               "    not_done(step_name, \"hit\", values, count, threshold);\n"
+                               "    return {};\n}\n" + step.substr(step.find("int main")),
+                               answers).empty());
+}

@@ -72,65 +72,12 @@ Settings parse_arguments(int argc, char** argv) {
     return settings;
 }
 
-std::vector<fs::path> files_under(const fs::path& folder, const std::string& extension = "") {
-    std::vector<fs::path> files;
-    for (const auto& item : fs::recursive_directory_iterator(folder)) {
-        if (item.is_regular_file() && !item.is_symlink() &&
-            (extension.empty() || item.path().extension() == extension)) {
-            files.push_back(item.path());
-        }
-    }
-    std::sort(files.begin(), files.end());
-    return files;
-}
-
-bool is_step(const fs::path& path) {
-    const std::string name = path.filename().string();
-    return name.size() > 3 && std::isdigit(static_cast<unsigned char>(name[0])) &&
-           std::isdigit(static_cast<unsigned char>(name[1])) && name[2] == '_' &&
-           path.extension() == ".cpp";
-}
-
-std::vector<lesson::Answer> solution_answers(const fs::path& solution) {
-    std::vector<lesson::Answer> candidates;
-    std::vector<std::string> elsewhere;
-    for (const fs::path& path : files_under(solution / "steps", ".cpp")) {
-        if (!is_step(path)) continue;
-        const std::string relative = fs::relative(path, solution).generic_string();
-        const auto found = lesson::lesson_bodies(lesson::read_text(path.string()), relative,
-                                                 path.stem().string(), elsewhere);
-        candidates.insert(candidates.end(), found.begin(), found.end());
-    }
-    if (candidates.empty()) {
-        throw InputError("--solution: no lesson function in '" + solution.string() + "/steps'");
-    }
-    // common/ is everybody's: a line it has is no answer.
-    if (fs::is_directory(solution / "common")) {
-        for (const fs::path& path : files_under(solution / "common")) {
-            const std::string text = lesson::read_text(path.string());
-            const std::string masked = lesson::mask_code(text);
-            size_t at = 0;
-            while (at < text.size()) {
-                size_t end = text.find('\n', at);
-                if (end == std::string::npos) end = text.size();
-                const std::string code = lesson::collapse_spaces(lesson::code_of_line(
-                    text.substr(at, end - at), masked.substr(at, end - at)));
-                if (!code.empty()) elsewhere.push_back(code);
-                at = end + 1;
-            }
-        }
-    }
-    std::sort(elsewhere.begin(), elsewhere.end());
-    elsewhere.erase(std::unique(elsewhere.begin(), elsewhere.end()), elsewhere.end());
-    return lesson::distinctive_answers(candidates, elsewhere);
-}
-
 std::string shown(const std::string& text) {
     return text.size() <= shown_characters ? text : text.substr(0, shown_characters - 3) + "...";
 }
 
 int run(const Settings& settings) {
-    const std::vector<lesson::Answer> answers = solution_answers(settings.solution);
+    const std::vector<lesson::Answer> answers = lesson::solution_answers(settings.solution);
     if (settings.list) {
         for (const lesson::Answer& answer : answers) {
             std::printf("%s %s(): %s%s\n", answer.step.c_str(), answer.function.c_str(),
@@ -139,7 +86,7 @@ int run(const Settings& settings) {
     }
     int found = 0;
     size_t files = 0;
-    for (const fs::path& path : files_under(settings.in)) {
+    for (const fs::path& path : lesson::files_under(settings.in)) {
         ++files;
         const std::string text = lesson::read_text(path.string());
         for (const lesson::Leak& leak : lesson::find_answers(text, answers)) {

@@ -16,7 +16,9 @@
 // The block holds the exact text of the region (marker lines left out), or of the function
 // with the comment lines above it.
 #pragma once
+#include <algorithm>
 #include <cctype>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -650,6 +652,65 @@ inline std::vector<Leak> find_answers(const std::string& text, const std::vector
         }
     }
     return leaks;
+}
+
+// The files under a folder, sorted (symbolic links left out); only those ending in
+// `extension` when it is given.
+inline std::vector<std::filesystem::path> files_under(const std::filesystem::path& folder,
+                                                      const std::string& extension = "") {
+    std::vector<std::filesystem::path> files;
+    for (const auto& item : std::filesystem::recursive_directory_iterator(folder)) {
+        if (item.is_regular_file() && !item.is_symlink() &&
+            (extension.empty() || item.path().extension() == extension)) {
+            files.push_back(item.path());
+        }
+    }
+    std::sort(files.begin(), files.end());
+    return files;
+}
+
+// steps/NN_name.cpp
+inline bool is_step(const std::filesystem::path& path) {
+    const std::string name = path.filename().string();
+    return name.size() > 3 && std::isdigit(static_cast<unsigned char>(name[0])) &&
+           std::isdigit(static_cast<unsigned char>(name[1])) && name[2] == '_' &&
+           path.extension() == ".cpp";
+}
+
+// The answers of a solution folder: the lesson bodies of its steps/NN_*.cpp, and their
+// distinctive lines (common/ and the steps outside the bodies are everybody's).
+inline std::vector<Answer> solution_answers(const std::filesystem::path& solution) {
+    std::vector<Answer> candidates;
+    std::vector<std::string> elsewhere;
+    for (const std::filesystem::path& path : files_under(solution / "steps", ".cpp")) {
+        if (!is_step(path)) continue;
+        const std::string relative = std::filesystem::relative(path, solution).generic_string();
+        const auto found =
+            lesson_bodies(read_text(path.string()), relative, path.stem().string(), elsewhere);
+        candidates.insert(candidates.end(), found.begin(), found.end());
+    }
+    if (candidates.empty()) {
+        throw InputError("no lesson function in '" + solution.string() + "/steps'");
+    }
+    // common/ is everybody's: a line it has is no answer.
+    if (std::filesystem::is_directory(solution / "common")) {
+        for (const std::filesystem::path& path : files_under(solution / "common")) {
+            const std::string text = read_text(path.string());
+            const std::string masked = mask_code(text);
+            size_t at = 0;
+            while (at < text.size()) {
+                size_t end = text.find('\n', at);
+                if (end == std::string::npos) end = text.size();
+                const std::string code = collapse_spaces(code_of_line(
+                    text.substr(at, end - at), masked.substr(at, end - at)));
+                if (!code.empty()) elsewhere.push_back(code);
+                at = end + 1;
+            }
+        }
+    }
+    std::sort(elsewhere.begin(), elsewhere.end());
+    elsewhere.erase(std::unique(elsewhere.begin(), elsewhere.end()), elsewhere.end());
+    return distinctive_answers(candidates, elsewhere);
 }
 
 }  // namespace lesson

@@ -51,6 +51,7 @@ const char* const readme_template = "tools/student_README.md";
 const char* const readme_steps = "{{steps}}";    // where the template wants the table
 const char* const pristine_folder = ".ctlab/pristine/";
 const char* const carry_record = ".ctlab/carry.txt";
+constexpr int shown_answers = 10;  // answers found in the kit, named in the warning
 constexpr size_t stub_width = 96;  // columns: stub calls wrap before this
 const char* const usage_text =
     "usage: make_student [--from DIR] [--to DIR] [--force]\n"
@@ -286,6 +287,30 @@ std::vector<std::string> files_to_copy(const fs::path& from) {
     return files;
 }
 
+// The kit must hold no lesson body of the solution (tools/find_answers.cpp checks a written
+// tree; tests/student_test.sh fails on any). Says on stderr where the generated tree has one.
+void warn_of_answers(const fs::path& from, const std::map<std::string, std::string>& tree) {
+    const std::vector<lesson::Answer> answers = lesson::solution_answers(from);
+    std::string where;
+    int found = 0;
+    for (const auto& [relative, text] : tree) {
+        for (const lesson::Leak& leak : lesson::find_answers(text, answers)) {
+            if (++found <= shown_answers) {
+                where += "\n  " + relative + ":" + std::to_string(leak.line) + ": " +
+                         leak.answer->step + " " + leak.answer->function + "()";
+            }
+        }
+    }
+    if (found == 0) return;
+    std::fprintf(stderr,
+                 "make_student: warning: the kit holds %d piece(s) of lesson bodies of the "
+                 "solution:%s%s\nmake_student: a tool or test that calls or copies a lesson "
+                 "function hands out its answer (all of them: build/find_answers --solution %s "
+                 "--in DIR)\n",
+                 found, where.c_str(), found > shown_answers ? "\n  ..." : "",
+                 from.string().c_str());
+}
+
 // Refuses to replace a folder that was not generated, or generated files changed since.
 void check_destination(const fs::path& to, bool force) {
     if (!fs::exists(to)) return;
@@ -385,6 +410,7 @@ int generate(const Settings& settings) {
         });
     }
 
+    warn_of_answers(from, tree);
     check_destination(to, settings.force);
     if (fs::exists(to / record_name)) fs::remove_all(to);  // only a tree we generated
     std::string record =
