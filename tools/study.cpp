@@ -13,7 +13,10 @@
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
 //              error measured here (handouts/numerics.md quotes them)
 //
-//   build/study [--out DIR] [--runs N]                     (make study: about a minute)
+//   build/study [--out DIR] [--runs N] [--quick]           (make study: about a minute)
+//
+// --quick (make study QUICK=1, run by CI so the study cannot rot): one render per case, the
+// phantom at 64 x 64 x 29 and a reference step of 1/16. Its figures are not to be quoted.
 //
 // Writes DIR/error_vs_time.csv, DIR/error_vs_time.png (log-log, a panel per study),
 // DIR/error_vs_time.md (the tables) and DIR/numerics.md. handouts/error_vs_time.md and
@@ -47,7 +50,10 @@ namespace {
 constexpr const char* tool_name = "study";
 constexpr int default_runs = 5;           // timed renders per case (median), after a warm-up
 constexpr int surface_threshold = 400;    // CT value of the analytic surfaces (and of bone)
-constexpr double reference_step = 1.0 / 32;  // voxels: the converged compositing reference
+double reference_step = 1.0 / 32;  // voxels: the converged compositing reference
+constexpr double quick_reference_step = 1.0 / 16;  // --quick
+constexpr int quick_dims[3] = {64, 64, 29};        // --quick: the phantom this size
+bool quick = false;
 constexpr double byte_units = 255;        // errors in 8-bit units: 0..1 times 255
 constexpr double pi = 3.14159265358979323846;
 constexpr double not_applicable = -1;     // an error column a case has no figure for
@@ -298,7 +304,9 @@ void depth_study() {
 // --- 2. Compositing: step size and opacity correction -----------------------------------
 
 const Volume& phantom() {
-    static const Volume volume = make_phantom();
+    static const Volume volume = quick ? make_phantom_sized(quick_dims[0], quick_dims[1],
+                                                            quick_dims[2])
+                                       : make_phantom();
     return volume;
 }
 
@@ -1154,9 +1162,16 @@ int run(int argc, char** argv) {
             out = argv[++n];
         } else if (flag == "--runs" && n + 1 < argc) {
             runs = parse_int("--runs", argv[++n], 1, 1000);
+        } else if (flag == "--quick") {
+            quick = true;
         } else {
-            throw InputError("usage: study [--out DIR] [--runs N], got '" + flag + "'");
+            throw InputError("usage: study [--out DIR] [--runs N] [--quick], got '" + flag +
+                             "'");
         }
+    }
+    if (quick) {
+        runs = 1;
+        reference_step = quick_reference_step;
     }
     make_folder(out);
     const std::string load_before = load_average();
@@ -1184,6 +1199,10 @@ int run(int argc, char** argv) {
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     std::ostringstream md;
     md << "# Error against run time: measured tables\n\n";
+    if (quick) {
+        md << "**Quick mode** (--quick): one render per case, a 64x64x29 phantom, reference step "
+              "1/16. Do not quote these figures.\n\n";
+    }
     md << format("Written by `make study` (tools/study.cpp) in %.0f s on %d cores; load average "
                  "%s before, %s after; other processes used %.0f%% of the cores meanwhile. "
                  "Times: median of %d renders, 1 thread.\n\n",
