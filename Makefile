@@ -116,6 +116,7 @@ test: deps
 	$(BUILD)/ctlab_tests
 	@sh tests/cli_test.sh $(BUILD)
 	@sh tests/bad_input_test.sh $(BUILD)
+	@sh tests/threshold_mistakes_test.sh $(BUILD)
 	@sh tests/window_test.sh $(BUILD)
 	@sh tests/student_test.sh $(BUILD)
 
