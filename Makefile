@@ -92,9 +92,9 @@ help:
 	@echo "make check-student   build student/, render every step, check against the reference"
 	@echo "make handouts   refresh the code listings in handouts/*.md from the steps' markers"
 	@echo "make bench      time every step and view, 1 thread and all cores, against a naive"
-	@echo "                loop: out/bench.md (run it on an idle machine)"
+	@echo "                loop: out/bench.md, and the handouts' speed tables (on an idle machine)"
 	@echo "make study      error against run time of the methods (depth, step size, early"
-	@echo "                termination, float/double): out/study/ (a minute or two)"
+	@echo "                termination, float/double): out/study/ and the handouts' tables"
 	@echo "make bench QUICK=1, make study QUICK=1   a quick run that checks they work (CI)"
 
 # Install missing Debian packages (as root: apt-get; otherwise prints the one sudo command).
@@ -117,6 +117,7 @@ test: deps
 	@sh tests/cli_test.sh $(BUILD)
 	@sh tests/bad_input_test.sh $(BUILD)
 	@sh tests/threshold_mistakes_test.sh $(BUILD)
+	@sh tests/measured_test.sh $(BUILD)
 	@sh tests/window_test.sh $(BUILD)
 	@sh tests/student_test.sh $(BUILD)
 
@@ -148,14 +149,30 @@ clean:
 # Every step and view timed with 1 thread and with all cores, and against a naive loop of the
 # same step (tools/bench.cpp): out/bench.md. Timing needs an idle machine: check `uptime`.
 # QUICK=1 (CI): a small volume and one render per case, to check the tool still works.
-bench: $(BUILD)/bench
-	$(BUILD)/bench $(if $(filter 1,$(QUICK)),--quick --out out/bench_quick.md,--out out/bench.md)
+# A full run then copies its figures into the handouts' <!-- measured: bench:... --> blocks
+# (tools/measured.cpp), so a handout's speed table is always the last `make bench`.
+bench: $(BUILD)/bench $(BUILD)/measured
+ifeq ($(QUICK),1)
+	$(BUILD)/bench --quick --out out/bench_quick.md
+else
+	$(BUILD)/bench --out out/bench.md
+	$(BUILD)/measured out/bench.md
+endif
 
 # Error against run time of each method and parameter, and the stiff numerical cases
 # (tools/study.cpp): out/study/error_vs_time.csv, .png and .md, out/study/numerics.md.
-# QUICK=1 (CI): one render per case, a small phantom (out/study_quick/).
-study: $(BUILD)/study
-	$(BUILD)/study $(if $(filter 1,$(QUICK)),--quick --out out/study_quick,--out out/study)
+# QUICK=1 (CI): one render per case, a small phantom (out/study_quick/). A full run then
+# copies its tables into the handouts' <!-- measured: study:... --> blocks and its plot to
+# handouts/error_vs_time.png.
+study: $(BUILD)/study $(BUILD)/measured
+ifeq ($(QUICK),1)
+	$(BUILD)/study --quick --out out/study_quick
+else
+	$(BUILD)/study --out out/study
+	$(BUILD)/measured out/study/error_vs_time.md
+	$(BUILD)/measured out/study/numerics.md
+	cp out/study/error_vs_time.png handouts/error_vs_time.png
+endif
 
 # --- Instructor and student kit: references, student skeletons, handout listings ----------
 # Render every step and view, and the variants data/reference/manifest.txt lists, into

@@ -470,6 +470,30 @@ std::string table(const std::vector<Row>& rows, int cores) {
     return out.str();
 }
 
+// One step's figures on the phantom as the handouts quote them, marked as section
+// "bench:NN_name" for tools/measured.cpp (make bench copies it into the handout's block).
+std::string step_section(const std::vector<Row>& rows, const std::string& step, int cores,
+                         int runs, double others_share) {
+    std::ostringstream out;
+    out << "<!-- section: bench:" << step << " -->\n";
+    out << text_of("Measured by `make bench` on %d cores (%s), median of %d renders; other "
+                   "processes used %.0f%% of the cores during the run.\n\n",
+                   cores, first_line_of("/proc/cpuinfo", "model name").c_str(), runs,
+                   100 * others_share);
+    out << "| view | 1 thread | " << cores << " threads | parallel speed-up | ns per sample, "
+        << "1 thread | naive loop |\n";
+    out << "|---|---:|---:|---:|---:|---:|\n";
+    for (const Row& r : rows) {
+        if (r.step != step) continue;
+        out << text_of("| %s | %.2f ms | %.2f ms | %.2fx | %.2f | %.1f ms |\n", r.view.c_str(),
+                       r.one.median, r.all.median, r.one.median / r.all.median,
+                       r.samples > 0 ? r.one.median * 1e6 / double(r.samples) : 0.0,
+                       r.naive.median);
+    }
+    out << "<!-- end section -->\n";
+    return out.str();
+}
+
 // The targets of issue 5, checked on the phantom's figures.
 std::string targets(const std::vector<Row>& rows, int cores) {
     std::ostringstream out;
@@ -609,6 +633,18 @@ int run(int argc, char** argv) {
                       "cores during the whole run (last column: during each step's timing); "
                       "figures taken above a few percent are not to be trusted.\n",
                       load_average().c_str(), 100 * others.share(), cores);
+    // The handouts quote these (make bench runs build/measured): only full runs of the
+    // phantom at default settings, so that a quick or a tuned run never reaches a handout.
+    if (!quick && extra_flags.empty() && volume_name == "phantom") {
+        report << "\n## Per step, as the handouts quote it\n\n";
+        std::vector<std::string> names;
+        for (const Row& row : phantom_rows) {
+            if (names.empty() || names.back() != row.step) names.push_back(row.step);
+        }
+        for (const std::string& name : names) {
+            report << step_section(phantom_rows, name, cores, runs, others.share()) << "\n";
+        }
+    }
 
     const size_t slash = out_path.rfind('/');
     if (slash != std::string::npos) make_folder(out_path.substr(0, slash));

@@ -1154,6 +1154,24 @@ std::string load_average() {
     return one + " " + five + " " + fifteen;
 }
 
+// The CPU's name, from /proc/cpuinfo ("unknown" elsewhere).
+std::string cpu_model() {
+    std::ifstream in("/proc/cpuinfo");
+    for (std::string line; std::getline(in, line);) {
+        if (line.compare(0, 10, "model name") != 0) continue;
+        const size_t colon = line.find(':');
+        if (colon != std::string::npos) return line.substr(line.find_first_not_of(' ', colon + 1));
+    }
+    return "unknown";
+}
+
+// BODY marked as section NAME for tools/measured.cpp; a quick run's figures are not marked,
+// so they can never reach a handout.
+std::string section(const std::string& name, const std::string& body) {
+    if (quick) return body;
+    return "<!-- section: " + name + " -->\n" + body + "<!-- end section -->\n";
+}
+
 int run(int argc, char** argv) {
     std::string out = "out/study";
     for (int n = 1; n < argc; ++n) {
@@ -1203,24 +1221,33 @@ int run(int argc, char** argv) {
         md << "**Quick mode** (--quick): one render per case, a 64x64x29 phantom, reference step "
               "1/16. Do not quote these figures.\n\n";
     }
-    md << format("Written by `make study` (tools/study.cpp) in %.0f s on %d cores; load average "
-                 "%s before, %s after; other processes used %.0f%% of the cores meanwhile. "
-                 "Times: median of %d renders, 1 thread.\n\n",
-                 total.ms() / 1000, cores, load_before.c_str(), load_average().c_str(),
-                 100 * others.share(), runs);
+    const std::string written_by = format(
+        "Written by `make study` (tools/study.cpp) in %.0f s on %d cores (%s); load average "
+        "%s before, %s after; other processes used %.0f%% of the cores meanwhile. "
+        "Times: median of %d renders, 1 thread.\n",
+        total.ms() / 1000, cores, cpu_model().c_str(), load_before.c_str(),
+        load_average().c_str(), 100 * others.share(), runs);
+    md << written_by << "\n";
+    // Each table marked as a section that tools/measured.cpp copies into the handouts' blocks
+    // of the same name (make study does), with the line saying where and how it was measured.
     md << "## First-hit depth (top view, 256x256x113, spacing 1:1:2; error in voxels)\n\n"
-       << markdown_table("depth", "step h (voxels)") << "\n";
+       << section("study:depth", written_by + "\n" + markdown_table("depth", "step h (voxels)"))
+       << "\n";
     md << "## Compositing step (step 08 lit, front view, T* = 0; error in 8-bit units against "
-          "step 1/32)\n\n" << markdown_table("step-reference", "step")
-       << "\n" << markdown_table("step", "step (voxels)") << "\n";
+          "step 1/32)\n\n"
+       << section("study:step", written_by + "\n" + markdown_table("step-reference", "step") +
+                                    "\n" + markdown_table("step", "step (voxels)"))
+       << "\n";
     md << "## Early ray termination (top view; error added against T* = 0, 8-bit units)\n\n"
-       << markdown_table("ert", "T*") << "\n";
+       << section("study:ert", written_by + "\n" + markdown_table("ert", "T*")) << "\n";
     md << "## Float against double sums (step 08, front view; ms column: float time / double "
-          "time)\n\n" << markdown_table("precision", "step") << "\n";
+          "time)\n\n"
+       << section("study:precision", written_by + "\n" + markdown_table("precision", "step"))
+       << "\n";
     std::ofstream(out + "/error_vs_time.md") << md.str();
-    std::ofstream(out + "/numerics.md") << "# The stiff cases, measured\n\n"
-                                        << "Written by `make study` (tools/study.cpp).\n\n"
-                                        << numerics_table(cost, rays);
+    std::ofstream(out + "/numerics.md")
+        << "# The stiff cases, measured\n\n"
+        << section("study:numerics", written_by + "\n" + numerics_table(cost, rays));
     std::printf("%s", numerics_table(cost, rays).c_str());
     std::printf("study: wrote %s/error_vs_time.{csv,png,md} and %s/numerics.md in %.0f s; "
                 "other processes used %.0f%% of the cores meanwhile\n",
