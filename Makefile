@@ -60,11 +60,14 @@ STEP_NAMES     := $(basename $(notdir $(STEP_SOURCES)))
 STEP_BINARIES  := $(addprefix $(BUILD)/,$(STEP_NAMES))
 COMMON_SOURCES := $(wildcard common/*.cpp)
 COMMON_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(COMMON_SOURCES))
-TOOL_SOURCES   := $(wildcard tools/*.cpp)
+# tools/run_step.cpp is no tool: it runs step binaries for the tests and tools (libctlab_tools).
+TOOL_LIB_SOURCES := tools/run_step.cpp
+TOOL_SOURCES   := $(filter-out $(TOOL_LIB_SOURCES),$(wildcard tools/*.cpp))
 TOOL_BINARIES  := $(patsubst tools/%.cpp,$(BUILD)/%,$(TOOL_SOURCES))
 TEST_SOURCES   := $(wildcard tests/*.cpp) tests/fuzz/targets.cpp  # targets: crash replays
 TEST_OBJECTS   := $(patsubst %.cpp,$(BUILD)/%.o,$(TEST_SOURCES))
 LIBCTLAB       := $(BUILD)/libctlab.a
+LIBTOOLS       := $(BUILD)/libctlab_tools.a
 
 .PHONY: all help deps demo test run diff clean $(STEP_NAMES)
 .PHONY: reference student check-student handouts  # the instructor and student kit, below
@@ -151,7 +154,7 @@ clean:
 # QUICK=1 (CI): a small volume and one render per case, to check the tool still works.
 # A full run then copies its figures into the handouts' <!-- measured: bench:... --> blocks
 # (tools/measured.cpp), so a handout's speed table is always the last `make bench`.
-bench: $(BUILD)/bench $(BUILD)/measured
+bench: $(BUILD)/bench $(BUILD)/measured $(STEP_BINARIES)
 ifeq ($(QUICK),1)
 	$(BUILD)/bench --quick --out out/bench_quick.md
 else
@@ -164,7 +167,7 @@ endif
 # QUICK=1 (CI): one render per case, a small phantom (out/study_quick/). A full run then
 # copies its tables into the handouts' <!-- measured: study:... --> blocks and its plot to
 # handouts/error_vs_time.png.
-study: $(BUILD)/study $(BUILD)/measured
+study: $(BUILD)/study $(BUILD)/measured $(STEP_BINARIES)
 ifeq ($(QUICK),1)
 	$(BUILD)/study --quick --out out/study_quick
 else
@@ -235,16 +238,20 @@ $(BUILD)/%.o: %.cpp
 $(LIBCTLAB): $(COMMON_OBJECTS)
 	$(AR) rcs $@ $^
 
+$(LIBTOOLS): $(patsubst %.cpp,$(BUILD)/%.o,$(TOOL_LIB_SOURCES))
+	$(AR) rcs $@ $^
+
 $(BUILD)/%: $(BUILD)/steps/%.o $(LIBCTLAB)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(BUILD)/%: $(BUILD)/tools/%.o $(LIBCTLAB)
+$(BUILD)/%: $(BUILD)/tools/%.o $(LIBTOOLS) $(LIBCTLAB)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 $(BUILD)/fuzz_%: $(BUILD)/tests/fuzz/fuzz_%.o $(BUILD)/tests/fuzz/targets.o $(LIBCTLAB)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(BUILD)/ctlab_tests: $(TEST_OBJECTS) $(LIBCTLAB)
+# The tests run the step binaries (tools/run_step.h): built with them.
+$(BUILD)/ctlab_tests: $(TEST_OBJECTS) $(LIBTOOLS) $(LIBCTLAB) | $(STEP_BINARIES)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)
