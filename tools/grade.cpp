@@ -48,6 +48,7 @@
 #include "compare.h"
 #include "error.h"
 #include "image.h"
+#include "tools/run_step.h"
 
 using namespace ctlab;
 namespace fs = std::filesystem;
@@ -269,20 +270,9 @@ std::vector<Step> read_manifest(const fs::path& path, const std::vector<std::str
     return steps;
 }
 
-// REFERENCE/counters.txt: "NAME: step=.. view=V key=value ..." -> (NAME, V) -> key -> value.
-using Summary = std::map<std::string, std::string>;
+// REFERENCE/counters.txt: "NAME: step=.. view=V key=value ..." -> (NAME, V) -> key -> value
+// (Summary and parse_summary: tools/run_step.h).
 using CounterTable = std::map<std::pair<std::string, std::string>, Summary>;
-
-Summary parse_summary(const std::string& line) {
-    Summary fields;
-    for (const std::string& word : split_words(line)) {
-        const size_t equals = word.find('=');
-        if (equals != std::string::npos && equals > 0) {
-            fields[word.substr(0, equals)] = word.substr(equals + 1);
-        }
-    }
-    return fields;
-}
 
 std::optional<CounterTable> read_counters(const fs::path& path) {
     std::error_code error;
@@ -303,6 +293,9 @@ std::optional<CounterTable> read_counters(const fs::path& path) {
 }
 
 // --- Running a step as a process -----------------------------------------------------------
+// Not run_program (tools/run_step.h): a step runs inside the tree (its relative paths, e.g.
+// data/tf/, are the tree's), in a process group of its own, its output read within a bound,
+// and a signal kept apart from an exit status.
 
 struct Outcome {
     bool started = false;
