@@ -4,10 +4,11 @@
 // the instructor will see.
 //
 //   build/grade [--tree DIR] [--bin DIR] [--reference DIR] [--out DIR] [--step NN]...
-//               [--view top|front|side] [--args "FLAGS"] [--timeout SECONDS]
+//               [--view top|front|side] [--args "FLAGS"] [--volume PATH] [--timeout S]
 //
 // For each run (manifest line `NAME: ARGUMENTS [tol=N] [counters=LIST]`) the step's binary is
-// run as a process in the tree:  BIN/NN_name --volume phantom --no-window --out OUT/NAME ARGS
+// run as a process in the tree:  BIN/NN_name --volume V --no-window --out OUT/NAME ARGS
+// (V: the phantom, or the volume REFERENCE/volume.txt names)
 // into a folder emptied first (an old picture never passes). Then, for each view:
 //   - the picture against REFERENCE/NN_name_<view>[_VARIANT].png, within the run's tolerance
 //     (8-bit units, common/compare.h);
@@ -69,9 +70,9 @@ const std::vector<std::string> work_counters = {"samples", "skipped", "leapt",
 
 const char* const usage_text =
     "usage: grade [--tree DIR] [--bin DIR] [--reference DIR] [--out DIR] [--step NN]...\n"
-    "             [--view top|front|side] [--args \"FLAGS\"] [--timeout SECONDS]\n"
+    "             [--view top|front|side] [--args \"FLAGS\"] [--volume PATH] [--timeout S]\n"
     "\n"
-    "Runs every step of the tree with every run of REFERENCE/manifest.txt on the phantom and\n"
+    "Runs every step of the tree with every run of REFERENCE/manifest.txt (on the phantom) and\n"
     "compares each picture and the summary lines' work counters with the reference run's.\n"
     "\n"
     "  --tree DIR        the lab or a student tree: its steps/ say which steps exist, and the\n"
@@ -83,6 +84,9 @@ const char* const usage_text =
     "  --step NN         grade only step NN (repeatable; default every step)\n"
     "  --view V          render and grade only view V (runs that choose a view are kept)\n"
     "  --args \"FLAGS\"    more flags for every run, split at spaces (e.g. \"--threads 1\")\n"
+    "  --volume PATH     the volume to render (default: REFERENCE/volume.txt's volume: and\n"
+    "                    arguments: lines, as make reference VOLUME=... writes them; else\n"
+    "                    the phantom)\n"
     "  --timeout S       seconds a run may take before it is stopped (default 120)\n"
     "  --help            this text\n"
     "\n"
@@ -95,6 +99,8 @@ struct Settings {
     std::vector<std::string> steps;  // NN or NN_name; empty: all
     std::string view;                // "" = every view
     std::vector<std::string> extra_args;
+    std::string volume;                       // "" = REFERENCE/volume.txt's, else the phantom
+    std::vector<std::string> volume_args;     // --dims ... from REFERENCE/volume.txt
     double timeout_s = default_timeout_s;
 };
 
@@ -140,6 +146,9 @@ Settings parse_arguments(int argc, char** argv) {
             for (const std::string& word : split_words(value())) {
                 settings.extra_args.push_back(word);
             }
+        } else if (arg == "--volume") {
+            settings.volume = value();
+            if (settings.volume.empty()) throw InputError("--volume: expected a file or phantom");
         } else if (arg == "--timeout") {
             settings.timeout_s = parse_double(arg, value(), 0.1, 24 * 3600);
         } else {
@@ -522,7 +531,9 @@ private:
 // "build/02_threshold --volume phantom --view top --threshold 500 --debug-pixel 12,40".
 std::string Grader::command_for(const Step& step, const Run& run, const std::string& view,
                                 const std::string& more) const {
-    std::string text = relative_to(settings_.bin / step.name, cwd_) + " --volume phantom";
+    std::string text = relative_to(settings_.bin / step.name, cwd_) + " --volume " +
+                       settings_.volume;
+    if (!settings_.volume_args.empty()) text += " " + join(settings_.volume_args);
     const bool chooses_view = std::find(run.arguments.begin(), run.arguments.end(),
                                         "--view") != run.arguments.end();
     if (!chooses_view && !view.empty()) text += " --view " + view;
@@ -652,8 +663,10 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
     if (error) throw InputError("cannot empty '" + folder.string() + "': " + error.message());
     make_folder(folder.string());
 
-    std::vector<std::string> arguments = {"--volume", "phantom", "--no-window", "--out",
+    std::vector<std::string> arguments = {"--volume", settings_.volume, "--no-window", "--out",
                                           fs::absolute(folder).string()};
+    arguments.insert(arguments.end(), settings_.volume_args.begin(),
+                     settings_.volume_args.end());
     const bool chooses_view =
         std::find(run.arguments.begin(), run.arguments.end(), "--view") != run.arguments.end();
     if (!settings_.view.empty() && !chooses_view) {
@@ -842,12 +855,25 @@ int Grader::run() {
     }
     const std::vector<Step> steps = read_manifest(manifest_path, names);
     counters_ = read_counters(settings_.reference / "counters.txt");
+    // A reference folder made from another volume says which (make reference VOLUME=...).
+    const fs::path volume_record = settings_.reference / "volume.txt";
+    if (fs::is_regular_file(fs::symlink_status(volume_record, error))) {
+        std::istringstream lines(read_bounded(volume_record, max_manifest_bytes));
+        for (std::string line; std::getline(lines, line);) {
+            if (line.rfind("volume:", 0) == 0 && settings_.volume.empty()) {
+                settings_.volume = trim(line.substr(7));
+            } else if (line.rfind("arguments:", 0) == 0) {
+                settings_.volume_args = split_words(line.substr(10));
+            }
+        }
+    }
+    if (settings_.volume.empty()) settings_.volume = "phantom";
     make_folder(settings_.out.string());
     fs::remove_all(settings_.out / "side_by_side", error);
 
-    std::printf("grading %zu step%s of %s against %s%s\n", steps.size(),
+    std::printf("grading %zu step%s of %s against %s on %s%s\n", steps.size(),
                 steps.size() == 1 ? "" : "s", relative_to(settings_.tree, cwd_).c_str(),
-                relative_to(settings_.reference, cwd_).c_str(),
+                relative_to(settings_.reference, cwd_).c_str(), settings_.volume.c_str(),
                 counters_ ? "" : " (no counters.txt there: counters not checked)");
     std::fflush(stdout);
 
