@@ -580,6 +580,18 @@ void Grader::grade_counters(const Run& run, const std::string& view, const Summa
             number(reference, "samples") + number(reference, "leapt")) {
         text += ": samples+leapt is right, so every sample is read or leapt over, but the "
                 "leaps are too short or too long";
+    } else {
+        // What the first counter that differs usually points at.
+        static const std::map<std::string, std::string> hints = {
+            {"samples", "a loop's range, or where a ray stops"},
+            {"skipped", "which samples count as transparent (opacity 0) and are skipped"},
+            {"leapt", "the bricks leapt over, and how far each leap goes"},
+            {"gradients", "where a gradient is computed: only where the picture needs one"},
+            {"terminated", "where a ray stops early: the test against --ert (default 0.01)"},
+            {"hits", "the hit test: the threshold, > or >=, the loop's range"}};
+        const std::string first = differ[0].substr(0, differ[0].find('='));
+        const auto hint = hints.find(first);
+        if (hint != hints.end()) text += ": look at " + hint->second;
     }
     result.problems.push_back(text);
     result.look_at.push_back(text);
