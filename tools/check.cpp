@@ -921,7 +921,8 @@ int check_class(const Settings& settings) {
     std::vector<Student> students;
     std::set<std::string> taken;
     for (const Entry& entry : list_folder(class_folder)) {
-        if (entry.kind == Kind::file) continue;  // a class list, a zip: not a student
+        // A class list or a zip is no student, nor is a hidden folder (.git).
+        if (entry.kind == Kind::file || entry.name[0] == '.') continue;
         Student student;
         student.name = printable(entry.name);
         const OutputFolder student_out = students_out.subfolder(safe_component(entry.name, taken));
@@ -1003,7 +1004,10 @@ int check_class(const Settings& settings) {
     for (const Student& student : students) {
         for (const Row& row : student.rows) {
             if (row.result == "pass" || row.result == "extra") continue;
-            failures[{row.file, row.result + ": " + row.reason}].push_back(student.name);
+            const std::string verdict =
+                row.reason.empty() || row.reason == row.result ? row.result
+                                                               : row.result + ": " + row.reason;
+            failures[{row.file, verdict}].push_back(student.name);
         }
         if (student.rows.empty() && student.result == "error") {
             failures[{"(whole submission)", "error"}].push_back(student.name);
