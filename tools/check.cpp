@@ -48,6 +48,7 @@ constexpr double default_tolerance = 2;  // 8-bit units: rounding differences pa
 constexpr double max_tolerance = 255;    // 8-bit units: above this every picture passes
 constexpr int exit_pass = 0, exit_fail = 1;
 const char* const default_reference = "data/reference";
+constexpr size_t max_folder_entries = 100000;  // a submission or a class is far smaller
 const char* const pictures_folder = "pictures";  // OUT_DIR/pictures/NAME.png, side by side
 const char* const grade_tool = "grade";          // beside build/check: grades a student tree
 
@@ -262,6 +263,12 @@ std::vector<Entry> list_folder(const Folder& folder) {
     while (const dirent* item = ::readdir(listing)) {
         const std::string name = item->d_name;
         if (name == "." || name == "..") continue;
+        if (entries.size() == max_folder_entries) {
+            ::closedir(listing);
+            throw InputError("'" + printable(folder.shown) + "' holds more than " +
+                             std::to_string(max_folder_entries) +
+                             " entries: not a folder of pictures");
+        }
         struct stat info {};
         Kind kind = Kind::other;
         if (::fstatat(*folder.fd, name.c_str(), &info, AT_SYMLINK_NOFOLLOW) == 0) {
@@ -542,7 +549,12 @@ std::vector<std::string> cells(const Row& row) {
     return result;
 }
 
-std::string csv_field(const std::string& text) {
+std::string csv_field(std::string text) {
+    // A cell a spreadsheet would run as a formula (a file named "=HYPERLINK(...).png") is
+    // quoted as text with a leading apostrophe.
+    if (!text.empty() && std::string("=+@\t").find(text[0]) != std::string::npos) {
+        text = "'" + text;
+    }
     if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
     std::string quoted = "\"";
     for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
