@@ -14,6 +14,9 @@ SDL_CFLAGS := $(shell pkg-config --cflags sdl2 2>/dev/null)
 SDL_LIBS   := $(shell pkg-config --libs sdl2 2>/dev/null)
 CPPFLAGS += $(SDL_CFLAGS)
 LDLIBS   += $(SDL_LIBS) -pthread
+# The volume formats' libraries (common/format_*.cpp): nifticlib, teem (NRRD), GDCM, zlib.
+CPPFLAGS += -I/usr/include/gdcm-3.0 -I/usr/include/nifti
+LDLIBS   += -lniftiio -lznz -lteem -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
 # The builds inside demo, test and check-student use every core, unless make was given -j.
 JOBS     ?= $(shell nproc 2>/dev/null || echo 1)
 PARALLEL  = $(if $(filter -j%,$(MAKEFLAGS)),,-j$(JOBS))

@@ -1,6 +1,7 @@
 // args.cpp: strict parsing of the shared flags and a step's own.
 #include "args.h"
 #include <sys/stat.h>
+#include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -8,11 +9,13 @@
 #include <cstdlib>
 #include <thread>
 #include "error.h"
+#include "formats.h"
 #include "phantom.h"
 
 namespace ctlab {
 
 static const char* const default_cthead_path = "data/CThead";
+static bool is_file_units_flag(const std::string& flag);
 constexpr int max_threads = 256;
 
 int parse_int(const std::string& flag, const std::string& text, int min, int max) {
@@ -97,7 +100,8 @@ std::string Args::usage() const {
     std::string text = "usage: build/" + step_ + " [options]\n" + summary_ + "\n\n";
     text +=
         "  --volume PATH|phantom   CT volume (default: data/CThead if present, else the phantom)\n"
-        "  --dims NX,NY,NZ         raw file of NX*NY*NZ signed 16-bit values, no header\n"
+        "  --dims NX,NY,NZ         raw file of NX*NY*NZ values, no header\n"
+        "  --type T                raw sample type: uint8, int8, uint16, int16 (default), float32\n"
         "  --endian little|big     byte order of a raw file (default little)\n"
         "  --spacing SX,SY,SZ      voxel spacing (CThead: 1,1,2)\n"
         "  --view top|front|side|all   which views to render (default all)\n"
@@ -106,6 +110,7 @@ std::string Args::usage() const {
         "  --debug-pixel X,Y       print what happened along the ray of image column X, row Y\n"
         "  --threads N             render threads (default: all cores)\n"
         "  --help                  this text\n";
+    text += std::string("\n") + volume_formats_help();
     if (!flags_.empty()) text += "\nthis step:\n";
     for (const Flag& flag : flags_) {
         std::string line = "  " + flag.name;
@@ -169,6 +174,13 @@ Options Args::parse(int argc, char** argv) {
             }
             options.raw.endian = text == "little" ? Endian::little : Endian::big;
             options.has_endian = true;
+        } else if (flag == "--type") {
+            const std::string text = take_value();
+            if (!parse_sample_type(text, &options.raw.type)) {
+                throw InputError("--type: expected uint8, int8, uint16, int16 or float32, got '" +
+                                 text + "'");
+            }
+            options.has_type = true;
         } else if (flag == "--spacing") {
             const auto parts = split_list(flag, take_value(), 3, "SX,SY,SZ");
             constexpr double max_spacing = 1e6;
@@ -212,6 +224,22 @@ Options Args::parse(int argc, char** argv) {
                     break;
                 }
                 const std::string text = take_value();
+                if (own.kind == Kind::integer && is_file_units_flag(flag)) {
+                    // In the volume file's own units: converted by load_volume(). A whole
+                    // number in range also sets the target now (for a volume of int16 values).
+                    Options::FileUnitsFlag units;
+                    units.name = flag;
+                    units.value = parse_double(flag, text, -1e30, 1e30);
+                    units.target = static_cast<int*>(own.target);
+                    units.min = int(own.min);
+                    units.max = int(own.max);
+                    if (units.value == std::floor(units.value) && units.value >= own.min &&
+                        units.value <= own.max) {
+                        *units.target = int(units.value);
+                    }
+                    options.file_units.push_back(units);
+                    break;
+                }
                 switch (own.kind) {
                     case Kind::integer:
                         *static_cast<int*>(own.target) =
@@ -249,9 +277,31 @@ Options Args::parse(int argc, char** argv) {
     return options;
 }
 
+// The step flags whose numbers are values of the volume (in the file's own units).
+static bool is_file_units_flag(const std::string& flag) {
+    return flag == "--threshold" || flag == "--iso";
+}
+
 static bool file_exists(const std::string& path) {
     struct stat info {};
     return stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
+}
+
+// --threshold in file units -> the volume's int16 values. A hit is "value > threshold", so
+// the largest int16 t with file(t) <= T keeps exactly the same voxels: t = floor(T').
+static void convert_file_units(const Options& options, const Volume& volume) {
+    for (const Options::FileUnitsFlag& flag : options.file_units) {
+        const double converted = std::floor(volume.map.to_volume(flag.value) + 1e-9);
+        if (volume.map.identity() && (converted < flag.min || converted > flag.max)) {
+            throw InputError(flag.name + ": expected a number from " + std::to_string(flag.min) +
+                             " to " + std::to_string(flag.max) + ", got " + number_text(flag.value));
+        }
+        *flag.target = int(std::clamp(converted, double(flag.min), double(flag.max)));
+        if (!volume.map.identity()) {
+            std::printf("units: %s %s (file units) = %d in the volume's values\n",
+                        flag.name.c_str(), number_text(flag.value).c_str(), *flag.target);
+        }
+    }
 }
 
 Volume load_volume(const Options& options) {
@@ -265,15 +315,28 @@ Volume load_volume(const Options& options) {
         } else {
             volume = make_phantom();
         }
+        volume.format = "phantom";
         if (options.has_spacing) {
             volume.sx = options.raw.sx;
             volume.sy = options.raw.sy;
             volume.sz = options.raw.sz;
         }
+    } else if (volume_format_of(path) == "nifti") {
+        volume = load_nifti(path);
+    } else if (volume_format_of(path) == "nrrd") {
+        volume = load_nrrd(path);
+    } else if (volume_format_of(path) == "metaimage") {
+        volume = load_metaimage(path);
+    } else if (volume_format_of(path) == "dicom") {
+        volume = load_dicom_series(path);
     } else if (options.has_dims) {
         RawFormat format = options.raw;
         volume = load_raw(path, format);
-    } else if (options.has_endian || options.has_spacing) {
+    } else if (RawFormat named = options.raw; raw_format_from_name(path, &named)) {
+        // foot_256x256x256_uint8.raw: dims and type from the name (--type still wins).
+        if (options.has_type) named.type = options.raw.type;
+        volume = load_raw(path, named);
+    } else if (options.has_endian || options.has_spacing || options.has_type) {
         // A CThead-sized file with another byte order or spacing.
         RawFormat format = options.raw;
         format.nx = cthead_nx;
@@ -288,9 +351,13 @@ Volume load_volume(const Options& options) {
     } else {
         volume = load_cthead(path);
     }
-    std::printf("volume=%s dims=%dx%dx%d spacing=%g,%g,%g min=%d max=%d\n", volume.name.c_str(),
-                volume.nx, volume.ny, volume.nz, volume.sx, volume.sy, volume.sz,
-                volume.min_value, volume.max_value);
+    if (volume.format != "raw" && volume.format != "phantom" && options.has_spacing) {
+        volume.sx = options.raw.sx;  // --spacing overrides what the file says
+        volume.sy = options.raw.sy;
+        volume.sz = options.raw.sz;
+    }
+    std::printf("%s\n", volume_line(volume).c_str());
+    convert_file_units(options, volume);
     return volume;
 }
 

@@ -4,6 +4,10 @@
 #   sh tools/install-deps.sh        what building, running and testing the lab needs
 #   sh tools/install-deps.sh fuzz   also clang and its libFuzzer runtime (make fuzz)
 packages="g++ make pkg-config libsdl2-dev libstb-dev doctest-dev xvfb xauth xdotool"
+# The volume formats: nifticlib, teem (NRRD), GDCM (DICOM), zlib; the tests' independent
+# writers of those files: nibabel, pydicom, numpy.
+packages="$packages libnifti2-dev libteem-dev libgdcm-dev zlib1g-dev"
+packages="$packages python3-nibabel python3-pydicom python3-numpy"
 [ "${1:-}" = fuzz ] && packages="$packages clang libclang-rt-dev"
 missing=""
 for package in $packages; do
