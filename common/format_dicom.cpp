@@ -71,7 +71,9 @@ Volume load_dicom_series(const std::string& folder) {
         if (files.size() > max_slices) break;
     }
     closedir(directory);
-    if (files.empty()) throw InputError(prefix + "holds no files");
+    if (files.empty()) {
+        throw InputError("'" + folder + "' is a folder, not a file, and holds no DICOM slices");
+    }
     if (files.size() > max_slices) {
         throw InputError(prefix + "holds more than " + std::to_string(max_slices) + " files");
     }

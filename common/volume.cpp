@@ -305,7 +305,6 @@ static void check_size(const std::string& path, uint64_t expected, const std::st
         throw InputError("cannot open '" + path + "': " + std::strerror(errno));
     }
     if (S_ISDIR(info.st_mode)) throw InputError("'" + path + "' is a folder, not a file");
-    if (!S_ISREG(info.st_mode)) throw InputError("'" + path + "' is not an ordinary file");
     if (uint64_t(info.st_size) != expected) {
         throw InputError(size_mismatch(path, uint64_t(info.st_size), expected, what));
     }
