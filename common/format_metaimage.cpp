@@ -172,7 +172,11 @@ Volume load_metaimage(const std::string& path) {
                              "': ctlab reads LOCAL or one data file");
         }
         const std::string data_path = data_name[0] == '/' ? data_name : folder_of(path) + data_name;
-        external = read_file_bytes(data_path);
+        try {
+            external = read_file_bytes(data_path);
+        } catch (const InputError& error) {
+            throw InputError(prefix + "its ElementDataFile: " + error.what());
+        }
         data = external.data();
         data_size = external.size();
         const std::string header_size = field("headersize");

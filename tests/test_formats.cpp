@@ -7,7 +7,10 @@
 // and flips, with the affine or directions that describe it.
 #include <doctest/doctest.h>
 #include <sys/wait.h>
+#include <unistd.h>
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <iterator>
 #include <cstdio>
 #include <cstdlib>
@@ -196,4 +199,139 @@ TEST_CASE("formats: the volume line names the format, the map and the orientatio
     CHECK(line.find("format=nifti") != std::string::npos);
     CHECK(line.find("map=file=1*v+") != std::string::npos);
     CHECK(line.find("orientation=flipped j,k from RAS") != std::string::npos);
+}
+
+namespace {
+
+std::vector<unsigned char> bytes_of(const std::string& path) { return read_file_bytes(path); }
+
+void write_bytes(const std::string& path, const std::vector<unsigned char>& bytes) {
+    std::ofstream out(path, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+}
+
+void write_text(const std::string& path, const std::string& text) {
+    std::ofstream out(path, std::ios::binary);
+    out << text;
+}
+
+std::string build_folder() {
+    char path[4096];
+    const ssize_t size = readlink("/proc/self/exe", path, sizeof path - 1);
+    if (size <= 0) return "build";
+    return std::filesystem::path(std::string(path, size_t(size))).parent_path().string();
+}
+
+}  // namespace
+
+TEST_CASE("formats: a bad file of each format gets one line naming it, and exit status 2") {
+    if (skip_note()) return;
+    TempFolder bad("formats_bad");
+    const std::string good = written().folder.path();
+    std::vector<std::pair<std::string, std::string>> cases;  // path, a part of the message
+    auto add = [&](const std::string& name, const std::vector<unsigned char>& bytes,
+                   const std::string& says) {
+        write_bytes(bad.path(name), bytes);
+        cases.push_back({bad.path(name), says});
+    };
+    auto cut = [](std::vector<unsigned char> bytes, size_t size) {
+        bytes.resize(std::min(size, bytes.size()));
+        return bytes;
+    };
+    const auto nifti = bytes_of(good + "/nifti_ijk_sfs.nii");
+    add("short.nii", cut(nifti, nifti.size() - 7), "bytes, its header needs");
+    add("header_only.nii", cut(nifti, 200), "not a NIfTI-1 file");
+    add("empty.nii", {}, "not a NIfTI-1 file");
+    auto no_dims = nifti;
+    no_dims[40] = 0;  // dim[0] = 0: no dimensions
+    no_dims[41] = 0;
+    add("dim0.nii", no_dims, "NIfTI");
+    auto datatype = nifti;
+    datatype[70] = 128;  // DT_RGB24
+    datatype[71] = 0;
+    add("rgb.nii", datatype, "data type");
+    const auto gz = bytes_of(good + "/nifti_ijk_sss.nii.gz");
+    add("cut.nii.gz", cut(gz, gz.size() / 2), "NIfTI");
+
+    const auto nrrd = bytes_of(good + "/nrrd_ijk_sss_int16.nrrd");
+    add("short.nrrd", cut(nrrd, nrrd.size() - 3), "(NRRD)");
+    add("noheader.nrrd", {'N', 'R', 'R', 'D', '0', '0', '0', '4', '\n'}, "(NRRD)");
+    add("garbage.nrrd", {'h', 'e', 'l', 'l', 'o'}, "(NRRD)");
+    write_text(bad.path("four.nrrd"), "NRRD0004\ntype: short\ndimension: 4\nsizes: 2 2 2 2\n"
+                                      "encoding: raw\nendian: little\n\n" + std::string(32, '\0'));
+    cases.push_back({bad.path("four.nrrd"), "dimensions"});
+    write_text(bad.path("missing.nhdr"), "NRRD0004\ntype: short\ndimension: 3\nsizes: 2 2 2\n"
+                                         "encoding: raw\nendian: little\ndata file: nothing.raw\n");
+    cases.push_back({bad.path("missing.nhdr"), "(NRRD)"});
+
+    write_text(bad.path("short.mha"), "NDims = 3\nDimSize = 2 2 2\nElementType = MET_SHORT\n"
+                                      "ElementDataFile = LOCAL\n" + std::string(15, '\0'));
+    cases.push_back({bad.path("short.mha"), "expected exactly 16"});
+    write_text(bad.path("type.mha"), "NDims = 3\nDimSize = 2 2 2\nElementType = MET_RGB\n"
+                                     "ElementDataFile = LOCAL\n");
+    cases.push_back({bad.path("type.mha"), "ElementType"});
+    write_text(bad.path("missing.mhd"), "NDims = 3\nDimSize = 2 2 2\nElementType = MET_SHORT\n"
+                                        "ElementDataFile = nothing.raw\n");
+    cases.push_back({bad.path("missing.mhd"), "nothing.raw"});
+    write_text(bad.path("huge.mhd"), "NDims = 3\nDimSize = 100000 100000 100000\n"
+                                     "ElementType = MET_SHORT\nElementDataFile = LOCAL\n");
+    cases.push_back({bad.path("huge.mhd"), "over the limit"});
+    write_text(bad.path("zlib.mha"), "NDims = 3\nDimSize = 2 2 2\nElementType = MET_SHORT\n"
+                                     "CompressedData = True\nElementDataFile = LOCAL\nnot zlib");
+    cases.push_back({bad.path("zlib.mha"), "compressed data"});
+    write_text(bad.path("nodata.mhd"), "NDims = 3\nDimSize = 2 2 2\n");
+    cases.push_back({bad.path("nodata.mhd"), "no ElementDataFile"});
+
+    std::filesystem::create_directories(bad.path("dicom_mixed"));
+    std::filesystem::create_directories(bad.path("dicom_notes"));
+    std::filesystem::create_directories(bad.path("dicom_empty"));
+    for (const auto& entry : std::filesystem::directory_iterator(good + "/dicom_ijk_sss")) {
+        std::filesystem::copy(entry.path(), bad.path("dicom_mixed") + "/a_" + entry.path().filename().string());
+        std::filesystem::copy(entry.path(), bad.path("dicom_notes") + "/" + entry.path().filename().string());
+    }
+    for (const auto& entry : std::filesystem::directory_iterator(good + "/dicom_jik_sff")) {
+        std::filesystem::copy(entry.path(), bad.path("dicom_mixed") + "/b_" + entry.path().filename().string());
+    }
+    write_text(bad.path("dicom_notes") + "/notes.txt", "scanned on Tuesday\n");
+    cases.push_back({bad.path("dicom_mixed"), "more than one series"});
+    cases.push_back({bad.path("dicom_notes"), "is not a DICOM image"});
+    cases.push_back({bad.path("dicom_empty"), "holds no DICOM slices"});
+
+    add("head_4x4x4_uint8.raw", std::vector<unsigned char>(63), "expected exactly 64 for 4x4x4 uint8");
+    std::vector<unsigned char> nan_file(32, 0);  // 2x2x2 float32, the first a quiet NaN
+    nan_file[2] = 0xC0;                          // 0x7FC00000, little-endian
+    nan_file[3] = 0x7F;
+    add("head_2x2x2_float32.raw", nan_file, "NaN");
+
+    const std::string step = build_folder() + "/02_threshold";
+    const bool have_step = std::filesystem::exists(step);
+    if (!have_step) MESSAGE("not built: " << step << " (only the loaders are checked)");
+    for (const auto& [path, says] : cases) {
+        CAPTURE(path);
+        std::string message;
+        try {
+            load_any(path);
+            FAIL_CHECK("no InputError");
+        } catch (const InputError& error) {
+            message = error.what();
+        }
+        CHECK_MESSAGE(message.find(says) != std::string::npos, message);
+        CHECK_MESSAGE(message.find('\n') == std::string::npos, message);
+        CHECK_MESSAGE(message.find(path) != std::string::npos, message);
+        if (!have_step) continue;
+        // The step: exit status 2, one line on stderr (no library's own messages), no PNG.
+        const std::string out = bad.path("out");
+        std::filesystem::remove_all(out);
+        const std::string command = "'" + step + "' --volume '" + path +
+                                    "' --no-window --view top --out '" + out + "' > '" +
+                                    bad.path("stdout") + "' 2> '" + bad.path("stderr") + "'";
+        const int status = std::system(command.c_str());
+        CHECK(WIFEXITED(status));
+        CHECK(WEXITSTATUS(status) == 2);
+        std::ifstream err(bad.path("stderr"));
+        const std::string text((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
+        CHECK_MESSAGE(std::count(text.begin(), text.end(), '\n') == 1, text);
+        CHECK(text.rfind("02_threshold: error: ", 0) == 0);
+        CHECK(!std::filesystem::exists(out + "/02_threshold_top.png"));
+    }
 }
