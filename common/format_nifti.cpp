@@ -56,15 +56,17 @@ Volume load_nifti(const std::string& path) {
                              "; ctlab reads one 3-D volume");
         }
     }
-    const uint64_t voxels = check_volume_size(prefix + "dims", uint64_t(std::max(image->nx, 0)),
-                                              uint64_t(std::max(image->ny, 0)),
-                                              uint64_t(std::max(image->nz, 0)));
     SampleType type;
     if (!sample_type_of(image->datatype, &type)) {
         throw InputError(prefix + "data type " + nifti_datatype_string(image->datatype) +
                          " is not read (uint8, int8, uint16, int16, uint32, int32, float32, "
                          "float64 are)");
     }
+    // nifticlib keeps the file's copy while it is converted: both must fit.
+    const uint64_t voxels = check_volume_size(prefix + "dims", uint64_t(std::max(image->nx, 0)),
+                                              uint64_t(std::max(image->ny, 0)),
+                                              uint64_t(std::max(image->nz, 0)),
+                                              2 + sample_size(type));
     const double dx = std::fabs(image->dx), dy = std::fabs(image->dy), dz = std::fabs(image->dz);
     if (!(dx > 0 && dy > 0 && dz > 0) || !std::isfinite(dx + dy + dz)) {
         throw InputError(prefix + "pixdim spacing must be positive, got " + std::to_string(dx) +

@@ -77,11 +77,22 @@ Volume load_nrrd(const std::string& path) {
             throw InputError(prefix + "has " + std::to_string(n->dim) +
                              " dimensions; ctlab reads 2-D or 3-D");
         }
-        check_volume_size(prefix + "sizes", n->axis[0].size, n->axis[1].size,
-                          n->dim == 3 ? n->axis[2].size : 1);
         SampleType type;
         if (!sample_type_of(n->type, &type)) {
             throw InputError(prefix + "type " + airEnumStr(nrrdType, n->type) + " is not read");
+        }
+        // teem keeps the file's copy while it is converted: both must fit.
+        const uint64_t voxels = check_volume_size(prefix + "sizes", n->axis[0].size,
+                                                  n->axis[1].size,
+                                                  n->dim == 3 ? n->axis[2].size : 1,
+                                                  2 + sample_size(type));
+        // Raw data in this file: it must be there before teem allocates room for it.
+        const bool inline_data = io.io->dataFNArr == nullptr || io.io->dataFNArr->len == 0;
+        if (io.io->encoding == nrrdEncodingRaw && inline_data &&
+            uint64_t(info.st_size) < voxels * sample_size(type)) {
+            throw InputError(prefix + "has " + std::to_string(info.st_size) +
+                             " bytes, its header needs more than " +
+                             std::to_string(voxels * sample_size(type)));
         }
     }
     NrrdHolder holder;

@@ -195,7 +195,8 @@ static std::string dims_text(uint64_t nx, uint64_t ny, uint64_t nz) {
     return std::to_string(nx) + "x" + std::to_string(ny) + "x" + std::to_string(nz);
 }
 
-uint64_t check_volume_size(const std::string& what, uint64_t nx, uint64_t ny, uint64_t nz) {
+uint64_t check_volume_size(const std::string& what, uint64_t nx, uint64_t ny, uint64_t nz,
+                           uint64_t bytes_per_voxel) {
     if (nx < 1 || ny < 1 || nz < 1) {
         throw InputError(what + " must be at least 1,1,1, got " + dims_text(nx, ny, nz));
     }
@@ -206,7 +207,7 @@ uint64_t check_volume_size(const std::string& what, uint64_t nx, uint64_t ny, ui
         throw InputError(what + " " + dims_text(nx, ny, nz) + " is over the limit of " +
                          std::to_string(max_voxels) + " voxels (2 GiB of int16)");
     }
-    const uint64_t needed = voxels * sizeof(int16_t);
+    const uint64_t needed = voxels * bytes_per_voxel;
     const uint64_t available = available_memory();
     if (available != 0 && needed > available) {
         throw InputError(what + " " + dims_text(nx, ny, nz) + " needs " +

@@ -70,8 +70,11 @@ struct RawFormat {
 void update_range(Volume& volume);
 
 // Checks dims against max_voxels and the free memory, before anything is allocated.
-// `what` starts the message, e.g. "--dims" or "'head.nii'". Returns the voxel count.
-uint64_t check_volume_size(const std::string& what, uint64_t nx, uint64_t ny, uint64_t nz);
+// `what` starts the message, e.g. "--dims" or "'head.nii'". bytes_per_voxel: what loading
+// takes in all (2 for the int16 volume, plus the sample size when a library keeps the file's
+// own copy while we convert). Returns the voxel count.
+uint64_t check_volume_size(const std::string& what, uint64_t nx, uint64_t ny, uint64_t nz,
+                           uint64_t bytes_per_voxel = 2);
 
 // Builds a volume from raw bytes (validated: size must be exactly nx*ny*nz*sample size).
 Volume volume_from_bytes(const std::vector<unsigned char>& bytes, const RawFormat& format,
