@@ -1,6 +1,10 @@
 // args.cpp: strict parsing of the shared flags and a step's own.
 #include "args.h"
+#include <dirent.h>
 #include <sys/stat.h>
+#include <cctype>
+#include <fstream>
+#include <sstream>
 #include <algorithm>
 #include <cerrno>
 #include <climits>
@@ -15,6 +19,7 @@
 namespace ctlab {
 
 static const char* const default_cthead_path = "data/CThead";
+static const char* const presets_folder = "data/presets";
 static bool is_file_units_flag(const std::string& flag);
 constexpr int max_threads = 256;
 
@@ -110,6 +115,11 @@ std::string Args::usage() const {
         "  --debug-pixel X,Y       print what happened along the ray of image column X, row Y\n"
         "  --threads N             render threads (default: all cores)\n"
         "  --help                  this text\n";
+    text += "  --preset NAME           a volume's settings from data/presets/NAME.preset (flags\n"
+            "                          given on the command line win):";
+    const std::vector<std::string> names = preset_names();
+    for (const std::string& name : names) text += " " + name;
+    text += names.empty() ? " none found\n" : "\n";
     text += std::string("\n") + volume_formats_help();
     if (!flags_.empty()) text += "\nthis step:\n";
     for (const Flag& flag : flags_) {
@@ -132,7 +142,96 @@ std::string Args::usage() const {
     return text;
 }
 
+std::vector<std::string> preset_names() {
+    std::vector<std::string> names;
+    if (DIR* folder = opendir(presets_folder)) {
+        while (const dirent* entry = readdir(folder)) {
+            const std::string name = entry->d_name;
+            const size_t dot = name.rfind(".preset");
+            if (dot != std::string::npos && dot > 0 && dot + 7 == name.size()) {
+                names.push_back(name.substr(0, dot));
+            }
+        }
+        closedir(folder);
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+// The preset's lines "flag value" (or "flag" alone for a switch) as words, keeping only the
+// flags this step has: a preset names settings for every step (the threshold of step 02, the
+// transfer function of step 06), and each step takes its own.
+std::vector<std::string> Args::preset_words(const std::string& name) const {
+    for (char c : name) {
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) {
+            throw InputError("--preset: expected a name such as cthead, got '" + name + "'");
+        }
+    }
+    const std::string path = std::string(presets_folder) + "/" + name + ".preset";
+    std::ifstream in(path);
+    if (!in) {
+        std::string known;
+        for (const std::string& each : preset_names()) known += (known.empty() ? "" : ", ") + each;
+        throw InputError("--preset: no " + path + " (presets: " +
+                         (known.empty() ? "none found; run from the repository folder" : known) +
+                         ")");
+    }
+    static const char* const shared[] = {"--volume", "--dims", "--endian", "--spacing", "--type",
+                                         "--view"};
+    std::vector<std::string> words;
+    std::string line;
+    int number = 0;
+    while (std::getline(in, line) && number < 1000) {
+        ++number;
+        const size_t hash = line.find('#');
+        if (hash != std::string::npos) line.resize(hash);
+        std::istringstream fields(line);
+        std::string flag, value, extra;
+        if (!(fields >> flag)) continue;
+        const bool has_value = bool(fields >> value);
+        if (fields >> extra || flag.rfind("--", 0) != 0) {
+            throw InputError(path + ":" + std::to_string(number) +
+                             ": expected '--flag value' or '--flag', got '" + line + "'");
+        }
+        bool known = false;
+        for (const char* each : shared) known = known || flag == each;
+        for (const Flag& own : flags_) known = known || own.name == flag;
+        if (!known) continue;
+        words.push_back(flag);
+        if (has_value) words.push_back(value);
+    }
+    return words;
+}
+
 Options Args::parse(int argc, char** argv) {
+    // --preset NAME: its settings go first, so that the command line's own flags win.
+    std::vector<std::string> words;
+    std::vector<std::string> given(argv + std::min(argc, 1), argv + argc);
+    for (size_t n = 0; n < given.size(); ++n) {
+        std::string value;
+        if (given[n] == "--preset" && n + 1 < given.size()) {
+            value = given[n + 1];
+        } else if (given[n].rfind("--preset=", 0) == 0) {
+            value = given[n].substr(9);
+        } else if (given[n] == "--preset") {
+            throw InputError("--preset: missing value");
+        } else {
+            continue;
+        }
+        for (const std::string& word : preset_words(value)) words.push_back(word);
+    }
+    if (!words.empty()) {
+        std::vector<char*> all;
+        all.push_back(argc > 0 ? argv[0] : nullptr);
+        for (std::string& word : words) all.push_back(word.data());
+        for (int n = 1; n < argc; ++n) all.push_back(argv[n]);
+        all.push_back(nullptr);
+        return parse_words(int(all.size()) - 1, all.data());
+    }
+    return parse_words(argc, argv);
+}
+
+Options Args::parse_words(int argc, char** argv) {
     Options options;
     options.step = step_;
     const unsigned cores = std::thread::hardware_concurrency();
@@ -211,6 +310,8 @@ Options Args::parse(int argc, char** argv) {
             options.has_debug_pixel = true;
         } else if (flag == "--threads") {
             options.threads = parse_int(flag, take_value(), 1, max_threads);
+        } else if (flag == "--preset") {
+            options.preset = take_value();  // its settings are already in argv (parse())
         } else if (flag == "--window-script") {
             options.window_script = take_value();
         } else {

@@ -35,6 +35,7 @@ struct Options {
     int debug_x = 0, debug_y = 0;     // image column and row
     int threads = 1;                  // resolved: --threads N, default all cores
     std::string window_script;        // tests only: events to inject into the preview window
+    std::string preset;               // --preset NAME ("" = none)
 };
 
 class Args {
@@ -56,6 +57,8 @@ public:
     std::string usage() const;
 
 private:
+    Options parse_words(int argc, char** argv);
+    std::vector<std::string> preset_words(const std::string& name) const;
     enum class Kind { integer, real, choice, text, on_off };
     struct Flag {
         std::string name;
@@ -68,6 +71,9 @@ private:
     std::string step_, summary_;
     std::vector<Flag> flags_;
 };
+
+// The presets in data/presets (NAME.preset), sorted. A preset holds "--flag value" lines.
+std::vector<std::string> preset_names();
 
 // Strict number parsing: the whole text must be a number in [min, max]. Throw InputError
 // "FLAG: expected WHAT, got 'TEXT'".

@@ -674,3 +674,25 @@ TEST_CASE("args: --threshold is in the file's units, judged when the volume is l
     capture_stdout([&] { load_volume(options); });
     CHECK(own.threshold == -5);
 }
+
+TEST_CASE("args: --preset NAME applies data/presets/NAME.preset; the command line wins") {
+    const std::vector<std::string> names = preset_names();
+    for (const char* expected : {"cthead", "phantom", "ct", "eight_bit", "float"}) {
+        CHECK(std::find(names.begin(), names.end(), expected) != names.end());
+    }
+    OwnFlags own;
+    Options options = parse({"--preset", "phantom"}, &own);
+    CHECK(options.volume == "phantom");
+    CHECK(options.preset == "phantom");
+    CHECK(own.threshold == 400);
+    options = parse({"--preset=eight_bit", "--threshold", "90", "--volume", "phantom"}, &own);
+    CHECK(own.threshold == 90);  // given on the command line: wins over the preset's 60
+    CHECK(options.volume == "phantom");
+    // Every preset parses for a step that has only some of its flags.
+    for (const std::string& name : names) {
+        CAPTURE(name);
+        CHECK_NOTHROW(parse({"--preset", name}, &own));
+    }
+    CHECK(contains(parse_error({"--preset", "nope"}), "--preset: no data/presets/nope.preset"));
+    CHECK(contains(parse_error({"--preset", "../x"}), "--preset: expected a name"));
+}
