@@ -42,6 +42,7 @@ LDFLAGS  += -fsanitize=address,undefined
 export ASAN_OPTIONS ?= check_initialization_order=1:strict_init_order=1:$\
                       detect_stack_use_after_return=1:max_allocation_size_mb=1024
 export UBSAN_OPTIONS ?= print_stacktrace=1
+export LSAN_OPTIONS ?= suppressions=$(CURDIR)/tests/fuzz/lsan.supp
 else
 BUILD    ?= build
 endif
@@ -183,6 +184,7 @@ fuzz:
 	@for name in $(FUZZ_HARNESSES); do \
 	    mkdir -p build-fuzz/corpus/$$name build-fuzz/crashes/$$name; \
 	    kept=tests/fuzz/regressions/$$name; [ -d $$kept ] || kept=; \
+	    LSAN_OPTIONS=suppressions=$(CURDIR)/tests/fuzz/lsan.supp \
 	    build-fuzz/fuzz_$$name -max_total_time=$(FUZZ_SECONDS) -close_fd_mask=1 \
 	        -print_final_stats=1 -artifact_prefix=build-fuzz/crashes/$$name/ \
 	        build-fuzz/corpus/$$name tests/fuzz/seeds/$$name $$kept \
