@@ -22,6 +22,7 @@ static const char* const default_cthead_path = "data/CThead";
 static const char* const presets_folder = "data/presets";
 static bool is_file_units_flag(const std::string& flag);
 constexpr int max_threads = 256;
+constexpr int max_repeat = 1000;  // renders of one view for --repeat: enough for a median
 
 int parse_int(const std::string& flag, const std::string& text, int min, int max) {
     errno = 0;
@@ -114,6 +115,10 @@ std::string Args::usage() const {
         "  --no-window             render, write the PNGs and exit\n"
         "  --debug-pixel X,Y       print what happened along the ray of image column X, row Y\n"
         "  --threads N             render threads (default: all cores)\n"
+        "  --pfm                   also write OUT/STEP_VIEW.pfm: the float RGB image before\n"
+        "                          rounding to 8 bits (colour PFM, little-endian)\n"
+        "  --repeat N              render each view N times [1 .. 1000]: time_ms= is the\n"
+        "                          first (cold) render, warm_ms= the median of the others\n"
         "  --help                  this text\n";
     text += "  --preset NAME           a volume's settings from data/presets/NAME.preset (flags\n"
             "                          given on the command line win):";
@@ -312,6 +317,11 @@ Options Args::parse_words(int argc, char** argv) {
             options.threads = parse_int(flag, take_value(), 1, max_threads);
         } else if (flag == "--preset") {
             options.preset = take_value();  // its settings are already in argv (parse())
+        } else if (flag == "--pfm") {
+            if (has_value) throw InputError(flag + ": takes no value");
+            options.pfm = true;
+        } else if (flag == "--repeat") {
+            options.repeat = parse_int(flag, take_value(), 1, max_repeat);
         } else if (flag == "--window-script") {
             options.window_script = take_value();
         } else {

@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include <cerrno>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <vector>
@@ -66,6 +67,42 @@ void write_png(const Image& image, const std::string& path) {
     const bool write_failed = std::ferror(file) != 0;
     const bool close_failed = std::fclose(file) != 0;
     if (!encoded || write_failed || close_failed) {
+        std::remove(temporary.c_str());
+        throw InputError("cannot write '" + path + "' (disk full or no permission?)");
+    }
+    if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+        const std::string reason = std::strerror(errno);
+        std::remove(temporary.c_str());
+        throw InputError("cannot write '" + path + "': " + reason);
+    }
+}
+
+void write_pfm(const Image& image, const std::string& path) {
+    const size_t slash = path.rfind('/');
+    if (slash != std::string::npos) make_folder(path.substr(0, slash));
+    const std::string header =
+        "PF\n" + std::to_string(image.width) + " " + std::to_string(image.height) + "\n-1.0\n";
+    std::vector<unsigned char> bytes(header.begin(), header.end());
+    bytes.reserve(header.size() + image.pixels.size() * 12);
+    auto put = [&](float value) {  // little-endian whatever the machine's byte order
+        uint32_t bits;
+        std::memcpy(&bits, &value, sizeof bits);
+        for (int shift = 0; shift < 32; shift += 8) bytes.push_back((bits >> shift) & 0xff);
+    };
+    for (int y = image.height - 1; y >= 0; --y) {  // PFM rows run bottom to top
+        for (int x = 0; x < image.width; ++x) {
+            const Rgb& p = image.at(x, y);
+            put(p.r);
+            put(p.g);
+            put(p.b);
+        }
+    }
+    const std::string temporary = path + ".tmp" + std::to_string(getpid());
+    std::FILE* file = std::fopen(temporary.c_str(), "wb");
+    if (!file) throw InputError("cannot write '" + path + "': " + std::strerror(errno));
+    const bool write_failed = std::fwrite(bytes.data(), 1, bytes.size(), file) != bytes.size();
+    const bool close_failed = std::fclose(file) != 0;
+    if (write_failed || close_failed) {
         std::remove(temporary.c_str());
         throw InputError("cannot write '" + path + "' (disk full or no permission?)");
     }

@@ -28,10 +28,15 @@ struct Renderer {
     ImageFunction image;                      // empty: render_image() over `ray`
     Knob knob;                                // name empty: no knob
     std::function<std::string()> settings;    // extra "key=value ..." for the summary line
+    // The trace header's samples along a ray of a view, "226 samples at step 1 over 113
+    // voxels spaced 2" (empty: "113 samples", one per voxel).
+    std::function<std::string(const View&)> ray_samples;
 };
 
-// Renders every selected view: PNG to OUT/STEP_VIEW.png, one summary line each, the
-// --debug-pixel trace, then the window unless --no-window or no display. Returns 0.
+// Renders every selected view: PNG to OUT/STEP_VIEW.png (--pfm: the float image to
+// OUT/STEP_VIEW.pfm too; --repeat N: N renders, warm_ms= their median after the first), one
+// summary line each, the --debug-pixel trace, then the window unless --no-window or no
+// display. Returns 0.
 int run_views(const Options& options, const Volume& volume, const Renderer& renderer);
 
 // The image of one view, as run_views renders it (used by tests, the window and tools).
@@ -44,6 +49,9 @@ void print_trace(const Options& options, const View& view, const Renderer& rende
 
 // "out/03_depth_shading_front.png"
 std::string output_path(const Options& options, const View& view);
+
+// "out/03_depth_shading_front.pfm": the float image --pfm writes beside the PNG.
+std::string pfm_path(const Options& options, const View& view);
 
 // Runs body(); any InputError (or other exception) becomes one line on stderr
 // "STEP: error: ..." and exit status 2 (1 for an unexpected internal error).

@@ -184,10 +184,8 @@ Vec3 naive_gradient(const Sampler& sample, const Volume& volume, const Voxel& v,
 }
 
 Vec3 naive_gradient_along_ray(const Sampler& sample, const Volume& volume, const View& view,
-                              int x, int y, float t, Work& work) {
-    const int before = int(t);
+                              int x, int y, int before, float fraction, Work& work) {
     const int after = std::min(before + 1, view.ray_length - 1);
-    const float fraction = t - float(before);
     const Vec3 g_before = naive_gradient(sample, volume, view.voxel(x, y, before), work);
     if (fraction == 0.0f) return g_before;
     const Vec3 g_after = naive_gradient(sample, volume, view.voxel(x, y, after), work);
@@ -196,7 +194,8 @@ Vec3 naive_gradient_along_ray(const Sampler& sample, const Volume& volume, const
 
 struct Hit {
     bool found = false;
-    float t = 0;
+    int t = 0;           // the sample at or before the hit
+    float fraction = 0;  // how far past it the hit lies (step 05)
 };
 
 // Steps 02-05: the first sample above the threshold, interpolated (step 05) or not.
@@ -209,9 +208,9 @@ Hit naive_first_hit(const Sampler& sample, const View& view, int x, int y, int t
         if (value > threshold) {
             ++work.hits;
             if (t + 1 < view.ray_length) ++work.terminated;
-            if (!interpolate || t == 0) return {true, float(t)};
+            if (!interpolate || t == 0) return {true, t, 0.0f};
             const float fraction = float(threshold - previous) / float(value - previous);
-            return {true, float(t - 1) + fraction};
+            return {true, t - 1, fraction};
         }
         previous = value;
     }
@@ -243,8 +242,9 @@ Rgb naive_pixel(const std::string& step, const Volume& volume, const Sampler& sa
         const Hit hit = naive_first_hit(sample, view, x, y, threshold, interpolate, work);
         if (!hit.found) return grey(0.0f);
         const Vec3 gradient =
-            interpolate ? naive_gradient_along_ray(sample, volume, view, x, y, hit.t, work)
-                        : naive_gradient(sample, volume, view.voxel(x, y, int(hit.t)), work);
+            interpolate ? naive_gradient_along_ray(sample, volume, view, x, y, hit.t,
+                                                   hit.fraction, work)
+                        : naive_gradient(sample, volume, view.voxel(x, y, hit.t), work);
         const double angle = step04::default_light_angle;
         return grey(step04::shade(gradient, step04::light_direction(view, angle)));
     }
@@ -257,15 +257,15 @@ Rgb naive_pixel(const std::string& step, const Volume& volume, const Sampler& sa
                 ++work.skipped;
                 continue;
             }
-            const double light = 1.0, sigma = s.a;
-            r = sigma * light * s.r + (1 - sigma) * r;
-            g = sigma * light * s.g + (1 - sigma) * g;
-            b = sigma * light * s.b + (1 - sigma) * b;
+            const double light = 1.0, alpha = s.a;
+            r = alpha * light * s.r + (1 - alpha) * r;
+            g = alpha * light * s.g + (1 - alpha) * g;
+            b = alpha * light * s.b + (1 - alpha) * b;
         }
         return {float(r), float(g), float(b)};
     }
-    // Steps 07 and 08: front to back with early ray termination at their default 0.01.
-    const bool lit = step == step08::step_name;
+    // Steps 07, 08 and 09: front to back with early ray termination at their default 0.01.
+    const bool lit = step == step08::step_name || step == step09::step_name;
     const double stop_below = std::max(step07::default_ert, step07::min_transparency);
     const double step_length = lit ? step08::default_step : view.ray_spacing;
     const double ratio = step08::default_step / step08::unit_length;
@@ -277,11 +277,13 @@ Rgb naive_pixel(const std::string& step, const Volume& volume, const Sampler& sa
     for (int n = 0; n < count; ++n) {
         Rgba s;
         double position = n;
+        int before = n;
+        float fraction = 0;
         if (lit) {  // step 08: interpolated along the ray, opacity corrected per sample
             position = n * (step_length / view.ray_spacing);  // as the step computes it
-            const int before = std::min(int(position), view.ray_length - 1);
+            before = std::min(int(position), view.ray_length - 1);
             const int after = std::min(before + 1, view.ray_length - 1);
-            const float fraction = float(position - before);
+            fraction = float(position - before);
             const float v0 = float(sample_at(sample, view, x, y, before));
             const float v1 = float(sample_at(sample, view, x, y, after));
             const float value = v0 + fraction * (v1 - v0);
@@ -297,8 +299,8 @@ Rgb naive_pixel(const std::string& step, const Volume& volume, const Sampler& sa
         }
         double light = 1.0;
         if (lit) {
-            light = step08::shade(naive_gradient_along_ray(sample, volume, view, x, y,
-                                                           float(position), work),
+            light = step08::shade(naive_gradient_along_ray(sample, volume, view, x, y, before,
+                                                           fraction, work),
                                   to_light);
         }
         const double weight = transparency * s.a * light;
@@ -333,7 +335,7 @@ struct Row {
     std::string step, view;
     int width = 0, height = 0;
     uint64_t samples = 0;  // visited along the rays
-    uint64_t leapt = 0;    // passed over unread, in bricks the table leaves empty (07, 08)
+    uint64_t leapt = 0;    // passed over unread, in bricks the table leaves empty (09)
     Timing one, all, naive;
     bool threads_identical = false, naive_identical = false;
     double others = 0;  // share of the cores other processes used while this step was timed
@@ -487,7 +489,7 @@ std::string targets(const std::vector<Row>& rows, int cores) {
     }
     const double parallel = one_sum / all_sum;
     out << "| target | measured | met |\n|---|---|---|\n";
-    out << text_of("| every step 01-08, default settings, 256x256 view (top), %d threads: "
+    out << text_of("| every step 01-09, default settings, 256x256 view (top), %d threads: "
                    "under %.0f ms | %d of %d under%s | %s |\n",
                    cores, frame_budget_ms, budget_views - over_budget, budget_views,
                    slow.empty() ? "" : (" (over:" + slow + ")").c_str(),

@@ -203,6 +203,9 @@ struct DepthHit {
     double t = 0;  // samples (voxels) along the ray
 };
 
+// Where step 05's hit lies along the ray, in samples: its sample index plus the fraction.
+double crossing_of(const step05::Hit& hit) { return hit.n + double(hit.fraction); }
+
 // Study variant (no step has it): step 03's rule - the first sample above the threshold -
 // with samples `h` voxels apart, each read as step 08 reads it (linear along the ray).
 DepthHit first_hit_finer(const Volume& volume, const View& view, int x, int y, double h,
@@ -242,7 +245,7 @@ void depth_study() {
         methods.push_back({"nearest sample (step 03)", "1", [&](int x, int y, Work& work) {
             const step03::Hit hit = step03::first_hit(volume, view, x, y, surface_threshold,
                                                       work, nullptr);
-            return DepthHit{hit.found, hit.t};
+            return DepthHit{hit.found, double(hit.n)};
         }});
         for (const double h : {0.5, 0.25, 0.125, 0.0625}) {
             methods.push_back({"nearest, finer steps", step_text(h),
@@ -253,7 +256,7 @@ void depth_study() {
         methods.push_back({"interpolated (step 05)", "1", [&](int x, int y, Work& work) {
             const step05::Hit hit = step05::first_hit(volume, view, x, y, surface_threshold,
                                                       work, nullptr);
-            return DepthHit{hit.found, hit.t};
+            return DepthHit{hit.found, crossing_of(hit)};
         }});
 
         for (const Method& method : methods) {
@@ -302,18 +305,19 @@ const Volume& phantom() {
     return volume;
 }
 
-// Step 08 as shipped: its table for this step, then its front-to-back ray for every pixel.
-Image render_08(const View& view, const step08::Params& params, int threads, Work& work,
+// Step 08's picture, rendered by step 09 (step 08 plus leaping over empty bricks: the same
+// pixels, less work): its table for this step, then its front-to-back ray for every pixel.
+Image render_08(const View& view, const step09::Params& params, int threads, Work& work,
                 double* ms = nullptr) {
-    const step08::Lut lut = step08::build_lut(classic_transfer_function(),
-                                              step08::opacity_ratio(params));
-    step08::EmptySpace space;  // leaping over empty bricks, as the step does by default
+    const step09::Lut lut = step09::build_lut(classic_transfer_function(),
+                                              step09::opacity_ratio(params));
+    step09::EmptySpace space;  // leaping over empty bricks, as the step does by default
     space.bricks = make_bricks(phantom());
-    space.empty = step08::find_empty_bricks(space.bricks, lut);
+    space.empty = step09::find_empty_bricks(space.bricks, lut);
     auto render = [&] {
         work = Work();
         return render_image(view, threads, work, [&](int x, int y, Work& w) {
-            return step08::over_background(step08::composite_front_to_back(
+            return step09::over_background(step09::composite_front_to_back(
                 phantom(), view, x, y, lut, space, params, w, nullptr));
         });
     };
@@ -329,29 +333,30 @@ Image render_08(const View& view, const step08::Params& params, int threads, Wor
 // In float, T cannot fall below 1e-300 without reaching 0, so with --ert 0 the ray runs
 // until T is exactly 0 (after passing through subnormal values).
 template <class Real>
-Rgb composite_front_to_back_in(const View& view, int x, int y, const step08::Lut& lut,
-                               const step08::EmptySpace& space, const step08::Params& params,
+Rgb composite_front_to_back_in(const View& view, int x, int y, const step09::Lut& lut,
+                               const step09::EmptySpace& space, const step09::Params& params,
                                Work& work) {
     const Volume& volume = phantom();
-    const double stop_below = std::max(params.ert, step08::min_transparency);
+    const double stop_below = std::max(params.ert, step09::min_transparency);
     const double depth = view.ray_length * view.ray_spacing;
     const int sample_count = std::max(1, int(std::lround(depth / params.step)));
     const double voxels_per_sample = params.step / view.ray_spacing;
     const Vec3 to_light = params.unlit ? Vec3{}
-                                       : step08::light_direction(view, params.light_angle);
+                                       : step09::light_direction(view, params.light_angle);
     Real r = 0, g = 0, b = 0, transparency = 1;
     for (int n = 0; n < sample_count; ++n) {
         const double position = n * voxels_per_sample;
-        const int voxel_before = std::min(int(position), view.ray_length - 1);
-        if (space.is_empty(view.voxel(x, y, voxel_before))) {
-            const int brick_end = (voxel_before / brick_size + 1) * brick_size;
+        const int before = std::min(int(position), view.ray_length - 1);
+        const float fraction = float(position - before);
+        if (space.is_empty(view.voxel(x, y, before))) {
+            const int brick_end = (before / brick_size + 1) * brick_size;
             const int next = std::min(sample_count,
                                       std::max(n + 1, int(brick_end / voxels_per_sample)));
             work.leapt += next - n;
             n = next - 1;
             continue;
         }
-        const float value = step08::value_along_ray(volume, view, x, y, position);
+        const float value = step09::value_along_ray(volume, view, x, y, position);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         if (sample.a == 0.0f) {
@@ -360,8 +365,8 @@ Rgb composite_front_to_back_in(const View& view, int x, int y, const step08::Lut
         }
         double light = 1.0;
         if (!params.unlit) {
-            light = step08::shade(step08::gradient_along_ray(volume, view, x, y,
-                                                             float(position), work),
+            light = step09::shade(step09::gradient_along_ray(volume, view, x, y, before,
+                                                             fraction, work),
                                   to_light);
         }
         const Real weight = Real(transparency * Real(sample.a) * Real(light));
@@ -378,12 +383,12 @@ Rgb composite_front_to_back_in(const View& view, int x, int y, const step08::Lut
 }
 
 template <class Real>
-Image render_08_in(const View& view, const step08::Params& params, Work& work, double* ms) {
-    const step08::Lut lut = step08::build_lut(classic_transfer_function(),
-                                              step08::opacity_ratio(params));
-    step08::EmptySpace space;  // leaping over empty bricks, as step 08 does
+Image render_08_in(const View& view, const step09::Params& params, Work& work, double* ms) {
+    const step09::Lut lut = step09::build_lut(classic_transfer_function(),
+                                              step09::opacity_ratio(params));
+    step09::EmptySpace space;  // leaping over empty bricks, as step 09 does
     space.bricks = make_bricks(phantom());
-    space.empty = step08::find_empty_bricks(space.bricks, lut);
+    space.empty = step09::find_empty_bricks(space.bricks, lut);
     Image image;
     *ms = median_ms([&] {
         work = Work();
@@ -399,7 +404,7 @@ void step_study() {
                 "termination, against step %s\n", step_text(reference_step).c_str());
     const View view = make_view(phantom(), ViewAxis::front);
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
-    step08::Params params;
+    step09::Params params;  // step 08 plus leaping: the same pictures
     params.ert = 0;
     params.step = reference_step;
     Work work;
@@ -456,9 +461,6 @@ void ert_study() {
     std::printf("ert: early ray termination thresholds, top view of the phantom, 1 thread\n");
     const View view = make_view(phantom(), ViewAxis::top);
     const step07::Lut lut07 = step07::build_lut(classic_transfer_function());
-    step07::EmptySpace space07;  // leaping over empty bricks, as the step does by default
-    space07.bricks = make_bricks(phantom());
-    space07.empty = step07::find_empty_bricks(space07.bricks, lut07);
     Image full07, full08;
     for (const double ert : {0.0, 0.001, 0.01, 0.05, 0.1}) {
         step07::Params params07;
@@ -469,7 +471,7 @@ void ert_study() {
             work = Work();
             image = render_image(view, 1, work, [&](int x, int y, Work& w) {
                 return step07::over_background(step07::composite_front_to_back(
-                    phantom(), view, x, y, lut07, space07, params07, w, nullptr));
+                    phantom(), view, x, y, lut07, params07, w, nullptr));
             });
         });
         if (ert == 0) full07 = image;
@@ -477,7 +479,7 @@ void ert_study() {
         record({"ert", "step 07 front to back", format("%g", ert), ms, error.rmse, error.max,
                 "8-bit, added (against T* = 0)", work.samples});
 
-        step08::Params params08;
+        step09::Params params08;  // step 08 plus leaping: the same pictures
         params08.ert = ert;
         double ms08 = 0;
         const Image image08 = render_08(view, params08, 1, work, &ms08);
@@ -634,7 +636,7 @@ step07::Accumulated f2b_column(const Volume& volume, const TransferFunction& tf,
     step07::Params params;
     params.ert = ert;
     return step07::composite_front_to_back(volume, make_view(volume, ViewAxis::top), 0, 0,
-                                           step07::build_lut(tf), {}, params, work, nullptr);
+                                           step07::build_lut(tf), params, work, nullptr);
 }
 
 Rgb b2f_column(const Volume& volume, const TransferFunction& tf, Work& work) {
@@ -797,7 +799,7 @@ void compositing_cases() {
                 Work work;
                 const step08::Accumulated ray = step08::composite_front_to_back(
                     volume, make_view(volume, ViewAxis::top), 0, 0,
-                    step08::build_lut(tf, step08::opacity_ratio(params)), {}, params, work,
+                    step08::build_lut(tf, step08::opacity_ratio(params)), params, work,
                     nullptr);
                 worst = std::max(worst, std::abs(ray.transparency - exact) / exact);
             }
@@ -808,7 +810,7 @@ void compositing_cases() {
                 Work work;
                 const step08::Accumulated ray = step08::composite_front_to_back(
                     volume, make_view(volume, ViewAxis::top), 0, 0,
-                    step08::build_lut(tf, step08::opacity_ratio(params)), {}, params, work,
+                    step08::build_lut(tf, step08::opacity_ratio(params)), params, work,
                     nullptr);
                 add_case("slab a = 0.12, 20 units, step 0.5 NOT corrected: T", test_c, exact,
                          ray.transparency);
@@ -882,7 +884,8 @@ void surface_cases() {
                             step05::first_hit(ramp, view, x, y, threshold, work, nullptr);
                         if (!hit.found || f0 > threshold) continue;
                         const double exact = double(threshold - f0) / slope;
-                        worst_crossing = std::max(worst_crossing, std::abs(hit.t - exact));
+                        worst_crossing =
+                            std::max(worst_crossing, std::abs(crossing_of(hit) - exact));
                     }
             }
         }
@@ -924,9 +927,9 @@ void surface_cases() {
                         step05::first_hit(volume, view, x, y, surface_threshold, work, nullptr);
                     if (!hit3.found || !hit5.found) continue;
                     ++measured;
-                    sum3 += std::abs(hit3.t - exact);
-                    sum5 += std::abs(hit5.t - exact);
-                    max5 = std::max(max5, std::abs(hit5.t - exact));
+                    sum3 += std::abs(hit3.n - exact);
+                    sum5 += std::abs(crossing_of(hit5) - exact);
+                    max5 = std::max(max5, std::abs(crossing_of(hit5) - exact));
                     // Normals: step 04 at the hit voxel, step 05 at the sub-voxel point.
                     auto angle = [&](Vec3 gradient, const double p[3]) {
                         const double size = length(gradient);
@@ -937,14 +940,15 @@ void surface_cases() {
                         for (int n = 0; n < 3; ++n) dot += -g[n] / size * (p[n] - c[n]) / dist;
                         return std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / pi;
                     };
-                    const Voxel v4 = view.voxel(x, y, int(hit3.t));
+                    const Voxel v4 = view.voxel(x, y, hit3.n);
                     const double p4[3] = {v4.i * volume.sx, v4.j * volume.sy, v4.k * volume.sz};
                     const double a4 = angle(step04::gradient_at(volume, v4, work), p4);
-                    const double s5 = hit5.t * view.ray_spacing;
+                    const double s5 = crossing_of(hit5) * view.ray_spacing;
                     const double p5[3] = {p0[0] + s5 * d[0], p0[1] + s5 * d[1],
                                           p0[2] + s5 * d[2]};
                     const double a5 = angle(
-                        step05::gradient_along_ray(volume, view, x, y, hit5.t, work), p5);
+                        step05::gradient_along_ray(volume, view, x, y, hit5.n, hit5.fraction, work),
+                        p5);
                     normal4 += a4;
                     normal5 += a5;
                     max_normal5 = std::max(max_normal5, a5);
@@ -981,10 +985,10 @@ void surface_cases() {
         Work work;
         add_case("int16 extremes: step 05 crossing at threshold 32766", test_s,
                  1.0 + 65534.0 / 65535.0,
-                 step05::first_hit(volume, top, 0, 0, 32766, work, nullptr).t);
+                 crossing_of(step05::first_hit(volume, top, 0, 0, 32766, work, nullptr)));
         add_case("int16 extremes: step 05 crossing at threshold 0", test_s,
                  1.0 + 32768.0 / 65535.0,
-                 step05::first_hit(volume, top, 0, 0, 0, work, nullptr).t);
+                 crossing_of(step05::first_hit(volume, top, 0, 0, 0, work, nullptr)));
         const Vec3 gradient = step04::gradient_at(volume, {1, 1, 2}, work);
         add_case("int16 extremes: gradient (32767 + 32768) / 2 along k", test_s, 65535.0 / 2,
                  gradient.k);
