@@ -1,5 +1,7 @@
 // format_nifti.cpp: NIfTI-1 through nifticlib (Debian libnifti2-dev: nifti1_io.h, -lniftiio).
 #include <sys/stat.h>
+#include <unistd.h>
+#include <cstdio>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -29,6 +31,35 @@ bool sample_type_of(int datatype, SampleType* type) {
     }
 }
 
+// nifticlib prints some of its errors on stderr whatever its debug level: they are caught
+// here (stderr goes to a temporary file during the call) and become part of our one line.
+template <typename Call>
+auto quietly(std::string* said, Call call) -> decltype(call()) {
+    std::fflush(stderr);
+    std::FILE* sink = std::tmpfile();
+    const int saved = sink ? dup(2) : -1;
+    if (saved >= 0) dup2(fileno(sink), 2);
+    auto result = call();
+    if (saved >= 0) {
+        std::fflush(stderr);
+        dup2(saved, 2);
+        close(saved);
+        std::rewind(sink);
+        char line[256];
+        while (std::fgets(line, sizeof line, sink)) {
+            std::string text = line;
+            while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
+            if (text.rfind("** ERROR: ", 0) == 0) text = text.substr(10);
+            for (char& c : text) {
+                if (static_cast<unsigned char>(c) < 32) c = ' ';
+            }
+            if (!text.empty()) *said = text;
+        }
+    }
+    if (sink) std::fclose(sink);
+    return result;
+}
+
 bool ends_with(const std::string& text, const std::string& end) {
     return text.size() >= end.size() && text.compare(text.size() - end.size(), end.size(), end) == 0;
 }
@@ -41,9 +72,11 @@ Volume load_nifti(const std::string& path) {
     }
     if (!S_ISREG(info.st_mode)) throw InputError("'" + path + "' is not an ordinary file");
     nifti_set_debug_level(0);  // nifticlib's own messages would go to stderr: ours say it
-    NiftiImage image(nifti_image_read(path.c_str(), 0));  // the header only
+    std::string said;
+    NiftiImage image(quietly(&said, [&] { return nifti_image_read(path.c_str(), 0); }));  // header
     if (!image) {
-        throw InputError("'" + path + "' is not a NIfTI-1 file nifticlib can read (bad header)");
+        throw InputError("'" + path + "' is not a NIfTI-1 file nifticlib can read (" +
+                         (said.empty() ? std::string("bad header") : said) + ")");
     }
     const std::string prefix = "'" + path + "' (NIfTI): ";
     if (image->dim[0] < 1 || image->dim[0] > 7) {
@@ -80,8 +113,9 @@ Volume load_nifti(const std::string& path) {
                              " bytes, its header needs " + std::to_string(needed));
         }
     }
-    if (nifti_image_load(image.get()) != 0 || !image->data) {
-        throw InputError(prefix + "the data could not be read (the file ends early?)");
+    if (quietly(&said, [&] { return nifti_image_load(image.get()); }) != 0 || !image->data) {
+        throw InputError(prefix + "the data could not be read (" +
+                         (said.empty() ? std::string("the file ends early?") : said) + ")");
     }
 
     Volume volume;

@@ -154,8 +154,12 @@ static ValueMap choose_map(const ValueRange& range, const std::string& name) {
         map.offset = range.low;
         return map;
     }
-    map.scale = (range.high - range.low) / levels;
+    // Divided before subtracting: high - low may overflow a double (floats near +-1e308).
+    map.scale = range.high / levels - range.low / levels;
     map.offset = range.low - lowest * map.scale;
+    if (!std::isfinite(map.scale) || !(map.scale > 0) || !std::isfinite(map.offset)) {
+        throw InputError("'" + name + "' has values over too wide a range to map into int16");
+    }
     return map;
 }
 
@@ -164,7 +168,8 @@ static void convert_samples(int16_t* out, const unsigned char* bytes, size_t cou
                             const ValueMap& map) {
     for_each_sample(bytes, count, type, endian, [&](size_t n, double value) {
         const double mapped = std::round(map.to_volume(value * slope + inter));
-        out[n] = int16_t(std::clamp(mapped, -32768.0, 32767.0));
+        // NaN was refused by the scan; a NaN here (a value changed since) gives the lowest.
+        out[n] = mapped == mapped ? int16_t(std::clamp(mapped, -32768.0, 32767.0)) : int16_t(-32768);
     });
 }
 

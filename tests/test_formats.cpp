@@ -250,6 +250,10 @@ TEST_CASE("formats: a bad file of each format gets one line naming it, and exit 
     datatype[70] = 128;  // DT_RGB24
     datatype[71] = 0;
     add("rgb.nii", datatype, "data type");
+    auto invalid = nifti;  // datatype 3 is no type at all: nifticlib says so on stderr itself
+    invalid[70] = 3;
+    invalid[71] = 0;
+    add("datatype3.nii", invalid, "bad datatype");
     const auto gz = bytes_of(good + "/nifti_ijk_sss.nii.gz");
     add("cut.nii.gz", cut(gz, gz.size() / 2), "NIfTI");
 
