@@ -175,7 +175,11 @@ Volume load_metaimage(const std::string& path) {
         try {
             external = read_file_bytes(data_path);
         } catch (const InputError& error) {
-            throw InputError(prefix + "its ElementDataFile: " + error.what());
+            // The name came from the file: shown with its control characters replaced.
+            const std::string why = error.what();
+            const size_t colon = why.rfind(": ");
+            throw InputError(prefix + "cannot read its ElementDataFile '" + shown(data_name) +
+                             "'" + (colon == std::string::npos ? "" : why.substr(colon)));
         }
         data = external.data();
         data_size = external.size();
