@@ -2,7 +2,7 @@
 // faster the shipped code is than a deliberately naive loop of the same step.
 //
 //   build/bench [--volume phantom|PATH] [--runs N] [--out FILE] [--steps NN,NN]
-//               [--flags "FLAGS"]                                              (make bench)
+//               [--flags "FLAGS"] [--quick]                                    (make bench)
 //
 // For every step at its default settings and every view: ms per frame (median, and min-max,
 // over --runs renders after one warm-up), Msamples/s, the parallel speed-up, and the naive
@@ -13,6 +13,10 @@
 // --steps 07,08 times only those steps. --flags gives every step extra flags after its own
 // defaults (say "--tf data/tf/transparent.tf --steps 07"); the naive loop still runs the
 // defaults, so its pictures then differ, and the targets are only met at default settings.
+//
+// --quick (make bench QUICK=1, run by CI so the benchmark cannot rot): the phantom at
+// 64 x 64 x 29, one timed render per case, no CThead; exit status 1 when a picture differs.
+// Its figures are not to be quoted.
 //
 // The steps are compiled in here, each in a namespace of its own (all_steps.h, as in
 // tests/test_steps.cpp), and their main() runs in-process: load_volume() hands them the
@@ -56,7 +60,8 @@ namespace {
 constexpr const char* tool_name = "bench";
 constexpr int default_runs = 15;      // timed renders per case, after one warm-up
 constexpr int min_runs = 10;          // issue 5: at least 10
-constexpr int naive_runs = min_runs;  // the naive loop is slow: the minimum, 10
+int naive_runs = min_runs;  // the naive loop is slow: the minimum, 10 (--quick: 1)
+constexpr int quick_dims[3] = {64, 64, 29};  // --quick: the phantom this size
 constexpr double frame_budget_ms = 16;     // target: every step 01-08, 256x256, all cores
 constexpr double f2b_top_budget_ms = 2;    // target: step 07 front to back, top view
 constexpr double parallel_target = 1.7;    // target: speed-up of the parallel loop, 2 cores
@@ -467,6 +472,30 @@ std::string table(const std::vector<Row>& rows, int cores) {
     return out.str();
 }
 
+// One step's figures on the phantom as the handouts quote them, marked as section
+// "bench:NN_name" for tools/measured.cpp (make bench copies it into the handout's block).
+std::string step_section(const std::vector<Row>& rows, const std::string& step, int cores,
+                         int runs, double others_share) {
+    std::ostringstream out;
+    out << "<!-- section: bench:" << step << " -->\n";
+    out << text_of("Measured by `make bench` on %d cores (%s), median of %d renders; other "
+                   "processes used %.0f%% of the cores during the run.\n\n",
+                   cores, first_line_of("/proc/cpuinfo", "model name").c_str(), runs,
+                   100 * others_share);
+    out << "| view | 1 thread | " << cores << " threads | parallel speed-up | ns per sample, "
+        << "1 thread | naive loop |\n";
+    out << "|---|---:|---:|---:|---:|---:|\n";
+    for (const Row& r : rows) {
+        if (r.step != step) continue;
+        out << text_of("| %s | %.2f ms | %.2f ms | %.2fx | %.2f | %.1f ms |\n", r.view.c_str(),
+                       r.one.median, r.all.median, r.one.median / r.all.median,
+                       r.samples > 0 ? r.one.median * 1e6 / double(r.samples) : 0.0,
+                       r.naive.median);
+    }
+    out << "<!-- end section -->\n";
+    return out.str();
+}
+
 // The targets of issue 5, checked on the phantom's figures.
 std::string targets(const std::vector<Row>& rows, int cores) {
     std::ostringstream out;
@@ -516,10 +545,13 @@ int run(int argc, char** argv) {
     std::string volume_name = "phantom", out_path = "out/bench.md", only;
     std::vector<std::string> extra_flags;  // --flags: given to every step, after its defaults
     int runs = default_runs;
+    bool quick = false;
     for (int n = 1; n < argc; ++n) {
         const std::string flag = argv[n];
         const bool has_value = n + 1 < argc;
-        if (flag == "--volume" && has_value) {
+        if (flag == "--quick") {
+            quick = true;
+        } else if (flag == "--volume" && has_value) {
             volume_name = argv[++n];
         } else if (flag == "--runs" && has_value) {
             runs = parse_int("--runs", argv[++n], min_runs, 1000);
@@ -532,15 +564,22 @@ int run(int argc, char** argv) {
             for (std::string word; words >> word;) extra_flags.push_back(word);
         } else {
             throw InputError("usage: bench [--volume phantom|PATH] [--runs N>=10] [--out FILE]"
-                             " [--steps NN,NN] [--flags \"FLAGS\"], got '" + flag + "'");
+                             " [--steps NN,NN] [--flags \"FLAGS\"] [--quick], got '" + flag +
+                             "'");
         }
     }
+    if (quick) runs = naive_runs = 1;
     const unsigned hardware = std::thread::hardware_concurrency();
     const int cores = hardware > 0 ? int(hardware) : 1;
     std::vector<std::pair<std::string, Volume>> volumes;
-    volumes.emplace_back(volume_name, volume_name == "phantom" ? make_phantom()
-                                                               : load_cthead(volume_name));
-    if (volume_name == "phantom" && file_exists("data/CThead")) {
+    if (quick && volume_name == "phantom") {
+        volumes.emplace_back("phantom", make_phantom_sized(quick_dims[0], quick_dims[1],
+                                                           quick_dims[2]));
+    } else {
+        volumes.emplace_back(volume_name, volume_name == "phantom" ? make_phantom()
+                                                                   : load_cthead(volume_name));
+    }
+    if (!quick && volume_name == "phantom" && file_exists("data/CThead")) {
         volumes.emplace_back("data/CThead", load_cthead("data/CThead"));
     }
 
@@ -548,6 +587,10 @@ int run(int argc, char** argv) {
     const machine::OtherLoad others;
     std::ostringstream report;
     report << "# ctlab benchmark\n\n";
+    if (quick) {
+        report << "**Quick mode** (--quick): a small volume and one render per case, to check "
+               << "that the benchmark runs and its pictures agree. Do not quote these figures.\n\n";
+    }
     if (!extra_flags.empty()) {
         std::string joined;
         for (const std::string& word : extra_flags) joined += " " + word;
@@ -569,11 +612,15 @@ int run(int argc, char** argv) {
            << "over. Its arithmetic is the step's, so its picture must equal the shipped one "
            << "(last column).\n\n";
     std::vector<Row> phantom_rows;
+    int differing = 0;  // rows whose pictures differ between threads or from the naive loop
     for (const auto& [name, volume] : volumes) {
         std::printf("bench: %s (%dx%dx%d), %d runs, 1 and %d threads\n", name.c_str(),
                     volume.nx, volume.ny, volume.nz, runs, cores);
         const std::vector<Row> rows = bench_volume_rows(volume, runs, cores, only, extra_flags);
         if (phantom_rows.empty()) phantom_rows = rows;
+        for (const Row& row : rows) {
+            differing += !row.threads_identical || (extra_flags.empty() && !row.naive_identical);
+        }
         report << "## " << name << " (" << volume.nx << "x" << volume.ny << "x" << volume.nz
                << ")\n\n" << table(rows, cores) << "\n";
     }
@@ -588,6 +635,18 @@ int run(int argc, char** argv) {
                       "cores during the whole run (last column: during each step's timing); "
                       "figures taken above a few percent are not to be trusted.\n",
                       load_average().c_str(), 100 * others.share(), cores);
+    // The handouts quote these (make bench runs build/measured): only full runs of the
+    // phantom at default settings, so that a quick or a tuned run never reaches a handout.
+    if (!quick && extra_flags.empty() && volume_name == "phantom") {
+        report << "\n## Per step, as the handouts quote it\n\n";
+        std::vector<std::string> names;
+        for (const Row& row : phantom_rows) {
+            if (names.empty() || names.back() != row.step) names.push_back(row.step);
+        }
+        for (const std::string& name : names) {
+            report << step_section(phantom_rows, name, cores, runs, others.share()) << "\n";
+        }
+    }
 
     const size_t slash = out_path.rfind('/');
     if (slash != std::string::npos) make_folder(out_path.substr(0, slash));
@@ -598,6 +657,10 @@ int run(int argc, char** argv) {
     std::printf("bench: other processes used %.0f%% of the cores during the run\n",
                 100 * others.share());
     std::printf("bench: wrote %s\n", out_path.c_str());
+    if (quick && differing > 0) {
+        std::printf("bench: %d step views give different pictures (see the table)\n", differing);
+        return 1;
+    }
     return 0;
 }
 

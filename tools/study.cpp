@@ -13,7 +13,10 @@
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
 //              error measured here (handouts/numerics.md quotes them)
 //
-//   build/study [--out DIR] [--runs N]                     (make study: about a minute)
+//   build/study [--out DIR] [--runs N] [--quick]           (make study: about a minute)
+//
+// --quick (make study QUICK=1, run by CI so the study cannot rot): one render per case, the
+// phantom at 64 x 64 x 29 and a reference step of 1/16. Its figures are not to be quoted.
 //
 // Writes DIR/error_vs_time.csv, DIR/error_vs_time.png (log-log, a panel per study),
 // DIR/error_vs_time.md (the tables) and DIR/numerics.md. handouts/error_vs_time.md and
@@ -47,7 +50,10 @@ namespace {
 constexpr const char* tool_name = "study";
 constexpr int default_runs = 5;           // timed renders per case (median), after a warm-up
 constexpr int surface_threshold = 400;    // CT value of the analytic surfaces (and of bone)
-constexpr double reference_step = 1.0 / 32;  // voxels: the converged compositing reference
+double reference_step = 1.0 / 32;  // voxels: the converged compositing reference
+constexpr double quick_reference_step = 1.0 / 16;  // --quick
+constexpr int quick_dims[3] = {64, 64, 29};        // --quick: the phantom this size
+bool quick = false;
 constexpr double byte_units = 255;        // errors in 8-bit units: 0..1 times 255
 constexpr double pi = 3.14159265358979323846;
 constexpr double not_applicable = -1;     // an error column a case has no figure for
@@ -301,7 +307,9 @@ void depth_study() {
 // --- 2. Compositing: step size and opacity correction -----------------------------------
 
 const Volume& phantom() {
-    static const Volume volume = make_phantom();
+    static const Volume volume = quick ? make_phantom_sized(quick_dims[0], quick_dims[1],
+                                                            quick_dims[2])
+                                       : make_phantom();
     return volume;
 }
 
@@ -1150,6 +1158,24 @@ std::string load_average() {
     return one + " " + five + " " + fifteen;
 }
 
+// The CPU's name, from /proc/cpuinfo ("unknown" elsewhere).
+std::string cpu_model() {
+    std::ifstream in("/proc/cpuinfo");
+    for (std::string line; std::getline(in, line);) {
+        if (line.compare(0, 10, "model name") != 0) continue;
+        const size_t colon = line.find(':');
+        if (colon != std::string::npos) return line.substr(line.find_first_not_of(' ', colon + 1));
+    }
+    return "unknown";
+}
+
+// BODY marked as section NAME for tools/measured.cpp; a quick run's figures are not marked,
+// so they can never reach a handout.
+std::string section(const std::string& name, const std::string& body) {
+    if (quick) return body;
+    return "<!-- section: " + name + " -->\n" + body + "<!-- end section -->\n";
+}
+
 int run(int argc, char** argv) {
     std::string out = "out/study";
     for (int n = 1; n < argc; ++n) {
@@ -1158,9 +1184,16 @@ int run(int argc, char** argv) {
             out = argv[++n];
         } else if (flag == "--runs" && n + 1 < argc) {
             runs = parse_int("--runs", argv[++n], 1, 1000);
+        } else if (flag == "--quick") {
+            quick = true;
         } else {
-            throw InputError("usage: study [--out DIR] [--runs N], got '" + flag + "'");
+            throw InputError("usage: study [--out DIR] [--runs N] [--quick], got '" + flag +
+                             "'");
         }
+    }
+    if (quick) {
+        runs = 1;
+        reference_step = quick_reference_step;
     }
     make_folder(out);
     const std::string load_before = load_average();
@@ -1188,24 +1221,37 @@ int run(int argc, char** argv) {
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     std::ostringstream md;
     md << "# Error against run time: measured tables\n\n";
-    md << format("Written by `make study` (tools/study.cpp) in %.0f s on %d cores; load average "
-                 "%s before, %s after; other processes used %.0f%% of the cores meanwhile. "
-                 "Times: median of %d renders, 1 thread.\n\n",
-                 total.ms() / 1000, cores, load_before.c_str(), load_average().c_str(),
-                 100 * others.share(), runs);
+    if (quick) {
+        md << "**Quick mode** (--quick): one render per case, a 64x64x29 phantom, reference step "
+              "1/16. Do not quote these figures.\n\n";
+    }
+    const std::string written_by = format(
+        "Written by `make study` (tools/study.cpp) in %.0f s on %d cores (%s); load average "
+        "%s before, %s after; other processes used %.0f%% of the cores meanwhile. "
+        "Times: median of %d renders, 1 thread.\n",
+        total.ms() / 1000, cores, cpu_model().c_str(), load_before.c_str(),
+        load_average().c_str(), 100 * others.share(), runs);
+    md << written_by << "\n";
+    // Each table marked as a section that tools/measured.cpp copies into the handouts' blocks
+    // of the same name (make study does), with the line saying where and how it was measured.
     md << "## First-hit depth (top view, 256x256x113, spacing 1:1:2; error in voxels)\n\n"
-       << markdown_table("depth", "step h (voxels)") << "\n";
+       << section("study:depth", written_by + "\n" + markdown_table("depth", "step h (voxels)"))
+       << "\n";
     md << "## Compositing step (step 08 lit, front view, T* = 0; error in 8-bit units against "
-          "step 1/32)\n\n" << markdown_table("step-reference", "step")
-       << "\n" << markdown_table("step", "step (voxels)") << "\n";
+          "step 1/32)\n\n"
+       << section("study:step", written_by + "\n" + markdown_table("step-reference", "step") +
+                                    "\n" + markdown_table("step", "step (voxels)"))
+       << "\n";
     md << "## Early ray termination (top view; error added against T* = 0, 8-bit units)\n\n"
-       << markdown_table("ert", "T*") << "\n";
+       << section("study:ert", written_by + "\n" + markdown_table("ert", "T*")) << "\n";
     md << "## Float against double sums (step 08, front view; ms column: float time / double "
-          "time)\n\n" << markdown_table("precision", "step") << "\n";
+          "time)\n\n"
+       << section("study:precision", written_by + "\n" + markdown_table("precision", "step"))
+       << "\n";
     std::ofstream(out + "/error_vs_time.md") << md.str();
-    std::ofstream(out + "/numerics.md") << "# The stiff cases, measured\n\n"
-                                        << "Written by `make study` (tools/study.cpp).\n\n"
-                                        << numerics_table(cost, rays);
+    std::ofstream(out + "/numerics.md")
+        << "# The stiff cases, measured\n\n"
+        << section("study:numerics", written_by + "\n" + numerics_table(cost, rays));
     std::printf("%s", numerics_table(cost, rays).c_str());
     std::printf("study: wrote %s/error_vs_time.{csv,png,md} and %s/numerics.md in %.0f s; "
                 "other processes used %.0f%% of the cores meanwhile\n",
