@@ -19,7 +19,9 @@ SDL_LIBS   := $(shell pkg-config --libs sdl2 2>/dev/null)
 CPPFLAGS += $(SDL_CFLAGS)
 LDLIBS   += $(SDL_LIBS) -pthread
 # zlib: the checker verifies a PNG's compressed data (CRCs, Adler-32, its inflated size).
-LDLIBS   += -lz
+# The volume formats' libraries (common/format_*.cpp): nifticlib, teem (NRRD), GDCM, zlib.
+CPPFLAGS += -I/usr/include/gdcm-3.0 -I/usr/include/nifti
+LDLIBS   += -lniftiio -lznz -lteem -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
 # The builds inside demo, test and check-student use every core, unless make was given -j.
 JOBS     ?= $(shell nproc 2>/dev/null || echo 1)
 PARALLEL  = $(if $(filter -j%,$(MAKEFLAGS)),,-j$(JOBS))
@@ -47,6 +49,7 @@ LDFLAGS  += -fsanitize=address,undefined
 export ASAN_OPTIONS ?= check_initialization_order=1:strict_init_order=1:$\
                       detect_stack_use_after_return=1:max_allocation_size_mb=1024
 export UBSAN_OPTIONS ?= print_stacktrace=1
+export LSAN_OPTIONS ?= suppressions=$(CURDIR)/tests/fuzz/lsan.supp
 else
 BUILD    ?= build
 endif
@@ -235,7 +238,7 @@ handouts: $(BUILD)/handout_listings
 # tests/fuzz/seeds/NAME and the crash inputs kept in tests/fuzz/regressions/NAME. A crash
 # stops the run and leaves its input in build-fuzz/crashes/NAME/: copy it to
 # tests/fuzz/regressions/NAME/, where `make test` replays it (tests/test_fuzz_regressions.cpp).
-FUZZ_HARNESSES := raw cthead tf image
+FUZZ_HARNESSES := raw cthead tf image nifti nrrd metaimage dicom
 FUZZ_SECONDS   ?= 60
 fuzz:
 	@sh tools/install-deps.sh fuzz
@@ -243,6 +246,7 @@ fuzz:
 	@for name in $(FUZZ_HARNESSES); do \
 	    mkdir -p $(FUZZ_BUILD)/corpus/$$name $(FUZZ_BUILD)/crashes/$$name; \
 	    kept=tests/fuzz/regressions/$$name; [ -d $$kept ] || kept=; \
+	    LSAN_OPTIONS=suppressions=$(CURDIR)/tests/fuzz/lsan.supp \
 	    $(FUZZ_BUILD)/fuzz_$$name -max_total_time=$(FUZZ_SECONDS) -close_fd_mask=1 \
 	        -print_final_stats=1 -artifact_prefix=$(FUZZ_BUILD)/crashes/$$name/ \
 	        $(FUZZ_BUILD)/corpus/$$name tests/fuzz/seeds/$$name $$kept \
