@@ -1,6 +1,7 @@
 // args.cpp: strict parsing of the shared flags and a step's own.
 #include "args.h"
 #include <sys/stat.h>
+#include <unistd.h>
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -19,10 +20,10 @@ int parse_int(const std::string& flag, const std::string& text, int min, int max
     errno = 0;
     char* end = nullptr;
     const long value = std::strtol(text.c_str(), &end, 10);
-    if (text.empty() || *end != '\0' || errno == ERANGE || text.find_first_of(" \t") == 0) {
+    if (text.empty() || *end != '\0' || text.find_first_of(" \t") == 0) {
         throw InputError(flag + ": expected a whole number, got '" + text + "'");
     }
-    if (value < min || value > max) {
+    if (errno == ERANGE || value < min || value > max) {  // ERANGE: beyond even a long
         throw InputError(flag + ": expected a whole number from " + std::to_string(min) +
                          " to " + std::to_string(max) + ", got " + text);
     }
@@ -39,9 +40,16 @@ double parse_double(const std::string& flag, const std::string& text, double min
     errno = 0;
     char* end = nullptr;
     const double value = std::strtod(text.c_str(), &end);
-    if (text.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(value) ||
+    const bool out_of_range = errno == ERANGE;  // 1e999 overflows; 1e-308 underflows
+    if (text.empty() || *end != '\0' || (!out_of_range && !std::isfinite(value)) ||
         text.find_first_of(" \t") == 0) {
         throw InputError(flag + ": expected a number, got '" + text + "'");
+    }
+    if (out_of_range) {
+        throw InputError(flag + ": " + text + " is out of range (" +
+                         (std::fabs(value) > 1 ? "too large" : "too close to 0") +
+                         " for a double); expected a number from " + number_text(min) + " to " +
+                         number_text(max));
     }
     if (value < min || value > max) {
         throw InputError(flag + ": expected a number from " + number_text(min) + " to " +
@@ -249,14 +257,32 @@ Options Args::parse(int argc, char** argv) {
     return options;
 }
 
-static bool file_exists(const std::string& path) {
-    struct stat info {};
-    return stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
+// Without --volume: data/CThead when there is one, else the phantom. Something else of that
+// name (a folder, a FIFO, a link to nothing) is a mistake to report, not a reason to fall back.
+static std::string default_volume_path() {
+    const std::string path = default_cthead_path;
+    const std::string advice = " (move it away, or choose --volume PATH or --volume phantom)";
+    struct stat link_info {}, info {};
+    if (lstat(default_cthead_path, &link_info) != 0) return "phantom";  // nothing there
+    if (stat(default_cthead_path, &info) != 0) {
+        char target[1024] = "";
+        const ssize_t size = readlink(default_cthead_path, target, sizeof target - 1);
+        if (size >= 0) target[size] = '\0';
+        throw InputError("'" + path + "' is a link to '" + target + "', which does not exist" +
+                         advice);
+    }
+    if (S_ISDIR(info.st_mode)) {
+        throw InputError("'" + path + "' is a folder, not the CThead file" + advice);
+    }
+    if (!S_ISREG(info.st_mode)) {
+        throw InputError("'" + path + "' is a FIFO or a device, not the CThead file" + advice);
+    }
+    return path;
 }
 
 Volume load_volume(const Options& options) {
     std::string path = options.volume;
-    if (path.empty()) path = file_exists(default_cthead_path) ? default_cthead_path : "phantom";
+    if (path.empty()) path = default_volume_path();
 
     Volume volume;
     if (path == "phantom") {
@@ -288,7 +314,8 @@ Volume load_volume(const Options& options) {
     } else {
         volume = load_cthead(path);
     }
-    std::printf("volume=%s dims=%dx%dx%d spacing=%g,%g,%g min=%d max=%d\n", volume.name.c_str(),
+    std::printf("volume=%s dims=%dx%dx%d spacing=%g,%g,%g min=%d max=%d\n",
+                printable(volume.name).c_str(),
                 volume.nx, volume.ny, volume.nz, volume.sx, volume.sy, volume.sz,
                 volume.min_value, volume.max_value);
     return volume;
