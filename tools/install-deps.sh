@@ -3,7 +3,7 @@
 # As root it runs apt-get; otherwise it prints the one sudo command to run and stops.
 #   sh tools/install-deps.sh        what building, running and testing the lab needs
 #   sh tools/install-deps.sh fuzz   also clang and its libFuzzer runtime (make fuzz)
-packages="g++ make pkg-config libsdl2-dev libstb-dev doctest-dev xvfb xauth xdotool"
+packages="g++ make pkg-config libsdl2-dev libstb-dev doctest-dev xvfb xauth xdotool python3"
 [ "${1:-}" = fuzz ] && packages="$packages clang libclang-rt-dev"
 missing=""
 for package in $packages; do
