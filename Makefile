@@ -54,11 +54,14 @@ STEP_NAMES     := $(basename $(notdir $(STEP_SOURCES)))
 STEP_BINARIES  := $(addprefix $(BUILD)/,$(STEP_NAMES))
 COMMON_SOURCES := $(wildcard common/*.cpp)
 COMMON_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(COMMON_SOURCES))
-TOOL_SOURCES   := $(wildcard tools/*.cpp)
+# tools/run_step.cpp is no tool: it runs step binaries for the tests and tools (libctlab_tools).
+TOOL_LIB_SOURCES := tools/run_step.cpp
+TOOL_SOURCES   := $(filter-out $(TOOL_LIB_SOURCES),$(wildcard tools/*.cpp))
 TOOL_BINARIES  := $(patsubst tools/%.cpp,$(BUILD)/%,$(TOOL_SOURCES))
 TEST_SOURCES   := $(wildcard tests/*.cpp) tests/fuzz/targets.cpp  # targets: crash replays
 TEST_OBJECTS   := $(patsubst %.cpp,$(BUILD)/%.o,$(TEST_SOURCES))
 LIBCTLAB       := $(BUILD)/libctlab.a
+LIBTOOLS       := $(BUILD)/libctlab_tools.a
 
 .PHONY: all help deps demo test run diff clean $(STEP_NAMES)
 .PHONY: reference student check-student handouts  # the instructor and student kit, below
@@ -131,12 +134,12 @@ clean:
 # --- Measuring: speed and accuracy -----------------------------------------------------------
 # Every step and view timed with 1 thread and with all cores, and against a naive loop of the
 # same step (tools/bench.cpp): out/bench.md. Timing needs an idle machine: check `uptime`.
-bench: $(BUILD)/bench
+bench: $(BUILD)/bench $(STEP_BINARIES)
 	$(BUILD)/bench --out out/bench.md
 
 # Error against run time of each method and parameter, and the stiff numerical cases
 # (tools/study.cpp): out/study/error_vs_time.csv, .png and .md, out/study/numerics.md.
-study: $(BUILD)/study
+study: $(BUILD)/study $(STEP_BINARIES)
 	$(BUILD)/study --out out/study
 
 # --- Instructor and student kit: references, student skeletons, handout listings ----------
@@ -200,16 +203,20 @@ $(BUILD)/%.o: %.cpp
 $(LIBCTLAB): $(COMMON_OBJECTS)
 	$(AR) rcs $@ $^
 
+$(LIBTOOLS): $(patsubst %.cpp,$(BUILD)/%.o,$(TOOL_LIB_SOURCES))
+	$(AR) rcs $@ $^
+
 $(BUILD)/%: $(BUILD)/steps/%.o $(LIBCTLAB)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(BUILD)/%: $(BUILD)/tools/%.o $(LIBCTLAB)
+$(BUILD)/%: $(BUILD)/tools/%.o $(LIBTOOLS) $(LIBCTLAB)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 $(BUILD)/fuzz_%: $(BUILD)/tests/fuzz/fuzz_%.o $(BUILD)/tests/fuzz/targets.o $(LIBCTLAB)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(BUILD)/ctlab_tests: $(TEST_OBJECTS) $(LIBCTLAB)
+# The tests run the step binaries (tools/run_step.h): built with them.
+$(BUILD)/ctlab_tests: $(TEST_OBJECTS) $(LIBTOOLS) $(LIBCTLAB) | $(STEP_BINARIES)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

@@ -15,6 +15,7 @@ namespace ctlab {
 
 static const char* const default_cthead_path = "data/CThead";
 constexpr int max_threads = 256;
+constexpr int max_repeat = 1000;  // renders of one view for --repeat: enough for a median
 
 int parse_int(const std::string& flag, const std::string& text, int min, int max) {
     errno = 0;
@@ -113,6 +114,10 @@ std::string Args::usage() const {
         "  --no-window             render, write the PNGs and exit\n"
         "  --debug-pixel X,Y       print what happened along the ray of image column X, row Y\n"
         "  --threads N             render threads (default: all cores)\n"
+        "  --pfm                   also write OUT/STEP_VIEW.pfm: the float RGB image before\n"
+        "                          rounding to 8 bits (colour PFM, little-endian)\n"
+        "  --repeat N              render each view N times [1 .. 1000]: time_ms= is the\n"
+        "                          first (cold) render, warm_ms= the median of the others\n"
         "  --help                  this text\n";
     if (!flags_.empty()) text += "\nthis step:\n";
     for (const Flag& flag : flags_) {
@@ -207,6 +212,11 @@ Options Args::parse(int argc, char** argv) {
             options.has_debug_pixel = true;
         } else if (flag == "--threads") {
             options.threads = parse_int(flag, take_value(), 1, max_threads);
+        } else if (flag == "--pfm") {
+            if (has_value) throw InputError(flag + ": takes no value");
+            options.pfm = true;
+        } else if (flag == "--repeat") {
+            options.repeat = parse_int(flag, take_value(), 1, max_repeat);
         } else if (flag == "--window-script") {
             options.window_script = take_value();
         } else {

@@ -2,6 +2,7 @@
 //
 //   --volume PATH|phantom   --dims NX,NY,NZ  --endian little|big  --spacing SX,SY,SZ
 //   --view top|front|side|all  --out DIR  --no-window  --debug-pixel X,Y  --threads N  --help
+//   --pfm  --repeat N   (for tests and measurements: float images, repeated timing)
 // A step adds its own (--threshold, --slice, ...) before parse(). Any bad flag or number
 // throws InputError naming the flag and what was expected.
 #pragma once
@@ -23,6 +24,8 @@ struct Options {
     bool has_debug_pixel = false;
     int debug_x = 0, debug_y = 0;     // image column and row
     int threads = 1;                  // resolved: --threads N, default all cores
+    bool pfm = false;                 // --pfm: also write OUT/STEP_VIEW.pfm (float RGB)
+    int repeat = 1;                   // --repeat N: render each view N times (timing)
     std::string window_script;        // tests only: events to inject into the preview window
 };
 

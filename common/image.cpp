@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include <cerrno>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <vector>
@@ -61,6 +62,30 @@ void write_png(const Image& image, const std::string& path) {
     write_output_file(path, [&](std::FILE* file) {
         return stbi_write_png_to_func(write_bytes, file, image.width, image.height, 3,
                                       bytes.data(), image.width * 3) != 0;
+    });
+}
+
+void write_pfm(const Image& image, const std::string& path) {
+    const std::string header =
+        "PF\n" + std::to_string(image.width) + " " + std::to_string(image.height) + "\n-1.0\n";
+    std::vector<unsigned char> bytes(header.begin(), header.end());
+    bytes.reserve(header.size() + image.pixels.size() * 12);
+    auto put = [&](float value) {  // little-endian whatever the machine's byte order
+        uint32_t bits;
+        std::memcpy(&bits, &value, sizeof bits);
+        for (int shift = 0; shift < 32; shift += 8) bytes.push_back((bits >> shift) & 0xff);
+    };
+    for (int y = image.height - 1; y >= 0; --y) {  // PFM rows run bottom to top
+        for (int x = 0; x < image.width; ++x) {
+            const Rgb& p = image.at(x, y);
+            put(p.r);
+            put(p.g);
+            put(p.b);
+        }
+    }
+    // Like a PNG: through a temporary, renamed with the other outputs of the run.
+    write_output_file(path, [&](std::FILE* file) {
+        return std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
     });
 }
 

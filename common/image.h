@@ -28,6 +28,11 @@ unsigned char to_byte(float value);
 // sees a half-written PNG. Throws InputError when the folder cannot be written.
 void write_png(const Image& image, const std::string& path);
 
+// Writes the float RGB values themselves, before any clamping or rounding, as a colour PFM
+// ("PF", scale -1.0 = little-endian floats, rows from the bottom row up), through a temporary
+// file renamed into place like write_png. For tests and tools that need more than 8 bits.
+void write_pfm(const Image& image, const std::string& path);
+
 // Reads a PNG (any bit depth stb_image reads) or a PPM (P6 or P3, maxval up to 65535) as
 // 0..1 RGB.
 // Throws InputError naming the file and the problem.

@@ -1,6 +1,7 @@
 // step.cpp: the part of every main() that is not the lesson.
 #include "step.h"
 #include <unistd.h>
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -33,6 +34,10 @@ std::string output_path(const Options& options, const View& view) {
     return options.out + "/" + options.step + "_" + view.name + ".png";
 }
 
+std::string pfm_path(const Options& options, const View& view) {
+    return options.out + "/" + options.step + "_" + view.name + ".pfm";
+}
+
 Image render_view(const Options& options, const View& view, const Renderer& renderer,
                   Work& work) {
     if (renderer.image) return renderer.image(view, work);
@@ -41,8 +46,9 @@ Image render_view(const Options& options, const View& view, const Renderer& rend
     });
 }
 
+// warm_ms < 0: no repeated renders (--repeat 1), no warm_ms= on the line.
 static void print_summary(const Options& options, const View& view, const Renderer& renderer,
-                          const Work& work, double ms) {
+                          const Work& work, double ms, double warm_ms = -1) {
     std::printf("step=%s view=%s size=%dx%d time_ms=%.2f threads=%d samples=%llu skipped=%llu "
                 "leapt=%llu gradients=%llu terminated=%llu hits=%llu",
                 options.step.c_str(), view.name.c_str(), view.width, view.height, ms,
@@ -56,6 +62,7 @@ static void print_summary(const Options& options, const View& view, const Render
         std::printf(" %s=%s", renderer.knob.name.c_str(), renderer.knob.value().c_str());
     }
     if (renderer.settings) std::printf(" %s", printable(renderer.settings()).c_str());
+    if (warm_ms >= 0) std::printf(" warm_ms=%.2f repeat=%d", warm_ms, options.repeat);
     std::printf("\n");
     flush_stdout();
 }
@@ -82,6 +89,21 @@ void print_trace(const Options& options, const View& view, const Renderer& rende
     flush_stdout();
 }
 
+// --repeat N: the median time of renders 2..N of a view (the first, cold one is time_ms=).
+// Their pictures and work counts are the first render's again, so they are dropped.
+static double warm_median_ms(const Options& options, const View& view,
+                             const Renderer& renderer) {
+    std::vector<double> times;
+    for (int n = 1; n < options.repeat; ++n) {
+        Work work;
+        const Timer timer;
+        render_view(options, view, renderer, work);
+        times.push_back(timer.ms());
+    }
+    std::sort(times.begin(), times.end());
+    const size_t middle = times.size() / 2;
+    return times.size() % 2 ? times[middle] : (times[middle - 1] + times[middle]) / 2;
+}
 
 static bool inside(const View& view, int x, int y) {
     return x >= 0 && y >= 0 && x < view.width && y < view.height;
@@ -120,6 +142,7 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         const Timer timer;
         const Image image = render_view(options, view, renderer, work);
         const double ms = timer.ms();
+        const double warm_ms = options.repeat > 1 ? warm_median_ms(options, view, renderer) : -1;
         if (image.width != view.width || image.height != view.height) {
             throw InputError("the " + view.name + " render is " + std::to_string(image.width) +
                              "x" + std::to_string(image.height) + " but the view is " +
@@ -127,7 +150,8 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
                              " (is a lesson function still a TODO stub?)");
         }
         write_png(image, output_path(options, view));
-        print_summary(options, view, renderer, work, ms);
+        if (options.pfm) write_pfm(image, pfm_path(options, view));
+        print_summary(options, view, renderer, work, ms, warm_ms);
         if (options.has_debug_pixel) {
             if (inside(view, options.debug_x, options.debug_y)) {
                 print_trace(options, view, renderer, options.debug_x, options.debug_y);

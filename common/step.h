@@ -30,8 +30,10 @@ struct Renderer {
     std::function<std::string()> settings;    // extra "key=value ..." for the summary line
 };
 
-// Renders every selected view: PNG to OUT/STEP_VIEW.png, one summary line each, the
-// --debug-pixel trace, then the window unless --no-window or no display. Returns 0.
+// Renders every selected view: PNG to OUT/STEP_VIEW.png (--pfm: the float image to
+// OUT/STEP_VIEW.pfm too; --repeat N: N renders, warm_ms= their median after the first), one
+// summary line each, the --debug-pixel trace, then the window unless --no-window or no
+// display. Returns 0.
 int run_views(const Options& options, const Volume& volume, const Renderer& renderer);
 
 // The image of one view, as run_views renders it (used by tests, the window and tools).
@@ -44,6 +46,9 @@ void print_trace(const Options& options, const View& view, const Renderer& rende
 
 // "out/03_depth_shading_front.png"
 std::string output_path(const Options& options, const View& view);
+
+// "out/03_depth_shading_front.pfm": the float image --pfm writes beside the PNG.
+std::string pfm_path(const Options& options, const View& view);
 
 // Runs body(); any InputError (or other exception) becomes one line on stderr
 // "STEP: error: ..." and exit status 2 (1 for an unexpected internal error).
