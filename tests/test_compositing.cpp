@@ -1,5 +1,6 @@
-// test_compositing.cpp: steps 06-08. The transfer function file and its lookup table, both
-// compositing orders, early ray termination, opacity correction and lighting work, and the
+// test_compositing.cpp: steps 06-09. The transfer function file and its lookup table, both
+// compositing orders, early ray termination, opacity correction and lighting work, leaping
+// over empty space, and the
 // stiff cases of shared/numerics.md. Expected values come from closed forms computed here.
 // The steps are included whole, each in a namespace of its own, so their lesson functions
 // can be called directly (their main() becomes an ordinary function).
@@ -20,6 +21,9 @@ namespace step07 {
 }
 namespace step08 {
 #include "../steps/08_lit_compositing.cpp"
+}
+namespace step09 {
+#include "../steps/09_empty_space.cpp"
 }
 
 using namespace ctlab;
@@ -72,7 +76,7 @@ step07::Accumulated f2b_column(const Volume& volume, const step07::Lut& lut, dou
                                Work& work) {
     step07::Params params;
     params.ert = ert;
-    return step07::composite_front_to_back(volume, top(volume), 0, 0, lut, {}, params, work,
+    return step07::composite_front_to_back(volume, top(volume), 0, 0, lut, params, work,
                                            nullptr);
 }
 
@@ -85,7 +89,7 @@ step08::Accumulated lit_column(const Volume& volume, const TransferFunction& tf,
     params.unlit = true;
     params.no_correction = !correction;
     const step08::Lut lut = step08::build_lut(tf, step08::opacity_ratio(params));
-    return step08::composite_front_to_back(volume, top(volume), 0, 0, lut, {}, params, work,
+    return step08::composite_front_to_back(volume, top(volume), 0, 0, lut, params, work,
                                            nullptr);
 }
 
@@ -130,18 +134,11 @@ const Volume& phantom() {
     return volume;
 }
 
-// The empty space steps 07 and 08 leap over, built as their main() builds it.
-step07::EmptySpace space07(const Volume& volume, const step07::Lut& lut) {
-    step07::EmptySpace space;
+// The empty space step 09 leaps over, built as its main() builds it.
+step09::EmptySpace space09(const Volume& volume, const step09::Lut& lut) {
+    step09::EmptySpace space;
     space.bricks = make_bricks(volume);
-    space.empty = step07::find_empty_bricks(space.bricks, lut);
-    return space;
-}
-
-step08::EmptySpace space08(const Volume& volume, const step08::Lut& lut) {
-    step08::EmptySpace space;
-    space.bricks = make_bricks(volume);
-    space.empty = step08::find_empty_bricks(space.bricks, lut);
+    space.empty = step09::find_empty_bricks(space.bricks, lut);
     return space;
 }
 
@@ -413,7 +410,6 @@ TEST_CASE("compositing: extinction alpha = -expm1(-kappa h) stays in [0, 1]; kap
 
 TEST_CASE("compositing: front to back and back to front agree on the phantom") {
     const step07::Lut lut = step07::build_lut(classic_transfer_function());
-    const step07::EmptySpace space = space07(phantom(), lut);
     for (const View& view : views_named(phantom(), "all")) {
         CAPTURE(view.name);
         for (const double ert : {0.0, 0.01, 0.1}) {
@@ -423,7 +419,7 @@ TEST_CASE("compositing: front to back and back to front agree on the phantom") {
             Work f2b_work, b2f_work;
             const Image f2b = render_image(view, 2, f2b_work, [&](int x, int y, Work& w) {
                 return step07::over_background(step07::composite_front_to_back(
-                    phantom(), view, x, y, lut, space, params, w, nullptr));
+                    phantom(), view, x, y, lut, params, w, nullptr));
             });
             const Image b2f = render_image(view, 2, b2f_work, [&](int x, int y, Work& w) {
                 return step07::composite_back_to_front(phantom(), view, x, y, lut, w, nullptr);
@@ -432,15 +428,15 @@ TEST_CASE("compositing: front to back and back to front agree on the phantom") {
             const double allowed = ert == 0 ? 1e-5 : ert * max_colour + 1e-6;
             CHECK(max_difference(f2b, b2f) <= allowed);
             CHECK(b2f_work.terminated == 0);
-            // Back to front reads every sample; front to back leaps over the empty bricks.
+            // Neither order leaps (step 09 does): every sample reached is read.
             CHECK(b2f_work.leapt == 0);
-            CHECK(f2b_work.leapt > 0);
+            CHECK(f2b_work.leapt == 0);
             if (ert > 0) {
                 // Early termination reaches fewer samples than going all the way.
-                CHECK(f2b_work.samples + f2b_work.leapt < b2f_work.samples);
+                CHECK(f2b_work.samples < b2f_work.samples);
                 CHECK(f2b_work.terminated > 0);
             } else {
-                CHECK(f2b_work.samples + f2b_work.leapt == b2f_work.samples);
+                CHECK(f2b_work.samples == b2f_work.samples);
             }
             CHECK(f2b_work.gradients == 0);
         }
@@ -455,7 +451,7 @@ TEST_CASE("compositing: step 07 --order both writes the difference picture") {
     const std::string printed = ctlab_test::capture_stdout(
         [&] { status = step07::main(argv.argc(), argv.argv()); });
     CHECK(status == 0);
-    CHECK(contains(printed, "order=both ert=0.01 leaping=on max_order_diff="));
+    CHECK(contains(printed, "order=both ert=0.01 max_order_diff="));
     CHECK(contains(printed, "ert_skipped_fraction="));
     CHECK(contains(printed, "diff_scale=100"));
     const Image diff = read_image(out.path("07_compositing_order_front_diff.png"));
@@ -474,14 +470,14 @@ TEST_CASE("compositing: the trace shows RGBA, C and T per sample and where the r
     step07::Params params;  // default ert 0.01
     Work work;
     Trace trace;
-    step07::composite_front_to_back(volume, top(volume), 0, 0, lut, {}, params, work, &trace);
+    step07::composite_front_to_back(volume, top(volume), 0, 0, lut, params, work, &trace);
     // T: 0.88 (skin), 0.176, 0.0352, 0.00704 (bone) < 0.01: stop before the last sample.
     REQUIRE(trace.lines().size() == 6);  // 5 samples, then the termination note
     CHECK(contains(trace.lines()[0], "transparent: skipped"));
     CHECK(contains(trace.lines()[1], "rgba=(1.000, 0.790, 0.600, 0.1200)"));
     CHECK(contains(trace.lines()[1], "T=0.88"));
     CHECK(contains(trace.lines()[4], "T=0.00704"));
-    CHECK(contains(trace.lines()[5], "early ray termination at t=4, 1 samples not visited"));
+    CHECK(contains(trace.lines()[5], "early ray termination at n=4, 1 samples not visited"));
 }
 
 // --- Step 08: lighting work, step size and opacity correction ---------------------------
@@ -553,15 +549,15 @@ TEST_CASE("compositing: step 08 interpolates along the ray and never reads outsi
     }
 }
 
-TEST_CASE("compositing: gradients only where sigma > 0; none unlit or fully transparent") {
+TEST_CASE("compositing: gradients only where alpha > 0; none unlit or fully transparent") {
     const View view = make_view(phantom(), ViewAxis::front);
     auto render = [&](const TransferFunction& tf, bool unlit, Work& work) {
-        step08::Params params;
+        step09::Params params;
         params.unlit = unlit;
-        const step08::Lut lut = step08::build_lut(tf, step08::opacity_ratio(params));
-        const step08::EmptySpace space = space08(phantom(), lut);
+        const step09::Lut lut = step09::build_lut(tf, step09::opacity_ratio(params));
+        const step09::EmptySpace space = space09(phantom(), lut);
         return render_image(view, 2, work, [&](int x, int y, Work& w) {
-            return step08::over_background(step08::composite_front_to_back(
+            return step09::over_background(step09::composite_front_to_back(
                 phantom(), view, x, y, lut, space, params, w, nullptr));
         });
     };
@@ -581,39 +577,21 @@ TEST_CASE("compositing: gradients only where sigma > 0; none unlit or fully tran
 }
 
 TEST_CASE("compositing: leaping over empty bricks changes no pixel, only the work") {
-    // Steps 07 and 08 with and without leaping, every view of the phantom: the same pictures
-    // bit for bit; every sample is either visited or leapt over; the lighting and termination
-    // work is the same. Step 08 also at steps that do not divide a brick (0.3, 2.5).
+    // Step 09 with and without leaping, every view of the phantom: the same pictures bit for
+    // bit; every sample is either visited or leapt over; the lighting and termination work is
+    // the same. Also at steps that do not divide a brick (0.3, 2.5).
     const TransferFunction classic = classic_transfer_function();
     for (const View& view : views_named(phantom(), "all")) {
         CAPTURE(view.name);
-        const step07::Lut lut07 = step07::build_lut(classic);
-        const step07::EmptySpace leap07 = space07(phantom(), lut07);
-        const step07::Params params07;
-        auto render07 = [&](const step07::EmptySpace& space, Work& work) {
-            return render_image(view, 2, work, [&](int x, int y, Work& w) {
-                return step07::over_background(step07::composite_front_to_back(
-                    phantom(), view, x, y, lut07, space, params07, w, nullptr));
-            });
-        };
-        Work leaping07, reading07;
-        const Image leapt07 = render07(leap07, leaping07);
-        const Image read07 = render07({}, reading07);
-        CHECK(std::memcmp(leapt07.pixels.data(), read07.pixels.data(),
-                          read07.pixels.size() * sizeof(Rgb)) == 0);
-        CHECK(reading07.leapt == 0);
-        CHECK(leaping07.leapt > 2 * leaping07.samples);  // the phantom is mostly air
-        CHECK(leaping07.samples + leaping07.leapt == reading07.samples);
-        CHECK(leaping07.terminated == reading07.terminated);
         for (const double step : {0.3, 1.0, 2.5}) {
             CAPTURE(step);
-            step08::Params params08;
+            step09::Params params08;
             params08.step = step;
-            const step08::Lut lut08 = step08::build_lut(classic, step08::opacity_ratio(params08));
-            const step08::EmptySpace leap08 = space08(phantom(), lut08);
-            auto render08 = [&](const step08::EmptySpace& space, Work& work) {
+            const step09::Lut lut08 = step09::build_lut(classic, step09::opacity_ratio(params08));
+            const step09::EmptySpace leap08 = space09(phantom(), lut08);
+            auto render08 = [&](const step09::EmptySpace& space, Work& work) {
                 return render_image(view, 2, work, [&](int x, int y, Work& w) {
-                    return step08::over_background(step08::composite_front_to_back(
+                    return step09::over_background(step09::composite_front_to_back(
                         phantom(), view, x, y, lut08, space, params08, w, nullptr));
                 });
             };
@@ -632,7 +610,7 @@ TEST_CASE("compositing: leaping over empty bricks changes no pixel, only the wor
 
 TEST_CASE("compositing: a sample between an empty brick and bone is not leapt over") {
     // A column of air with bone starting exactly at the first voxel of the second brick.
-    // Step 08 at step 0.25 puts samples at 7.25, 7.5, 7.75: between air (-1000) and bone
+    // Step 09 at step 0.25 puts samples at 7.25, 7.5, 7.75: between air (-1000) and bone
     // (1000), where they interpolate through the skin range [-300, 50) (7.5 gives 0 exactly).
     // The first brick's range covers voxel brick_size (the overlap), so it is not empty.
     std::vector<int16_t> values(3 * brick_size, -1000);
@@ -642,18 +620,18 @@ TEST_CASE("compositing: a sample between an empty brick and bone is not leapt ov
     REQUIRE(bricks.count() == 3);
     CHECK(bricks.ranges[0].min == -1000);
     CHECK(bricks.ranges[0].max == 1000);  // voxel brick_size, past the brick, is included
-    step08::Params params;
+    step09::Params params;
     params.step = 0.25;
     params.ert = 0;
     params.unlit = true;
-    const step08::Lut lut = step08::build_lut(classic_transfer_function(),
-                                              step08::opacity_ratio(params));
-    CHECK(step08::value_along_ray(volume, top(volume), 0, 0, brick_size - 0.5) == 0.0f);
+    const step09::Lut lut = step09::build_lut(classic_transfer_function(),
+                                              step09::opacity_ratio(params));
+    CHECK(step09::value_along_ray(volume, top(volume), 0, 0, brick_size - 0.5) == 0.0f);
     Work leaping, reading;
     Trace trace;
-    const step08::Accumulated leapt = step08::composite_front_to_back(
-        volume, top(volume), 0, 0, lut, space08(volume, lut), params, leaping, &trace);
-    const step08::Accumulated read = step08::composite_front_to_back(
+    const step09::Accumulated leapt = step09::composite_front_to_back(
+        volume, top(volume), 0, 0, lut, space09(volume, lut), params, leaping, &trace);
+    const step09::Accumulated read = step09::composite_front_to_back(
         volume, top(volume), 0, 0, lut, {}, params, reading, nullptr);
     CHECK(leapt.r == read.r);
     CHECK(leapt.transparency == read.transparency);
@@ -666,8 +644,8 @@ TEST_CASE("compositing: a sample between an empty brick and bone is not leapt ov
     const Volume far_column = column(far);
     Work far_work;
     Trace far_trace;
-    step08::composite_front_to_back(far_column, top(far_column), 0, 0, lut,
-                                    space08(far_column, lut), params, far_work, &far_trace);
+    step09::composite_front_to_back(far_column, top(far_column), 0, 0, lut,
+                                    space09(far_column, lut), params, far_work, &far_trace);
     const uint64_t samples = 3 * brick_size * 4;  // step 0.25
     CHECK(far_work.samples + far_work.leapt == samples);
     CHECK(far_work.leapt == 2 * brick_size * 4);  // bricks 0 and 1, four samples a voxel
@@ -675,11 +653,12 @@ TEST_CASE("compositing: a sample between an empty brick and bone is not leapt ov
 }
 
 TEST_CASE("compositing: the empty bricks follow the table, also when it changes") {
-    // Step 07 in-process: the knob takes the skin opacity to 0 (the skin's bricks become
-    // empty), then back to 0.12; each picture equals a fresh render at that opacity.
+    // Step 09 in-process: the knob takes the step to 2 and back to 1 (the table is corrected
+    // again each time, and its empty bricks found again); each picture equals a fresh render
+    // at that step. Without skin the table leaves more bricks empty.
     auto render = [](const std::vector<std::string>& flags, const std::vector<int>& presses,
                      std::vector<Image>& images, std::vector<Work>& works) {
-        ctlab_test::run_step("07_compositing_order", flags, phantom(),
+        ctlab_test::run_step("09_empty_space", flags, phantom(),
                              [&](const Options& options, const Volume&, const Renderer& r) {
             const View view = make_view(phantom(), ViewAxis::front);
             for (const int steps : presses) {
@@ -691,17 +670,18 @@ TEST_CASE("compositing: the empty bricks follow the table, also when it changes"
     };
     std::vector<Image> fresh, knob;
     std::vector<Work> fresh_work, knob_work;
-    render({"--no-window", "--skin-opacity", "0"}, {0}, fresh, fresh_work);
+    render({"--no-window", "--step", "2"}, {0}, fresh, fresh_work);
     render({"--no-window"}, {0}, fresh, fresh_work);
-    render({"--no-window"}, {-6, +6}, knob, knob_work);  // 0.12 - 6 * 0.02 = 0, and back
-    REQUIRE(fresh.size() == 2);
+    render({"--no-window", "--skin-opacity", "0"}, {0}, fresh, fresh_work);
+    render({"--no-window"}, {+1, -1}, knob, knob_work);  // step 2, and back to 1
+    REQUIRE(fresh.size() == 3);
     REQUIRE(knob.size() == 2);
     CHECK(max_difference(fresh[0], knob[0]) == 0);
     CHECK(max_difference(fresh[1], knob[1]) == 0);
     CHECK(knob_work[0].leapt == fresh_work[0].leapt);
     CHECK(knob_work[1].leapt == fresh_work[1].leapt);
-    CHECK(fresh_work[0].leapt > fresh_work[1].leapt);  // no skin: more empty bricks
-    CHECK(max_difference(fresh[0], fresh[1]) > 0.1);   // and the skin is gone
+    CHECK(fresh_work[2].leapt > fresh_work[1].leapt);  // no skin: more empty bricks
+    CHECK(max_difference(fresh[2], fresh[1]) > 0.1);   // and the skin is gone
 }
 
 TEST_CASE("compositing: step 08 at step 1 and 0.5 looks the same with correction") {
@@ -717,11 +697,10 @@ TEST_CASE("compositing: step 08 at step 1 and 0.5 looks the same with correction
                 params.no_correction = !correction;
                 const step08::Lut lut = step08::build_lut(classic_transfer_function(),
                                                           step08::opacity_ratio(params));
-                const step08::EmptySpace space = space08(phantom(), lut);
                 Work work;
                 return render_image(view, 2, work, [&](int x, int y, Work& w) {
                     return step08::over_background(step08::composite_front_to_back(
-                        phantom(), view, x, y, lut, space, params, w, nullptr));
+                        phantom(), view, x, y, lut, params, w, nullptr));
                 });
             };
             const double corrected = mean_difference(render(1, true), render(0.5, true));

@@ -1,5 +1,5 @@
 // all_steps.h: every step compiled into one program, each inside a namespace of its own
-// (step00 ... step08), for the programs that run the steps in-process: the tests
+// (step00 ... step09), for the programs that run the steps in-process: the tests
 // (tests/test_steps.cpp), the benchmark (tools/bench.cpp) and the study (tools/study.cpp). A step's lesson functions are
 // then step04::gradient_at and the like, and its main() an ordinary function.
 //
@@ -39,6 +39,9 @@ namespace step07 {
 namespace step08 {
 #include "../steps/08_lit_compositing.cpp"
 }
+namespace step09 {
+#include "../steps/09_empty_space.cpp"
+}
 
 // Every step above, in order: its name ("03_depth_shading") and its main().
 struct IncludedStep {
@@ -51,5 +54,5 @@ const IncludedStep all_steps[] = {
     {step02::step_name, &step02::main}, {step03::step_name, &step03::main},
     {step04::step_name, &step04::main}, {step05::step_name, &step05::main},
     {step06::step_name, &step06::main}, {step07::step_name, &step07::main},
-    {step08::step_name, &step08::main},
+    {step08::step_name, &step08::main}, {step09::step_name, &step09::main},
 };

@@ -2,7 +2,7 @@
 // faster the shipped code is than a deliberately naive loop of the same step.
 //
 //   build/bench [--volume phantom|PATH] [--runs N] [--out FILE] [--steps NN,NN]
-//               [--flags "FLAGS"]                                              (make bench)
+//               [--flags "FLAGS"] [--quick]                                    (make bench)
 //
 // For every step at its default settings and every view: ms per frame (median, and min-max,
 // over --runs renders after one warm-up), Msamples/s, the parallel speed-up, and the naive
@@ -13,6 +13,10 @@
 // --steps 07,08 times only those steps. --flags gives every step extra flags after its own
 // defaults (say "--tf data/tf/transparent.tf --steps 07"); the naive loop still runs the
 // defaults, so its pictures then differ, and the targets are only met at default settings.
+//
+// --quick (make bench QUICK=1, run by CI so the benchmark cannot rot): the phantom at
+// 64 x 64 x 29, one timed render per case, no CThead; exit status 1 when a picture differs.
+// Its figures are not to be quoted.
 //
 // The steps are compiled in here, each in a namespace of its own (all_steps.h, as in
 // tests/test_steps.cpp), and their main() runs in-process: load_volume() hands them the
@@ -56,7 +60,8 @@ namespace {
 constexpr const char* tool_name = "bench";
 constexpr int default_runs = 15;      // timed renders per case, after one warm-up
 constexpr int min_runs = 10;          // issue 5: at least 10
-constexpr int naive_runs = min_runs;  // the naive loop is slow: the minimum, 10
+int naive_runs = min_runs;  // the naive loop is slow: the minimum, 10 (--quick: 1)
+constexpr int quick_dims[3] = {64, 64, 29};  // --quick: the phantom this size
 constexpr double frame_budget_ms = 16;     // target: every step 01-08, 256x256, all cores
 constexpr double f2b_top_budget_ms = 2;    // target: step 07 front to back, top view
 constexpr double parallel_target = 1.7;    // target: speed-up of the parallel loop, 2 cores
@@ -184,10 +189,8 @@ Vec3 naive_gradient(const Sampler& sample, const Volume& volume, const Voxel& v,
 }
 
 Vec3 naive_gradient_along_ray(const Sampler& sample, const Volume& volume, const View& view,
-                              int x, int y, float t, Work& work) {
-    const int before = int(t);
+                              int x, int y, int before, float fraction, Work& work) {
     const int after = std::min(before + 1, view.ray_length - 1);
-    const float fraction = t - float(before);
     const Vec3 g_before = naive_gradient(sample, volume, view.voxel(x, y, before), work);
     if (fraction == 0.0f) return g_before;
     const Vec3 g_after = naive_gradient(sample, volume, view.voxel(x, y, after), work);
@@ -196,7 +199,8 @@ Vec3 naive_gradient_along_ray(const Sampler& sample, const Volume& volume, const
 
 struct Hit {
     bool found = false;
-    float t = 0;
+    int t = 0;           // the sample at or before the hit
+    float fraction = 0;  // how far past it the hit lies (step 05)
 };
 
 // Steps 02-05: the first sample above the threshold, interpolated (step 05) or not.
@@ -209,9 +213,9 @@ Hit naive_first_hit(const Sampler& sample, const View& view, int x, int y, int t
         if (value > threshold) {
             ++work.hits;
             if (t + 1 < view.ray_length) ++work.terminated;
-            if (!interpolate || t == 0) return {true, float(t)};
+            if (!interpolate || t == 0) return {true, t, 0.0f};
             const float fraction = float(threshold - previous) / float(value - previous);
-            return {true, float(t - 1) + fraction};
+            return {true, t - 1, fraction};
         }
         previous = value;
     }
@@ -243,8 +247,9 @@ Rgb naive_pixel(const std::string& step, const Volume& volume, const Sampler& sa
         const Hit hit = naive_first_hit(sample, view, x, y, threshold, interpolate, work);
         if (!hit.found) return grey(0.0f);
         const Vec3 gradient =
-            interpolate ? naive_gradient_along_ray(sample, volume, view, x, y, hit.t, work)
-                        : naive_gradient(sample, volume, view.voxel(x, y, int(hit.t)), work);
+            interpolate ? naive_gradient_along_ray(sample, volume, view, x, y, hit.t,
+                                                   hit.fraction, work)
+                        : naive_gradient(sample, volume, view.voxel(x, y, hit.t), work);
         const double angle = step04::default_light_angle;
         return grey(step04::shade(gradient, step04::light_direction(view, angle)));
     }
@@ -257,15 +262,15 @@ Rgb naive_pixel(const std::string& step, const Volume& volume, const Sampler& sa
                 ++work.skipped;
                 continue;
             }
-            const double light = 1.0, sigma = s.a;
-            r = sigma * light * s.r + (1 - sigma) * r;
-            g = sigma * light * s.g + (1 - sigma) * g;
-            b = sigma * light * s.b + (1 - sigma) * b;
+            const double light = 1.0, alpha = s.a;
+            r = alpha * light * s.r + (1 - alpha) * r;
+            g = alpha * light * s.g + (1 - alpha) * g;
+            b = alpha * light * s.b + (1 - alpha) * b;
         }
         return {float(r), float(g), float(b)};
     }
-    // Steps 07 and 08: front to back with early ray termination at their default 0.01.
-    const bool lit = step == step08::step_name;
+    // Steps 07, 08 and 09: front to back with early ray termination at their default 0.01.
+    const bool lit = step == step08::step_name || step == step09::step_name;
     const double stop_below = std::max(step07::default_ert, step07::min_transparency);
     const double step_length = lit ? step08::default_step : view.ray_spacing;
     const double ratio = step08::default_step / step08::unit_length;
@@ -277,11 +282,13 @@ Rgb naive_pixel(const std::string& step, const Volume& volume, const Sampler& sa
     for (int n = 0; n < count; ++n) {
         Rgba s;
         double position = n;
+        int before = n;
+        float fraction = 0;
         if (lit) {  // step 08: interpolated along the ray, opacity corrected per sample
             position = n * (step_length / view.ray_spacing);  // as the step computes it
-            const int before = std::min(int(position), view.ray_length - 1);
+            before = std::min(int(position), view.ray_length - 1);
             const int after = std::min(before + 1, view.ray_length - 1);
-            const float fraction = float(position - before);
+            fraction = float(position - before);
             const float v0 = float(sample_at(sample, view, x, y, before));
             const float v1 = float(sample_at(sample, view, x, y, after));
             const float value = v0 + fraction * (v1 - v0);
@@ -297,8 +304,8 @@ Rgb naive_pixel(const std::string& step, const Volume& volume, const Sampler& sa
         }
         double light = 1.0;
         if (lit) {
-            light = step08::shade(naive_gradient_along_ray(sample, volume, view, x, y,
-                                                           float(position), work),
+            light = step08::shade(naive_gradient_along_ray(sample, volume, view, x, y, before,
+                                                           fraction, work),
                                   to_light);
         }
         const double weight = transparency * s.a * light;
@@ -333,7 +340,7 @@ struct Row {
     std::string step, view;
     int width = 0, height = 0;
     uint64_t samples = 0;  // visited along the rays
-    uint64_t leapt = 0;    // passed over unread, in bricks the table leaves empty (07, 08)
+    uint64_t leapt = 0;    // passed over unread, in bricks the table leaves empty (09)
     Timing one, all, naive;
     bool threads_identical = false, naive_identical = false;
     double others = 0;  // share of the cores other processes used while this step was timed
@@ -465,6 +472,30 @@ std::string table(const std::vector<Row>& rows, int cores) {
     return out.str();
 }
 
+// One step's figures on the phantom as the handouts quote them, marked as section
+// "bench:NN_name" for tools/measured.cpp (make bench copies it into the handout's block).
+std::string step_section(const std::vector<Row>& rows, const std::string& step, int cores,
+                         int runs, double others_share) {
+    std::ostringstream out;
+    out << "<!-- section: bench:" << step << " -->\n";
+    out << text_of("Measured by `make bench` on %d cores (%s), median of %d renders; other "
+                   "processes used %.0f%% of the cores during the run.\n\n",
+                   cores, first_line_of("/proc/cpuinfo", "model name").c_str(), runs,
+                   100 * others_share);
+    out << "| view | 1 thread | " << cores << " threads | parallel speed-up | ns per sample, "
+        << "1 thread | naive loop |\n";
+    out << "|---|---:|---:|---:|---:|---:|\n";
+    for (const Row& r : rows) {
+        if (r.step != step) continue;
+        out << text_of("| %s | %.2f ms | %.2f ms | %.2fx | %.2f | %.1f ms |\n", r.view.c_str(),
+                       r.one.median, r.all.median, r.one.median / r.all.median,
+                       r.samples > 0 ? r.one.median * 1e6 / double(r.samples) : 0.0,
+                       r.naive.median);
+    }
+    out << "<!-- end section -->\n";
+    return out.str();
+}
+
 // The targets of issue 5, checked on the phantom's figures.
 std::string targets(const std::vector<Row>& rows, int cores) {
     std::ostringstream out;
@@ -487,7 +518,7 @@ std::string targets(const std::vector<Row>& rows, int cores) {
     }
     const double parallel = one_sum / all_sum;
     out << "| target | measured | met |\n|---|---|---|\n";
-    out << text_of("| every step 01-08, default settings, 256x256 view (top), %d threads: "
+    out << text_of("| every step 01-09, default settings, 256x256 view (top), %d threads: "
                    "under %.0f ms | %d of %d under%s | %s |\n",
                    cores, frame_budget_ms, budget_views - over_budget, budget_views,
                    slow.empty() ? "" : (" (over:" + slow + ")").c_str(),
@@ -514,10 +545,13 @@ int run(int argc, char** argv) {
     std::string volume_name = "phantom", out_path = "out/bench.md", only;
     std::vector<std::string> extra_flags;  // --flags: given to every step, after its defaults
     int runs = default_runs;
+    bool quick = false;
     for (int n = 1; n < argc; ++n) {
         const std::string flag = argv[n];
         const bool has_value = n + 1 < argc;
-        if (flag == "--volume" && has_value) {
+        if (flag == "--quick") {
+            quick = true;
+        } else if (flag == "--volume" && has_value) {
             volume_name = argv[++n];
         } else if (flag == "--runs" && has_value) {
             runs = parse_int("--runs", argv[++n], min_runs, 1000);
@@ -530,15 +564,22 @@ int run(int argc, char** argv) {
             for (std::string word; words >> word;) extra_flags.push_back(word);
         } else {
             throw InputError("usage: bench [--volume phantom|PATH] [--runs N>=10] [--out FILE]"
-                             " [--steps NN,NN] [--flags \"FLAGS\"], got '" + flag + "'");
+                             " [--steps NN,NN] [--flags \"FLAGS\"] [--quick], got '" + flag +
+                             "'");
         }
     }
+    if (quick) runs = naive_runs = 1;
     const unsigned hardware = std::thread::hardware_concurrency();
     const int cores = hardware > 0 ? int(hardware) : 1;
     std::vector<std::pair<std::string, Volume>> volumes;
-    volumes.emplace_back(volume_name, volume_name == "phantom" ? make_phantom()
-                                                               : load_cthead(volume_name));
-    if (volume_name == "phantom" && file_exists("data/CThead")) {
+    if (quick && volume_name == "phantom") {
+        volumes.emplace_back("phantom", make_phantom_sized(quick_dims[0], quick_dims[1],
+                                                           quick_dims[2]));
+    } else {
+        volumes.emplace_back(volume_name, volume_name == "phantom" ? make_phantom()
+                                                                   : load_cthead(volume_name));
+    }
+    if (!quick && volume_name == "phantom" && file_exists("data/CThead")) {
         volumes.emplace_back("data/CThead", load_cthead("data/CThead"));
     }
 
@@ -546,6 +587,10 @@ int run(int argc, char** argv) {
     const machine::OtherLoad others;
     std::ostringstream report;
     report << "# ctlab benchmark\n\n";
+    if (quick) {
+        report << "**Quick mode** (--quick): a small volume and one render per case, to check "
+               << "that the benchmark runs and its pictures agree. Do not quote these figures.\n\n";
+    }
     if (!extra_flags.empty()) {
         std::string joined;
         for (const std::string& word : extra_flags) joined += " " + word;
@@ -567,11 +612,15 @@ int run(int argc, char** argv) {
            << "over. Its arithmetic is the step's, so its picture must equal the shipped one "
            << "(last column).\n\n";
     std::vector<Row> phantom_rows;
+    int differing = 0;  // rows whose pictures differ between threads or from the naive loop
     for (const auto& [name, volume] : volumes) {
         std::printf("bench: %s (%dx%dx%d), %d runs, 1 and %d threads\n", name.c_str(),
                     volume.nx, volume.ny, volume.nz, runs, cores);
         const std::vector<Row> rows = bench_volume_rows(volume, runs, cores, only, extra_flags);
         if (phantom_rows.empty()) phantom_rows = rows;
+        for (const Row& row : rows) {
+            differing += !row.threads_identical || (extra_flags.empty() && !row.naive_identical);
+        }
         report << "## " << name << " (" << volume.nx << "x" << volume.ny << "x" << volume.nz
                << ")\n\n" << table(rows, cores) << "\n";
     }
@@ -586,6 +635,18 @@ int run(int argc, char** argv) {
                       "cores during the whole run (last column: during each step's timing); "
                       "figures taken above a few percent are not to be trusted.\n",
                       load_average().c_str(), 100 * others.share(), cores);
+    // The handouts quote these (make bench runs build/measured): only full runs of the
+    // phantom at default settings, so that a quick or a tuned run never reaches a handout.
+    if (!quick && extra_flags.empty() && volume_name == "phantom") {
+        report << "\n## Per step, as the handouts quote it\n\n";
+        std::vector<std::string> names;
+        for (const Row& row : phantom_rows) {
+            if (names.empty() || names.back() != row.step) names.push_back(row.step);
+        }
+        for (const std::string& name : names) {
+            report << step_section(phantom_rows, name, cores, runs, others.share()) << "\n";
+        }
+    }
 
     const size_t slash = out_path.rfind('/');
     if (slash != std::string::npos) make_folder(out_path.substr(0, slash));
@@ -596,6 +657,10 @@ int run(int argc, char** argv) {
     std::printf("bench: other processes used %.0f%% of the cores during the run\n",
                 100 * others.share());
     std::printf("bench: wrote %s\n", out_path.c_str());
+    if (quick && differing > 0) {
+        std::printf("bench: %d step views give different pictures (see the table)\n", differing);
+        return 1;
+    }
     return 0;
 }
 

@@ -13,7 +13,10 @@
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
 //              error measured here (handouts/numerics.md quotes them)
 //
-//   build/study [--out DIR] [--runs N]                     (make study: about a minute)
+//   build/study [--out DIR] [--runs N] [--quick]           (make study: about a minute)
+//
+// --quick (make study QUICK=1, run by CI so the study cannot rot): one render per case, the
+// phantom at 64 x 64 x 29 and a reference step of 1/16. Its figures are not to be quoted.
 //
 // Writes DIR/error_vs_time.csv, DIR/error_vs_time.png (log-log, a panel per study),
 // DIR/error_vs_time.md (the tables) and DIR/numerics.md. handouts/error_vs_time.md and
@@ -47,7 +50,10 @@ namespace {
 constexpr const char* tool_name = "study";
 constexpr int default_runs = 5;           // timed renders per case (median), after a warm-up
 constexpr int surface_threshold = 400;    // CT value of the analytic surfaces (and of bone)
-constexpr double reference_step = 1.0 / 32;  // voxels: the converged compositing reference
+double reference_step = 1.0 / 32;  // voxels: the converged compositing reference
+constexpr double quick_reference_step = 1.0 / 16;  // --quick
+constexpr int quick_dims[3] = {64, 64, 29};        // --quick: the phantom this size
+bool quick = false;
 constexpr double byte_units = 255;        // errors in 8-bit units: 0..1 times 255
 constexpr double pi = 3.14159265358979323846;
 constexpr double not_applicable = -1;     // an error column a case has no figure for
@@ -203,6 +209,9 @@ struct DepthHit {
     double t = 0;  // samples (voxels) along the ray
 };
 
+// Where step 05's hit lies along the ray, in samples: its sample index plus the fraction.
+double crossing_of(const step05::Hit& hit) { return hit.n + double(hit.fraction); }
+
 // Study variant (no step has it): step 03's rule - the first sample above the threshold -
 // with samples `h` voxels apart, each read as step 08 reads it (linear along the ray).
 DepthHit first_hit_finer(const Volume& volume, const View& view, int x, int y, double h,
@@ -242,7 +251,7 @@ void depth_study() {
         methods.push_back({"nearest sample (step 03)", "1", [&](int x, int y, Work& work) {
             const step03::Hit hit = step03::first_hit(volume, view, x, y, surface_threshold,
                                                       work, nullptr);
-            return DepthHit{hit.found, hit.t};
+            return DepthHit{hit.found, double(hit.n)};
         }});
         for (const double h : {0.5, 0.25, 0.125, 0.0625}) {
             methods.push_back({"nearest, finer steps", step_text(h),
@@ -253,7 +262,7 @@ void depth_study() {
         methods.push_back({"interpolated (step 05)", "1", [&](int x, int y, Work& work) {
             const step05::Hit hit = step05::first_hit(volume, view, x, y, surface_threshold,
                                                       work, nullptr);
-            return DepthHit{hit.found, hit.t};
+            return DepthHit{hit.found, crossing_of(hit)};
         }});
 
         for (const Method& method : methods) {
@@ -298,22 +307,25 @@ void depth_study() {
 // --- 2. Compositing: step size and opacity correction -----------------------------------
 
 const Volume& phantom() {
-    static const Volume volume = make_phantom();
+    static const Volume volume = quick ? make_phantom_sized(quick_dims[0], quick_dims[1],
+                                                            quick_dims[2])
+                                       : make_phantom();
     return volume;
 }
 
-// Step 08 as shipped: its table for this step, then its front-to-back ray for every pixel.
-Image render_08(const View& view, const step08::Params& params, int threads, Work& work,
+// Step 08's picture, rendered by step 09 (step 08 plus leaping over empty bricks: the same
+// pixels, less work): its table for this step, then its front-to-back ray for every pixel.
+Image render_08(const View& view, const step09::Params& params, int threads, Work& work,
                 double* ms = nullptr) {
-    const step08::Lut lut = step08::build_lut(classic_transfer_function(),
-                                              step08::opacity_ratio(params));
-    step08::EmptySpace space;  // leaping over empty bricks, as the step does by default
+    const step09::Lut lut = step09::build_lut(classic_transfer_function(),
+                                              step09::opacity_ratio(params));
+    step09::EmptySpace space;  // leaping over empty bricks, as the step does by default
     space.bricks = make_bricks(phantom());
-    space.empty = step08::find_empty_bricks(space.bricks, lut);
+    space.empty = step09::find_empty_bricks(space.bricks, lut);
     auto render = [&] {
         work = Work();
         return render_image(view, threads, work, [&](int x, int y, Work& w) {
-            return step08::over_background(step08::composite_front_to_back(
+            return step09::over_background(step09::composite_front_to_back(
                 phantom(), view, x, y, lut, space, params, w, nullptr));
         });
     };
@@ -329,29 +341,30 @@ Image render_08(const View& view, const step08::Params& params, int threads, Wor
 // In float, T cannot fall below 1e-300 without reaching 0, so with --ert 0 the ray runs
 // until T is exactly 0 (after passing through subnormal values).
 template <class Real>
-Rgb composite_front_to_back_in(const View& view, int x, int y, const step08::Lut& lut,
-                               const step08::EmptySpace& space, const step08::Params& params,
+Rgb composite_front_to_back_in(const View& view, int x, int y, const step09::Lut& lut,
+                               const step09::EmptySpace& space, const step09::Params& params,
                                Work& work) {
     const Volume& volume = phantom();
-    const double stop_below = std::max(params.ert, step08::min_transparency);
+    const double stop_below = std::max(params.ert, step09::min_transparency);
     const double depth = view.ray_length * view.ray_spacing;
     const int sample_count = std::max(1, int(std::lround(depth / params.step)));
     const double voxels_per_sample = params.step / view.ray_spacing;
     const Vec3 to_light = params.unlit ? Vec3{}
-                                       : step08::light_direction(view, params.light_angle);
+                                       : step09::light_direction(view, params.light_angle);
     Real r = 0, g = 0, b = 0, transparency = 1;
     for (int n = 0; n < sample_count; ++n) {
         const double position = n * voxels_per_sample;
-        const int voxel_before = std::min(int(position), view.ray_length - 1);
-        if (space.is_empty(view.voxel(x, y, voxel_before))) {
-            const int brick_end = (voxel_before / brick_size + 1) * brick_size;
+        const int before = std::min(int(position), view.ray_length - 1);
+        const float fraction = float(position - before);
+        if (space.is_empty(view.voxel(x, y, before))) {
+            const int brick_end = (before / brick_size + 1) * brick_size;
             const int next = std::min(sample_count,
                                       std::max(n + 1, int(brick_end / voxels_per_sample)));
             work.leapt += next - n;
             n = next - 1;
             continue;
         }
-        const float value = step08::value_along_ray(volume, view, x, y, position);
+        const float value = step09::value_along_ray(volume, view, x, y, position);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         if (sample.a == 0.0f) {
@@ -360,8 +373,8 @@ Rgb composite_front_to_back_in(const View& view, int x, int y, const step08::Lut
         }
         double light = 1.0;
         if (!params.unlit) {
-            light = step08::shade(step08::gradient_along_ray(volume, view, x, y,
-                                                             float(position), work),
+            light = step09::shade(step09::gradient_along_ray(volume, view, x, y, before,
+                                                             fraction, work),
                                   to_light);
         }
         const Real weight = Real(transparency * Real(sample.a) * Real(light));
@@ -378,12 +391,12 @@ Rgb composite_front_to_back_in(const View& view, int x, int y, const step08::Lut
 }
 
 template <class Real>
-Image render_08_in(const View& view, const step08::Params& params, Work& work, double* ms) {
-    const step08::Lut lut = step08::build_lut(classic_transfer_function(),
-                                              step08::opacity_ratio(params));
-    step08::EmptySpace space;  // leaping over empty bricks, as step 08 does
+Image render_08_in(const View& view, const step09::Params& params, Work& work, double* ms) {
+    const step09::Lut lut = step09::build_lut(classic_transfer_function(),
+                                              step09::opacity_ratio(params));
+    step09::EmptySpace space;  // leaping over empty bricks, as step 09 does
     space.bricks = make_bricks(phantom());
-    space.empty = step08::find_empty_bricks(space.bricks, lut);
+    space.empty = step09::find_empty_bricks(space.bricks, lut);
     Image image;
     *ms = median_ms([&] {
         work = Work();
@@ -399,7 +412,7 @@ void step_study() {
                 "termination, against step %s\n", step_text(reference_step).c_str());
     const View view = make_view(phantom(), ViewAxis::front);
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
-    step08::Params params;
+    step09::Params params;  // step 08 plus leaping: the same pictures
     params.ert = 0;
     params.step = reference_step;
     Work work;
@@ -456,9 +469,6 @@ void ert_study() {
     std::printf("ert: early ray termination thresholds, top view of the phantom, 1 thread\n");
     const View view = make_view(phantom(), ViewAxis::top);
     const step07::Lut lut07 = step07::build_lut(classic_transfer_function());
-    step07::EmptySpace space07;  // leaping over empty bricks, as the step does by default
-    space07.bricks = make_bricks(phantom());
-    space07.empty = step07::find_empty_bricks(space07.bricks, lut07);
     Image full07, full08;
     for (const double ert : {0.0, 0.001, 0.01, 0.05, 0.1}) {
         step07::Params params07;
@@ -469,7 +479,7 @@ void ert_study() {
             work = Work();
             image = render_image(view, 1, work, [&](int x, int y, Work& w) {
                 return step07::over_background(step07::composite_front_to_back(
-                    phantom(), view, x, y, lut07, space07, params07, w, nullptr));
+                    phantom(), view, x, y, lut07, params07, w, nullptr));
             });
         });
         if (ert == 0) full07 = image;
@@ -477,7 +487,7 @@ void ert_study() {
         record({"ert", "step 07 front to back", format("%g", ert), ms, error.rmse, error.max,
                 "8-bit, added (against T* = 0)", work.samples});
 
-        step08::Params params08;
+        step09::Params params08;  // step 08 plus leaping: the same pictures
         params08.ert = ert;
         double ms08 = 0;
         const Image image08 = render_08(view, params08, 1, work, &ms08);
@@ -634,7 +644,7 @@ step07::Accumulated f2b_column(const Volume& volume, const TransferFunction& tf,
     step07::Params params;
     params.ert = ert;
     return step07::composite_front_to_back(volume, make_view(volume, ViewAxis::top), 0, 0,
-                                           step07::build_lut(tf), {}, params, work, nullptr);
+                                           step07::build_lut(tf), params, work, nullptr);
 }
 
 Rgb b2f_column(const Volume& volume, const TransferFunction& tf, Work& work) {
@@ -797,7 +807,7 @@ void compositing_cases() {
                 Work work;
                 const step08::Accumulated ray = step08::composite_front_to_back(
                     volume, make_view(volume, ViewAxis::top), 0, 0,
-                    step08::build_lut(tf, step08::opacity_ratio(params)), {}, params, work,
+                    step08::build_lut(tf, step08::opacity_ratio(params)), params, work,
                     nullptr);
                 worst = std::max(worst, std::abs(ray.transparency - exact) / exact);
             }
@@ -808,7 +818,7 @@ void compositing_cases() {
                 Work work;
                 const step08::Accumulated ray = step08::composite_front_to_back(
                     volume, make_view(volume, ViewAxis::top), 0, 0,
-                    step08::build_lut(tf, step08::opacity_ratio(params)), {}, params, work,
+                    step08::build_lut(tf, step08::opacity_ratio(params)), params, work,
                     nullptr);
                 add_case("slab a = 0.12, 20 units, step 0.5 NOT corrected: T", test_c, exact,
                          ray.transparency);
@@ -882,7 +892,8 @@ void surface_cases() {
                             step05::first_hit(ramp, view, x, y, threshold, work, nullptr);
                         if (!hit.found || f0 > threshold) continue;
                         const double exact = double(threshold - f0) / slope;
-                        worst_crossing = std::max(worst_crossing, std::abs(hit.t - exact));
+                        worst_crossing =
+                            std::max(worst_crossing, std::abs(crossing_of(hit) - exact));
                     }
             }
         }
@@ -924,9 +935,9 @@ void surface_cases() {
                         step05::first_hit(volume, view, x, y, surface_threshold, work, nullptr);
                     if (!hit3.found || !hit5.found) continue;
                     ++measured;
-                    sum3 += std::abs(hit3.t - exact);
-                    sum5 += std::abs(hit5.t - exact);
-                    max5 = std::max(max5, std::abs(hit5.t - exact));
+                    sum3 += std::abs(hit3.n - exact);
+                    sum5 += std::abs(crossing_of(hit5) - exact);
+                    max5 = std::max(max5, std::abs(crossing_of(hit5) - exact));
                     // Normals: step 04 at the hit voxel, step 05 at the sub-voxel point.
                     auto angle = [&](Vec3 gradient, const double p[3]) {
                         const double size = length(gradient);
@@ -937,14 +948,15 @@ void surface_cases() {
                         for (int n = 0; n < 3; ++n) dot += -g[n] / size * (p[n] - c[n]) / dist;
                         return std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / pi;
                     };
-                    const Voxel v4 = view.voxel(x, y, int(hit3.t));
+                    const Voxel v4 = view.voxel(x, y, hit3.n);
                     const double p4[3] = {v4.i * volume.sx, v4.j * volume.sy, v4.k * volume.sz};
                     const double a4 = angle(step04::gradient_at(volume, v4, work), p4);
-                    const double s5 = hit5.t * view.ray_spacing;
+                    const double s5 = crossing_of(hit5) * view.ray_spacing;
                     const double p5[3] = {p0[0] + s5 * d[0], p0[1] + s5 * d[1],
                                           p0[2] + s5 * d[2]};
                     const double a5 = angle(
-                        step05::gradient_along_ray(volume, view, x, y, hit5.t, work), p5);
+                        step05::gradient_along_ray(volume, view, x, y, hit5.n, hit5.fraction, work),
+                        p5);
                     normal4 += a4;
                     normal5 += a5;
                     max_normal5 = std::max(max_normal5, a5);
@@ -981,10 +993,10 @@ void surface_cases() {
         Work work;
         add_case("int16 extremes: step 05 crossing at threshold 32766", test_s,
                  1.0 + 65534.0 / 65535.0,
-                 step05::first_hit(volume, top, 0, 0, 32766, work, nullptr).t);
+                 crossing_of(step05::first_hit(volume, top, 0, 0, 32766, work, nullptr)));
         add_case("int16 extremes: step 05 crossing at threshold 0", test_s,
                  1.0 + 32768.0 / 65535.0,
-                 step05::first_hit(volume, top, 0, 0, 0, work, nullptr).t);
+                 crossing_of(step05::first_hit(volume, top, 0, 0, 0, work, nullptr)));
         const Vec3 gradient = step04::gradient_at(volume, {1, 1, 2}, work);
         add_case("int16 extremes: gradient (32767 + 32768) / 2 along k", test_s, 65535.0 / 2,
                  gradient.k);
@@ -1146,6 +1158,24 @@ std::string load_average() {
     return one + " " + five + " " + fifteen;
 }
 
+// The CPU's name, from /proc/cpuinfo ("unknown" elsewhere).
+std::string cpu_model() {
+    std::ifstream in("/proc/cpuinfo");
+    for (std::string line; std::getline(in, line);) {
+        if (line.compare(0, 10, "model name") != 0) continue;
+        const size_t colon = line.find(':');
+        if (colon != std::string::npos) return line.substr(line.find_first_not_of(' ', colon + 1));
+    }
+    return "unknown";
+}
+
+// BODY marked as section NAME for tools/measured.cpp; a quick run's figures are not marked,
+// so they can never reach a handout.
+std::string section(const std::string& name, const std::string& body) {
+    if (quick) return body;
+    return "<!-- section: " + name + " -->\n" + body + "<!-- end section -->\n";
+}
+
 int run(int argc, char** argv) {
     std::string out = "out/study";
     for (int n = 1; n < argc; ++n) {
@@ -1154,9 +1184,16 @@ int run(int argc, char** argv) {
             out = argv[++n];
         } else if (flag == "--runs" && n + 1 < argc) {
             runs = parse_int("--runs", argv[++n], 1, 1000);
+        } else if (flag == "--quick") {
+            quick = true;
         } else {
-            throw InputError("usage: study [--out DIR] [--runs N], got '" + flag + "'");
+            throw InputError("usage: study [--out DIR] [--runs N] [--quick], got '" + flag +
+                             "'");
         }
+    }
+    if (quick) {
+        runs = 1;
+        reference_step = quick_reference_step;
     }
     make_folder(out);
     const std::string load_before = load_average();
@@ -1184,24 +1221,37 @@ int run(int argc, char** argv) {
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     std::ostringstream md;
     md << "# Error against run time: measured tables\n\n";
-    md << format("Written by `make study` (tools/study.cpp) in %.0f s on %d cores; load average "
-                 "%s before, %s after; other processes used %.0f%% of the cores meanwhile. "
-                 "Times: median of %d renders, 1 thread.\n\n",
-                 total.ms() / 1000, cores, load_before.c_str(), load_average().c_str(),
-                 100 * others.share(), runs);
+    if (quick) {
+        md << "**Quick mode** (--quick): one render per case, a 64x64x29 phantom, reference step "
+              "1/16. Do not quote these figures.\n\n";
+    }
+    const std::string written_by = format(
+        "Written by `make study` (tools/study.cpp) in %.0f s on %d cores (%s); load average "
+        "%s before, %s after; other processes used %.0f%% of the cores meanwhile. "
+        "Times: median of %d renders, 1 thread.\n",
+        total.ms() / 1000, cores, cpu_model().c_str(), load_before.c_str(),
+        load_average().c_str(), 100 * others.share(), runs);
+    md << written_by << "\n";
+    // Each table marked as a section that tools/measured.cpp copies into the handouts' blocks
+    // of the same name (make study does), with the line saying where and how it was measured.
     md << "## First-hit depth (top view, 256x256x113, spacing 1:1:2; error in voxels)\n\n"
-       << markdown_table("depth", "step h (voxels)") << "\n";
+       << section("study:depth", written_by + "\n" + markdown_table("depth", "step h (voxels)"))
+       << "\n";
     md << "## Compositing step (step 08 lit, front view, T* = 0; error in 8-bit units against "
-          "step 1/32)\n\n" << markdown_table("step-reference", "step")
-       << "\n" << markdown_table("step", "step (voxels)") << "\n";
+          "step 1/32)\n\n"
+       << section("study:step", written_by + "\n" + markdown_table("step-reference", "step") +
+                                    "\n" + markdown_table("step", "step (voxels)"))
+       << "\n";
     md << "## Early ray termination (top view; error added against T* = 0, 8-bit units)\n\n"
-       << markdown_table("ert", "T*") << "\n";
+       << section("study:ert", written_by + "\n" + markdown_table("ert", "T*")) << "\n";
     md << "## Float against double sums (step 08, front view; ms column: float time / double "
-          "time)\n\n" << markdown_table("precision", "step") << "\n";
+          "time)\n\n"
+       << section("study:precision", written_by + "\n" + markdown_table("precision", "step"))
+       << "\n";
     std::ofstream(out + "/error_vs_time.md") << md.str();
-    std::ofstream(out + "/numerics.md") << "# The stiff cases, measured\n\n"
-                                        << "Written by `make study` (tools/study.cpp).\n\n"
-                                        << numerics_table(cost, rays);
+    std::ofstream(out + "/numerics.md")
+        << "# The stiff cases, measured\n\n"
+        << section("study:numerics", written_by + "\n" + numerics_table(cost, rays));
     std::printf("%s", numerics_table(cost, rays).c_str());
     std::printf("study: wrote %s/error_vs_time.{csv,png,md} and %s/numerics.md in %.0f s; "
                 "other processes used %.0f%% of the cores meanwhile\n",
