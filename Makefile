@@ -88,8 +88,8 @@ help:
 	@echo "make student [FORCE=1]   generate student/: the lab with every lesson function a stub"
 	@echo "make check-student   build student/, render every step, check against the reference"
 	@echo "make handouts   refresh the code listings in handouts/*.md from the steps' markers"
-	@echo "make bench      time every step and view, 1 thread and all cores, against a naive"
-	@echo "                loop: out/bench.md (run it on an idle machine)"
+	@echo "make bench      time every step and view, 1 and 2 threads, cold and warm (the step"
+	@echo "                binaries with --repeat): out/bench.md (run it on an idle machine)"
 	@echo "make study      error against run time of the methods (depth, step size, early"
 	@echo "                termination, float/double): out/study/ (a minute or two)"
 
@@ -132,8 +132,9 @@ clean:
 	rm -rf build build-san build-fuzz out
 
 # --- Measuring: speed and accuracy -----------------------------------------------------------
-# Every step and view timed with 1 thread and with all cores, and against a naive loop of the
-# same step (tools/bench.cpp): out/bench.md. Timing needs an idle machine: check `uptime`.
+# Every step and view timed with 1 and 2 threads, each step binary run with --repeat: the cold
+# first render and the warm median (tools/bench.cpp): out/bench.md. Timing needs an idle
+# machine: check `uptime`.
 bench: $(BUILD)/bench $(STEP_BINARIES)
 	$(BUILD)/bench --out out/bench.md
 
