@@ -91,7 +91,7 @@ help:
 	@echo "make bench      time every step and view, 1 and 2 threads, cold and warm (the step"
 	@echo "                binaries with --repeat): out/bench.md (run it on an idle machine)"
 	@echo "make study      error against run time of the methods (depth, step size, early"
-	@echo "                termination, float/double): out/study/ (a minute or two)"
+	@echo "                termination, float/double): out/study/ (a few minutes)"
 
 # Install missing Debian packages (as root: apt-get; otherwise prints the one sudo command).
 deps:

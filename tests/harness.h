@@ -15,32 +15,9 @@
 
 namespace ctlab_test {
 
-// A folder of its own under the system temp folder, removed with everything in it.
-class TempFolder {
-public:
-    explicit TempFolder(const std::string& tag) {
-        static int count = 0;
-        path_ = std::filesystem::temp_directory_path() /
-                ("ctlab_" + tag + "_" + std::to_string(getpid()) + "_" + std::to_string(++count));
-        std::filesystem::create_directories(path_);
-    }
-    ~TempFolder() {
-        std::error_code ignored;
-        std::filesystem::remove_all(path_, ignored);
-    }
-    std::string path() const { return path_.string(); }
-    std::string path(const std::string& name) const { return (path_ / name).string(); }
-
-    // Writes a file of exactly these bytes and returns its path.
-    std::string file(const std::string& name, const std::vector<unsigned char>& bytes) const {
-        std::ofstream out(path(name), std::ios::binary);
-        out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-        return path(name);
-    }
-
-private:
-    std::filesystem::path path_;
-};
+// A folder of its own under the system temp folder, removed with everything in it
+// (tools/run_step.h: created exclusively with mkdtemp).
+using TempFolder = ctlab::TempFolder;
 
 // Everything body() printed to stdout (printf and std::cout both go through file 1).
 // Do not put doctest checks inside body: their report would be captured too.
