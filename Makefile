@@ -8,6 +8,10 @@
 CXX      ?= g++
 OPT      ?= -O2
 CXXFLAGS += -std=c++17 $(OPT) -g -Wall -Wextra -pthread
+# WERROR=1 (CI): every warning stops the build.
+ifeq ($(WERROR),1)
+CXXFLAGS += -Werror
+endif
 # stb is a system header: its own warnings are not ours.
 CPPFLAGS += -I. -Icommon -isystem /usr/include/stb -MMD -MP
 SDL_CFLAGS := $(shell pkg-config --cflags sdl2 2>/dev/null)
@@ -18,7 +22,9 @@ LDLIBS   += $(SDL_LIBS) -pthread
 JOBS     ?= $(shell nproc 2>/dev/null || echo 1)
 PARALLEL  = $(if $(filter -j%,$(MAKEFLAGS)),,-j$(JOBS))
 
-# `make fuzz` builds with FUZZ=1: clang, libFuzzer instrumentation, ASan and UBSan.
+# `make fuzz` builds with FUZZ=1: clang, libFuzzer instrumentation, ASan and UBSan, into
+# build-fuzz/ unless BUILD is given (`make fuzz BUILD=/tmp/fz`).
+FUZZ_BUILD := $(if $(filter command environment,$(origin BUILD)),$(BUILD),build-fuzz)
 ifeq ($(FUZZ),1)
 BUILD    ?= build-fuzz
 CXX      := clang++
@@ -81,7 +87,7 @@ help:
 	@echo "make diff STEP=NN   what step NN adds to step NN-1"
 	@echo "make deps       install the Debian packages ctlab needs (as root)"
 	@echo "make fuzz [FUZZ_SECONDS=N]   build the libFuzzer harnesses (clang) into build-fuzz/"
-	@echo "                and run each for N seconds (default 60)"
+	@echo "                (or BUILD=DIR) and run each for N seconds (default 60)"
 	@echo "make clean      remove build/, build-san/, build-fuzz/ and out/"
 	@echo "make reference [VOLUME=CThead REFERENCE=DIR]   render data/reference/manifest.txt's"
 	@echo "                images: the phantom into data/reference/, or VOLUME into REFERENCE"
@@ -89,9 +95,11 @@ help:
 	@echo "make check-student   build student/, render every step, check against the reference"
 	@echo "make handouts   refresh the code listings in handouts/*.md from the steps' markers"
 	@echo "make bench      time every step and view, 1 and 2 threads, cold and warm (the step"
-	@echo "                binaries with --repeat): out/bench.md (run it on an idle machine)"
+	@echo "                binaries with --repeat): out/bench.md, and the handouts' speed tables"
+	@echo "                (run it on an idle machine)"
 	@echo "make study      error against run time of the methods (depth, step size, early"
-	@echo "                termination, float/double): out/study/ (a few minutes)"
+	@echo "                termination, float/double): out/study/ and the handouts' tables"
+	@echo "make bench QUICK=1, make study QUICK=1   a quick run that checks they work (CI)"
 
 # Install missing Debian packages (as root: apt-get; otherwise prints the one sudo command).
 deps:
@@ -112,19 +120,29 @@ test: deps
 	$(BUILD)/ctlab_tests
 	@sh tests/cli_test.sh $(BUILD)
 	@sh tests/bad_input_test.sh $(BUILD)
+	@sh tests/threshold_mistakes_test.sh $(BUILD)
+	@sh tests/measured_test.sh $(BUILD)
 	@sh tests/window_test.sh $(BUILD)
 	@sh tests/student_test.sh $(BUILD)
 
 # One step by name: `make 03_depth_shading`.
 $(STEP_NAMES): %: $(BUILD)/%
 
-run: $(BUILD)/$(notdir $(basename $(wildcard steps/$(STEP)_*.cpp)))
-	$< $(ARGS)
+# STEP is the step's number: 3 and 03 both mean steps/03_*.cpp. A bad or missing STEP gets
+# one line naming the problem and exit status 2, as in `make diff`.
+STEP_NUMBER = $(shell case '$(STEP)' in ('' | *[!0-9]*) ;; (*) printf '%02d' "$$(expr '$(STEP)' + 0)";; esac)
+STEP_TARGET = $(notdir $(basename $(firstword $(wildcard steps/$(STEP_NUMBER)_*.cpp))))
+run:
+	@if [ -z "$(STEP)" ]; then echo "make run: say which step, e.g. make run STEP=3 (steps: $(STEP_NAMES))"; exit 2; fi
+	@if [ -z "$(STEP_TARGET)" ]; then echo "make run: no step '$(STEP)' (steps: $(STEP_NAMES))"; exit 2; fi
+	@$(MAKE) --no-print-directory $(BUILD)/$(STEP_TARGET)
+	$(BUILD)/$(STEP_TARGET) $(ARGS)
 
 # What step NN teaches: its diff against step NN-1.
 diff:
-	@previous=$$(printf '%02d' $$(expr $(STEP) - 1)); \
-	 old=$$(ls steps/$${previous}_*.cpp 2>/dev/null); new=$$(ls steps/$(STEP)_*.cpp 2>/dev/null); \
+	@if [ -z "$(STEP_NUMBER)" ]; then echo "make diff: say which step by number, e.g. make diff STEP=3 (got '$(STEP)')"; exit 2; fi
+	@previous=$$(printf '%02d' $$(expr $(STEP_NUMBER) - 1)); \
+	 old=$$(ls steps/$${previous}_*.cpp 2>/dev/null); new=$$(ls steps/$(STEP_NUMBER)_*.cpp 2>/dev/null); \
 	 if [ -z "$$new" ] || [ -z "$$old" ]; then echo "make diff: no step $(STEP) or no step before it"; exit 2; fi; \
 	 diff -u "$$old" "$$new" || true
 
@@ -135,13 +153,31 @@ clean:
 # Every step and view timed with 1 and 2 threads, each step binary run with --repeat: the cold
 # first render and the warm median (tools/bench.cpp): out/bench.md. Timing needs an idle
 # machine: check `uptime`.
-bench: $(BUILD)/bench $(STEP_BINARIES)
+# QUICK=1 (CI): a small volume and one render per case, to check the tool still works.
+# A full run then copies its figures into the handouts' <!-- measured: bench:... --> blocks
+# (tools/measured.cpp), so a handout's speed table is always the last `make bench`.
+bench: $(BUILD)/bench $(BUILD)/measured $(STEP_BINARIES)
+ifeq ($(QUICK),1)
+	$(BUILD)/bench --quick --out out/bench_quick.md
+else
 	$(BUILD)/bench --out out/bench.md
+	$(BUILD)/measured out/bench.md
+endif
 
 # Error against run time of each method and parameter, and the stiff numerical cases
 # (tools/study.cpp): out/study/error_vs_time.csv, .png and .md, out/study/numerics.md.
-study: $(BUILD)/study $(STEP_BINARIES)
+# QUICK=1 (CI): one render per case, a small phantom (out/study_quick/). A full run then
+# copies its tables into the handouts' <!-- measured: study:... --> blocks and its plot to
+# handouts/error_vs_time.png.
+study: $(BUILD)/study $(BUILD)/measured $(STEP_BINARIES)
+ifeq ($(QUICK),1)
+	$(BUILD)/study --quick --out out/study_quick
+else
 	$(BUILD)/study --out out/study
+	$(BUILD)/measured out/study/error_vs_time.md
+	$(BUILD)/measured out/study/numerics.md
+	cp out/study/error_vs_time.png handouts/error_vs_time.png
+endif
 
 # --- Instructor and student kit: references, student skeletons, handout listings ----------
 # Render every step and view, and the variants data/reference/manifest.txt lists, into
@@ -180,17 +216,17 @@ FUZZ_HARNESSES := raw cthead tf image
 FUZZ_SECONDS   ?= 60
 fuzz:
 	@sh tools/install-deps.sh fuzz
-	@$(MAKE) --no-print-directory FUZZ=1 fuzz-build
+	@$(MAKE) --no-print-directory FUZZ=1 BUILD=$(FUZZ_BUILD) fuzz-build
 	@for name in $(FUZZ_HARNESSES); do \
-	    mkdir -p build-fuzz/corpus/$$name build-fuzz/crashes/$$name; \
+	    mkdir -p $(FUZZ_BUILD)/corpus/$$name $(FUZZ_BUILD)/crashes/$$name; \
 	    kept=tests/fuzz/regressions/$$name; [ -d $$kept ] || kept=; \
-	    build-fuzz/fuzz_$$name -max_total_time=$(FUZZ_SECONDS) -close_fd_mask=1 \
-	        -print_final_stats=1 -artifact_prefix=build-fuzz/crashes/$$name/ \
-	        build-fuzz/corpus/$$name tests/fuzz/seeds/$$name $$kept \
-	        > build-fuzz/$$name.log 2>&1 || { tail -n 40 build-fuzz/$$name.log; \
-	        echo "fuzz: $$name crashed; input in build-fuzz/crashes/$$name/"; exit 1; }; \
+	    $(FUZZ_BUILD)/fuzz_$$name -max_total_time=$(FUZZ_SECONDS) -close_fd_mask=1 \
+	        -print_final_stats=1 -artifact_prefix=$(FUZZ_BUILD)/crashes/$$name/ \
+	        $(FUZZ_BUILD)/corpus/$$name tests/fuzz/seeds/$$name $$kept \
+	        > $(FUZZ_BUILD)/$$name.log 2>&1 || { tail -n 40 $(FUZZ_BUILD)/$$name.log; \
+	        echo "fuzz: $$name crashed; input in $(FUZZ_BUILD)/crashes/$$name/"; exit 1; }; \
 	    echo "fuzz: $$name: $$(sed -n 's/^stat::number_of_executed_units: *//p' \
-	        build-fuzz/$$name.log) runs in $(FUZZ_SECONDS) s, no crash"; \
+	        $(FUZZ_BUILD)/$$name.log) runs in $(FUZZ_SECONDS) s, no crash"; \
 	done; \
 	echo "fuzz: $(words $(FUZZ_HARNESSES)) passed, 0 failed"
 

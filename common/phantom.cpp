@@ -4,10 +4,10 @@
 // voxels at 1:1:2): x across the head (i), y from the face backwards (j), z from the crown
 // down (k). Every voxel is sampled at its centre. Shapes are painted in order, later over
 // earlier, one image row (fixed j, k) at a time: for each shape the row's inside is one
-// interval of x, found with one square root, so the whole head takes a few tens of ms.
-// Each voxel gets a tissue label; the label's CT value plus a small hash noise is stored.
-// Bone voxels on a bone surface are graded by how deep the surface lies (see bone_value),
-// so surfaces found at threshold 400 are smooth instead of voxel terraces.
+// interval of x, found with one square root. Edges are blurred like a scanner's partial
+// volume: near a shape's surface it covers a voxel only partly, and the voxel's value is
+// blended accordingly (see edge_half_width). Then a small hash noise is added. The whole
+// head takes about 0.2 s.
 // handouts/phantom.md lists every structure with its value and where it is.
 #include "phantom.h"
 
@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 #include "error.h"
+#include "vec3.h"
 
 namespace ctlab {
 namespace {
@@ -33,43 +34,32 @@ enum Tissue : uint8_t {
 struct TissueValue {
     int value;     // CT value (HU-like)
     int noise;     // the hash noise adds a whole number in [-noise, +noise]
-    bool graded;   // bone whose surface voxels are graded down towards surface_value
 };
 
-// Chosen so that noise never carries a tissue across a transfer-function boundary
-// (-300, 50, 300, 400): the occupied bands are listed in handouts/phantom.md.
+// Chosen so that noise never carries the inside of a tissue across a transfer-function
+// boundary (-300, 50, 300, 400); edges blend between neighbours (handouts/phantom.md).
 constexpr TissueValue tissue_values[tissue_count] = {
-    {-1000, 20, false}, // air
-    {-900, 20, false},  // sinus_air: maxillary and frontal sinuses
-    {-950, 20, false},  // airway: nose, nasal cavity, pharynx
-    {-90, 10, false},   // fat: behind the eyes
-    {25, 10, false},    // soft: skin, muscle, cartilage
-    {28, 6, false},     // cord: spinal cord
-    {36, 6, false},     // grey_matter: cortex
-    {28, 6, false},     // white_matter
-    {10, 4, false},     // csf: ventricles, the fluid around the brain
-    {15, 4, false},     // eye: vitreous
-    {75, 10, false},    // disc: intervertebral discs (transparent in the classic TF)
-    {200, 10, false},   // head_rest: plastic (transparent in the classic TF, seen in MIP)
-    {1700, 30, true},   // cortical: outer and inner skull tables, mandible
-    {900, 30, true},    // diploe: spongy bone between the skull tables
-    {1200, 30, true},   // face_bone: maxilla, zygoma, nasal septum, frontal bone
-    {700, 30, true},    // vertebra: cervical spine
-    {1900, 30, true},   // tooth: enamel
-    {2248, 0, false},   // filling: amalgam, the volume maximum (CThead's too)
+    {-1000, 20}, // air
+    {-900, 20},  // sinus_air: maxillary and frontal sinuses
+    {-950, 20},  // airway: nose, nasal cavity, pharynx
+    {-90, 10},   // fat: behind the eyes
+    {25, 10},    // soft: skin, muscle, cartilage
+    {28, 6},     // cord: spinal cord
+    {36, 6},     // grey_matter: cortex
+    {28, 6},     // white_matter
+    {10, 4},     // csf: ventricles, the fluid around the brain
+    {15, 4},     // eye: vitreous
+    {75, 10},    // disc: intervertebral discs (transparent in the classic TF)
+    {200, 10},   // head_rest: plastic (transparent in the classic TF, seen in MIP)
+    {1700, 30},   // cortical: outer and inner skull tables, mandible
+    {900, 30},    // diploe: spongy bone between the skull tables
+    {1200, 30},   // face_bone: maxilla, zygoma, nasal septum, frontal bone
+    {700, 30},    // vertebra: cervical spine
+    {1900, 30},   // tooth: enamel
+    {2248, 0},   // filling: amalgam, the volume maximum (CThead's too)
 };
 
-struct Vec3 {
-    double x, y, z;
-};
-Vec3 operator+(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-Vec3 operator-(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec3 operator*(double s, Vec3 a) { return {s * a.x, s * a.y, s * a.z}; }
-double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-Vec3 cross(Vec3 a, Vec3 b) {
-    return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-Vec3 normalized(Vec3 a) { return (1 / std::sqrt(dot(a, a))) * a; }
+Vec3 normalized(Vec3 a) { return (1 / length(a)) * a; }
 
 // The inside of a quadric, (p - c)^T m (p - c) <= 1, cut to a box and to at most two
 // half-spaces (normal . p <= offset), painted only over `over` unless that is any_tissue.
@@ -86,19 +76,21 @@ struct Shape {
     Vec3 centre;
     double m[3][3];
     Vec3 lo, hi;  // clip box, mm
+    float r_min = 0;  // mm: the smallest semi-axis (across, for a cylinder)
+    bool sharp = false;  // painted without a blurred edge (see sharp_edged)
     Plane planes[max_planes] = {};
     int plane_count = 0;
     uint8_t over = any_tissue;
 };
 
-// An ellipsoid with semi-axes r.x, r.y, r.z along the orthonormal axes u, v, w.
+// An ellipsoid with semi-axes r.i, r.j, r.k along the orthonormal axes u, v, w.
 Shape ellipsoid_axes(Tissue tissue, Vec3 centre, Vec3 u, Vec3 v, Vec3 w, Vec3 r) {
     Shape shape{tissue, centre, {}, {}, {}};
     const Vec3 axes[3] = {u, v, w};
-    const double radii[3] = {r.x, r.y, r.z};
+    const double radii[3] = {r.i, r.j, r.k};
     double extent[3] = {0, 0, 0};  // squared half-size of the bounding box
     for (int a = 0; a < 3; ++a) {
-        const double e[3] = {axes[a].x, axes[a].y, axes[a].z};
+        const double e[3] = {axes[a].i, axes[a].j, axes[a].k};
         for (int row = 0; row < 3; ++row) {
             for (int col = 0; col < 3; ++col) {
                 shape.m[row][col] += e[row] * e[col] / (radii[a] * radii[a]);
@@ -106,7 +98,9 @@ Shape ellipsoid_axes(Tissue tissue, Vec3 centre, Vec3 u, Vec3 v, Vec3 w, Vec3 r)
             extent[row] += radii[a] * radii[a] * e[row] * e[row];
         }
     }
-    const Vec3 half{std::sqrt(extent[0]), std::sqrt(extent[1]), std::sqrt(extent[2])};
+    const Vec3 half{float(std::sqrt(extent[0])), float(std::sqrt(extent[1])),
+                    float(std::sqrt(extent[2]))};
+    shape.r_min = std::min({r.i, r.j, r.k});
     shape.lo = centre - half;
     shape.hi = centre + half;
     return shape;
@@ -119,30 +113,30 @@ Shape ellipsoid(Tissue tissue, Vec3 centre, Vec3 r) {
 
 // An ellipsoid whose long axis runs from end0 to end1; radius r1 along `across` (made
 // perpendicular to the long axis), r2 along the third axis.
-Shape ellipsoid_between(Tissue tissue, Vec3 end0, Vec3 end1, Vec3 across, double r1,
-                        double r2) {
+Shape ellipsoid_between(Tissue tissue, Vec3 end0, Vec3 end1, Vec3 across, float r1,
+                        float r2) {
     const Vec3 u = normalized(end1 - end0);
     const Vec3 v = normalized(across - dot(across, u) * u);
-    const double half_length = std::sqrt(dot(end1 - end0, end1 - end0)) / 2;
+    const float half_length = length(end1 - end0) / 2;
     return ellipsoid_axes(tissue, 0.5 * (end0 + end1), u, v, cross(u, v),
                           {half_length, r1, r2});
 }
 
 // An elliptic cylinder along z from z0 to z1.
-Shape cylinder_z(Tissue tissue, double cx, double cy, double rx, double ry, double z0,
-                 double z1) {
+Shape cylinder_z(Tissue tissue, float cx, float cy, float rx, float ry, float z0, float z1) {
     Shape shape{tissue, {cx, cy, 0}, {}, {cx - rx, cy - ry, z0}, {cx + rx, cy + ry, z1}};
     shape.m[0][0] = 1 / (rx * rx);
     shape.m[1][1] = 1 / (ry * ry);
+    shape.r_min = std::min(rx, ry);
     return shape;
 }
 
 // Cuts the shape to the box [lo, hi] (mm).
 Shape clipped(Shape shape, Vec3 lo, Vec3 hi) {
-    shape.lo = {std::max(shape.lo.x, lo.x), std::max(shape.lo.y, lo.y),
-                std::max(shape.lo.z, lo.z)};
-    shape.hi = {std::min(shape.hi.x, hi.x), std::min(shape.hi.y, hi.y),
-                std::min(shape.hi.z, hi.z)};
+    shape.lo = {std::max(shape.lo.i, lo.i), std::max(shape.lo.j, lo.j),
+                std::max(shape.lo.k, lo.k)};
+    shape.hi = {std::min(shape.hi.i, hi.i), std::min(shape.hi.j, hi.j),
+                std::min(shape.hi.k, hi.k)};
     return shape;
 }
 
@@ -152,13 +146,22 @@ Shape below_plane(Shape shape, Vec3 normal, double offset) {
     return shape;
 }
 
+// Painted with a sharp edge: a voxel is in or out by its centre. Only for the plastic head
+// rest: a blurred thin sheet from -1000 to 200 would cross the skin band of the classic
+// transfer function and show as a striped skin-coloured film, which the handout promises
+// it is not (it is transparent in the classic TF).
+Shape sharp_edged(Shape shape) {
+    shape.sharp = true;
+    return shape;
+}
+
 // Paints only over voxels that are already `tissue`.
 Shape only_over(Shape shape, Tissue tissue) {
     shape.over = tissue;
     return shape;
 }
 
-constexpr double centre_x = box_x / 2;  // the head is symmetric about x = 128 mm
+constexpr float centre_x = box_x / 2;  // the head is symmetric about x = 128 mm
 constexpr double huge = 1e9;            // "no limit" for a clip box, mm
 constexpr Vec3 no_lo{-huge, -huge, -huge}, no_hi{huge, huge, huge};
 
@@ -174,10 +177,10 @@ std::vector<Shape> head_shapes() {
     const int sides[2] = {-1, 1};
 
     // Head rest: a shallow plastic cradle behind the head (the patient lies on the back).
-    s.push_back(clipped(cylinder_z(head_rest, centre_x, 169, 300, 60, 0, box_z),
-                        {24, 200, -huge}, {232, huge, huge}));
-    s.push_back(clipped(cylinder_z(air, centre_x, 169, 297, 57, 0, box_z),
-                        {24, 200, -huge}, {232, huge, huge}));
+    s.push_back(sharp_edged(clipped(cylinder_z(head_rest, centre_x, 169, 300, 60, 0, box_z),
+                                    {24, 200, -huge}, {232, huge, huge})));
+    s.push_back(sharp_edged(clipped(cylinder_z(air, centre_x, 169, 297, 57, 0, box_z),
+                                    {24, 200, -huge}, {232, huge, huge})));
 
     // Soft tissue: cranium, neck, lower face, mid face, chin, nose, ears.
     s.push_back(ellipsoid(soft, {centre_x, 128, 100}, {78, 95, 92}));
@@ -271,20 +274,21 @@ std::vector<Shape> head_shapes() {
     for (double z : jaw_z) {
         for (int n = 0; n < teeth_per_jaw; ++n) {
             const double angle = arch_angle * (2.0 * n / (teeth_per_jaw - 1) - 1);
-            const Vec3 centre{centre_x + arch_rx * std::sin(angle),
-                              arch_cy - arch_ry * std::cos(angle), z};
-            const Vec3 along{arch_rx * std::cos(angle), arch_ry * std::sin(angle), 0};
-            const double back = std::fabs(angle) / arch_angle;  // 0 front, 1 last molar
+            const Vec3 centre{float(centre_x + arch_rx * std::sin(angle)),
+                              float(arch_cy - arch_ry * std::cos(angle)), float(z)};
+            const Vec3 along{float(arch_rx * std::cos(angle)), float(arch_ry * std::sin(angle)),
+                             0};
+            const float back = float(std::fabs(angle) / arch_angle);  // 0 front, 1 last molar
             s.push_back(ellipsoid_axes(tooth, centre, normalized(along),
                                        normalized(cross({0, 0, 1}, along)), {0, 0, 1},
-                                       {3.6 + 0.8 * back, 2.4 + 2.4 * back, 6}));
+                                       {3.6f + 0.8f * back, 2.4f + 2.4f * back, 6}));
         }
     }
     // An amalgam filling on the biting surface of an upper molar (the third tooth, x < 128).
     const double filling_angle = arch_angle * (2.0 * 2 / (teeth_per_jaw - 1) - 1);
     s.push_back(ellipsoid(filling, {centre_x + arch_rx * std::sin(filling_angle),
                                     arch_cy - arch_ry * std::cos(filling_angle), 162},
-                          {2.5, 2.5, 2.5}));
+                          {2.5, 2.5, 4}));
 
     // Airway: the pharynx behind the mouth, down the neck.
     s.push_back(cylinder_z(airway, centre_x, 112, 11, 6, 132, box_z));
@@ -293,7 +297,7 @@ std::vector<Shape> head_shapes() {
     constexpr double body_y = 140, arch_y = 160;  // mm
     constexpr double spine_top = 154, body_height = 12, disc_height = 4;  // mm
     s.push_back(cylinder_z(disc, centre_x, body_y, 12, 9, spine_top, box_z));
-    for (double top = spine_top; top < box_z; top += body_height + disc_height) {
+    for (float top = spine_top; top < box_z; top += body_height + disc_height) {
         s.push_back(cylinder_z(vertebra, centre_x, body_y, 13, 10, top, top + body_height));
         s.push_back(cylinder_z(vertebra, centre_x, arch_y, 17, 13, top + 1,
                                top + body_height - 1));
@@ -315,138 +319,138 @@ uint32_t hash3(uint32_t i, uint32_t j, uint32_t k) {
     return h;
 }
 
-// Graded bone surfaces. A bone voxel whose centre lies `depth` voxels inside the surface gets
-// soft + (surface_value - soft) / (1 - depth): interpolating from its soft neighbour then
-// crosses 400 almost exactly where the surface is, and every bone voxel stays >= 410.
-constexpr int surface_value = 410;  // CT value of a bone voxel the surface grazes
-constexpr int outside_value = 25;   // the soft tissue bone surfaces face
+// Band-limited edges, like a scanner's partial-volume effect: a shape covers a voxel by a
+// fraction that rises smoothly (smoothstep) from 0 to 1 across its surface, over
+// 2 * edge_half_width voxels along the surface normal (10% to 90% within 1.5 voxels), and
+// the voxel's value moves that fraction of the way from what was painted before to the
+// shape's tissue. Every value between two tissues then
+// occurs at their boundary, and a threshold crosses it within a voxel of where the surface
+// is, so interpolated hits (step 05) are smooth instead of voxel terraces.
+constexpr double edge_half_width = 1.25;  // voxels, along the surface normal
+// On coarse grids the edge stays this sharp: a voxel counts as at most this many mm when
+// measuring edges, so a 1 x 1 x 1 phantom is still the brain, not the head's average.
+constexpr double edge_max_voxel = 2;  // mm: CThead's coarsest spacing
 
-// Signed depth of p below the shape's surface (negative outside), in voxels along the axis
-// nearest the surface normal. First order for the quadric: (1 - Q) / |grad Q|.
-double signed_depth(const Shape& shape, Vec3 p, Vec3 spacing) {
-    const Vec3 d = p - shape.centre;
-    const Vec3 gradient{2 * (shape.m[0][0] * d.x + shape.m[0][1] * d.y + shape.m[0][2] * d.z),
-                        2 * (shape.m[1][0] * d.x + shape.m[1][1] * d.y + shape.m[1][2] * d.z),
-                        2 * (shape.m[2][0] * d.x + shape.m[2][1] * d.y + shape.m[2][2] * d.z)};
-    const double q = 0.5 * dot(d, gradient);  // (p - c)^T m (p - c)
-    const double length = std::sqrt(dot(gradient, gradient));
-    double distance = huge;  // mm
-    Vec3 normal{0, 0, 1};
-    if (length > 0) {
-        distance = (1 - q) / length;
-        normal = (1 / length) * gradient;
-    }
-    // The clip box and the planes are surfaces too.
-    const double faces[6] = {p.x - shape.lo.x, shape.hi.x - p.x, p.y - shape.lo.y,
-                             shape.hi.y - p.y, p.z - shape.lo.z, shape.hi.z - p.z};
-    const Vec3 axes[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-    for (int f = 0; f < 6; ++f) {
-        if (faces[f] < distance) distance = faces[f], normal = axes[f / 2];
-    }
-    for (int n = 0; n < shape.plane_count; ++n) {
-        const Plane& plane = shape.planes[n];
-        const double length_n = std::sqrt(dot(plane.normal, plane.normal));
-        const double to_plane = (plane.offset - dot(plane.normal, p)) / length_n;
-        if (to_plane < distance) distance = to_plane, normal = (1 / length_n) * plane.normal;
-    }
-    // mm to voxels along the dominant axis of the normal.
-    const double ax = std::fabs(normal.x), ay = std::fabs(normal.y), az = std::fabs(normal.z);
-    const double axis_mm = ax >= ay && ax >= az ? ax * spacing.x
-                           : ay >= az           ? ay * spacing.y
-                                                : az * spacing.z;
-    return distance / axis_mm;
-}
-
-// A surface bone voxel's value from its depth in voxels: the tissue's own value from a
-// depth of 1 - (410 - 25) / (value - 25) on (0.77 voxel for cortical bone).
-double bone_value(const TissueValue& tissue, double depth) {
-    if (depth >= 1) return tissue.value;
-    const double graded = outside_value + (surface_value - outside_value) / (1 - depth);
-    return std::min<double>(graded, tissue.value);
-}
-
-constexpr uint8_t no_painter = 255;  // a voxel no shape painted (air around the head)
-
-// One row of voxels (fixed y, z, in mm) being painted: each voxel's tissue and the index
-// of the shape that painted it last.
-struct Row {
-    double y, z;
-    double step_x;  // mm; voxel i sits at x = (i + 0.5) * step_x
-    uint8_t* labels;
-    uint8_t* painters;
-    int count;
+// What a row painter needs about one shape, for one grid spacing (mm).
+struct Painter {
+    const Shape* shape;
+    double grow;   // mm: the edge's half width at the coarsest spacing, edge_half_width voxels
+    double plane_scale[max_planes];  // |spacing * normal| of each plane: mm per voxel
 };
 
-// Paints shape number `index` into the row.
-void paint_row(const Shape& shape, uint8_t index, const Row& row) {
-    const double y = row.y, z = row.z;
-    if (y < shape.lo.y || y > shape.hi.y || z < shape.lo.z || z > shape.hi.z) return;
+// The x interval of the row (y, z) where the shape, grown by `grow` mm (shrunk when negative),
+// may lie: its quadric scaled by 1 + grow / r_min about the centre, its clip box and planes
+// moved by `grow`. Scaling by that factor moves every surface point at least |grow| mm (the
+// smallest semi-axis is the ellipsoid's nearest approach to its centre). False when empty.
+bool row_interval(const Painter& painter, double y, double z, double grow, double& x0,
+                  double& x1) {
+    const Shape& shape = *painter.shape;
+    if (y < shape.lo.j - grow || y > shape.hi.j + grow || z < shape.lo.k - grow ||
+        z > shape.hi.k + grow) {
+        return false;
+    }
+    const double scale = 1 + grow / shape.r_min;
+    if (scale <= 0) return false;
     // Inside along the row: a dx^2 + b dx + c <= 0 with dx = x - centre.x (a > 0 always).
-    const double dy = y - shape.centre.y, dz = z - shape.centre.z;
+    const double dy = y - shape.centre.j, dz = z - shape.centre.k;
     const double a = shape.m[0][0];
     const double b = 2 * (shape.m[0][1] * dy + shape.m[0][2] * dz);
     const double c = shape.m[1][1] * dy * dy + 2 * shape.m[1][2] * dy * dz +
-                     shape.m[2][2] * dz * dz - 1;
+                     shape.m[2][2] * dz * dz - scale * scale;
     const double discriminant = b * b - 4 * a * c;
-    if (discriminant < 0) return;
+    if (discriminant < 0) return false;
     const double root = std::sqrt(discriminant);
-    double x0 = std::max(shape.centre.x + (-b - root) / (2 * a), shape.lo.x);
-    double x1 = std::min(shape.centre.x + (-b + root) / (2 * a), shape.hi.x);
+    x0 = std::max(shape.centre.i + (-b - root) / (2 * a), shape.lo.i - grow);
+    x1 = std::min(shape.centre.i + (-b + root) / (2 * a), shape.hi.i + grow);
     // A half-space along the row: normal.x * x <= rest.
     for (int n = 0; n < shape.plane_count; ++n) {
         const Plane& plane = shape.planes[n];
-        const double rest = plane.offset - plane.normal.y * y - plane.normal.z * z;
-        if (plane.normal.x > 0) x1 = std::min(x1, rest / plane.normal.x);
-        else if (plane.normal.x < 0) x0 = std::max(x0, rest / plane.normal.x);
-        else if (rest < 0) return;
+        const double rest = plane.offset + grow * length(plane.normal) -
+                            plane.normal.j * y - plane.normal.k * z;
+        if (plane.normal.i > 0) x1 = std::min(x1, rest / plane.normal.i);
+        else if (plane.normal.i < 0) x0 = std::max(x0, rest / plane.normal.i);
+        else if (rest < 0) return false;
     }
+    return x0 <= x1;
+}
+
+// Signed distance of (x, y, z) mm to the shape's surface, in voxels along the surface normal
+// (positive inside), first order: for the quadric sqrt(q) = 1 at the surface, a norm, so
+// (1 - sqrt q) / |grad sqrt q| is exact for spheres and close near any ellipsoid's surface.
+// In voxels (edge_spacing mm each): the gradient is taken per voxel index on every axis.
+double edge_distance(const Painter& painter, double x, double y, double z,
+                     const double spacing[3]) {
+    const Shape& shape = *painter.shape;
+    const double d[3] = {x - shape.centre.i, y - shape.centre.j, z - shape.centre.k};
+    double g[3];  // m d = grad q / 2
+    for (int row = 0; row < 3; ++row) {
+        g[row] = shape.m[row][0] * d[0] + shape.m[row][1] * d[1] + shape.m[row][2] * d[2];
+    }
+    const double q = d[0] * g[0] + d[1] * g[1] + d[2] * g[2];
+    const double gx = g[0] * spacing[0], gy = g[1] * spacing[1], gz = g[2] * spacing[2];
+    const double g_voxels = std::sqrt(gx * gx + gy * gy + gz * gz);  // |grad sqrt q| sqrt q
+    const double root_q = std::sqrt(q);
+    double distance = g_voxels > 0 ? (1 - root_q) * root_q / g_voxels : huge;
+    // The clip box and the planes are surfaces too.
+    const double faces[6] = {(x - shape.lo.i) / spacing[0], (shape.hi.i - x) / spacing[0],
+                             (y - shape.lo.j) / spacing[1], (shape.hi.j - y) / spacing[1],
+                             (z - shape.lo.k) / spacing[2], (shape.hi.k - z) / spacing[2]};
+    for (double face : faces) distance = std::min(distance, face);
+    for (int n = 0; n < shape.plane_count; ++n) {
+        const Plane& plane = shape.planes[n];
+        const double to_plane = plane.offset - (plane.normal.i * x + plane.normal.j * y +
+                                                plane.normal.k * z);
+        distance = std::min(distance, to_plane / painter.plane_scale[n]);
+    }
+    return distance;
+}
+
+// How much of a voxel at this signed distance (voxels) the shape covers: smoothstep, so
+// that the gradients lit surfaces take from these values have no kinks.
+double coverage(double distance) {
+    const double x = std::clamp(0.5 + distance / (2 * edge_half_width), 0.0, 1.0);
+    return x * x * (3 - 2 * x);
+}
+
+// One row of voxels (fixed y, z, in mm) being painted: each voxel's value and noise
+// amplitude so far, and the tissue that covers at least half of it (for only_over).
+struct Row {
+    double y, z;
+    const double* spacing;  // mm: x, y, z; voxel i sits at x = (i + 0.5) * spacing[0]
+    const double* edge_spacing;  // mm: the voxel size edges are measured in (x, y, z)
+    double* values;
+    double* noise;
+    uint8_t* labels;
+    int count;
+};
+
+// Paints one shape into the row: full coverage inside its shrunk interval, the ramp near
+// its surface, nothing outside its grown interval.
+void paint_row(const Painter& painter, const Row& row) {
+    double x0, x1;
+    if (!row_interval(painter, row.y, row.z, painter.grow, x0, x1)) return;
+    double inner0 = 1, inner1 = 0;  // empty unless the shrunk interval exists
+    if (!row_interval(painter, row.y, row.z, -painter.grow, inner0, inner1)) {
+        inner0 = 1, inner1 = 0;
+    }
+    const Shape& shape = *painter.shape;
+    const TissueValue& tissue = tissue_values[shape.tissue];
     // Voxel centres in [x0, x1]: i from ceil(x0/step - 0.5) to floor(x1/step - 0.5).
-    const double step = row.step_x;
+    const double step = row.spacing[0];
     const int i0 = static_cast<int>(std::max(0.0, std::ceil(x0 / step - 0.5)));
     const int i1 = static_cast<int>(std::min(row.count - 1.0, std::floor(x1 / step - 0.5)));
     for (int i = i0; i <= i1; ++i) {
         if (shape.over != any_tissue && row.labels[i] != shape.over) continue;
-        row.labels[i] = shape.tissue;
-        row.painters[i] = index;
+        const double x = (i + 0.5) * step;
+        const double cover =
+            shape.sharp || (x >= inner0 && x <= inner1)
+                ? 1.0
+                : coverage(edge_distance(painter, x, row.y, row.z, row.edge_spacing));
+        if (cover <= 0) continue;
+        row.values[i] += cover * (tissue.value - row.values[i]);
+        row.noise[i] += cover * (tissue.noise - row.noise[i]);
+        if (cover >= 0.5) row.labels[i] = shape.tissue;
     }
-}
-
-bool is_bone(uint8_t label) { return tissue_values[label].value >= surface_value; }
-
-// Tissues and painters of the whole volume, and the shapes that painted them.
-struct Labels {
-    int nx, ny, nz;
-    Vec3 spacing;
-    std::vector<uint8_t> tissues, painters;
-    std::vector<Shape> shapes;
-};
-
-// How deep bone voxel (i, j, k) lies below the nearest bone surface, in voxels; 1 (full
-// value) when all its 6-neighbours are bone. The surface facing a non-bone neighbour is
-// the voxel's own shape when that neighbour was painted earlier, or the shape that carved
-// the neighbour out of it (painted later: the voxel lies outside that shape).
-double bone_depth(const Labels& labels, int i, int j, int k) {
-    const size_t at = (size_t(k) * labels.ny + j) * labels.nx + i;
-    const Vec3 centre{(i + 0.5) * labels.spacing.x, (j + 0.5) * labels.spacing.y,
-                      (k + 0.5) * labels.spacing.z};
-    const int own = labels.painters[at];
-    const long row = labels.nx, slice = long(labels.nx) * labels.ny;
-    const bool inside[6] = {i > 0, i + 1 < labels.nx, j > 0, j + 1 < labels.ny, k > 0,
-                            k + 1 < labels.nz};
-    const long offsets[6] = {-1, 1, -row, row, -slice, slice};
-    double depth = 1;
-    for (int n = 0; n < 6; ++n) {
-        if (!inside[n]) continue;
-        const size_t neighbour = at + offsets[n];
-        if (is_bone(labels.tissues[neighbour])) continue;
-        const int painter = labels.painters[neighbour];
-        const bool carved = painter != no_painter && painter > own;
-        const double candidate =
-            carved ? -signed_depth(labels.shapes[painter], centre, labels.spacing)
-                   : signed_depth(labels.shapes[own], centre, labels.spacing);
-        depth = std::min(depth, std::max(0.0, candidate));
-    }
-    return depth;
 }
 
 }  // namespace
@@ -473,44 +477,44 @@ Volume make_phantom_sized(int nx, int ny, int nz) {
     volume.sz = box_z / nz;
     volume.name = "phantom";
 
-    // Tissues and painters, row by row.
-    Labels labels{nx, ny, nz, {volume.sx, volume.sy, volume.sz}, {}, {}, head_shapes()};
-    if (labels.shapes.size() >= no_painter) throw std::logic_error("phantom: too many shapes");
-    const size_t count = volume.voxel_count();
-    labels.tissues.assign(count, air);
-    labels.painters.assign(count, no_painter);
-    for (int k = 0; k < nz; ++k) {
-        for (int j = 0; j < ny; ++j) {
-            const size_t start = (size_t(k) * ny + j) * nx;
-            const Row row{(j + 0.5) * volume.sy, (k + 0.5) * volume.sz, volume.sx,
-                          &labels.tissues[start], &labels.painters[start], nx};
-            for (size_t n = 0; n < labels.shapes.size(); ++n) {
-                paint_row(labels.shapes[n], uint8_t(n), row);
-            }
+    // Voxel sizes as edges see them (mm), and voxel centres' spacing (mm).
+    const double edge_spacing[3] = {std::min(volume.sx, edge_max_voxel),
+                                    std::min(volume.sy, edge_max_voxel),
+                                    std::min(volume.sz, edge_max_voxel)};
+    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
+    const double coarsest = std::max({edge_spacing[0], edge_spacing[1], edge_spacing[2]});
+    const std::vector<Shape> shapes = head_shapes();
+    std::vector<Painter> painters;
+    for (const Shape& shape : shapes) {
+        Painter painter{&shape, shape.sharp ? 0 : edge_half_width * coarsest, {}};
+        for (int n = 0; n < shape.plane_count; ++n) {
+            const Vec3 normal = shape.planes[n].normal;
+            painter.plane_scale[n] = std::sqrt(std::pow(normal.i * edge_spacing[0], 2) +
+                                               std::pow(normal.j * edge_spacing[1], 2) +
+                                               std::pow(normal.k * edge_spacing[2], 2));
         }
+        painters.push_back(painter);
     }
 
-    // Values: the tissue's value plus noise; bone on a bone surface graded by its depth,
-    // the noise shrunk alike so that it stays >= surface_value.
-    volume.data.resize(count);
+    // Row by row: air, every shape painted in order, then the noise on top. The noise adds
+    // (2u - 1) times the voxel's noise amplitude, u in [0, 1) a hash of (i, j, k); rounded.
+    volume.data.resize(volume.voxel_count());
+    std::vector<double> values(nx), noise(nx);
+    std::vector<uint8_t> labels(nx);
+    constexpr double hash_scale = 1.0 / 16777216;  // 2^-24: the hash's top 24 bits to [0, 1)
     for (int k = 0; k < nz; ++k) {
         for (int j = 0; j < ny; ++j) {
+            std::fill(values.begin(), values.end(), tissue_values[air].value);
+            std::fill(noise.begin(), noise.end(), tissue_values[air].noise);
+            std::fill(labels.begin(), labels.end(), air);
+            const Row row{(j + 0.5) * volume.sy, (k + 0.5) * volume.sz, spacing, edge_spacing,
+                          values.data(), noise.data(), labels.data(), nx};
+            for (const Painter& painter : painters) paint_row(painter, row);
+            int16_t* out = &volume.data[(size_t(k) * ny + j) * nx];
             for (int i = 0; i < nx; ++i) {
-                const size_t at = (size_t(k) * ny + j) * nx + i;
-                const TissueValue& tissue = tissue_values[labels.tissues[at]];
-                // Noise in [-noise, noise]: the hash's top 16 bits scaled, no division.
-                const uint32_t span = 2 * tissue.noise + 1;
-                const int noise = int(((hash3(i, j, k) >> 16) * span) >> 16) - tissue.noise;
-                int value = tissue.value + noise;
-                if (tissue.graded) {
-                    const double depth = bone_depth(labels, i, j, k);
-                    if (depth < 1) {
-                        const double graded = bone_value(tissue, depth);
-                        value = int(std::lround(graded + noise * (graded - surface_value) /
-                                                             (tissue.value - surface_value)));
-                    }
-                }
-                volume.data[at] = static_cast<int16_t>(value);
+                const double u = (hash3(i, j, k) >> 8) * hash_scale;
+                const double value = std::round(values[i] + (2 * u - 1) * noise[i]);
+                out[i] = static_cast<int16_t>(std::clamp(value, -32768.0, 32767.0));
             }
         }
     }

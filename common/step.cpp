@@ -49,9 +49,12 @@ static void print_summary(const Options& options, const View& view, const Render
 void print_trace(const Options& options, const View& view, const Renderer& renderer, int x,
                  int y) {
     const char* axis_names[] = {"k", "j", "i"};  // the ray axis of top, front, side
-    std::printf("debug pixel x=%d y=%d view=%s step=%s (ray over %s, %d samples)\n", x, y,
+    const std::string samples = renderer.ray_samples
+                                    ? renderer.ray_samples(view)
+                                    : std::to_string(view.ray_length) + " samples";
+    std::printf("debug pixel x=%d y=%d view=%s step=%s (ray over %s, %s)\n", x, y,
                 view.name.c_str(), options.step.c_str(), axis_names[int(view.axis)],
-                view.ray_length);
+                samples.c_str());
     Work work;
     Trace trace;
     const Rgb pixel = renderer.ray(view, x, y, work, &trace);

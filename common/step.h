@@ -28,6 +28,9 @@ struct Renderer {
     ImageFunction image;                      // empty: render_image() over `ray`
     Knob knob;                                // name empty: no knob
     std::function<std::string()> settings;    // extra "key=value ..." for the summary line
+    // The trace header's samples along a ray of a view, "226 samples at step 1 over 113
+    // voxels spaced 2" (empty: "113 samples", one per voxel).
+    std::function<std::string(const View&)> ray_samples;
 };
 
 // Renders every selected view: PNG to OUT/STEP_VIEW.png (--pfm: the float image to

@@ -12,7 +12,7 @@ namespace ctlab {
 // Colour and opacity of one CT value.
 struct Rgba {
     float r = 0, g = 0, b = 0;  // colour, 0..1
-    float a = 0;                // opacity, 0..1, for one unit of length (a voxel at spacing 1)
+    float a = 0;                // opacity alpha, 0..1, for one unit of length (spacing 1)
 };
 
 // The CT values a range can cover: every int16. A range's TO is exclusive, so TO = 32768

@@ -23,17 +23,17 @@ struct View {
     std::string name;        // "top", "front" or "side"
     int width = 0;           // image columns
     int height = 0;          // image rows
-    int ray_length = 0;      // samples along a ray (voxels along the ray axis)
-    double ray_spacing = 1;  // distance between two samples along the ray, in spacing units
+    int ray_length = 0;      // voxels along the ray axis (one sample each, up to step 07)
+    double ray_spacing = 1;  // physical distance between two voxels along the ray
     double pixel_width = 1;  // physical size of a pixel across (x) and down (y): for display
     double pixel_height = 1;
 
-    // The voxel seen at sample t along the ray through pixel (x, y).
-    Voxel voxel(int x, int y, int t) const {
+    // The voxel seen at sample n along the ray through pixel (x, y) (one sample per voxel).
+    Voxel voxel(int x, int y, int n) const {
         switch (axis) {
-            case ViewAxis::top: return {x, y, t};
-            case ViewAxis::front: return {x, t, y};
-            default: return {t, x, y};
+            case ViewAxis::top: return {x, y, n};
+            case ViewAxis::front: return {x, n, y};
+            default: return {n, x, y};
         }
     }
 };

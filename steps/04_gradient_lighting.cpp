@@ -24,24 +24,24 @@ struct Params {
 
 struct Hit {
     bool found = false;
-    float t = 0;  // sample index along the ray where it was found
+    int n = 0;  // index of the sample where it was found
 };
 
 //> lesson: first_hit
 // The first sample along the ray whose value is above the threshold. The ray stops there.
 static Hit first_hit(const Volume& volume, const View& view, int x, int y, int threshold,
                      Work& work, Trace* trace) {
-    for (int t = 0; t < view.ray_length; ++t) {
-        const Voxel voxel = view.voxel(x, y, t);  // step 01's three loops, as one
+    for (int n = 0; n < view.ray_length; ++n) {
+        const Voxel voxel = view.voxel(x, y, n);  // step 01's three loops, as one
         const int value = volume.at(voxel.i, voxel.j, voxel.k);
         ++work.samples;
         const bool above = value > threshold;
-        if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d%s", t, voxel.i, voxel.j,
+        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d%s", n, voxel.i, voxel.j,
                               voxel.k, value, above ? "  > threshold: hit" : "");
         if (above) {
             ++work.hits;
-            if (t + 1 < view.ray_length) ++work.terminated;
-            return {true, float(t)};
+            if (n + 1 < view.ray_length) ++work.terminated;
+            return {true, n};
         }
     }
     return {};
@@ -110,7 +110,7 @@ int main(int argc, char** argv) {
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Hit hit = first_hit(volume, view, x, y, params.threshold, work, trace);
             if (!hit.found) return grey(0.0f);
-            const Vec3 gradient = gradient_at(volume, view.voxel(x, y, int(hit.t)), work);
+            const Vec3 gradient = gradient_at(volume, view.voxel(x, y, hit.n), work);
             const float light = shade(gradient, light_direction(view, params.light_angle));
             if (trace) trace->add("gradient=(%.2f, %.2f, %.2f) shade=%.6f", gradient.i,
                                   gradient.j, gradient.k, light);

@@ -1,7 +1,7 @@
 // 05_interpolated_hits.cpp: find the surface between two samples, not at one.
 //
-// New here:   the sub-voxel crossing t between the last sample at or below the threshold and
-//             the first above it (linear interpolation); the gradient interpolated there.
+// New here:   the crossing between the last sample at or below the threshold and the first
+//             above it (linear interpolation); the gradient interpolated there.
 // Builds on:  04_gradient_lighting.
 // Handout:    handouts/05_interpolated_hits.md
 // Run:        make run STEP=05 ARGS="--view front"
@@ -24,31 +24,33 @@ struct Params {
 
 struct Hit {
     bool found = false;
-    float t = 0;  // position along the ray, in samples: fractional between two samples
+    int n = 0;           // index of the last sample before the crossing (exact: an index)
+    float fraction = 0;  // how far past sample n the crossing lies, 0 <= fraction < 1
 };
 
 //> lesson: first_hit
 // The first crossing of the threshold: between the last sample at or below it (value v0, at
-// t - 1) and the first above it (v1, at t), t_hit = (t - 1) + (threshold - v0) / (v1 - v0).
-// v1 > threshold >= v0, so v1 != v0: no division by zero. The ray stops there.
+// n - 1) and the first above it (v1, at n), a fraction (threshold - v0) / (v1 - v0) of the way
+// from n - 1 to n. v1 > threshold >= v0, so v1 != v0: no division by zero, and the fraction is
+// in [0, 1). The ray stops there.
 static Hit first_hit(const Volume& volume, const View& view, int x, int y, int threshold,
                      Work& work, Trace* trace) {
-    int previous = 0;  // the sample before t (none at t = 0)
-    for (int t = 0; t < view.ray_length; ++t) {
-        const Voxel voxel = view.voxel(x, y, t);  // step 01's three loops, as one
+    int previous = 0;  // the sample before n (none at n = 0)
+    for (int n = 0; n < view.ray_length; ++n) {
+        const Voxel voxel = view.voxel(x, y, n);  // step 01's three loops, as one
         const int value = volume.at(voxel.i, voxel.j, voxel.k);
         ++work.samples;
         const bool above = value > threshold;
-        if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d%s", t, voxel.i, voxel.j,
+        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d%s", n, voxel.i, voxel.j,
                               voxel.k, value, above ? "  > threshold: hit" : "");
         if (above) {
             ++work.hits;
-            if (t + 1 < view.ray_length) ++work.terminated;
-            if (t == 0) return {true, 0.0f};  // already inside at the volume's edge
+            if (n + 1 < view.ray_length) ++work.terminated;
+            if (n == 0) return {true, 0, 0.0f};  // already inside at the volume's edge
             const float fraction = float(threshold - previous) / float(value - previous);
-            if (trace) trace->add("crossing between t=%d and t=%d: t_hit = %d + %.6f", t - 1, t,
-                                  t - 1, fraction);
-            return {true, float(t - 1) + fraction};
+            if (trace) trace->add("crossing between n=%d and n=%d: hit at %d + %.6f", n - 1, n,
+                                  n - 1, fraction);
+            return {true, n - 1, fraction};
         }
         previous = value;
     }
@@ -79,13 +81,12 @@ static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
             derivative(along_k, k, volume.nz, volume.sz)};
 }
 
-// The gradient at a fractional position t along the ray: interpolated between the voxels on
-// either side, as the CT values were.
-static Vec3 gradient_along_ray(const Volume& volume, const View& view, int x, int y, float t,
-                               Work& work) {
-    const int before = int(t);
+// The gradient a fraction (0..1) of the way from the ray's voxel `before` to the next one:
+// interpolated between the two, as the CT values were. The index stays an int: a float holds
+// every integer only up to 2^24, and int(float(16777219)) would be one past the last voxel.
+static Vec3 gradient_along_ray(const Volume& volume, const View& view, int x, int y, int before,
+                               float fraction, Work& work) {
     const int after = std::min(before + 1, view.ray_length - 1);
-    const float fraction = t - float(before);
     const Vec3 gradient_before = gradient_at(volume, view.voxel(x, y, before), work);
     if (fraction == 0.0f) return gradient_before;
     const Vec3 gradient_after = gradient_at(volume, view.voxel(x, y, after), work);
@@ -131,7 +132,8 @@ int main(int argc, char** argv) {
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Hit hit = first_hit(volume, view, x, y, params.threshold, work, trace);
             if (!hit.found) return grey(0.0f);
-            const Vec3 gradient = gradient_along_ray(volume, view, x, y, hit.t, work);
+            const Vec3 gradient = gradient_along_ray(volume, view, x, y, hit.n, hit.fraction,
+                                                     work);
             const float light = shade(gradient, light_direction(view, params.light_angle));
             if (trace) trace->add("gradient=(%.2f, %.2f, %.2f) shade=%.6f", gradient.i,
                                   gradient.j, gradient.k, light);

@@ -52,30 +52,30 @@ static Lut build_lut(const TransferFunction& tf) {
 //> lesson: back_to_front
 // Back to front, as the lecture first draws it: start with the background at the far end of
 // the ray and walk towards the viewer. Each sample covers what lies behind it and lets
-// 1 - sigma of it through: C = sigma*L*c + (1 - sigma)*C, with L = 1 (unlit) for now.
-// A transparent sample (sigma = 0) changes nothing: skip it. The sums run in double: near 1
-// a float only resolves 6e-8, so 1 - sigma for a tiny sigma would be far off.
+// 1 - alpha of it through: C = alpha*L*c + (1 - alpha)*C, with L = 1 (unlit) for now.
+// A transparent sample (alpha = 0) changes nothing: skip it. The sums run in double: near 1
+// a float only resolves 6e-8, so 1 - alpha for a tiny alpha would be far off.
 static Rgb composite_back_to_front(const Volume& volume, const View& view, int x, int y,
                                    const Lut& lut, Work& work, Trace* trace) {
     double r = background.r, g = background.g, b = background.b;  // C
-    for (int t = view.ray_length - 1; t >= 0; --t) {
-        const Voxel voxel = view.voxel(x, y, t);
+    for (int n = view.ray_length - 1; n >= 0; --n) {
+        const Voxel voxel = view.voxel(x, y, n);
         const int value = volume.at(voxel.i, voxel.j, voxel.k);
         const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", t,
+            if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", n,
                                   voxel.i, voxel.j, voxel.k, value);
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
-        const double sigma = sample.a;
-        r = sigma * light * sample.r + (1 - sigma) * r;
-        g = sigma * light * sample.g + (1 - sigma) * g;
-        b = sigma * light * sample.b + (1 - sigma) * b;
-        if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
-                              "C=(%.6f, %.6f, %.6f)", t, voxel.i, voxel.j, voxel.k, value,
+        const double alpha = sample.a;  // the opacity, after the TF
+        r = alpha * light * sample.r + (1 - alpha) * r;
+        g = alpha * light * sample.g + (1 - alpha) * g;
+        b = alpha * light * sample.b + (1 - alpha) * b;
+        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
+                              "C=(%.6f, %.6f, %.6f)", n, voxel.i, voxel.j, voxel.k, value,
                               sample.r, sample.g, sample.b, sample.a, r, g, b);
     }
     return {float(r), float(g), float(b)};

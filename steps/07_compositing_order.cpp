@@ -1,8 +1,7 @@
 // 07_compositing_order.cpp: the same picture front to back, and stopping when it is opaque.
 //
 // New here:   front-to-back compositing with the accumulated transparency T; early ray
-//             termination once T is below a threshold; leaping over bricks the transfer
-//             function leaves wholly transparent; the background blended in at the end;
+//             termination once T is below a threshold; the background blended in at the end;
 //             --order both renders the two orders and measures how far apart they are.
 // Builds on:  06_transfer_function.
 // Handout:    handouts/07_compositing_order.md
@@ -25,7 +24,6 @@ struct Params {
     double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
     double ert = default_ert;  // early ray termination threshold for T
     std::string order = "f2b";  // f2b, b2f, or both (compared)
-    bool no_leaping = false;    // read every sample, even in bricks known to be empty
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -63,63 +61,33 @@ static Lut build_lut(const TransferFunction& tf) {
 }
 //< lesson: lookup_table
 
-// Empty space: the volume's bricks (common/bricks.h: the smallest and largest value of each
-// 8x8x8 block of voxels) and, for the current table, the ones it leaves wholly transparent.
-struct EmptySpace {
-    Bricks bricks;
-    std::vector<uint8_t> empty;  // one flag per brick, 1: transparent; none: leap over nothing
-
-    bool is_empty(const Voxel& voxel) const {
-        return !empty.empty() && empty[bricks.index(voxel.i, voxel.j, voxel.k)];
-    }
-};
-
-//> lesson: empty_space
-// Which bricks the table leaves wholly transparent: those where no value from the brick's min
-// to its max has an opacity. opaque_before[n] counts the entries below n that have one, so
-// each brick is one subtraction, however wide its range. Run again whenever the table changes.
-static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
-    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
-    for (size_t n = 0; n < lut.entries.size(); ++n) {
-        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
-    }
-    std::vector<uint8_t> empty(bricks.count());
-    for (size_t b = 0; b < bricks.count(); ++b) {
-        const int low = bricks.ranges[b].min - lowest_ct_value;
-        const int high = bricks.ranges[b].max - lowest_ct_value;
-        empty[b] = opaque_before[high + 1] == opaque_before[low];
-    }
-    return empty;
-}
-//< lesson: empty_space
-
 //> lesson: back_to_front
 // Back to front, as the lecture first draws it: start with the background at the far end of
 // the ray and walk towards the viewer. Each sample covers what lies behind it and lets
-// 1 - sigma of it through: C = sigma*L*c + (1 - sigma)*C, with L = 1 (unlit) for now.
-// A transparent sample (sigma = 0) changes nothing: skip it. The sums run in double: near 1
-// a float only resolves 6e-8, so 1 - sigma for a tiny sigma would be far off.
+// 1 - alpha of it through: C = alpha*L*c + (1 - alpha)*C, with L = 1 (unlit) for now.
+// A transparent sample (alpha = 0) changes nothing: skip it. The sums run in double: near 1
+// a float only resolves 6e-8, so 1 - alpha for a tiny alpha would be far off.
 static Rgb composite_back_to_front(const Volume& volume, const View& view, int x, int y,
                                    const Lut& lut, Work& work, Trace* trace) {
     double r = background.r, g = background.g, b = background.b;  // C
-    for (int t = view.ray_length - 1; t >= 0; --t) {
-        const Voxel voxel = view.voxel(x, y, t);
+    for (int n = view.ray_length - 1; n >= 0; --n) {
+        const Voxel voxel = view.voxel(x, y, n);
         const int value = volume.at(voxel.i, voxel.j, voxel.k);
         const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", t,
+            if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", n,
                                   voxel.i, voxel.j, voxel.k, value);
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
-        const double sigma = sample.a;
-        r = sigma * light * sample.r + (1 - sigma) * r;
-        g = sigma * light * sample.g + (1 - sigma) * g;
-        b = sigma * light * sample.b + (1 - sigma) * b;
-        if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
-                              "C=(%.6f, %.6f, %.6f)", t, voxel.i, voxel.j, voxel.k, value,
+        const double alpha = sample.a;  // the opacity, after the TF
+        r = alpha * light * sample.r + (1 - alpha) * r;
+        g = alpha * light * sample.g + (1 - alpha) * g;
+        b = alpha * light * sample.b + (1 - alpha) * b;
+        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
+                              "C=(%.6f, %.6f, %.6f)", n, voxel.i, voxel.j, voxel.k, value,
                               sample.r, sample.g, sample.b, sample.a, r, g, b);
     }
     return {float(r), float(g), float(b)};
@@ -128,52 +96,43 @@ static Rgb composite_back_to_front(const Volume& volume, const View& view, int x
 
 //> lesson: front_to_back
 // Front to back: from the viewer into the volume, keeping T, the share of what lies further
-// back that still shows: C += T*sigma*L*c, then T *= 1 - sigma, from C = 0 and T = 1.
+// back that still shows: C += T*alpha*L*c, then T *= 1 - alpha, from C = 0 and T = 1.
 // T only shrinks, so once it is below the threshold the rest of the ray can change C by less
 // than T*max(c): stop there (early ray termination). Even with --ert 0, stop once T is below
-// 1e-300: nothing behind can show, and one more sample (T times 1 - sigma, at least 6e-8 for
-// a float sigma < 1) could make T subnormal (below 2.2e-308), where arithmetic is slow.
-// A brick the table leaves wholly transparent would add nothing either: leap over it unread.
-// Rays start at 0 and bricks at multiples of brick_size, so that is where t enters a brick.
+// 1e-300: nothing behind can show, and one more sample (T times 1 - alpha, at least 6e-8 for
+// a float alpha < 1) could make T subnormal (below 2.2e-308), where arithmetic is slow.
 static Accumulated composite_front_to_back(const Volume& volume, const View& view, int x, int y,
-                                           const Lut& lut, const EmptySpace& space,
-                                           const Params& params, Work& work, Trace* trace) {
+                                           const Lut& lut, const Params& params, Work& work,
+                                           Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     Accumulated ray;
-    for (int t = 0; t < view.ray_length; ++t) {
-        const Voxel voxel = view.voxel(x, y, t);
-        if (t % brick_size == 0 && space.is_empty(voxel)) {
-            const int leap = std::min(brick_size, view.ray_length - t);  // samples in the brick
-            work.leapt += leap;
-            if (trace) trace->add("t=%3d..%3d empty brick at voxel (%d, %d, %d): leapt over", t,
-                                  t + leap - 1, voxel.i, voxel.j, voxel.k);
-            t += leap - 1;
-            continue;
-        }
+    for (int n = 0; n < view.ray_length; ++n) {
+        const Voxel voxel = view.voxel(x, y, n);
         const int value = volume.at(voxel.i, voxel.j, voxel.k);
         const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", t,
+            if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", n,
                                   voxel.i, voxel.j, voxel.k, value);
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
-        const double weight = ray.transparency * sample.a * light;
+        const double alpha = sample.a;  // the opacity, after the TF
+        const double weight = ray.transparency * alpha * light;
         ray.r += weight * sample.r;
         ray.g += weight * sample.g;
         ray.b += weight * sample.b;
-        ray.transparency *= 1 - double(sample.a);
-        if (trace) trace->add("t=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
-                              "C=(%.6f, %.6f, %.6f) T=%.6g", t, voxel.i, voxel.j, voxel.k,
+        ray.transparency *= 1 - alpha;
+        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
+                              "C=(%.6f, %.6f, %.6f) T=%.6g", n, voxel.i, voxel.j, voxel.k,
                               value, sample.r, sample.g, sample.b, sample.a, ray.r, ray.g,
                               ray.b, ray.transparency);
-        if (ray.transparency < stop_below && t + 1 < view.ray_length) {
+        if (ray.transparency < stop_below && n + 1 < view.ray_length) {
             ++work.terminated;
-            if (trace) trace->add("T=%.3g < %.3g: early ray termination at t=%d, %d samples "
-                                  "not visited", ray.transparency, stop_below, t,
-                                  view.ray_length - 1 - t);
+            if (trace) trace->add("T=%.3g < %.3g: early ray termination at n=%d, %d samples "
+                                  "not visited", ray.transparency, stop_below, n,
+                                  view.ray_length - 1 - n);
             break;
         }
     }
@@ -200,12 +159,12 @@ struct OrderComparison {
 // |f2b - b2f| * diff_scale goes to OUT/STEP_VIEW_diff.png. The orders are algebraically equal:
 // without early termination they agree to rounding, with it to ert * max(colour).
 static Image compare_orders(const Options& options, const Volume& volume, const View& view,
-                            const Lut& lut, const EmptySpace& space, const Params& params,
-                            Work& work, OrderComparison& comparison) {
+                            const Lut& lut, const Params& params, Work& work,
+                            OrderComparison& comparison) {
     Work f2b_work, b2f_work;  // the summary line reports the f2b render
     const Image f2b = render_image(view, options.threads, f2b_work, [&](int x, int y, Work& w) {
-        return over_background(composite_front_to_back(volume, view, x, y, lut, space, params,
-                                                        w, nullptr));
+        return over_background(composite_front_to_back(volume, view, x, y, lut, params, w,
+                                                        nullptr));
     });
     const Image b2f = render_image(view, options.threads, b2f_work, [&](int x, int y, Work& w) {
         return composite_back_to_front(volume, view, x, y, lut, w, nullptr);
@@ -220,8 +179,7 @@ static Image compare_orders(const Options& options, const Volume& volume, const 
                                         double(d.b)});
         diff.pixels[n] = {diff_scale * d.r, diff_scale * d.g, diff_scale * d.b};
     }
-    const double f2b_reached = double(f2b_work.samples + f2b_work.leapt);  // visited or leapt
-    comparison.ert_skipped_fraction = 1 - f2b_reached / double(b2f_work.samples);
+    comparison.ert_skipped_fraction = 1 - double(f2b_work.samples) / double(b2f_work.samples);
     write_png(diff, options.out + "/" + options.step + "_" + view.name + "_diff.png");
     work.add(f2b_work);
     return f2b;
@@ -248,8 +206,6 @@ int main(int argc, char** argv) {
                         "stop a ray once its transparency T is below this (0: never)");
         args.add_choice("--order", &params.order, {"f2b", "b2f", "both"},
                         "compositing order; both: compare them (writes *_diff.png)");
-        args.add_switch("--no-leaping", &params.no_leaping,
-                        "read every sample, even in bricks the table leaves transparent");
         const Options options = args.parse(argc, argv);
 
         // --- Transfer function: the file, then its lookup table ---
@@ -259,14 +215,8 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf);
 
-        // --- Volume, and the bricks the table leaves empty ---
+        // --- Volume ---
         const Volume volume = load_volume(options);
-        EmptySpace space;
-        if (!params.no_leaping) space.bricks = make_bricks(volume);
-        auto update_empty_space = [&] {
-            if (!params.no_leaping) space.empty = find_empty_bricks(space.bricks, lut);
-        };
-        update_empty_space();
 
         // --- Render: one ray per pixel ---
         Renderer renderer;
@@ -274,14 +224,13 @@ int main(int argc, char** argv) {
             if (params.order == "b2f") {
                 return composite_back_to_front(volume, view, x, y, lut, work, trace);
             }
-            return over_background(composite_front_to_back(volume, view, x, y, lut, space, params,
-                                                           work, trace));
+            return over_background(composite_front_to_back(volume, view, x, y, lut, params, work,
+                                                           trace));
         };
         OrderComparison comparison;  // filled by each --order both render
         if (params.order == "both") {
             renderer.image = [&](const View& view, Work& work) {
-                return compare_orders(options, volume, view, lut, space, params, work,
-                                      comparison);
+                return compare_orders(options, volume, view, lut, params, work, comparison);
             };
         }
         renderer.knob = {"skin_opacity",
@@ -291,7 +240,6 @@ int main(int argc, char** argv) {
                              const double opacity = skin->start.a + steps * skin_key_step;
                              set_opacity(tf, skin_label, std::clamp(opacity, 0.0, 1.0), "key");
                              lut = build_lut(tf);
-                             update_empty_space();
                          },
                          [&] {
                              const TfRange* skin = find_range(tf, skin_label);
@@ -299,8 +247,7 @@ int main(int argc, char** argv) {
                          }};
         renderer.settings = [&] {
             std::string text = "tf=" + tf.source + " order=" + params.order +
-                               " ert=" + number(params.ert) +
-                               " leaping=" + (params.no_leaping ? "off" : "on");
+                               " ert=" + number(params.ert);
             if (params.order != "both") return text;
             return text + " max_order_diff=" + number(comparison.max_diff) +
                    " ert_skipped_fraction=" + number(comparison.ert_skipped_fraction) +

@@ -1,6 +1,6 @@
 // 08_lit_compositing.cpp: light every sample, and sample in physical units.
 //
-// New here:   L from gradient lighting (steps 04-05), evaluated only where sigma > 0; a
+// New here:   L from gradient lighting (steps 04-05), evaluated only where alpha > 0; a
 //             sample step in physical units with linear interpolation along the ray; opacity
 //             correction for the step, so the picture keeps its overall opacity at any step
 //             and in every view (CThead's slices are 2 units apart, its rows and columns 1).
@@ -21,6 +21,7 @@ constexpr double unit_length = 1;     // physical length the TF opacities hold f
 constexpr double default_step = 1;    // physical units between two samples along a ray
 constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
 constexpr double step_key_factor = 2;            // Up doubles the step, Down halves it
+constexpr double max_samples_per_voxel = 64;  // a finer step against the spacing is refused
 constexpr double default_light_angle = 30;  // degrees to the right of the viewer
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
@@ -34,7 +35,6 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
-    bool no_leaping = false;     // read every sample, even in bricks known to be empty
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -106,36 +106,6 @@ static float value_along_ray(const Volume& volume, const View& view, int x, int 
 }
 //< lesson: sample_along_ray
 
-// Empty space: the volume's bricks (common/bricks.h: the smallest and largest value of each
-// 8x8x8 block of voxels) and, for the current table, the ones it leaves wholly transparent.
-struct EmptySpace {
-    Bricks bricks;
-    std::vector<uint8_t> empty;  // one flag per brick, 1: transparent; none: leap over nothing
-
-    bool is_empty(const Voxel& voxel) const {
-        return !empty.empty() && empty[bricks.index(voxel.i, voxel.j, voxel.k)];
-    }
-};
-
-//> lesson: empty_space
-// Which bricks the table leaves wholly transparent: those where no value from the brick's min
-// to its max has an opacity. opaque_before[n] counts the entries below n that have one, so
-// each brick is one subtraction, however wide its range. Run again whenever the table changes.
-static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
-    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
-    for (size_t n = 0; n < lut.entries.size(); ++n) {
-        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
-    }
-    std::vector<uint8_t> empty(bricks.count());
-    for (size_t b = 0; b < bricks.count(); ++b) {
-        const int low = bricks.ranges[b].min - lowest_ct_value;
-        const int high = bricks.ranges[b].max - lowest_ct_value;
-        empty[b] = opaque_before[high + 1] == opaque_before[low];
-    }
-    return empty;
-}
-//< lesson: empty_space
-
 //> lesson: gradient
 // The derivative along one axis at index n (of count samples, spacing apart); sample(m) reads
 // the volume at index m on that axis. Central inside, one-sided at the border: never outside.
@@ -159,13 +129,12 @@ static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
             derivative(along_k, k, volume.nz, volume.sz)};
 }
 
-// The gradient at a fractional position t along the ray: interpolated between the voxels on
-// either side, as the CT values were.
-static Vec3 gradient_along_ray(const Volume& volume, const View& view, int x, int y, float t,
-                               Work& work) {
-    const int before = int(t);
+// The gradient a fraction (0..1) of the way from the ray's voxel `before` to the next one:
+// interpolated between the two, as the CT values were. The index stays an int: a float holds
+// every integer only up to 2^24, and int(float(16777219)) would be one past the last voxel.
+static Vec3 gradient_along_ray(const Volume& volume, const View& view, int x, int y, int before,
+                               float fraction, Work& work) {
     const int after = std::min(before + 1, view.ray_length - 1);
-    const float fraction = t - float(before);
     const Vec3 gradient_before = gradient_at(volume, view.voxel(x, y, before), work);
     if (fraction == 0.0f) return gradient_before;
     const Vec3 gradient_after = gradient_at(volume, view.voxel(x, y, after), work);
@@ -192,42 +161,34 @@ static Vec3 light_direction(const View& view, double angle) {
 }
 //< lesson: shade
 
+// Samples along a ray of `view`, `step` physical units apart: its depth over the step, at
+// least one. check_sample_count() keeps it within an int.
+static int samples_along_ray(const View& view, double step) {
+    return std::max(1, int(std::lround(view.ray_length * view.ray_spacing / step)));
+}
+
 //> lesson: front_to_back
 // Front to back: from the viewer into the volume, keeping T, the share of what lies further
-// back that still shows: C += T*sigma*L*c, then T *= 1 - sigma, from C = 0 and T = 1.
+// back that still shows: C += T*alpha*L*c, then T *= 1 - alpha, from C = 0 and T = 1.
 // T only shrinks, so once it is below the threshold the rest of the ray can change C by less
 // than T*max(c): stop there (early ray termination). Even with --ert 0, stop once T is below
-// 1e-300: nothing behind can show, and one more sample (T times 1 - sigma, at least 6e-8 for
-// a float sigma < 1) could make T subnormal (below 2.2e-308), where arithmetic is slow.
+// 1e-300: nothing behind can show, and one more sample (T times 1 - alpha, at least 6e-8 for
+// a float alpha < 1) could make T subnormal (below 2.2e-308), where arithmetic is slow.
 // Samples are `step` physical units apart and each stands for `step` units of the volume's
 // depth; the light L (0..1) darkens the colour only, never the opacity.
-// A sample reads the voxels on either side of it; when the first lies in a brick the table
-// leaves wholly transparent, the second is covered too (a brick's range includes the voxel
-// past it). Leap on to the sample at or just before that brick's end: every sample between
-// lies inside the brick, and that one is checked in turn.
 static Accumulated composite_front_to_back(const Volume& volume, const View& view, int x, int y,
-                                           const Lut& lut, const EmptySpace& space,
-                                           const Params& params, Work& work, Trace* trace) {
+                                           const Lut& lut, const Params& params, Work& work,
+                                           Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
-    const double depth = view.ray_length * view.ray_spacing;  // physical units along the ray
-    const int sample_count = std::max(1, int(std::lround(depth / params.step)));
+    const int sample_count = samples_along_ray(view, params.step);
     const double voxels_per_sample = params.step / view.ray_spacing;
     const Vec3 to_light = params.unlit ? Vec3{} : light_direction(view, params.light_angle);
     Accumulated ray;
     for (int n = 0; n < sample_count; ++n) {
         const double t = n * params.step;                // physical units from the first voxel
         const double position = n * voxels_per_sample;  // the same in voxels, fractional
-        const int voxel_before = std::min(int(position), view.ray_length - 1);
-        if (space.is_empty(view.voxel(x, y, voxel_before))) {
-            const int brick_end = (voxel_before / brick_size + 1) * brick_size;  // voxels
-            const int next = std::min(sample_count,
-                                      std::max(n + 1, int(brick_end / voxels_per_sample)));
-            work.leapt += next - n;
-            if (trace) trace->add("t=%7.2f..%.2f empty brick up to voxel %d: %d samples leapt "
-                                  "over", t, (next - 1) * params.step, brick_end - 1, next - n);
-            n = next - 1;
-            continue;
-        }
+        const int before = std::min(int(position), view.ray_length - 1);  // voxel at or before
+        const float fraction = float(position - before);  // of the way to the next voxel, 0..1
         const float value = value_along_ray(volume, view, x, y, position);
         // The entry of the whole value at or below it (the range [from, to) it falls into):
         // value - lowest_ct_value >= 0, so int() rounds down.
@@ -240,14 +201,15 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         }
         double light = 1.0;  // unlit
         if (!params.unlit) {
-            light = shade(gradient_along_ray(volume, view, x, y, float(position), work),
+            light = shade(gradient_along_ray(volume, view, x, y, before, fraction, work),
                           to_light);
         }
-        const double weight = ray.transparency * sample.a * light;
+        const double alpha = sample.a;  // the opacity, after the TF
+        const double weight = ray.transparency * alpha * light;
         ray.r += weight * sample.r;
         ray.g += weight * sample.g;
         ray.b += weight * sample.b;
-        ray.transparency *= 1 - double(sample.a);
+        ray.transparency *= 1 - alpha;
         if (trace) trace->add("t=%7.2f value=%8.2f rgba=(%.3f, %.3f, %.3f, %.4f) L=%.4f "
                               "C=(%.6f, %.6f, %.6f) T=%.6g", t, value, sample.r, sample.g,
                               sample.b, sample.a, light, ray.r, ray.g, ray.b, ray.transparency);
@@ -269,6 +231,26 @@ static Rgb over_background(const Accumulated& ray) {
             float(ray.b + ray.transparency * background.b)};
 }
 //< lesson: front_to_back
+
+// Why `step` asks too much of a view's rays, or "": more than max_samples_per_voxel samples per
+// voxel (--spacing 1e6,1e6,1e6 at --step 1 would take a million, hours of work), or more
+// samples per ray than an int counts. Checked before any render, so the work stays bounded by
+// the volume's size.
+static std::string too_many_samples(const Volume& volume, double step) {
+    for (const View& view : views_named(volume, "all")) {
+        const double samples = view.ray_length * view.ray_spacing / step;
+        const double limit = std::min(max_samples_per_voxel * view.ray_length,
+                                      double(std::numeric_limits<int>::max()));
+        if (samples <= limit) continue;
+        char text[320];
+        std::snprintf(text, sizeof text, "--step %g with --spacing %g,%g,%g asks for %.4g "
+                      "samples per ray in the %s view, over the limit of %.0f (%g per voxel): "
+                      "raise --step or lower --spacing", step, volume.sx, volume.sy, volume.sz,
+                      samples, view.name.c_str(), limit, max_samples_per_voxel);
+        return text;
+    }
+    return "";
+}
 
 // A number as the summary line shows it: "0.12", "1e-05".
 static std::string number(double value) {
@@ -296,8 +278,6 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
-        args.add_switch("--no-leaping", &params.no_leaping,
-                        "read every sample, even in bricks the table leaves transparent");
         const Options options = args.parse(argc, argv);
 
         // --- Transfer function: the file, then its lookup table for this step size ---
@@ -307,28 +287,32 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
-        // --- Volume, and the bricks the table leaves empty ---
+        // --- Volume ---
         const Volume volume = load_volume(options);
-        EmptySpace space;
-        if (!params.no_leaping) space.bricks = make_bricks(volume);
-        auto update_empty_space = [&] {
-            if (!params.no_leaping) space.empty = find_empty_bricks(space.bricks, lut);
-        };
-        update_empty_space();
+        const std::string refused = too_many_samples(volume, params.step);
+        if (!refused.empty()) throw InputError(refused);
 
         // --- Render: one ray per pixel ---
         Renderer renderer;
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            return over_background(composite_front_to_back(volume, view, x, y, lut, space, params,
-                                                           work, trace));
+            return over_background(composite_front_to_back(volume, view, x, y, lut, params, work,
+                                                           trace));
+        };
+        renderer.ray_samples = [&](const View& view) {
+            char text[128];
+            std::snprintf(text, sizeof text, "%d samples at step %g over %d voxels spaced %g",
+                          samples_along_ray(view, params.step), params.step, view.ray_length,
+                          view.ray_spacing);
+            return std::string(text);
         };
         renderer.knob = {"step",
                          [&](const View&, int steps) {
-                             params.step = std::clamp(
+                             const double step = std::clamp(
                                  params.step * std::pow(step_key_factor, steps), min_step,
                                  max_step);
+                             if (!too_many_samples(volume, step).empty()) return;  // keep it
+                             params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
-                             update_empty_space();
                          },
                          [&] { return number(params.step); }};
         renderer.settings = [&] {
@@ -338,8 +322,7 @@ int main(int argc, char** argv) {
                    " ert=" + number(params.ert) +
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
-                   " correction=" + (params.no_correction ? "off" : "on") +
-                   " leaping=" + (params.no_leaping ? "off" : "on");
+                   " correction=" + (params.no_correction ? "off" : "on");
         };
 
         // --- Output: a PNG and a summary line per view, then the preview window ---

@@ -128,6 +128,12 @@ cat > "$work/table" << EOF
   says: --step: expected a number from 0.25 to 4, got 0
 08_lit_compositing --volume phantom --step nan
   says: --step: expected a number, got 'nan'
+08_lit_compositing --volume phantom --spacing 1e6,1e6,1e6
+  says: --step 1 with --spacing 1e+06,1e+06,1e+06 asks for 1.13e+08 samples per ray in the top view, over the limit of 7232 (64 per voxel): raise --step or lower --spacing
+09_empty_space --volume phantom --spacing 1e6,1e6,1e6 --step 4
+  says: --step 4 with --spacing 1e+06,1e+06,1e+06 asks for 2.825e+07 samples per ray in the top view, over the limit of 7232 (64 per voxel): raise --step or lower --spacing
+09_empty_space --volume phantom --view front --spacing 1,1,100 --step 0.25
+  says: --step 0.25 with --spacing 1,1,100 asks for 4.52e+04 samples per ray in the top view, over the limit of 7232 (64 per voxel): raise --step or lower --spacing
 06_transfer_function --volume phantom --skin-opacity 2
   says: --skin-opacity: expected a number from 0 to 1, got 2
 07_compositing_order --volume phantom --skin-opacity -0.1

@@ -163,5 +163,26 @@ expect_bad "$step" "has 48 bytes" --volume "$raw" --dims 4,3,3 --endian big
 expect_bad "$step" "--dims" --volume "$raw" --dims 0,1,1
 expect_bad "$step" "--spacing" --volume "$raw" --dims 4,3,2 --spacing 1,0,1
 
+# A ray longer than a float counts whole voxels (2^24 = 16777216): 1x1x16777220 voxels of air
+# (-1000), bone (1000) in the last one only. The hit is at sample 16777219, which a float
+# would carry as 16777220, one past the end (undefined behaviour: the SAN=1 build stops there).
+long="$work/long_ray"
+yes "$(printf '\030\374')" | tr -d '\n' | head -c $((2 * 16777219)) > "$long"
+printf '\350\003' >> "$long"
+for step in 02_threshold 03_depth_shading 04_gradient_lighting 05_interpolated_hits \
+            08_lit_compositing 09_empty_space; do
+    case $step in
+        0[2-5]_*) flags="--threshold 500"; expect="samples=16777220 .*hits=1" ;;
+        08_*) flags=""; expect="samples=16777220 skipped=16777219 leapt=0 gradients=1 " ;;
+        *) flags=""; expect="gradients=1 " ;;
+    esac
+    # shellcheck disable=SC2086
+    "$build/$step" --volume "$long" --dims 1,1,16777220 --view top $flags --no-window \
+        --out "$work/long_out" > "$work/stdout" 2> "$work/stderr"
+    status=$?
+    [ $status -eq 0 ] && grep -q "^step=$step view=top size=1x1 .*$expect" "$work/stdout"
+    check $? "$step on a ray of 16777220 voxels: status $status: $(cat "$work/stdout" "$work/stderr")"
+done
+
 echo "cli test: $passed passed, $failed failed"
 [ $failed -eq 0 ]

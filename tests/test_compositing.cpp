@@ -1,4 +1,4 @@
-// test_compositing.cpp: steps 06-08. The transfer function file (common code, called here),
+// test_compositing.cpp: steps 06-09. The transfer function file (common code, called here),
 // and through the programs: the lookup table's boundaries and ramps, both compositing orders,
 // early ray termination, opacity correction, lighting work, leaping over empty space, and the
 // stiff cases of shared/numerics.md. Expected values come from closed forms computed here.
@@ -26,8 +26,9 @@ namespace {
 constexpr const char* step06 = "06_transfer_function";  // back to front
 constexpr const char* step07 = "07_compositing_order";  // front to back, both orders
 constexpr const char* step08 = "08_lit_compositing";    // lit, physical step, correction
-constexpr double default_ert = 0.01;                    // steps 07/08's --ert default
-// Flags that turn leaping over empty bricks off where a step leaps.
+constexpr const char* step09 = "09_empty_space";        // 08 plus leaping over empty bricks
+constexpr double default_ert = 0.01;                    // steps 07-09's --ert default
+// Step 09's flag that turns leaping over empty bricks off.
 const std::vector<std::string> no_leaping = {"--no-leaping"};
 
 // A column of voxels, 1 x 1 x n: the top view has one pixel whose ray runs over all of them.
@@ -384,7 +385,7 @@ TEST_CASE("compositing: opacity exactly 1 hides what is behind; opacity 0 adds n
 
     // Everything transparent: nothing is shaded, the background (black) shows.
     const StepRender none = top_view(
-        step07, volume, "", joined(no_leaping, {"--tf", "data/tf/transparent.tf", "--ert", "0"}));
+        step07, volume, "", {"--tf", "data/tf/transparent.tf", "--ert", "0"});
     CHECK(pixel(none).r == 0.0f);
     CHECK(count(none, "skipped") == count(none, "samples"));
     CHECK(count(none, "samples") == 4);
@@ -423,10 +424,10 @@ TEST_CASE("compositing: front to back and back to front agree on the phantom") {
             const double allowed = ert == 0 ? 1e-5 : ert * max_colour + 1e-6;
             CHECK(max_difference(f2b.image(view), b2f.image(view)) <= allowed);
             CHECK(summary_count(b, "terminated") == 0);
-            // Back to front reads every sample; front to back leaps over the empty bricks.
+            // Neither order leaps (step 09 does): every sample reached is read.
             CHECK(summary_count(b, "leapt") == 0);
-            CHECK(summary_count(f, "leapt") > 0);
-            const uint64_t reached = summary_count(f, "samples") + summary_count(f, "leapt");
+            CHECK(summary_count(f, "leapt") == 0);
+            const uint64_t reached = summary_count(f, "samples");
             if (ert > 0) {
                 // Early termination reaches fewer samples than going all the way.
                 CHECK(reached < summary_count(b, "samples"));
@@ -444,7 +445,7 @@ TEST_CASE("compositing: step 07 --order both writes the difference picture") {
     const RunResult run = run_step(step07, {"--volume", "phantom", "--view", "front", "--threads",
                                             "2", "--order", "both", "--out", out.path()});
     CHECK(run.status == 0);
-    CHECK(contains(run.out, "order=both ert=0.01 leaping=on max_order_diff="));
+    CHECK(contains(run.out, "order=both ert=0.01 max_order_diff="));
     CHECK(contains(run.out, "ert_skipped_fraction="));
     CHECK(contains(run.out, "diff_scale=100"));
     REQUIRE(run.summaries.size() == 1);
@@ -471,7 +472,7 @@ TEST_CASE("compositing: the trace shows RGBA, C and T per sample and where the r
     CHECK(contains(lines[1], "rgba=(1.000, 0.790, 0.600, 0.1200)"));
     CHECK(contains(lines[1], "T=0.88"));
     CHECK(contains(lines[4], "T=0.00704"));
-    CHECK(contains(lines[5], "early ray termination at t=4, 1 samples not visited"));
+    CHECK(contains(lines[5], "early ray termination at n=4, 1 samples not visited"));
 }
 
 // --- Step 08: lighting work, step size and opacity correction ---------------------------
@@ -561,9 +562,9 @@ TEST_CASE("compositing: step 08 interpolates along the ray and never reads outsi
     }
 }
 
-TEST_CASE("compositing: gradients only where sigma > 0; none unlit or fully transparent") {
+TEST_CASE("compositing: gradients only where alpha > 0; none unlit or fully transparent") {
     auto front = [](const std::vector<std::string>& flags) {
-        const StepRender run = ctlab_test::render(step08, joined(joined(phantom, {"--view",
+        const StepRender run = ctlab_test::render(step09, joined(joined(phantom, {"--view",
                                                                                   "front"}),
                                                                  flags));
         REQUIRE(run.images.size() == 1);
@@ -590,20 +591,14 @@ TEST_CASE("compositing: gradients only where sigma > 0; none unlit or fully tran
 }
 
 TEST_CASE("compositing: leaping over empty bricks changes no pixel, only the work") {
-    // Steps 07 and 08 with and without leaping, every view of the phantom: the same pictures
-    // bit for bit; every sample is either visited or leapt over; the lighting and termination
-    // work is the same. Step 08 also at steps that do not divide a brick (0.3, 2.5).
-    struct Case {
-        const char* step;
-        std::vector<std::string> flags;
-    };
-    for (const Case& c : {Case{step07, {}}, Case{step08, {"--step", "0.3"}},
-                          Case{step08, {"--step", "1"}}, Case{step08, {"--step", "2.5"}}}) {
-        CAPTURE(c.step);
-        CAPTURE(c.flags.size());
-        const StepRender leaping = ctlab_test::render(c.step, joined(phantom, c.flags));
-        const StepRender reading =
-            ctlab_test::render(c.step, joined(joined(phantom, c.flags), no_leaping));
+    // Step 09 with and without leaping, every view of the phantom: the same pictures bit for
+    // bit; every sample is either visited or leapt over; the lighting and termination work is
+    // the same. Also at steps that do not divide a brick (0.3, 2.5).
+    for (const char* step : {"0.3", "1", "2.5"}) {
+        CAPTURE(step);
+        const std::vector<std::string> flags = joined(phantom, {"--step", step});
+        const StepRender leaping = ctlab_test::render(step09, flags);
+        const StepRender reading = ctlab_test::render(step09, joined(flags, no_leaping));
         REQUIRE(leaping.images.size() == 3);
         REQUIRE(reading.images.size() == 3);
         for (size_t v = 0; v < 3; ++v) {
@@ -625,15 +620,15 @@ TEST_CASE("compositing: leaping over empty bricks changes no pixel, only the wor
 
 TEST_CASE("compositing: a sample between an empty brick and bone is not leapt over") {
     // A column of air with bone starting exactly at the first voxel of the second brick.
-    // Step 08 at step 0.25 puts samples at 7.25, 7.5, 7.75: between air (-1000) and bone
+    // Step 09 at step 0.25 puts samples at 7.25, 7.5, 7.75: between air (-1000) and bone
     // (1000), where they interpolate through the skin range [-300, 50) (7.5 gives 0 exactly).
     // The first brick's range covers voxel brick_size (the overlap), so it is not empty.
     std::vector<int16_t> values(3 * brick_size, -1000);
     for (int k = brick_size; k < 3 * brick_size; ++k) values[k] = 1000;
     const Volume volume = column(values);
     const std::vector<std::string> flags = {"--step", "0.25", "--ert", "0", "--unlit"};
-    const StepRender leaping = top_view(step08, volume, "", flags, true);
-    const StepRender reading = top_view(step08, volume, "", joined(flags, no_leaping));
+    const StepRender leaping = top_view(step09, volume, "", flags, true);
+    const StepRender reading = top_view(step09, volume, "", joined(flags, no_leaping));
     CHECK(pixel(leaping).r == pixel(reading).r);
     CHECK(pixel(leaping).r > 0);  // T < 1: the bone shows
     CHECK(count(leaping, "leapt") == 0);  // no brick is empty: each holds bone or touches it
@@ -646,7 +641,7 @@ TEST_CASE("compositing: a sample between an empty brick and bone is not leapt ov
     // Air all along, but for bone in the last brick: the first two bricks are leapt over.
     std::vector<int16_t> far(3 * brick_size, -1000);
     far.back() = 1000;
-    const StepRender far_run = top_view(step08, column(far), "", flags, true);
+    const StepRender far_run = top_view(step09, column(far), "", flags, true);
     const uint64_t samples = 3 * brick_size * 4;  // step 0.25
     CHECK(count(far_run, "samples") + count(far_run, "leapt") == samples);
     CHECK(count(far_run, "leapt") == 2 * brick_size * 4);  // bricks 0 and 1, 4 samples a voxel
@@ -655,11 +650,11 @@ TEST_CASE("compositing: a sample between an empty brick and bone is not leapt ov
 }
 
 TEST_CASE("compositing: the empty bricks follow the table's skin opacity") {
-    // Step 07 at skin opacity 0 and at the default 0.12: without skin, the skin's bricks
+    // Step 09 at skin opacity 0 and at the default 0.12: without skin, the skin's bricks
     // become empty and are leapt over, and the skin is gone from the picture.
     const std::vector<std::string> front = joined(phantom, {"--view", "front"});
-    const StepRender no_skin = ctlab_test::render(step07, joined(front, {"--skin-opacity", "0"}));
-    const StepRender skin = ctlab_test::render(step07, front);
+    const StepRender no_skin = ctlab_test::render(step09, joined(front, {"--skin-opacity", "0"}));
+    const StepRender skin = ctlab_test::render(step09, front);
     CHECK(summary_count(no_skin.summary("front"), "leapt") >
           summary_count(skin.summary("front"), "leapt"));
     CHECK(max_difference(no_skin.images[0], skin.images[0]) > 0.1);

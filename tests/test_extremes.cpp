@@ -89,6 +89,10 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--step", "4", "--ert", "0"});
         all.push_back({"--unlit", "--no-correction", "--light-angle", "-180"});
     }
+    if (step.rfind("09", 0) == 0) {  // 08 plus leaping: a step that does not divide a brick
+        all.push_back({"--step", "0.3"});
+        all.push_back({"--no-leaping"});
+    }
     return all;
 }
 

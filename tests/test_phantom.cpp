@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 #include "error.h"
 #include "phantom.h"
 
@@ -63,17 +64,22 @@ TEST_CASE("phantom: value range like CThead, the maximum is the filling") {
     CHECK(volume.at(106, 60, 80) == 2248);  // on an upper molar, where the handout says
 }
 
-TEST_CASE("phantom: every value sits in a documented band, none near a TF boundary") {
-    // Bands from handouts/phantom.md; -300, 50, 300 and 400 all fall in the gaps between.
-    const int bands[][2] = {{-1020, -880}, {-100, 42}, {65, 85}, {190, 210}, {410, 1930},
-                            {2248, 2248}};
-    int outside = 0;
-    for (int16_t value : phantom().data) {
-        bool found = false;
-        for (const auto& band : bands) found = found || (value >= band[0] && value <= band[1]);
-        if (!found) ++outside;
-    }
-    CHECK(outside == 0);
+TEST_CASE("phantom: partial-volume edges, every value between two tissues occurs") {
+    // Edges are blurred, so every value from air to cortical bone occurs somewhere, and plenty
+    // of voxels sit at each value near the bone threshold 400: a threshold off by one (399,
+    // 401, or >= for >) moves the first hit of many rays (handouts/phantom.md).
+    std::vector<int> count(65536, 0);
+    for (int16_t value : phantom().data) ++count[value + 32768];
+    auto occurrences = [&](int value) { return count[value + 32768]; };
+    int missing = 0;
+    for (int value = -1000; value <= 1700; ++value) missing += occurrences(value) == 0;
+    CHECK(missing == 0);
+    int fewest = 1 << 30;
+    for (int value = 200; value <= 600; ++value) fewest = std::min(fewest, occurrences(value));
+    CHECK(fewest >= 50);
+    // Nothing outside the tissues' own range: air -1000 - 20 .. the filling 2248.
+    for (int value = -32768; value < -1020; ++value) CHECK(occurrences(value) == 0);
+    for (int value = 2249; value <= 32767; ++value) CHECK(occurrences(value) == 0);
 }
 
 TEST_CASE("phantom: anatomy where the handout says it is") {
@@ -99,7 +105,8 @@ TEST_CASE("phantom: anatomy where the handout says it is") {
     SUBCASE("skull: bone at the crown, outer and inner tables denser than the diploe") {
         for (int k = 7; k <= 11; ++k) CHECK(is_bone(v.at(128, 128, k)));
         CHECK(is_skin(v.at(128, 128, 5)));  // scalp above the skull
-        CHECK(is_skin(v.at(128, 128, 12)));  // fluid and brain below it
+        CHECK(v.at(128, 128, 12) < 400);     // the inner table's blurred lower edge
+        CHECK(is_skin(v.at(128, 128, 13)));  // fluid and brain below it
         // Across the side of the skull at mid height (1 mm voxels): the tables' middles.
         const int outer = v.at(58, 128, 50), diploe = v.at(61, 128, 50);
         const int inner = v.at(64, 128, 50);
@@ -136,12 +143,16 @@ TEST_CASE("phantom: anatomy where the handout says it is") {
     }
 }
 
-TEST_CASE("phantom: the bone surface found by interpolation follows the skull") {
+TEST_CASE("phantom: the bone surface found by interpolation is smooth, no voxel terraces") {
     // Rays down from the crown at j = 128: where linear interpolation between samples crosses
     // 400 against where the outer table's ellipsoid (centre 128, 128, 100 mm; semi-axes 72,
-    // 89, 86 mm) really is. Graded surface voxels keep this within a third of a slice.
+    // 89, 86 mm) really is. The blurred edge puts the 400 level about half a slice outside
+    // the geometric surface (cortical bone 1700 over soft tissue 25: 400 is 22% of the way
+    // up the edge); what matters is that the offset is the same everywhere. Sharp voxel edges
+    // would make it jump by up to a whole slice between neighbouring rays (terraces).
     const Volume& v = phantom();
     const double y = 128.5;  // mm, the centre of row j = 128
+    std::vector<double> offsets;
     for (int i = 70; i <= 186; ++i) {
         int k = 0;
         while (v.at(i, 128, k) <= 400) ++k;
@@ -150,9 +161,15 @@ TEST_CASE("phantom: the bone surface found by interpolation follows the skull") 
         const double x = i + 0.5;  // mm
         const double z = 100 - 86 * std::sqrt(1 - std::pow((x - 128) / 72, 2) -
                                                std::pow((y - 128) / 89, 2));
-        CAPTURE(i);
-        CHECK(std::fabs(t - (z - 1) / 2) < 0.4);  // slices: voxel k is at z = 2k + 1 mm
+        offsets.push_back(t - (z - 1) / 2);  // slices: voxel k is at z = 2k + 1 mm
     }
+    double mean = 0;
+    for (double offset : offsets) mean += offset / double(offsets.size());
+    CHECK(mean < -0.3);  // outside the surface: towards k = 0
+    CHECK(mean > -0.8);
+    double largest = 0;
+    for (double offset : offsets) largest = std::max(largest, std::fabs(offset - mean));
+    CHECK(largest < 0.2);  // slices: measured 0.12
 }
 
 TEST_CASE("phantom: other sizes keep the head's physical size and never crash") {

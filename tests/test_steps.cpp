@@ -126,21 +126,21 @@ bool traced_gradient(const PixelTrace& trace, Vec3& gradient) {
     return false;
 }
 
-// Step 05's "crossing between t=A and t=B: t_hit = A + F" (or a hit at t = 0 when the
-// first sample is already above); false for a miss.
+// Step 05's "crossing between n=A and n=B: hit at A + F", in samples along the ray (or a
+// hit at n = 0 when the first sample is already above); false for a miss.
 bool traced_t_hit(const PixelTrace& trace, double& t_hit) {
     for (const std::string& line : trace.lines) {
-        const size_t at = line.find("t_hit = ");
+        const size_t at = line.find("hit at ");
         if (at != std::string::npos) {
             int whole = 0;
             double fraction = 0;
-            if (std::sscanf(line.c_str() + at, "t_hit = %d + %lf", &whole, &fraction) == 2) {
+            if (std::sscanf(line.c_str() + at, "hit at %d + %lf", &whole, &fraction) == 2) {
                 t_hit = whole + fraction;
                 return true;
             }
         }
     }
-    if (!trace.lines.empty() && trace.lines[0].rfind("t=  0 ", 0) == 0 &&
+    if (!trace.lines.empty() && trace.lines[0].rfind("n=  0 ", 0) == 0 &&
         trace.lines[0].find("hit") != std::string::npos) {
         t_hit = 0;
         return true;
@@ -578,7 +578,7 @@ TEST_CASE("constant volume: every step, every view, the known value and never Na
         {"00_slices", 0.0f, 0.0f},             // min..max display of a zero range: 0
         {"01_ray_loops", 0.0f, 0.0f},          // same mapping
         {"02_threshold", 1.0f, 0.0f},          // hit / miss
-        {"03_depth_shading", 1.0f, 0.0f},      // hit at t = 0: 1 - 0/N
+        {"03_depth_shading", 1.0f, 0.0f},      // hit at n = 0: 1 - 0/N
         {"04_gradient_lighting", ambient, 0.0f},  // zero gradient: no normal, ambient only
         {"05_interpolated_hits", ambient, 0.0f},
     };
@@ -668,7 +668,7 @@ TEST_CASE("1x1x1 and one-voxel-thick volumes: every step and view, finite, right
             if (dims.nx * dims.ny * dims.nz > 1) CHECK(checked > 0);
         }
     }
-    // 1x1x1 with 500 > 400: a hit at t = 0 in every view: white in step 02, 1 - 0/1 in 03.
+    // 1x1x1 with 500 > 400: a hit at n = 0 in every view: white in step 02, 1 - 0/1 in 03.
     const Volume single = make_volume(1, 1, 1, [](int, int, int) { return 500; });
     for (const char* name : {"02_threshold", "03_depth_shading"}) {
         for (const Image& image : render_step(name, {}, single)) CHECK(image.at(0, 0).r == 1.0f);

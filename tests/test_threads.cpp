@@ -90,6 +90,8 @@ TEST_CASE("threads: non-default settings are thread-independent too") {
         {"08_lit_compositing", {"--step", "0.5"}},
         {"08_lit_compositing", {"--step", "4", "--no-correction", "--ert", "0.1"}},
         {"08_lit_compositing", {"--unlit"}},
+        {"09_empty_space", {"--no-leaping"}},
+        {"09_empty_space", {"--step", "0.3"}},
     };
     for (const Variant& variant : variants) {
         CAPTURE(variant.step);

@@ -73,10 +73,14 @@ check() {  # check DESCRIPTION COMMAND...: the command must succeed
     if "$@"; then ok; else bad "$description"; fi
 }
 
-if ! command -v xvfb-run > /dev/null 2>&1; then
-    echo "window test: SKIPPED (xvfb-run not installed)"
-    exit 1  # make deps installs it: missing here means the set-up failed
-fi
+# xvfb and xauth are optional packages (tools/install-deps.sh): without them the test is
+# skipped with one line naming the package, and does not fail.
+for tool in xvfb-run:xvfb xauth:xauth; do
+    if ! command -v "${tool%%:*}" > /dev/null 2>&1; then
+        echo "window test: SKIPPED (package ${tool#*:} not installed: ${tool%%:*} missing)"
+        exit 0
+    fi
+done
 binary=$build/02_threshold
 [ -x "$binary" ] || binary=$build/01_ray_loops
 [ -x "$binary" ] || { echo "window test: no $build/02_threshold or 01_ray_loops built"; exit 1; }
@@ -145,7 +149,7 @@ if command -v xdotool > /dev/null 2>&1; then
     check "real X input: key 3 shows the side view" grep -q '^step=.* view=side ' "$work/real.log"
     check "real X input: key q quits" grep -qx "window: key=q" "$work/real.log"
 else
-    echo "window test: real X input not tried (xdotool not installed)"
+    echo "window test: real X input SKIPPED (package xdotool not installed)"
 fi
 
 if [ "$failed" -ne 0 ]; then

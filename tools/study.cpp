@@ -13,7 +13,11 @@
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
 //              error measured here (handouts/numerics.md quotes them)
 //
-//   build/study [--out DIR] [--runs N]                (make study: a few minutes)
+//   build/study [--out DIR] [--runs N] [--quick]      (make study: a few minutes)
+//
+// --quick (make study QUICK=1, run by CI so the study cannot rot): one render per case, the
+// phantom at 64 x 64 x 29 (written to a raw file) and a reference step of 1/16. Its figures
+// are not to be quoted, and its tables are not marked as sections for the handouts.
 //
 // Writes DIR/error_vs_time.csv, DIR/error_vs_time.png (log-log, a panel per study),
 // DIR/error_vs_time.md (the tables) and DIR/numerics.md. handouts/error_vs_time.md and
@@ -49,7 +53,10 @@ namespace {
 constexpr const char* tool_name = "study";
 constexpr int default_runs = 5;           // timed renders per case (median), after a warm-up
 constexpr int surface_threshold = 400;    // CT value of the analytic surfaces (and of bone)
-constexpr double reference_step = 1.0 / 32;  // voxels: the converged compositing reference
+double reference_step = 1.0 / 32;  // voxels: the converged compositing reference
+constexpr double quick_reference_step = 1.0 / 16;  // --quick
+constexpr int quick_dims[3] = {64, 64, 29};        // --quick: the phantom this size
+bool quick = false;
 constexpr double byte_units = 255;        // errors in 8-bit units: 0..1 times 255
 constexpr double pi = 3.14159265358979323846;
 constexpr double not_applicable = -1;     // an error column a case has no figure for
@@ -189,19 +196,20 @@ std::string tf_range(int from, int to, double r, double g, double b, double a) {
     return format("%d %d constant %.9g %.9g %.9g %.9g\n", from, to, r, g, b, a);
 }
 
-// Step 05's "crossing between t=A and t=B: t_hit = A + F", or a hit at t = 0.
+// Step 05's "crossing between n=A and n=B: hit at A + F" in samples along the ray, or a
+// hit at n = 0.
 bool traced_t_hit(const PixelTrace& trace, double& t_hit) {
     for (const std::string& line : trace.lines) {
-        const size_t at = line.find("t_hit = ");
+        const size_t at = line.find("hit at ");
         int whole = 0;
         double fraction = 0;
         if (at != std::string::npos &&
-            std::sscanf(line.c_str() + at, "t_hit = %d + %lf", &whole, &fraction) == 2) {
+            std::sscanf(line.c_str() + at, "hit at %d + %lf", &whole, &fraction) == 2) {
             t_hit = whole + fraction;
             return true;
         }
     }
-    if (!trace.lines.empty() && trace.lines[0].rfind("t=  0 ", 0) == 0 &&
+    if (!trace.lines.empty() && trace.lines[0].rfind("n=  0 ", 0) == 0 &&
         trace.lines[0].find("hit") != std::string::npos) {
         t_hit = 0;
         return true;
@@ -423,7 +431,35 @@ void depth_study() {
 
 // --- 2. Compositing: step size and opacity correction -----------------------------------
 
-const std::vector<std::string> phantom = {"--volume", "phantom"};
+// The flags that load the phantom: the built-in one, or with --quick a small one as a raw
+// file. Its spacing, for the stretched copies of the step study.
+struct Phantom {
+    std::vector<std::string> flags;
+    double sx = cthead_sx, sy = cthead_sy, sz = cthead_sz;
+};
+
+const Phantom& phantom_volume() {
+    static const Phantom phantom = [] {
+        Phantom p;
+        if (!quick) {
+            p.flags = {"--volume", "phantom"};
+            return p;
+        }
+        Volume small = make_phantom_sized(quick_dims[0], quick_dims[1], quick_dims[2]);
+        // CThead's spacing, so that a step in physical units is the same fraction of a voxel
+        // as on the full phantom (and the stretched copies stay within the steps' limit of
+        // samples per ray).
+        small.sx = cthead_sx, small.sy = cthead_sy, small.sz = cthead_sz;
+        p.flags = volume_flags(small, "phantom_quick");
+        p.sx = small.sx, p.sy = small.sy, p.sz = small.sz;
+        return p;
+    }();
+    return phantom;
+}
+
+// Step 08's pictures are rendered by step 09 (step 08 plus leaping over empty bricks: the
+// same pixels, less work; tests/test_compositing.cpp checks that they are identical).
+constexpr const char* lit_step = "09_empty_space";
 
 void step_study() {
     std::printf("step: step 08 (lit) on the phantom, front view, step 4 .. 1/8 voxel, no early "
@@ -439,7 +475,8 @@ void step_study() {
     // times smaller and point the same way: the light is the same.
     constexpr double min_step = 0.25;  // step 08's --step limit, physical units
     auto render_at = [&](double step, bool correction, int threads, bool timed) {
-        std::vector<std::string> flags = phantom + front;
+        const Phantom& phantom = phantom_volume();
+        std::vector<std::string> flags = phantom.flags + front;
         double scale = 1;
         if (step < min_step) {
             scale = min_step / step;
@@ -452,13 +489,13 @@ void step_study() {
             }
             flags = flags + tf_flags(thinned, "thinned") +
                     std::vector<std::string>{"--spacing",
-                                             format("%g,%g,%g", scale * cthead_sx,
-                                                    scale * cthead_sy, scale * cthead_sz)};
+                                             format("%g,%g,%g", scale * phantom.sx,
+                                                    scale * phantom.sy, scale * phantom.sz)};
         }
         flags = flags + std::vector<std::string>{"--step", format("%g", step * scale),
                                                  "--threads", std::to_string(threads)};
         if (!correction) flags.push_back("--no-correction");
-        return run("08_lit_compositing", flags, timed);
+        return run(lit_step, flags, timed);
     };
     const Timer timer;
     const Run reference = render_at(reference_step, true, cores, false);
@@ -471,7 +508,8 @@ void step_study() {
                 step_text(2 * reference_step).c_str(), half_error.rmse, half_error.max);
     Point convergence;
     convergence.study = "step-reference";
-    convergence.method = "step 1/16 against step 1/32";
+    convergence.method = "step " + step_text(2 * reference_step) + " against step " +
+                         step_text(reference_step);
     convergence.parameter = step_text(2 * reference_step);
     convergence.error = half_error.rmse;
     convergence.max_error = half_error.max;
@@ -493,7 +531,8 @@ void step_study() {
 
 void ert_study() {
     std::printf("ert: early ray termination thresholds, top view of the phantom, 1 thread\n");
-    const std::vector<std::string> top = phantom + std::vector<std::string>{"--view", "top"};
+    const std::vector<std::string> top =
+        phantom_volume().flags + std::vector<std::string>{"--view", "top"};
     Image full07, full08;
     for (const double ert : {0.0, 0.001, 0.01, 0.05, 0.1}) {
         const std::vector<std::string> flags =
@@ -503,7 +542,7 @@ void ert_study() {
         const ImageError error = image_error(f2b.image(), full07);
         record({"ert", "step 07 front to back", format("%g", ert), f2b.ms(), error.rmse,
                 error.max, "8-bit, added (against T* = 0)", f2b.count("samples")});
-        const Run lit = run("08_lit_compositing", flags, true);
+        const Run lit = run(lit_step, flags, true);
         if (ert == 0) full08 = lit.image();
         const ImageError error08 = image_error(lit.image(), full08);
         record({"ert", "step 08 lit, step 1", format("%g", ert), lit.ms(), error08.rmse,
@@ -1092,6 +1131,24 @@ std::string numerics_table(const SubnormalCost& cost, const std::vector<FloatRay
     return out.str();
 }
 
+// The CPU's name, from /proc/cpuinfo ("unknown" elsewhere).
+std::string cpu_model() {
+    std::ifstream in("/proc/cpuinfo");
+    for (std::string line; std::getline(in, line);) {
+        if (line.compare(0, 10, "model name") != 0) continue;
+        const size_t colon = line.find(':');
+        if (colon != std::string::npos) return line.substr(line.find_first_not_of(' ', colon + 1));
+    }
+    return "unknown";
+}
+
+// BODY marked as section NAME for tools/measured.cpp; a quick run's figures are not marked,
+// so they can never reach a handout.
+std::string section(const std::string& name, const std::string& body) {
+    if (quick) return body;
+    return "<!-- section: " + name + " -->\n" + body + "<!-- end section -->\n";
+}
+
 std::string load_average() {
     std::ifstream in("/proc/loadavg");
     std::string one, five, fifteen;
@@ -1107,9 +1164,16 @@ int run(int argc, char** argv) {
             out = argv[++n];
         } else if (flag == "--runs" && n + 1 < argc) {
             runs = parse_int("--runs", argv[++n], 1, 1000);
+        } else if (flag == "--quick") {
+            quick = true;
         } else {
-            throw InputError("usage: study [--out DIR] [--runs N], got '" + flag + "'");
+            throw InputError("usage: study [--out DIR] [--runs N] [--quick], got '" + flag +
+                             "'");
         }
+    }
+    if (quick) {
+        runs = 1;
+        reference_step = quick_reference_step;
     }
     make_folder(out);
     const std::string load_before = load_average();
@@ -1137,22 +1201,34 @@ int run(int argc, char** argv) {
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     std::ostringstream md;
     md << "# Error against run time: measured tables\n\n";
-    md << format("Written by `make study` (tools/study.cpp) in %.0f s on %d cores; load average "
-                 "%s before, %s after; other processes used %.0f%% of the cores meanwhile. "
-                 "Times: each step run as a program with --repeat, the median of the %d renders after the first, 1 thread.\n\n",
-                 total.ms() / 1000, cores, load_before.c_str(), load_average().c_str(),
-                 100 * others.share(), runs);
+    if (quick) {
+        md << "**Quick mode** (--quick): one render per case, a 64x64x29 phantom, reference step "
+              "1/16. Do not quote these figures.\n\n";
+    }
+    const std::string written_by = format(
+        "Written by `make study` (tools/study.cpp) in %.0f s on %d cores (%s); load average "
+        "%s before, %s after; other processes used %.0f%% of the cores meanwhile. "
+        "Times: each step run as a program with --repeat, the median of the %d renders after "
+        "the first, 1 thread.\n",
+        total.ms() / 1000, cores, cpu_model().c_str(), load_before.c_str(),
+        load_average().c_str(), 100 * others.share(), runs);
+    md << written_by << "\n";
+    // Each table marked as a section that tools/measured.cpp copies into the handouts' blocks
+    // of the same name (make study does), with the line saying where and how it was measured.
     md << "## First-hit depth (top view, 256x256x113, spacing 1:1:2; error in voxels)\n\n"
-       << markdown_table("depth", "step h (voxels)") << "\n";
+       << section("study:depth", written_by + "\n" + markdown_table("depth", "step h (voxels)"))
+       << "\n";
     md << "## Compositing step (step 08 lit, front view, T* = 0; error in 8-bit units against "
-          "step 1/32)\n\n" << markdown_table("step-reference", "step")
-       << "\n" << markdown_table("step", "step (voxels)") << "\n";
+       << "step " << step_text(reference_step) << ")\n\n"
+       << section("study:step", written_by + "\n" + markdown_table("step-reference", "step") +
+                                    "\n" + markdown_table("step", "step (voxels)"))
+       << "\n";
     md << "## Early ray termination (top view; error added against T* = 0, 8-bit units)\n\n"
-       << markdown_table("ert", "T*") << "\n";
+       << section("study:ert", written_by + "\n" + markdown_table("ert", "T*")) << "\n";
     std::ofstream(out + "/error_vs_time.md") << md.str();
-    std::ofstream(out + "/numerics.md") << "# The stiff cases, measured\n\n"
-                                        << "Written by `make study` (tools/study.cpp).\n\n"
-                                        << numerics_table(cost, rays);
+    std::ofstream(out + "/numerics.md")
+        << "# The stiff cases, measured\n\n"
+        << section("study:numerics", written_by + "\n" + numerics_table(cost, rays));
     std::printf("%s", numerics_table(cost, rays).c_str());
     std::printf("study: wrote %s/error_vs_time.{csv,png,md} and %s/numerics.md in %.0f s; "
                 "other processes used %.0f%% of the cores meanwhile\n",
