@@ -6,7 +6,7 @@
 # on a virtual display). As root it installs whatever is missing with apt-get. Otherwise a
 # missing required package stops here (exit status 1) with the one sudo command to run, and
 # missing optional packages get a one-line note: the tests that need them are skipped.
-required="g++ make pkg-config libsdl2-dev libstb-dev doctest-dev"
+required="g++ make pkg-config libsdl2-dev libstb-dev doctest-dev zlib1g-dev"
 optional="xvfb xauth xdotool"  # tests/window_test.sh: virtual X display, real X input
 [ "${1:-}" = fuzz ] && required="$required clang libclang-rt-dev"
 
