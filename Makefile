@@ -18,6 +18,10 @@ SDL_CFLAGS := $(shell pkg-config --cflags sdl2 2>/dev/null)
 SDL_LIBS   := $(shell pkg-config --libs sdl2 2>/dev/null)
 CPPFLAGS += $(SDL_CFLAGS)
 LDLIBS   += $(SDL_LIBS) -pthread
+# zlib: the checker verifies a PNG's compressed data (CRCs, Adler-32, its inflated size).
+# The volume formats' libraries (common/format_*.cpp): nifticlib, teem (NRRD), GDCM, zlib.
+CPPFLAGS += -I/usr/include/gdcm-3.0 -I/usr/include/nifti
+LDLIBS   += -lniftiio -lznz -lteem -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
 # The builds inside demo, test and check-student use every core, unless make was given -j.
 JOBS     ?= $(shell nproc 2>/dev/null || echo 1)
 PARALLEL  = $(if $(filter -j%,$(MAKEFLAGS)),,-j$(JOBS))
@@ -45,6 +49,7 @@ LDFLAGS  += -fsanitize=address,undefined
 export ASAN_OPTIONS ?= check_initialization_order=1:strict_init_order=1:$\
                       detect_stack_use_after_return=1:max_allocation_size_mb=1024
 export UBSAN_OPTIONS ?= print_stacktrace=1
+export LSAN_OPTIONS ?= suppressions=$(CURDIR)/tests/fuzz/lsan.supp
 else
 BUILD    ?= build
 endif
@@ -72,6 +77,7 @@ LIBTOOLS       := $(BUILD)/libctlab_tools.a
 .PHONY: all help deps demo test run diff clean $(STEP_NAMES)
 .PHONY: reference student check-student handouts  # the instructor and student kit, below
 .PHONY: carry  # in a student tree: your functions forward into later steps
+.PHONY: check check-steps san  # grading this tree's programs, and one step with the sanitizers
 .PHONY: fuzz fuzz-build
 .PHONY: bench study  # measuring: speed, and error against run time
 .DEFAULT_GOAL := all
@@ -94,11 +100,17 @@ help:
 	@echo "make clean      remove build/, build-san/, build-fuzz/ and out/"
 	@echo "make reference [VOLUME=CThead REFERENCE=DIR]   render data/reference/manifest.txt's"
 	@echo "                images: the phantom into data/reference/, or VOLUME into REFERENCE"
+	@echo "                (a raw volume of another size: DIMS=NX,NY,NZ [ENDIAN= SPACING= ARGS=])"
 	@echo "make student [FORCE=1]   generate student/: the lab with every lesson function a stub"
-	@echo "make check-student   build student/, render every step, check against the reference"
+	@echo "make check [STEP=NN]   grade this tree's steps (the lab or a student tree): run every"
+	@echo "                manifest variant, compare pictures and counters; a progress table"
+	@echo "make san STEP=NN [ARGS='...']   build step NN with ASan and UBSan into build-san/ and"
+	@echo "                run it (on the phantom): a crash then names its line"
+	@echo "make check-student   make check inside student/ (generated first if missing)"
 	@echo "make handouts   refresh the code listings in handouts/*.md from the steps' markers"
-	@echo "make bench      time every step and view, 1 thread and all cores, against a naive"
-	@echo "                loop: out/bench.md, and the handouts' speed tables (on an idle machine)"
+	@echo "make bench      time every step and view, 1 and 2 threads, cold and warm (the step"
+	@echo "                binaries with --repeat): out/bench.md, and the handouts' speed tables"
+	@echo "                (run it on an idle machine)"
 	@echo "make study      error against run time of the methods (depth, step size, early"
 	@echo "                termination, float/double): out/study/ and the handouts' tables"
 	@echo "make bench QUICK=1, make study QUICK=1   a quick run that checks they work (CI)"
@@ -122,10 +134,12 @@ test: deps
 	$(BUILD)/ctlab_tests
 	@sh tests/cli_test.sh $(BUILD)
 	@sh tests/bad_input_test.sh $(BUILD)
+	@sh tests/check_test.sh $(BUILD)
 	@sh tests/threshold_mistakes_test.sh $(BUILD)
 	@sh tests/measured_test.sh $(BUILD)
 	@sh tests/window_test.sh $(BUILD)
 	@sh tests/student_test.sh $(BUILD)
+	@sh tests/grade_test.sh $(BUILD)
 
 # One step by name: `make 03_depth_shading`.
 $(STEP_NAMES): %: $(BUILD)/%
@@ -155,8 +169,9 @@ clean:
 	rm -rf build build-san build-fuzz out
 
 # --- Measuring: speed and accuracy -----------------------------------------------------------
-# Every step and view timed with 1 thread and with all cores, and against a naive loop of the
-# same step (tools/bench.cpp): out/bench.md. Timing needs an idle machine: check `uptime`.
+# Every step and view timed with 1 and 2 threads, each step binary run with --repeat: the cold
+# first render and the warm median (tools/bench.cpp): out/bench.md. Timing needs an idle
+# machine: check `uptime`.
 # QUICK=1 (CI): a small volume and one render per case, to check the tool still works.
 # A full run then copies its figures into the handouts' <!-- measured: bench:... --> blocks
 # (tools/measured.cpp), so a handout's speed table is always the last `make bench`.
@@ -186,26 +201,41 @@ endif
 # --- Instructor and student kit: references, student skeletons, handout listings ----------
 # Render every step and view, and the variants data/reference/manifest.txt lists, into
 # data/reference/ on the phantom; or, given VOLUME=path/to/CThead, into REFERENCE=folder.
+# A raw volume of another size: DIMS=NX,NY,NZ [ENDIAN=big] [SPACING=SX,SY,SZ]; ARGS= adds flags
+# to every run. REFERENCE/volume.txt records the volume, its flags, the commit and the date.
 reference: $(STEP_BINARIES)
-	@sh tools/make_reference.sh $(BUILD) "$(VOLUME)" "$(REFERENCE)"
+	@DIMS="$(DIMS)" ENDIAN="$(ENDIAN)" SPACING="$(SPACING)" ARGS="$(ARGS)" \
+	    sh tools/make_reference.sh $(BUILD) "$(VOLUME)" "$(REFERENCE)"
 
 # Generate student/: the lab with each lesson function's body a TODO stub (tools/make_student).
 # Refuses to overwrite files changed since the last generation unless FORCE=1.
 student: $(BUILD)/make_student
 	$(BUILD)/make_student --to student $(if $(filter 1,$(FORCE)),--force)
 
-# Build student/ (generated first if missing), render every step on the phantom into
-# student/out/ and check it against data/reference/. Stubbed steps fail until written.
-check-student: $(BUILD)/check
+# Grade this tree's programs (tools/grade.cpp), in the lab or in a student tree: build every
+# step (or STEP=NN; one that does not compile is graded "not built"), run each with every run
+# of data/reference/manifest.txt on the phantom into out/check/, compare every picture and the
+# work counters with the reference run's, and print a progress table with what to look at.
+CHECK_STEPS = $(if $(STEP),$(filter $(STEP) $(STEP)_%,$(STEP_NAMES)),$(STEP_NAMES))
+check: $(BUILD)/grade
+	@$(MAKE) --no-print-directory -k $(PARALLEL) check-steps || \
+	    echo "make check: a step does not compile (the compiler's errors are above)"
+	@$(BUILD)/grade --bin $(BUILD) $(if $(STEP),--step $(STEP))
+check-steps: $(addprefix $(BUILD)/,$(CHECK_STEPS))
+	@:
+
+# One step built with AddressSanitizer and UndefinedBehaviorSanitizer, then run: a crash then
+# prints the file and line. ARGS are the step's flags (default: every view on the phantom).
+SAN_STEP = $(notdir $(basename $(wildcard steps/$(STEP)_*.cpp)))
+san:
+	@[ -n "$(SAN_STEP)" ] || { echo "make san: give STEP=NN, one of the steps in steps/"; exit 2; }
+	@$(MAKE) --no-print-directory $(PARALLEL) SAN=1 build-san/$(SAN_STEP)
+	build-san/$(SAN_STEP) --volume phantom --no-window --out out/san $(ARGS)
+
+# make check inside student/ (generated first if missing): the verdict the student sees.
+check-student:
 	@[ -f student/.ctlab-student ] || $(MAKE) --no-print-directory student
-	@$(MAKE) --no-print-directory -C student $(PARALLEL) all
-	@rm -f student/out/[0-9][0-9]_*.png  # a step that fails now must not pass on old pictures
-	@for source in student/steps/[0-9][0-9]_*.cpp; do \
-	    step=$$(basename $$source .cpp); \
-	    student/$(BUILD)/$$step --volume phantom --view all --no-window --out student/out \
-	        > /dev/null || echo "check-student: $$step stopped with an error"; \
-	done
-	$(BUILD)/check --submission student/out --reference data/reference
+	@$(MAKE) --no-print-directory -C student check
 
 # In a student tree: copy the student's lesson functions forward into the later steps that use
 # them unchanged, where those are still the generated stubs (tools/carry.cpp, .ctlab/carry.txt).
@@ -221,7 +251,7 @@ handouts: $(BUILD)/handout_listings
 # tests/fuzz/seeds/NAME and the crash inputs kept in tests/fuzz/regressions/NAME. A crash
 # stops the run and leaves its input in build-fuzz/crashes/NAME/: copy it to
 # tests/fuzz/regressions/NAME/, where `make test` replays it (tests/test_fuzz_regressions.cpp).
-FUZZ_HARNESSES := raw cthead tf image
+FUZZ_HARNESSES := raw cthead tf image nifti nrrd metaimage dicom
 FUZZ_SECONDS   ?= 60
 fuzz:
 	@sh tools/install-deps.sh fuzz
@@ -229,6 +259,7 @@ fuzz:
 	@for name in $(FUZZ_HARNESSES); do \
 	    mkdir -p $(FUZZ_BUILD)/corpus/$$name $(FUZZ_BUILD)/crashes/$$name; \
 	    kept=tests/fuzz/regressions/$$name; [ -d $$kept ] || kept=; \
+	    LSAN_OPTIONS=suppressions=$(CURDIR)/tests/fuzz/lsan.supp \
 	    $(FUZZ_BUILD)/fuzz_$$name -max_total_time=$(FUZZ_SECONDS) -close_fd_mask=1 \
 	        -print_final_stats=1 -artifact_prefix=$(FUZZ_BUILD)/crashes/$$name/ \
 	        $(FUZZ_BUILD)/corpus/$$name tests/fuzz/seeds/$$name $$kept \
