@@ -14,7 +14,7 @@ build=${1:-build}
 passed=0
 failed=0
 ok() { passed=$((passed + 1)); }
-bad() { echo "student test: FAILED: $*"; failed=$((failed + 1)); }
+bad() { echo "student test: FAILED: $*" >&2; failed=$((failed + 1)); }  # stderr: never lost in a redirect
 expect() {  # expect DESCRIPTION COMMAND...: the command must succeed
     description=$1
     shift
@@ -172,6 +172,12 @@ step02=$(ls steps/02_*.cpp 2>/dev/null)
 if [ -n "$step02" ] && grep -q '^0[3-9]_[a-z_]* first_hit 02_' "$student/.ctlab/carry.txt"; then
     region first_hit "$step02" > "$work/first_hit_02.txt"
     replace_region first_hit "$student/$step02" "$work/first_hit_02.txt"
+    # The rest of step 02 filled in too (its shade()): the student has finished step 02.
+    for lesson in $(sed -n 's|^[ \t]*//> lesson: *\([a-z_0-9]*\).*|\1|p' "$step02"); do
+        [ "$lesson" = first_hit ] && continue
+        region "$lesson" "$step02" > "$work/lesson_02.txt"
+        replace_region "$lesson" "$student/$step02" "$work/lesson_02.txt"
+    done
     expect "make carry runs in the student tree" student_make carry
     carried=$(sed -n 's/^\(0[3-9]_[a-z_]*\) first_hit .*/\1/p' "$student/.ctlab/carry.txt" |
               tr '\n' ' ')
