@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <new>
 #include "error.h"
+#include "warm_up.h"
 #include "window.h"
 
 namespace ctlab {
@@ -25,6 +26,9 @@ Image render_view(const Options& options, const View& view, const Renderer& rend
     });
 }
 
+// warm_up()'s time in this process (common/warm_up.h), on every summary line; < 0: none yet.
+static double warmup_ms = -1;
+
 // warm_ms < 0: no repeated renders (--repeat 1), no warm_ms= on the line.
 static void print_summary(const Options& options, const View& view, const Renderer& renderer,
                           const Work& work, double ms, double warm_ms = -1) {
@@ -42,6 +46,7 @@ static void print_summary(const Options& options, const View& view, const Render
     }
     if (renderer.settings) std::printf(" %s", renderer.settings().c_str());
     if (warm_ms >= 0) std::printf(" warm_ms=%.2f repeat=%d", warm_ms, options.repeat);
+    if (warmup_ms >= 0) std::printf(" warmup_ms=%.2f", warmup_ms);
     std::printf("\n");
     std::fflush(stdout);
 }
@@ -109,6 +114,9 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         throw InputError("--out: cannot write to folder '" + options.out + "'");
     }
 
+    // Image memory and threads made ready once, timed on their own (warmup_ms=), so that
+    // time_ms= of the first render is the render alone.
+    warmup_ms = warm_up(views, options.threads);
     for (const View& view : views) {
         Work work;
         const Timer timer;
