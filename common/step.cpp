@@ -116,7 +116,7 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
 
     // Image memory and threads made ready once, timed on their own (warmup_ms=), so that
     // time_ms= of the first render is the render alone.
-    warmup_ms = warm_up(views, options.threads);
+    warmup_ms = warm_up(views, options.threads, &volume);
     for (const View& view : views) {
         Work work;
         const Timer timer;

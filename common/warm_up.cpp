@@ -9,6 +9,8 @@
 #include <malloc.h>
 #endif
 #include <sys/mman.h>
+#include <system_error>
+#include <thread>
 #include "render.h"
 
 namespace ctlab {
@@ -46,9 +48,31 @@ void touch_heap(size_t bytes) {
     std::free(block);
 }
 
+// Every thread reads one value per cache line of the volume, so each core holds the lines
+// it will read as shared copies, not as lines another core wrote (the loader's core).
+void read_everywhere(const Volume& volume, int threads) {
+    constexpr size_t values_per_line = 64 / sizeof(int16_t);
+    auto read_all = [&volume] {
+        int64_t sum = 0;  // at most 2^26 lines of 32767: no overflow
+        for (size_t n = 0; n < volume.data.size(); n += values_per_line) sum += volume.data[n];
+        volatile int64_t sink = sum;
+        (void)sink;
+    };
+    std::vector<std::thread> others;
+    for (int n = 1; n < threads; ++n) {
+        try {
+            others.emplace_back(read_all);
+        } catch (const std::system_error&) {
+            break;  // fewer threads: the render starts what it can, as it always does
+        }
+    }
+    read_all();
+    for (std::thread& thread : others) thread.join();
+}
+
 }  // namespace
 
-double warm_up(const std::vector<View>& views, int threads) {
+double warm_up(const std::vector<View>& views, int threads, const Volume* volume) {
     const Timer timer;
     size_t image_bytes = 0;
     for (const View& view : views) {
@@ -67,6 +91,7 @@ double warm_up(const std::vector<View>& views, int threads) {
     touch_heap(kept);
     Work ignored;  // the threads do nothing: they are started, their stacks faulted in
     parallel_rows(threads, threads, ignored, [](int, Work&) {});
+    if (volume) read_everywhere(*volume, threads);
     return timer.ms();
 }
 
