@@ -9,6 +9,7 @@
 #include <new>
 #include "error.h"
 #include "output_files.h"
+#include "warm_up.h"
 #include "window.h"
 
 namespace ctlab {
@@ -46,6 +47,9 @@ Image render_view(const Options& options, const View& view, const Renderer& rend
     });
 }
 
+// warm_up()'s time in this process (common/warm_up.h), on every summary line; < 0: none yet.
+static double warmup_ms = -1;
+
 // warm_ms < 0: no repeated renders (--repeat 1), no warm_ms= on the line.
 static void print_summary(const Options& options, const View& view, const Renderer& renderer,
                           const Work& work, double ms, double warm_ms = -1) {
@@ -63,6 +67,7 @@ static void print_summary(const Options& options, const View& view, const Render
     }
     if (renderer.settings) std::printf(" %s", printable(renderer.settings()).c_str());
     if (warm_ms >= 0) std::printf(" warm_ms=%.2f repeat=%d", warm_ms, options.repeat);
+    if (warmup_ms >= 0) std::printf(" warmup_ms=%.2f", warmup_ms);
     std::printf("\n");
     flush_stdout();
 }
@@ -140,6 +145,9 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
 
     // All pictures or none: every file goes to a temporary, renamed when all are written.
     auto outputs = std::make_unique<OutputFiles>();
+    // Image memory and threads made ready once, timed on their own (warmup_ms=), so that
+    // time_ms= of the first render is the render alone.
+    warmup_ms = warm_up(views, options.threads, &volume);
     for (const View& view : views) {
         Work work;
         const Timer timer;
