@@ -71,6 +71,7 @@ LIBTOOLS       := $(BUILD)/libctlab_tools.a
 
 .PHONY: all help deps demo test run diff clean $(STEP_NAMES)
 .PHONY: reference student check-student handouts  # the instructor and student kit, below
+.PHONY: check check-steps san  # grading this tree's programs, and one step with the sanitizers
 .PHONY: fuzz fuzz-build
 .PHONY: bench study  # measuring: speed, and error against run time
 .DEFAULT_GOAL := all
@@ -92,7 +93,11 @@ help:
 	@echo "make reference [VOLUME=CThead REFERENCE=DIR]   render data/reference/manifest.txt's"
 	@echo "                images: the phantom into data/reference/, or VOLUME into REFERENCE"
 	@echo "make student [FORCE=1]   generate student/: the lab with every lesson function a stub"
-	@echo "make check-student   build student/, render every step, check against the reference"
+	@echo "make check [STEP=NN]   grade this tree's steps (the lab or a student tree): run every"
+	@echo "                manifest variant, compare pictures and counters; a progress table"
+	@echo "make san STEP=NN [ARGS='...']   build step NN with ASan and UBSan into build-san/ and"
+	@echo "                run it (on the phantom): a crash then names its line"
+	@echo "make check-student   make check inside student/ (generated first if missing)"
 	@echo "make handouts   refresh the code listings in handouts/*.md from the steps' markers"
 	@echo "make bench      time every step and view, 1 thread and all cores, against a naive"
 	@echo "                loop: out/bench.md, and the handouts' speed tables (on an idle machine)"
@@ -123,6 +128,7 @@ test: deps
 	@sh tests/measured_test.sh $(BUILD)
 	@sh tests/window_test.sh $(BUILD)
 	@sh tests/student_test.sh $(BUILD)
+	@sh tests/grade_test.sh $(BUILD)
 
 # One step by name: `make 03_depth_shading`.
 $(STEP_NAMES): %: $(BUILD)/%
@@ -188,18 +194,30 @@ reference: $(STEP_BINARIES)
 student: $(BUILD)/make_student
 	$(BUILD)/make_student --to student $(if $(filter 1,$(FORCE)),--force)
 
-# Build student/ (generated first if missing), render every step on the phantom into
-# student/out/ and check it against data/reference/. Stubbed steps fail until written.
-check-student: $(BUILD)/check
+# Grade this tree's programs (tools/grade.cpp), in the lab or in a student tree: build every
+# step (or STEP=NN; one that does not compile is graded "not built"), run each with every run
+# of data/reference/manifest.txt on the phantom into out/check/, compare every picture and the
+# work counters with the reference run's, and print a progress table with what to look at.
+CHECK_STEPS = $(if $(STEP),$(filter $(STEP) $(STEP)_%,$(STEP_NAMES)),$(STEP_NAMES))
+check: $(BUILD)/grade
+	@$(MAKE) --no-print-directory -k $(PARALLEL) check-steps || \
+	    echo "make check: a step does not compile (the compiler's errors are above)"
+	@$(BUILD)/grade --bin $(BUILD) $(if $(STEP),--step $(STEP))
+check-steps: $(addprefix $(BUILD)/,$(CHECK_STEPS))
+	@:
+
+# One step built with AddressSanitizer and UndefinedBehaviorSanitizer, then run: a crash then
+# prints the file and line. ARGS are the step's flags (default: every view on the phantom).
+SAN_STEP = $(notdir $(basename $(wildcard steps/$(STEP)_*.cpp)))
+san:
+	@[ -n "$(SAN_STEP)" ] || { echo "make san: give STEP=NN, one of the steps in steps/"; exit 2; }
+	@$(MAKE) --no-print-directory $(PARALLEL) SAN=1 build-san/$(SAN_STEP)
+	build-san/$(SAN_STEP) --volume phantom --no-window --out out/san $(ARGS)
+
+# make check inside student/ (generated first if missing): the verdict the student sees.
+check-student:
 	@[ -f student/.ctlab-student ] || $(MAKE) --no-print-directory student
-	@$(MAKE) --no-print-directory -C student $(PARALLEL) all
-	@rm -f student/out/[0-9][0-9]_*.png  # a step that fails now must not pass on old pictures
-	@for source in student/steps/[0-9][0-9]_*.cpp; do \
-	    step=$$(basename $$source .cpp); \
-	    student/$(BUILD)/$$step --volume phantom --view all --no-window --out student/out \
-	        > /dev/null || echo "check-student: $$step stopped with an error"; \
-	done
-	$(BUILD)/check --submission student/out --reference data/reference
+	@$(MAKE) --no-print-directory -C student check
 
 # Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.
 handouts: $(BUILD)/handout_listings

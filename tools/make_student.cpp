@@ -36,7 +36,8 @@ const char* const record_name = ".ctlab-student";  // marks a generated tree, li
 // What a student tree holds besides steps/: enough to build, test and read the lab.
 const std::vector<std::string> copied = {"Makefile", "README.md", ".gitignore", "common",
                                          "tools",    "tests",     "data",       "handouts"};
-const std::vector<std::string> not_copied = {"data/CThead"};  // not ours to hand out
+// data/CThead is not ours to hand out; tests/grade_mistakes.txt quotes solution lines.
+const std::vector<std::string> not_copied = {"data/CThead", "tests/grade_mistakes.txt"};
 constexpr size_t stub_width = 96;  // columns: stub calls wrap before this
 const char* const usage_text =
     "usage: make_student [--from DIR] [--to DIR] [--force]\n"

@@ -1,0 +1,132 @@
+#!/bin/sh
+# grade_test.sh: build/grade grades programs. The lab's own steps pass with every manifest
+# variant and counter; each mistake of tests/grade_mistakes.txt, patched into a copy of its
+# step and built with the lab's Makefile, fails with the hint the table names; a step that is
+# not built, a stub, a crash and a stale picture get their own verdicts.
+#
+#   sh tests/grade_test.sh BUILD      (from the repository root; make test runs it)
+#   ONLY=REGEX KEEP=1 sh tests/grade_test.sh BUILD   only the mistakes named so; keep the logs
+set -u
+build=${1:-build}
+passed=0
+failed=0
+pending=0
+skipped=0
+ok() { passed=$((passed + 1)); }
+bad() { echo "grade test: FAILED: $*"; failed=$((failed + 1)); }
+
+# The table quotes solution lines: make student leaves it out of a student tree.
+if [ -f .ctlab-student ] || [ ! -f tests/grade_mistakes.txt ]; then
+    echo "grade test: 0 passed, 0 failed (skipped: a student tree, no mistakes table)"
+    exit 0
+fi
+for tool in grade make_phantom; do
+    [ -x "$build/$tool" ] || { echo "grade test: $build/$tool is not built"; exit 1; }
+done
+work=$(mktemp -d) || exit 1
+if [ -n "${KEEP:-}" ]; then echo "grade test: logs kept in $work"; else
+    trap 'rm -rf "$work"' EXIT INT TERM; fi
+case "$build" in *san*) san=SAN=1 ;; *) san= ;; esac
+
+# grade_ok NAME EXPECTED_STATUS LOG PATTERNS: the exit status and every ';'-separated pattern.
+grade_ok() {
+    name=$1 expected=$2 status=$3 log=$4 patterns=$5
+    if [ "$status" -ne "$expected" ]; then
+        bad "$name: grade exited with $status, expected $expected"; sed 's/^/    /' "$log"
+        return 1
+    fi
+    old_ifs=$IFS; IFS=';'
+    for pattern in $patterns; do
+        IFS=$old_ifs
+        if ! grep -Eq -- "$pattern" "$log"; then
+            bad "$name: grade's output does not match '$pattern'"; sed 's/^/    /' "$log"
+            return 1
+        fi
+    done
+    IFS=$old_ifs
+    ok
+}
+
+# --- The lab's own steps: every run of the manifest, every view, pictures and counters --------
+[ -z "${ONLY:-}" ] && "$build/grade" --bin "$build" --out "$work/lab" > "$work/lab.log" 2>&1
+steps=$(ls steps/[0-9][0-9]_*.cpp | wc -l)
+[ -z "${ONLY:-}" ] && grade_ok "the lab's steps" 0 $? "$work/lab.log" "^$steps steps?: $steps passing; result=pass"
+
+# --- A step that is not built: graded "not built", with the command that shows why -----------
+mkdir -p "$work/empty"
+"$build/grade" --bin "$work/empty" --step 02 --out "$work/none" > "$work/none.log" 2>&1
+grade_ok "a step not built" 1 $? "$work/none.log" "not built;make 02_"
+
+# --- Bad input: one line, exit status 2 -----------------------------------------------------------
+"$build/grade" --step 99 --out "$work/none" > "$work/bad.log" 2>&1
+grade_ok "grade --step 99" 2 $? "$work/bad.log" "^grade: error: --step 99: no such step"
+"$build/grade" --reference "$work/empty" --out "$work/none" > "$work/bad.log" 2>&1
+grade_ok "grade --reference with no manifest" 2 $? "$work/bad.log" "^grade: error: no .*manifest.txt"
+
+# --- Mistakes, patched into copies of the solution's steps ---------------------------------------
+# A tree with the lab's Makefile and common/, and its compiled library (common/ is unchanged).
+tree=$work/tree
+mkdir -p "$tree/steps" "$tree/$build" || exit 1
+cp Makefile "$tree/" && cp -R common "$tree/" && cp -R "$build/common" "$tree/$build/" &&
+    cp "$build/libctlab.a" "$tree/$build/" || { bad "cannot copy the lab into $tree"; exit 1; }
+find "$tree/$build" -type f -exec touch {} +  # newer than the copied sources
+
+# Does the phantom have values between its tissues (partial volume)? Thresholds moved inside
+# 211..409 change nothing until it does (#11).
+"$build/make_phantom" "$work/phantom.raw" > /dev/null || bad "make_phantom failed"
+between=$(python3 -c "
+import array, sys
+values = array.array('h'); values.frombytes(open(sys.argv[1], 'rb').read())
+if sys.byteorder != 'little': values.byteswap()
+print(sum(1 for v in values if 211 <= v <= 409))" "$work/phantom.raw")
+
+grep -v '^#' tests/grade_mistakes.txt | grep -v '^[[:space:]]*$' |
+    grep -E "^(${ONLY:-.*}) " > "$work/mistakes"
+while IFS='|' read -r name step view script expect shows; do
+    name=$(echo $name) step=$(echo $step) view=$(echo $view) expect=$(echo $expect)
+    # printf, not echo: the scripts hold backslashes.
+    script=$(printf '%s\n' "$script" | sed 's/^ *//; s/ *$//')
+    shows=$(printf '%s\n' "$shows" | sed 's/^ *//; s/ *$//')
+    source=$(ls steps/"$step"_*.cpp 2>/dev/null | head -n 1)
+    if [ -z "$source" ]; then
+        echo "grade test: skipped: $name: there is no step $step"; skipped=$((skipped + 1))
+        continue
+    fi
+    stem=$(basename "$source" .cpp)
+    rm -f "$tree"/steps/*.cpp
+    cp "$source" "$tree/steps/" || { bad "$name: cannot copy $source"; continue; }
+    if [ "$script" != - ]; then
+        sed -e "$script" "$source" > "$tree/$source" || { bad "$name: bad sed script"; continue; }
+        if cmp -s "$source" "$tree/$source"; then
+            bad "$name: '$script' changes nothing in $source (the step changed?)"; continue
+        fi
+    fi
+    # shellcheck disable=SC2086
+    if ! make --no-print-directory -C "$tree" BUILD="$build" $san "$build/$stem" \
+            > "$work/make.log" 2>&1; then
+        bad "$name: the patched $stem does not compile"; tail -n 20 "$work/make.log"; continue
+    fi
+    mkdir -p "$work/bin/$name" && mv "$tree/$build/$stem" "$work/bin/$name/"
+    # The reference's own picture planted where the run writes: it must be gone before the run.
+    mkdir -p "$work/out/$name/$stem" &&
+        cp "data/reference/${stem}_$view.png" "$work/out/$name/$stem/" || bad "$name: no plant"
+    "$build/grade" --bin "$work/bin/$name" --step "$step" --view "$view" \
+        --out "$work/out/$name" > "$work/$name.log" 2>&1
+    status=$?
+    case "$expect" in
+        pass) grade_ok "$name (must pass)" 0 $status "$work/$name.log" "$shows" ;;
+        fail) grade_ok "$name (must fail)" 1 $status "$work/$name.log" "$shows" ;;
+        'fail*')
+            if [ "$status" -eq 0 ] && [ "$between" -eq 0 ]; then
+                echo "grade test: pending: $name passes: the phantom has no values from 211 to" \
+                     "409 yet"
+                pending=$((pending + 1))
+            else
+                grade_ok "$name (must fail)" 1 $status "$work/$name.log" "$shows"
+            fi ;;
+        *) bad "$name: EXPECT is pass, fail or fail*, got '$expect'" ;;
+    esac
+done < "$work/mistakes"
+
+echo "grade test: $passed passed, $failed failed, $pending pending, $skipped skipped"
+[ "$failed" -eq 0 ]

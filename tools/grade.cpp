@@ -1,0 +1,971 @@
+// grade.cpp: grades a tree's PROGRAMS, as `make check` runs it: every step, with every run the
+// reference manifest lists (its default run and its variants), on the reference volume, and
+// every picture and work counter compared with the reference run's. A student sees the verdict
+// the instructor will see.
+//
+//   build/grade [--tree DIR] [--bin DIR] [--reference DIR] [--out DIR] [--step NN]...
+//               [--view top|front|side] [--args "FLAGS"] [--volume PATH] [--timeout S]
+//
+// For each run (manifest line `NAME: ARGUMENTS [tol=N] [counters=LIST]`) the step's binary is
+// run as a process in the tree:  BIN/NN_name --volume V --no-window --out OUT/NAME ARGS
+// (V: the phantom, or the volume REFERENCE/volume.txt names)
+// into a folder emptied first (an old picture never passes). Then, for each view:
+//   - the picture against REFERENCE/NN_name_<view>[_VARIANT].png, within the run's tolerance
+//     (8-bit units, common/compare.h);
+//   - the summary line's work counters against REFERENCE/counters.txt (written by make
+//     reference): each must be equal, since the lab prescribes the work as well as the result.
+// Per step it prints one row of a progress table (not built, not started, crashed, failing,
+// passing) and, for a step that is not passing, the first things to look at: the TODO line of
+// a stub, the signal of a crash and how to find its line, the worst pixel ready for
+// --debug-pixel, a side-by-side picture (student | reference | heat map), a picture that
+// matches another view's reference, the counter that differs.
+//
+// Exit status: 0 every graded step passes, 1 some step does not, 2 bad input.
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cerrno>
+#include <chrono>
+#include <climits>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include "args.h"
+#include "compare.h"
+#include "error.h"
+#include "image.h"
+#include "tools/run_step.h"
+
+using namespace ctlab;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double default_tolerance = 2;    // 8-bit units: rounding differences pass
+constexpr double max_tolerance = 255;      // 8-bit units
+constexpr double default_timeout_s = 120;  // per run: a step on the phantom takes < 2 s
+constexpr size_t max_output_bytes = 1 << 20;  // of a run's stdout or stderr that is read
+constexpr int max_details = 4;             // lines of "look at" printed per step
+constexpr int gap = 4;                     // pixels between the side-by-side panels
+constexpr int exit_pass = 0, exit_fail = 1;
+const std::vector<std::string> views = {"top", "front", "side"};
+// The work counters of the summary line that a run must reproduce (common/render.h's Work).
+const std::vector<std::string> work_counters = {"samples", "skipped", "leapt",
+                                                "gradients", "terminated", "hits"};
+
+const char* const usage_text =
+    "usage: grade [--tree DIR] [--bin DIR] [--reference DIR] [--out DIR] [--step NN]...\n"
+    "             [--view top|front|side] [--args \"FLAGS\"] [--volume PATH] [--timeout S]\n"
+    "\n"
+    "Runs every step of the tree with every run of REFERENCE/manifest.txt (on the phantom) and\n"
+    "compares each picture and the summary lines' work counters with the reference run's.\n"
+    "\n"
+    "  --tree DIR        the lab or a student tree: its steps/ say which steps exist, and the\n"
+    "                    steps run inside it (default .)\n"
+    "  --bin DIR         where the step binaries are (default TREE/build)\n"
+    "  --reference DIR   pictures, manifest.txt and counters.txt (default TREE/data/reference)\n"
+    "  --out DIR         the runs' pictures, side-by-side pictures and report.txt\n"
+    "                    (default TREE/out/check; emptied of earlier runs first)\n"
+    "  --step NN         grade only step NN (repeatable; default every step)\n"
+    "  --view V          render and grade only view V (runs that choose a view are kept)\n"
+    "  --args \"FLAGS\"    more flags for every run, split at spaces (e.g. \"--threads 1\")\n"
+    "  --volume PATH     the volume to render (default: REFERENCE/volume.txt's volume: and\n"
+    "                    arguments: lines, as make reference VOLUME=... writes them; else\n"
+    "                    the phantom)\n"
+    "  --timeout S       seconds a run may take before it is stopped (default 120)\n"
+    "  --help            this text\n"
+    "\n"
+    "Exit status: 0 every graded step passes, 1 some step does not, 2 bad input.\n";
+
+// --- Settings and the manifest ---------------------------------------------------------------
+
+struct Settings {
+    fs::path tree = ".", bin, reference, out;
+    std::vector<std::string> steps;  // NN or NN_name; empty: all
+    std::string view;                // "" = every view
+    std::vector<std::string> extra_args;
+    std::string volume;                       // "" = REFERENCE/volume.txt's, else the phantom
+    std::vector<std::string> volume_args;     // --dims ... from REFERENCE/volume.txt
+    double timeout_s = default_timeout_s;
+};
+
+std::vector<std::string> split_words(const std::string& text) {
+    std::vector<std::string> words;
+    std::istringstream in(text);
+    for (std::string word; in >> word;) words.push_back(word);
+    return words;
+}
+
+Settings parse_arguments(int argc, char** argv) {
+    Settings settings;
+    bool has_bin = false, has_reference = false, has_out = false;
+    for (int a = 1; a < argc; ++a) {
+        const std::string arg = argv[a];
+        auto value = [&]() -> std::string {
+            if (a + 1 >= argc) throw InputError(arg + ": expected a value after it");
+            return argv[++a];
+        };
+        if (arg == "--help" || arg == "-h") {
+            std::printf("%s", usage_text);
+            std::exit(exit_pass);
+        } else if (arg == "--tree") {
+            settings.tree = value();
+        } else if (arg == "--bin") {
+            settings.bin = value();
+            has_bin = true;
+        } else if (arg == "--reference") {
+            settings.reference = value();
+            has_reference = true;
+        } else if (arg == "--out") {
+            settings.out = value();
+            has_out = true;
+        } else if (arg == "--step") {
+            settings.steps.push_back(value());
+        } else if (arg == "--view") {
+            settings.view = value();
+            if (std::find(views.begin(), views.end(), settings.view) == views.end()) {
+                throw InputError("--view: expected top, front or side, got '" + settings.view +
+                                 "'");
+            }
+        } else if (arg == "--args") {
+            for (const std::string& word : split_words(value())) {
+                settings.extra_args.push_back(word);
+            }
+        } else if (arg == "--volume") {
+            settings.volume = value();
+            if (settings.volume.empty()) throw InputError("--volume: expected a file or phantom");
+        } else if (arg == "--timeout") {
+            settings.timeout_s = parse_double(arg, value(), 0.1, 24 * 3600);
+        } else {
+            throw InputError("unknown argument '" + arg + "' (see grade --help)");
+        }
+    }
+    for (const fs::path* path : {&settings.tree, &settings.bin, &settings.reference,
+                                 &settings.out}) {
+        if (path == &settings.tree || (path == &settings.bin && has_bin) ||
+            (path == &settings.reference && has_reference) || (path == &settings.out && has_out)) {
+            if (path->empty()) throw InputError("expected a folder name, got ''");
+        }
+    }
+    if (!has_bin) settings.bin = settings.tree / "build";
+    if (!has_reference) settings.reference = settings.tree / "data" / "reference";
+    if (!has_out) settings.out = settings.tree / "out" / "check";
+    return settings;
+}
+
+// One run of a step: its default run (variant "") or a manifest variant.
+struct Run {
+    std::string name;     // NN_name or NN_name_VARIANT
+    std::string variant;  // "" for the default run
+    std::vector<std::string> arguments;
+    double tolerance = default_tolerance;
+    bool has_tolerance = false;     // set on this line (a variant inherits its step's)
+    std::vector<std::string> counters = work_counters;  // compared with the reference run's
+    bool has_counters = false;
+};
+
+struct Step {
+    std::string name;  // NN_name
+    std::vector<Run> runs;
+};
+
+std::string trim(const std::string& text) {
+    const size_t first = text.find_first_not_of(" \t\r");
+    if (first == std::string::npos) return "";
+    return text.substr(first, text.find_last_not_of(" \t\r") + 1 - first);
+}
+
+// Reads at most `limit` bytes of a regular file (not through a symlink).
+std::string read_bounded(const fs::path& path, size_t limit, bool* truncated = nullptr) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0) throw InputError("cannot read '" + path.string() + "': " + std::strerror(errno));
+    struct stat info {};
+    if (fstat(fd, &info) != 0 || !S_ISREG(info.st_mode)) {
+        ::close(fd);
+        throw InputError("'" + path.string() + "' is not a regular file");
+    }
+    std::string text;
+    char buffer[65536];
+    ssize_t got;
+    while (text.size() < limit && (got = ::read(fd, buffer, sizeof buffer)) > 0) {
+        text.append(buffer, static_cast<size_t>(got));
+    }
+    ::close(fd);
+    if (truncated) *truncated = text.size() >= limit;
+    if (text.size() > limit) text.resize(limit);
+    return text;
+}
+
+constexpr size_t max_manifest_bytes = 1 << 20;
+
+// The manifest's runs, grouped by step, for the steps in `step_names` (every step gets its
+// default run even when the manifest does not list it).
+std::vector<Step> read_manifest(const fs::path& path, const std::vector<std::string>& step_names) {
+    std::vector<Step> steps;
+    for (const std::string& name : step_names) steps.push_back({name, {}});
+    auto find_step = [&](const std::string& name) -> Step* {
+        for (Step& step : steps) {
+            if (name == step.name || name.rfind(step.name + "_", 0) == 0) return &step;
+        }
+        return nullptr;
+    };
+    std::istringstream lines(read_bounded(path, max_manifest_bytes));
+    std::string line;
+    int number = 0;
+    while (std::getline(lines, line)) {
+        ++number;
+        line = trim(line);
+        if (line.empty() || line[0] == '#') continue;
+        const std::string where = path.string() + ":" + std::to_string(number) + ": ";
+        const size_t colon = line.find(':');
+        if (colon == std::string::npos) throw InputError(where + "expected 'NAME: ARGUMENTS'");
+        Run run;
+        run.name = trim(line.substr(0, colon));
+        Step* step = find_step(run.name);
+        if (!step) continue;  // a step this tree does not have (or not graded now)
+        if (run.name != step->name) run.variant = run.name.substr(step->name.size() + 1);
+        for (const std::string& word : split_words(line.substr(colon + 1))) {
+            if (word.rfind("tol=", 0) == 0) {
+                run.tolerance = parse_double("tol", word.substr(4), 0, max_tolerance);
+                run.has_tolerance = true;
+            } else if (word.rfind("counters=", 0) == 0) {
+                run.counters.clear();
+                std::string list = word.substr(9);
+                if (list != "none") {
+                    std::replace(list.begin(), list.end(), ',', ' ');
+                    for (const std::string& counter : split_words(list)) {
+                        if (std::find(work_counters.begin(), work_counters.end(), counter) ==
+                            work_counters.end()) {
+                            throw InputError(where + "counters=: unknown counter '" + counter +
+                                             "'");
+                        }
+                        run.counters.push_back(counter);
+                    }
+                }
+                run.has_counters = true;
+            } else {
+                run.arguments.push_back(word);
+            }
+        }
+        step->runs.push_back(run);
+    }
+    for (Step& step : steps) {
+        auto default_run = std::find_if(step.runs.begin(), step.runs.end(),
+                                        [](const Run& run) { return run.variant.empty(); });
+        if (default_run == step.runs.end()) {
+            step.runs.insert(step.runs.begin(), Run{step.name, "", {}});
+            default_run = step.runs.begin();
+        }
+        for (Run& run : step.runs) {  // a variant inherits what its default line sets
+            if (!run.has_tolerance) run.tolerance = default_run->tolerance;
+            if (!run.has_counters) run.counters = default_run->counters;
+        }
+    }
+    return steps;
+}
+
+// REFERENCE/counters.txt: "NAME: step=.. view=V key=value ..." -> (NAME, V) -> key -> value
+// (Summary and parse_summary: tools/run_step.h).
+using CounterTable = std::map<std::pair<std::string, std::string>, Summary>;
+
+std::optional<CounterTable> read_counters(const fs::path& path) {
+    std::error_code error;
+    if (!fs::is_regular_file(fs::symlink_status(path, error))) return std::nullopt;
+    CounterTable table;
+    std::istringstream lines(read_bounded(path, max_manifest_bytes * 4));
+    std::string line;
+    while (std::getline(lines, line)) {
+        line = trim(line);
+        if (line.empty() || line[0] == '#') continue;
+        const size_t colon = line.find(':');
+        if (colon == std::string::npos) continue;
+        Summary fields = parse_summary(line.substr(colon + 1));
+        if (!fields.count("view")) continue;
+        table[{trim(line.substr(0, colon)), fields["view"]}] = fields;
+    }
+    return table;
+}
+
+// --- Running a step as a process -----------------------------------------------------------
+// Not run_program (tools/run_step.h): a step runs inside the tree (its relative paths, e.g.
+// data/tf/, are the tree's), in a process group of its own, its output read within a bound,
+// and a signal kept apart from an exit status.
+
+struct Outcome {
+    bool started = false;
+    bool timed_out = false;
+    int exit_status = -1;  // when it exited
+    int signal = 0;        // when a signal ended it
+    std::string out, err;  // what it printed (bounded)
+    double seconds = 0;
+};
+
+Outcome run_process(const fs::path& program, const std::vector<std::string>& arguments,
+                    const fs::path& folder, const fs::path& log_folder, double timeout_s) {
+    Outcome outcome;
+    const fs::path out_path = log_folder / "stdout.txt", err_path = log_folder / "stderr.txt";
+    std::vector<std::string> words = {program.string()};
+    words.insert(words.end(), arguments.begin(), arguments.end());
+    std::vector<char*> argv;
+    for (std::string& word : words) argv.push_back(word.data());
+    argv.push_back(nullptr);
+
+    const auto start = std::chrono::steady_clock::now();
+    const pid_t pid = fork();
+    if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
+    if (pid == 0) {
+        setpgid(0, 0);  // its own group: a timeout stops its children too
+        const int out = ::open(out_path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644);
+        const int err = ::open(err_path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644);
+        const int none = ::open("/dev/null", O_RDONLY);
+        if (out < 0 || err < 0 || none < 0 || dup2(out, 1) < 0 || dup2(err, 2) < 0 ||
+            dup2(none, 0) < 0 || chdir(folder.c_str()) != 0) {
+            _exit(127);
+        }
+        execv(argv[0], argv.data());
+        std::fprintf(stderr, "grade: cannot run %s: %s\n", argv[0], std::strerror(errno));
+        _exit(127);
+    }
+    setpgid(pid, pid);
+    outcome.started = true;
+    int status = 0;
+    for (;;) {
+        const pid_t done = waitpid(pid, &status, WNOHANG);
+        if (done == pid) break;
+        if (done < 0 && errno != EINTR) throw std::runtime_error("waitpid failed");
+        const double elapsed =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (elapsed > timeout_s) {
+            kill(-pid, SIGKILL);
+            kill(pid, SIGKILL);
+            waitpid(pid, &status, 0);
+            outcome.timed_out = true;
+            break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    outcome.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!outcome.timed_out) {
+        if (WIFEXITED(status)) outcome.exit_status = WEXITSTATUS(status);
+        if (WIFSIGNALED(status)) outcome.signal = WTERMSIG(status);
+    }
+    try {
+        outcome.out = read_bounded(out_path, max_output_bytes);
+        outcome.err = read_bounded(err_path, max_output_bytes);
+    } catch (const InputError&) {
+    }
+    return outcome;
+}
+
+std::string signal_name(int signal) {
+    switch (signal) {
+        case SIGSEGV: return "SIGSEGV (segmentation fault: a read or write outside memory)";
+        case SIGABRT: return "SIGABRT (aborted: an assert, or the sanitizers, or a throw "
+                             "nobody caught)";
+        case SIGFPE: return "SIGFPE (arithmetic: an integer division by zero?)";
+        case SIGBUS: return "SIGBUS (bus error)";
+        case SIGILL: return "SIGILL (illegal instruction)";
+        case SIGKILL: return "SIGKILL (killed: out of memory?)";
+        default: {
+            const char* text = strsignal(signal);
+            return "signal " + std::to_string(signal) + (text ? std::string(" (") + text + ")"
+                                                              : std::string());
+        }
+    }
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+    std::vector<std::string> lines;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+        if (!trim(line).empty()) lines.push_back(line);
+    }
+    return lines;
+}
+
+// --- Pictures --------------------------------------------------------------------------------
+
+// The first pixel with the largest channel error.
+struct Worst {
+    int x = 0, y = 0, error = 0;
+};
+
+Worst worst_pixel(const Image& student, const Image& reference) {
+    Worst worst;
+    for (int y = 0; y < student.height; ++y) {
+        for (int x = 0; x < student.width; ++x) {
+            const Rgb& a = student.at(x, y);
+            const Rgb& b = reference.at(x, y);
+            const int error = std::max({std::abs(to_byte(a.r) - to_byte(b.r)),
+                                        std::abs(to_byte(a.g) - to_byte(b.g)),
+                                        std::abs(to_byte(a.b) - to_byte(b.b))});
+            if (error > worst.error) worst = {x, y, error};
+        }
+    }
+    return worst;
+}
+
+Image transposed(const Image& image) {
+    Image result(image.height, image.width);
+    for (int y = 0; y < image.height; ++y) {
+        for (int x = 0; x < image.width; ++x) result.at(y, x) = image.at(x, y);
+    }
+    return result;
+}
+
+Image mirrored(const Image& image, bool left_right) {
+    Image result(image.width, image.height);
+    for (int y = 0; y < image.height; ++y) {
+        for (int x = 0; x < image.width; ++x) {
+            result.at(x, y) = left_right ? image.at(image.width - 1 - x, y)
+                                         : image.at(x, image.height - 1 - y);
+        }
+    }
+    return result;
+}
+
+bool same_size(const Image& a, const Image& b) {
+    return a.width == b.width && a.height == b.height;
+}
+
+bool passes(const Image& student, const Image& reference, double tolerance) {
+    return same_size(student, reference) && !student.pixels.empty() &&
+           compare_images(student, reference, tolerance).pass;
+}
+
+// student | reference | heat map, side by side on dark grey.
+Image side_by_side(const Image& student, const Image& reference, double tolerance) {
+    const Image heat = diff_heat_map(student, reference, tolerance);
+    const int width = student.width + reference.width + heat.width + 2 * gap;
+    const int height = std::max({student.height, reference.height, heat.height});
+    Image result(width, height);
+    std::fill(result.pixels.begin(), result.pixels.end(), grey(0.15f));
+    int left = 0;
+    for (const Image* panel : {&student, &reference, &heat}) {
+        for (int y = 0; y < panel->height; ++y) {
+            for (int x = 0; x < panel->width; ++x) result.at(left + x, y) = panel->at(x, y);
+        }
+        left += panel->width + gap;
+    }
+    return result;
+}
+
+// --- Grading ---------------------------------------------------------------------------------
+
+enum class Status { passing, failing, not_started, crashed, not_built };
+
+const char* status_text(Status status) {
+    switch (status) {
+        case Status::passing: return "passing";
+        case Status::failing: return "failing";
+        case Status::not_started: return "not started";
+        case Status::crashed: return "crashed";
+        case Status::not_built: return "not built";
+    }
+    return "?";
+}
+
+struct StepResult {
+    Status status = Status::passing;
+    int pictures = 0, pictures_passed = 0;
+    int counters = 0, counters_passed = 0;  // summary lines, and those whose counters match
+    int runs = 0;
+    std::vector<std::string> look_at;  // the first things to look at, most useful first
+    std::vector<std::string> problems;  // everything, for report.txt
+};
+
+std::string relative_to(const fs::path& path, const fs::path& base) {
+    std::error_code error;
+    const fs::path relative = fs::relative(path, base, error);
+    if (error || relative.empty() || relative.string().rfind("..", 0) == 0) return path.string();
+    return relative.string();
+}
+
+std::string join(const std::vector<std::string>& words) {
+    std::string text;
+    for (const std::string& word : words) text += (text.empty() ? "" : " ") + word;
+    return text;
+}
+
+class Grader {
+public:
+    explicit Grader(Settings settings) : settings_(std::move(settings)) {}
+
+    int run();
+
+private:
+    StepResult grade_step(const Step& step);
+    void grade_run(const Step& step, const Run& run, StepResult& result);
+    void grade_picture(const Step& step, const Run& run, const std::string& view,
+                       const fs::path& folder, StepResult& result);
+    void grade_counters(const Run& run, const std::string& view, const Summary& student,
+                        StepResult& result);
+    std::string command_for(const Step& step, const Run& run, const std::string& view,
+                            const std::string& more = "") const;
+    fs::path reference_picture(const Step& step, const Run& run, const std::string& view) const {
+        return settings_.reference /
+               (step.name + "_" + view + (run.variant.empty() ? "" : "_" + run.variant) + ".png");
+    }
+
+    Settings settings_;
+    std::optional<CounterTable> counters_;
+    fs::path cwd_;
+};
+
+// "build/02_threshold --volume phantom --view top --threshold 500 --debug-pixel 12,40".
+std::string Grader::command_for(const Step& step, const Run& run, const std::string& view,
+                                const std::string& more) const {
+    std::string text = relative_to(settings_.bin / step.name, cwd_) + " --volume " +
+                       settings_.volume;
+    if (!settings_.volume_args.empty()) text += " " + join(settings_.volume_args);
+    const bool chooses_view = std::find(run.arguments.begin(), run.arguments.end(),
+                                        "--view") != run.arguments.end();
+    if (!chooses_view && !view.empty()) text += " --view " + view;
+    if (!run.arguments.empty()) text += " " + join(run.arguments);
+    if (!settings_.extra_args.empty()) text += " " + join(settings_.extra_args);
+    return text + more;
+}
+
+void Grader::grade_counters(const Run& run, const std::string& view, const Summary& student,
+                            StepResult& result) {
+    if (!counters_ || run.counters.empty()) return;
+    const auto found = counters_->find({run.name, view});
+    if (found == counters_->end()) return;  // the reference run has no line for this view
+    const Summary& reference = found->second;
+    std::vector<std::string> differ;
+    ++result.counters;
+    for (const std::string& counter : run.counters) {
+        const auto expected = reference.find(counter);
+        if (expected == reference.end()) continue;
+        const auto got = student.find(counter);
+        if (got != student.end() && got->second == expected->second) continue;
+        differ.push_back(counter + "=" + (got == student.end() ? "(none)" : got->second) +
+                         " where the reference run has " + counter + "=" + expected->second);
+    }
+    if (differ.empty()) {
+        ++result.counters_passed;
+        return;
+    }
+    std::string text = "counter " + differ[0] + " (" + run.name + ", " + view + ")";
+    if (differ.size() > 1) {
+        text += "; also ";
+        for (size_t d = 1; d < differ.size(); ++d) {
+            text += (d > 1 ? ", " : "") + differ[d].substr(0, differ[d].find(' '));
+        }
+    }
+    // Samples and leapt trade one for one: their sum is the samples without leaping.
+    auto number = [](const Summary& fields, const std::string& key) -> long long {
+        const auto it = fields.find(key);
+        return it == fields.end() ? -1 : std::atoll(it->second.c_str());
+    };
+    if (number(student, "samples") != number(reference, "samples") &&
+        number(reference, "leapt") >= 0 &&
+        number(student, "samples") + number(student, "leapt") ==
+            number(reference, "samples") + number(reference, "leapt")) {
+        text += ": samples+leapt is right, so every sample is read or leapt over, but the "
+                "leaps are too short or too long";
+    } else {
+        // What the first counter that differs usually points at.
+        static const std::map<std::string, std::string> hints = {
+            {"samples", "a loop's range, or where a ray stops"},
+            {"skipped", "which samples count as transparent (opacity 0) and are skipped"},
+            {"leapt", "the bricks leapt over, and how far each leap goes"},
+            {"gradients", "where a gradient is computed: only where the picture needs one"},
+            {"terminated", "where a ray stops early: the test against --ert (default 0.01)"},
+            {"hits", "the hit test: the threshold, > or >=, the loop's range"}};
+        const std::string first = differ[0].substr(0, differ[0].find('='));
+        const auto hint = hints.find(first);
+        if (hint != hints.end()) text += ": look at " + hint->second;
+    }
+    result.problems.push_back(text);
+    result.look_at.push_back(text);
+}
+
+void Grader::grade_picture(const Step& step, const Run& run, const std::string& view,
+                           const fs::path& folder, StepResult& result) {
+    const fs::path reference_path = reference_picture(step, run, view);
+    const std::string reference_name = reference_path.filename().string();
+    const fs::path student_path = folder / (step.name + "_" + view + ".png");
+    auto problem = [&](const std::string& text, bool first = true) {
+        result.problems.push_back(reference_name + ": " + text);
+        if (first) result.look_at.push_back(reference_name + ": " + text);
+    };
+    std::error_code error;
+    if (!fs::is_regular_file(fs::symlink_status(student_path, error))) {
+        problem("the run wrote no " + student_path.filename().string());
+        return;
+    }
+    const Image reference = read_image(reference_path.string());  // bad input: stops the grade
+    Image student;
+    try {
+        student = read_image(student_path.string());
+    } catch (const InputError& failure) {
+        problem(std::string("cannot be read: ") + failure.what());
+        return;
+    }
+    if (!same_size(student, reference)) {
+        problem("is " + std::to_string(student.width) + "x" + std::to_string(student.height) +
+                ", the reference is " + std::to_string(reference.width) + "x" +
+                std::to_string(reference.height) + ": rendered another view, or a loop over "
+                "the wrong axis?");
+        return;
+    }
+    const Comparison comparison = compare_images(student, reference, run.tolerance,
+                                                 student_path.string(), reference_name);
+    if (comparison.pass) {
+        ++result.pictures_passed;
+        return;
+    }
+    const Worst worst = worst_pixel(student, reference);
+    const std::string xy = std::to_string(worst.x) + "," + std::to_string(worst.y);
+    char numbers[160];
+    std::snprintf(numbers, sizeof numbers,
+                  "fails: %.2f%% of the pixels differ by more than %g; the worst, %d levels, "
+                  "at pixel %s", comparison.over_tol_pct, run.tolerance, worst.error,
+                  xy.c_str());
+    const fs::path pair_path = settings_.out / "side_by_side" / reference_name;
+    make_folder(pair_path.parent_path().string());
+    write_png(side_by_side(student, reference, run.tolerance), pair_path.string());
+    std::string text = std::string(numbers) + "\n      trace it:     " +
+                       command_for(step, run, view, " --debug-pixel " + xy) +
+                       "\n      side by side: " + relative_to(pair_path, cwd_) +
+                       " (yours | reference | differences)";
+    // A picture that is right for another view, or right but turned: the axes are swapped.
+    for (const std::string& other : views) {
+        if (other == view) continue;
+        const fs::path other_path = reference_picture(step, run, other);
+        if (!fs::is_regular_file(fs::symlink_status(other_path, error))) continue;
+        if (passes(student, read_image(other_path.string()), run.tolerance)) {
+            text += "\n      it matches the " + other + " view's reference: swapped axes?";
+        }
+    }
+    if (passes(transposed(student), reference, run.tolerance)) {
+        text += "\n      it matches the reference turned about its diagonal: x and y (or the "
+                "two image axes' voxel indices) swapped?";
+    }
+    if (passes(mirrored(student, true), reference, run.tolerance)) {
+        text += "\n      it matches the reference mirrored left to right: an axis reversed?";
+    }
+    if (passes(mirrored(student, false), reference, run.tolerance)) {
+        text += "\n      it matches the reference upside down: image row = k, k = 0 at the top";
+    }
+    problem(text);
+}
+
+void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
+    const fs::path folder = settings_.out / run.name;
+    std::error_code error;
+    fs::remove_all(folder, error);  // pictures of an earlier run never pass (not followed)
+    if (error) throw InputError("cannot empty '" + folder.string() + "': " + error.message());
+    make_folder(folder.string());
+
+    std::vector<std::string> arguments = {"--volume", settings_.volume, "--no-window", "--out",
+                                          fs::absolute(folder).string()};
+    arguments.insert(arguments.end(), settings_.volume_args.begin(),
+                     settings_.volume_args.end());
+    const bool chooses_view =
+        std::find(run.arguments.begin(), run.arguments.end(), "--view") != run.arguments.end();
+    if (!settings_.view.empty() && !chooses_view) {
+        arguments.push_back("--view");
+        arguments.push_back(settings_.view);
+    }
+    arguments.insert(arguments.end(), run.arguments.begin(), run.arguments.end());
+    arguments.insert(arguments.end(), settings_.extra_args.begin(), settings_.extra_args.end());
+    ++result.runs;
+    std::vector<std::string> graded_views;  // those the reference run rendered
+    for (const std::string& view : views) {
+        if (!settings_.view.empty() && view != settings_.view) continue;
+        if (fs::is_regular_file(fs::symlink_status(reference_picture(step, run, view), error))) {
+            graded_views.push_back(view);
+        }
+    }
+    result.pictures += static_cast<int>(graded_views.size());
+    const Outcome outcome = run_process(fs::absolute(settings_.bin / step.name), arguments,
+                                        settings_.tree, folder, settings_.timeout_s);
+    const std::string command = command_for(step, run, settings_.view);
+
+    // Stubs still in the code: their TODO lines (common/not_done.cpp) say what to write.
+    for (const std::string& line : lines_of(outcome.err)) {
+        if (line.rfind("TODO: ", 0) != 0) continue;
+        result.status = Status::not_started;
+        if (std::find(result.look_at.begin(), result.look_at.end(), line) == result.look_at.end()) {
+            result.look_at.push_back(line);
+            result.problems.push_back(line);
+        }
+    }
+    if (outcome.timed_out) {
+        result.status = std::max(result.status, Status::failing);
+        const std::string text = run.name + ": stopped after " +
+            std::to_string(static_cast<int>(settings_.timeout_s)) + " s: a loop that never "
+            "ends? run it yourself: " + command;
+        result.problems.push_back(text);
+        result.look_at.push_back(text);
+        return;
+    }
+    if (outcome.signal != 0) {
+        if (result.status != Status::not_started) result.status = Status::crashed;
+        const std::string text = run.name + ": crashed with " + signal_name(outcome.signal) +
+            "\n      to see the line: make san STEP=" + step.name.substr(0, 2) +
+            (run.arguments.empty() && settings_.extra_args.empty() ? std::string()
+                 : " ARGS='" + join(run.arguments) +
+                       (settings_.extra_args.empty() ? "" : " " + join(settings_.extra_args)) +
+                       "'") +
+            " (this step with AddressSanitizer and UBSan)";
+        result.problems.push_back(text);
+        result.look_at.insert(result.look_at.begin(), text);
+        return;
+    }
+    // A step built with the sanitizers (make san, SAN=1) exits with their report instead.
+    std::string sanitizer;
+    for (const std::string& line : lines_of(outcome.err)) {
+        if (line.find("ERROR: AddressSanitizer") != std::string::npos ||
+            line.find("runtime error:") != std::string::npos) {
+            if (sanitizer.empty()) sanitizer = line;
+        }
+        if (line.rfind("SUMMARY: ", 0) == 0) sanitizer = line;  // names the file and line
+    }
+    if (outcome.exit_status != 0 && !sanitizer.empty()) {
+        if (result.status != Status::not_started) result.status = Status::crashed;
+        const std::string text = run.name + ": the sanitizers stopped it: " + sanitizer +
+                                 "\n      the whole report: " + command;
+        result.problems.push_back(text);
+        result.look_at.insert(result.look_at.begin(), text);
+        return;
+    }
+    if (outcome.exit_status != 0) {
+        if (result.status == Status::passing) result.status = Status::failing;
+        std::string first_error;
+        for (const std::string& line : lines_of(outcome.err)) {
+            if (line.rfind("TODO: ", 0) != 0) {
+                first_error = line;
+                break;
+            }
+        }
+        const std::string text = run.name + ": exited with status " +
+            std::to_string(outcome.exit_status) + (first_error.empty() ? "" : ": " + first_error) +
+            "\n      run it yourself: " + command;
+        result.problems.push_back(text);
+        result.look_at.push_back(text);
+        return;
+    }
+
+    std::map<std::string, Summary> summaries;  // view -> its summary line
+    for (const std::string& line : lines_of(outcome.out)) {
+        if (line.rfind("step=", 0) != 0) continue;
+        Summary fields = parse_summary(line);
+        summaries[fields["view"]] = fields;
+    }
+    const size_t problems_before = result.problems.size();
+    for (const std::string& view : graded_views) {
+        grade_picture(step, run, view, folder, result);
+        const auto summary = summaries.find(view);
+        if (summary == summaries.end()) {
+            const std::string text = run.name + ": printed no summary line for the " + view +
+                                     " view (step=... view=" + view + " ...)";
+            result.problems.push_back(text);
+            result.look_at.push_back(text);
+        } else {
+            grade_counters(run, view, summary->second, result);
+        }
+    }
+    if (result.problems.size() > problems_before && result.status == Status::passing) {
+        result.status = Status::failing;
+    }
+}
+
+StepResult Grader::grade_step(const Step& step) {
+    StepResult result;
+    const fs::path binary = settings_.bin / step.name;
+    const fs::path source = settings_.tree / "steps" / (step.name + ".cpp");
+    std::error_code error;
+    const bool built = fs::is_regular_file(binary, error) && access(binary.c_str(), X_OK) == 0;
+    if (!built || (fs::exists(source, error) &&
+                   fs::last_write_time(source, error) > fs::last_write_time(binary, error))) {
+        result.status = Status::not_built;
+        const std::string text = std::string(built ? "steps/" + step.name + ".cpp is newer "
+                                                     "than " + relative_to(binary, cwd_)
+                                                   : relative_to(binary, cwd_) + " is not built") +
+            ": make " + step.name + " shows why (the compiler's first error)";
+        result.look_at.push_back(text);
+        result.problems.push_back(text);
+        return result;
+    }
+    for (const Run& run : step.runs) grade_run(step, run, result);
+    if (result.status == Status::passing && result.pictures == 0) {
+        result.status = Status::failing;
+        const std::string text = "no reference picture for this step in " +
+                                 settings_.reference.string() + ": make reference";
+        result.problems.push_back(text);
+        result.look_at.push_back(text);
+    }
+    return result;
+}
+
+int Grader::run() {
+    cwd_ = fs::current_path();
+    std::error_code error;
+    if (!fs::is_directory(settings_.tree / "steps", error)) {
+        throw InputError("--tree: '" + settings_.tree.string() + "' has no steps/ folder");
+    }
+    if (!fs::is_directory(settings_.reference, error)) {
+        throw InputError("reference folder '" + settings_.reference.string() +
+                         "' does not exist");
+    }
+    if (fs::is_symlink(settings_.out, error)) {
+        throw InputError("--out: '" + settings_.out.string() + "' is a symbolic link");
+    }
+
+    std::vector<std::string> names;
+    for (const fs::directory_entry& entry : fs::directory_iterator(settings_.tree / "steps")) {
+        const std::string name = entry.path().filename().string();
+        if (name.size() > 7 && std::isdigit(static_cast<unsigned char>(name[0])) &&
+            std::isdigit(static_cast<unsigned char>(name[1])) && name[2] == '_' &&
+            entry.path().extension() == ".cpp") {
+            names.push_back(entry.path().stem().string());
+        }
+    }
+    std::sort(names.begin(), names.end());
+    if (!settings_.steps.empty()) {
+        std::vector<std::string> chosen;
+        for (const std::string& wanted : settings_.steps) {
+            bool found = false;
+            for (const std::string& name : names) {
+                if (name == wanted || name.substr(0, 2) == wanted) {
+                    if (std::find(chosen.begin(), chosen.end(), name) == chosen.end()) {
+                        chosen.push_back(name);
+                    }
+                    found = true;
+                }
+            }
+            if (!found) {
+                throw InputError("--step " + wanted + ": no such step in " +
+                                 (settings_.tree / "steps").string());
+            }
+        }
+        std::sort(chosen.begin(), chosen.end());
+        names = chosen;
+    }
+    const fs::path manifest_path = settings_.reference / "manifest.txt";
+    if (!fs::is_regular_file(manifest_path, error)) {
+        throw InputError("no " + manifest_path.string() + ": the runs to grade are listed there");
+    }
+    const std::vector<Step> steps = read_manifest(manifest_path, names);
+    counters_ = read_counters(settings_.reference / "counters.txt");
+    // A reference folder made from another volume says which (make reference VOLUME=...).
+    const fs::path volume_record = settings_.reference / "volume.txt";
+    if (fs::is_regular_file(fs::symlink_status(volume_record, error))) {
+        std::istringstream lines(read_bounded(volume_record, max_manifest_bytes));
+        for (std::string line; std::getline(lines, line);) {
+            if (line.rfind("volume:", 0) == 0 && settings_.volume.empty()) {
+                settings_.volume = trim(line.substr(7));
+            } else if (line.rfind("arguments:", 0) == 0) {
+                settings_.volume_args = split_words(line.substr(10));
+            }
+        }
+    }
+    if (settings_.volume.empty()) settings_.volume = "phantom";
+    make_folder(settings_.out.string());
+    fs::remove_all(settings_.out / "side_by_side", error);
+
+    std::printf("grading %zu step%s of %s against %s on %s%s\n", steps.size(),
+                steps.size() == 1 ? "" : "s", relative_to(settings_.tree, cwd_).c_str(),
+                relative_to(settings_.reference, cwd_).c_str(), settings_.volume.c_str(),
+                counters_ ? "" : " (no counters.txt there: counters not checked)");
+    std::fflush(stdout);
+
+    std::string report = "# grade report\n\n";
+    int passing = 0;
+    std::map<Status, int> counts;
+    std::vector<std::pair<std::string, StepResult>> results;
+    const int name_width = 24, status_width = 12;
+    std::printf("%-*s %-*s %9s %9s\n", name_width, "step", status_width, "status", "pictures",
+                "counters");
+    for (const Step& step : steps) {
+        const StepResult result = grade_step(step);
+        ++counts[result.status];
+        passing += result.status == Status::passing;
+        const std::string pictures =
+            result.runs ? std::to_string(result.pictures_passed) + "/" +
+                              std::to_string(result.pictures) : "-";
+        const std::string counters =
+            result.counters ? std::to_string(result.counters_passed) + "/" +
+                                  std::to_string(result.counters) : "-";
+        std::printf("%-*s %-*s %9s %9s\n", name_width, step.name.c_str(), status_width,
+                    status_text(result.status), pictures.c_str(), counters.c_str());
+        // A step still holding stubs: what to write is all there is to look at.
+        std::vector<std::string> look_at;
+        for (const std::string& line : result.look_at) {
+            if (result.status != Status::not_started || line.rfind("TODO: ", 0) == 0) {
+                look_at.push_back(line);
+            }
+        }
+        int shown = 0;
+        for (const std::string& line : look_at) {
+            if (shown++ == max_details) {
+                std::printf("    ... %zu more in %s\n", look_at.size() - max_details,
+                            relative_to(settings_.out / "report.txt", cwd_).c_str());
+                break;
+            }
+            std::printf("    %s\n", line.c_str());
+        }
+        std::fflush(stdout);
+        report += step.name + ": " + status_text(result.status) + ", pictures " + pictures +
+                  ", counters " + counters + "\n";
+        for (const std::string& problem : result.problems) report += "  " + problem + "\n";
+    }
+    std::string summary = std::to_string(steps.size()) + " step" +
+                          (steps.size() == 1 ? "" : "s") + ": ";
+    bool first = true;
+    for (Status status : {Status::passing, Status::failing, Status::crashed,
+                          Status::not_started, Status::not_built}) {
+        if (!counts[status] && status != Status::passing) continue;
+        summary += std::string(first ? "" : ", ") + std::to_string(counts[status]) + " " +
+                   status_text(status);
+        first = false;
+    }
+    const bool all_pass = passing == static_cast<int>(steps.size());
+    summary += std::string("; result=") + (all_pass ? "pass" : "fail");
+    report += "\n" + summary + "\n";
+    {
+        const fs::path path = settings_.out / "report.txt";
+        fs::remove(path, error);
+        const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644);
+        if (fd >= 0) {
+            const ssize_t written = ::write(fd, report.data(), report.size());
+            (void)written;
+            ::close(fd);
+        }
+    }
+    std::printf("%s\n", summary.c_str());
+    return all_pass ? exit_pass : exit_fail;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return Grader(parse_arguments(argc, argv)).run();
+    } catch (const InputError& error) {
+        std::fprintf(stderr, "grade: error: %s\n", error.what());
+        return exit_bad_input;
+    } catch (const std::exception& error) {
+        std::fprintf(stderr, "grade: internal error: %s\n", error.what());
+        return exit_fail;
+    }
+}
