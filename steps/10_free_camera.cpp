@@ -509,7 +509,7 @@ int main(int argc, char** argv) {
                                                            work, trace));
         };
         renderer.ray_samples = [&](const View&) {
-            return "a sample every " + number(params.step) + " physical units";
+            return "samples " + number(params.step) + " physical units apart";
         };
         renderer.knob = {"step",
                          [&](const View&, int steps) {
