@@ -18,6 +18,10 @@ SDL_CFLAGS := $(shell pkg-config --cflags sdl2 2>/dev/null)
 SDL_LIBS   := $(shell pkg-config --libs sdl2 2>/dev/null)
 CPPFLAGS += $(SDL_CFLAGS)
 LDLIBS   += $(SDL_LIBS) -pthread
+# zlib: the checker verifies a PNG's compressed data (CRCs, Adler-32, its inflated size).
+# The volume formats' libraries (common/format_*.cpp): nifticlib, teem (NRRD), GDCM, zlib.
+CPPFLAGS += -I/usr/include/gdcm-3.0 -I/usr/include/nifti
+LDLIBS   += -lniftiio -lznz -lteem -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
 # The builds inside demo, test and check-student use every core, unless make was given -j.
 JOBS     ?= $(shell nproc 2>/dev/null || echo 1)
 PARALLEL  = $(if $(filter -j%,$(MAKEFLAGS)),,-j$(JOBS))
@@ -45,6 +49,7 @@ LDFLAGS  += -fsanitize=address,undefined
 export ASAN_OPTIONS ?= check_initialization_order=1:strict_init_order=1:$\
                       detect_stack_use_after_return=1:max_allocation_size_mb=1024
 export UBSAN_OPTIONS ?= print_stacktrace=1
+export LSAN_OPTIONS ?= suppressions=$(CURDIR)/tests/fuzz/lsan.supp
 else
 BUILD    ?= build
 endif
@@ -92,6 +97,7 @@ help:
 	@echo "make clean      remove build/, build-san/, build-fuzz/ and out/"
 	@echo "make reference [VOLUME=CThead REFERENCE=DIR]   render data/reference/manifest.txt's"
 	@echo "                images: the phantom into data/reference/, or VOLUME into REFERENCE"
+	@echo "                (a raw volume of another size: DIMS=NX,NY,NZ [ENDIAN= SPACING= ARGS=])"
 	@echo "make student [FORCE=1]   generate student/: the lab with every lesson function a stub"
 	@echo "make check [STEP=NN]   grade this tree's steps (the lab or a student tree): run every"
 	@echo "                manifest variant, compare pictures and counters; a progress table"
@@ -124,6 +130,7 @@ test: deps
 	$(BUILD)/ctlab_tests
 	@sh tests/cli_test.sh $(BUILD)
 	@sh tests/bad_input_test.sh $(BUILD)
+	@sh tests/check_test.sh $(BUILD)
 	@sh tests/threshold_mistakes_test.sh $(BUILD)
 	@sh tests/measured_test.sh $(BUILD)
 	@sh tests/window_test.sh $(BUILD)
@@ -186,8 +193,11 @@ endif
 # --- Instructor and student kit: references, student skeletons, handout listings ----------
 # Render every step and view, and the variants data/reference/manifest.txt lists, into
 # data/reference/ on the phantom; or, given VOLUME=path/to/CThead, into REFERENCE=folder.
+# A raw volume of another size: DIMS=NX,NY,NZ [ENDIAN=big] [SPACING=SX,SY,SZ]; ARGS= adds flags
+# to every run. REFERENCE/volume.txt records the volume, its flags, the commit and the date.
 reference: $(STEP_BINARIES)
-	@sh tools/make_reference.sh $(BUILD) "$(VOLUME)" "$(REFERENCE)"
+	@DIMS="$(DIMS)" ENDIAN="$(ENDIAN)" SPACING="$(SPACING)" ARGS="$(ARGS)" \
+	    sh tools/make_reference.sh $(BUILD) "$(VOLUME)" "$(REFERENCE)"
 
 # Generate student/: the lab with each lesson function's body a TODO stub (tools/make_student).
 # Refuses to overwrite files changed since the last generation unless FORCE=1.
@@ -228,7 +238,7 @@ handouts: $(BUILD)/handout_listings
 # tests/fuzz/seeds/NAME and the crash inputs kept in tests/fuzz/regressions/NAME. A crash
 # stops the run and leaves its input in build-fuzz/crashes/NAME/: copy it to
 # tests/fuzz/regressions/NAME/, where `make test` replays it (tests/test_fuzz_regressions.cpp).
-FUZZ_HARNESSES := raw cthead tf image
+FUZZ_HARNESSES := raw cthead tf image nifti nrrd metaimage dicom
 FUZZ_SECONDS   ?= 60
 fuzz:
 	@sh tools/install-deps.sh fuzz
@@ -236,6 +246,7 @@ fuzz:
 	@for name in $(FUZZ_HARNESSES); do \
 	    mkdir -p $(FUZZ_BUILD)/corpus/$$name $(FUZZ_BUILD)/crashes/$$name; \
 	    kept=tests/fuzz/regressions/$$name; [ -d $$kept ] || kept=; \
+	    LSAN_OPTIONS=suppressions=$(CURDIR)/tests/fuzz/lsan.supp \
 	    $(FUZZ_BUILD)/fuzz_$$name -max_total_time=$(FUZZ_SECONDS) -close_fd_mask=1 \
 	        -print_final_stats=1 -artifact_prefix=$(FUZZ_BUILD)/crashes/$$name/ \
 	        $(FUZZ_BUILD)/corpus/$$name tests/fuzz/seeds/$$name $$kept \

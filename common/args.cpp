@@ -1,6 +1,11 @@
 // args.cpp: strict parsing of the shared flags and a step's own.
 #include "args.h"
+#include <dirent.h>
 #include <sys/stat.h>
+#include <cctype>
+#include <fstream>
+#include <sstream>
+#include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -8,11 +13,14 @@
 #include <cstdlib>
 #include <thread>
 #include "error.h"
+#include "formats.h"
 #include "phantom.h"
 
 namespace ctlab {
 
 static const char* const default_cthead_path = "data/CThead";
+static const char* const presets_folder = "data/presets";
+static bool is_file_units_flag(const std::string& flag);
 constexpr int max_threads = 256;
 constexpr int max_repeat = 1000;  // renders of one view for --repeat: enough for a median
 
@@ -98,7 +106,8 @@ std::string Args::usage() const {
     std::string text = "usage: build/" + step_ + " [options]\n" + summary_ + "\n\n";
     text +=
         "  --volume PATH|phantom   CT volume (default: data/CThead if present, else the phantom)\n"
-        "  --dims NX,NY,NZ         raw file of NX*NY*NZ signed 16-bit values, no header\n"
+        "  --dims NX,NY,NZ         raw file of NX*NY*NZ values, no header\n"
+        "  --type T                raw sample type: uint8, int8, uint16, int16 (default), float32\n"
         "  --endian little|big     byte order of a raw file (default little)\n"
         "  --spacing SX,SY,SZ      voxel spacing (CThead: 1,1,2)\n"
         "  --view top|front|side|all   which views to render (default all)\n"
@@ -111,6 +120,12 @@ std::string Args::usage() const {
         "  --repeat N              render each view N times [1 .. 1000]: time_ms= is the\n"
         "                          first (cold) render, warm_ms= the median of the others\n"
         "  --help                  this text\n";
+    text += "  --preset NAME           a volume's settings from data/presets/NAME.preset (flags\n"
+            "                          given on the command line win):";
+    const std::vector<std::string> names = preset_names();
+    for (const std::string& name : names) text += " " + name;
+    text += names.empty() ? " none found\n" : "\n";
+    text += std::string("\n") + volume_formats_help();
     if (!flags_.empty()) text += "\nthis step:\n";
     for (const Flag& flag : flags_) {
         std::string line = "  " + flag.name;
@@ -132,7 +147,96 @@ std::string Args::usage() const {
     return text;
 }
 
+std::vector<std::string> preset_names() {
+    std::vector<std::string> names;
+    if (DIR* folder = opendir(presets_folder)) {
+        while (const dirent* entry = readdir(folder)) {
+            const std::string name = entry->d_name;
+            const size_t dot = name.rfind(".preset");
+            if (dot != std::string::npos && dot > 0 && dot + 7 == name.size()) {
+                names.push_back(name.substr(0, dot));
+            }
+        }
+        closedir(folder);
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+// The preset's lines "flag value" (or "flag" alone for a switch) as words, keeping only the
+// flags this step has: a preset names settings for every step (the threshold of step 02, the
+// transfer function of step 06), and each step takes its own.
+std::vector<std::string> Args::preset_words(const std::string& name) const {
+    for (char c : name) {
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) {
+            throw InputError("--preset: expected a name such as cthead, got '" + name + "'");
+        }
+    }
+    const std::string path = std::string(presets_folder) + "/" + name + ".preset";
+    std::ifstream in(path);
+    if (!in) {
+        std::string known;
+        for (const std::string& each : preset_names()) known += (known.empty() ? "" : ", ") + each;
+        throw InputError("--preset: no " + path + " (presets: " +
+                         (known.empty() ? "none found; run from the repository folder" : known) +
+                         ")");
+    }
+    static const char* const shared[] = {"--volume", "--dims", "--endian", "--spacing", "--type",
+                                         "--view"};
+    std::vector<std::string> words;
+    std::string line;
+    int number = 0;
+    while (std::getline(in, line) && number < 1000) {
+        ++number;
+        const size_t hash = line.find('#');
+        if (hash != std::string::npos) line.resize(hash);
+        std::istringstream fields(line);
+        std::string flag, value, extra;
+        if (!(fields >> flag)) continue;
+        const bool has_value = bool(fields >> value);
+        if (fields >> extra || flag.rfind("--", 0) != 0) {
+            throw InputError(path + ":" + std::to_string(number) +
+                             ": expected '--flag value' or '--flag', got '" + line + "'");
+        }
+        bool known = false;
+        for (const char* each : shared) known = known || flag == each;
+        for (const Flag& own : flags_) known = known || own.name == flag;
+        if (!known) continue;
+        words.push_back(flag);
+        if (has_value) words.push_back(value);
+    }
+    return words;
+}
+
 Options Args::parse(int argc, char** argv) {
+    // --preset NAME: its settings go first, so that the command line's own flags win.
+    std::vector<std::string> words;
+    std::vector<std::string> given(argv + std::min(argc, 1), argv + argc);
+    for (size_t n = 0; n < given.size(); ++n) {
+        std::string value;
+        if (given[n] == "--preset" && n + 1 < given.size()) {
+            value = given[n + 1];
+        } else if (given[n].rfind("--preset=", 0) == 0) {
+            value = given[n].substr(9);
+        } else if (given[n] == "--preset") {
+            throw InputError("--preset: missing value");
+        } else {
+            continue;
+        }
+        for (const std::string& word : preset_words(value)) words.push_back(word);
+    }
+    if (!words.empty()) {
+        std::vector<char*> all;
+        all.push_back(argc > 0 ? argv[0] : nullptr);
+        for (std::string& word : words) all.push_back(word.data());
+        for (int n = 1; n < argc; ++n) all.push_back(argv[n]);
+        all.push_back(nullptr);
+        return parse_words(int(all.size()) - 1, all.data());
+    }
+    return parse_words(argc, argv);
+}
+
+Options Args::parse_words(int argc, char** argv) {
     Options options;
     options.step = step_;
     const unsigned cores = std::thread::hardware_concurrency();
@@ -174,6 +278,13 @@ Options Args::parse(int argc, char** argv) {
             }
             options.raw.endian = text == "little" ? Endian::little : Endian::big;
             options.has_endian = true;
+        } else if (flag == "--type") {
+            const std::string text = take_value();
+            if (!parse_sample_type(text, &options.raw.type)) {
+                throw InputError("--type: expected uint8, int8, uint16, int16 or float32, got '" +
+                                 text + "'");
+            }
+            options.has_type = true;
         } else if (flag == "--spacing") {
             const auto parts = split_list(flag, take_value(), 3, "SX,SY,SZ");
             constexpr double max_spacing = 1e6;
@@ -204,6 +315,8 @@ Options Args::parse(int argc, char** argv) {
             options.has_debug_pixel = true;
         } else if (flag == "--threads") {
             options.threads = parse_int(flag, take_value(), 1, max_threads);
+        } else if (flag == "--preset") {
+            options.preset = take_value();  // its settings are already in argv (parse())
         } else if (flag == "--pfm") {
             if (has_value) throw InputError(flag + ": takes no value");
             options.pfm = true;
@@ -222,6 +335,22 @@ Options Args::parse(int argc, char** argv) {
                     break;
                 }
                 const std::string text = take_value();
+                if (own.kind == Kind::integer && is_file_units_flag(flag)) {
+                    // In the volume file's own units: converted by load_volume(). A whole
+                    // number in range also sets the target now (for a volume of int16 values).
+                    Options::FileUnitsFlag units;
+                    units.name = flag;
+                    units.value = parse_double(flag, text, -1e30, 1e30);
+                    units.target = static_cast<int*>(own.target);
+                    units.min = int(own.min);
+                    units.max = int(own.max);
+                    if (units.value == std::floor(units.value) && units.value >= own.min &&
+                        units.value <= own.max) {
+                        *units.target = int(units.value);
+                    }
+                    options.file_units.push_back(units);
+                    break;
+                }
                 switch (own.kind) {
                     case Kind::integer:
                         *static_cast<int*>(own.target) =
@@ -259,9 +388,31 @@ Options Args::parse(int argc, char** argv) {
     return options;
 }
 
+// The step flags whose numbers are values of the volume (in the file's own units).
+static bool is_file_units_flag(const std::string& flag) {
+    return flag == "--threshold" || flag == "--iso";
+}
+
 static bool file_exists(const std::string& path) {
     struct stat info {};
     return stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
+}
+
+// --threshold in file units -> the volume's int16 values. A hit is "value > threshold", so
+// the largest int16 t with file(t) <= T keeps exactly the same voxels: t = floor(T').
+static void convert_file_units(const Options& options, const Volume& volume) {
+    for (const Options::FileUnitsFlag& flag : options.file_units) {
+        const double converted = std::floor(volume.map.to_volume(flag.value) + 1e-9);
+        if (volume.map.identity() && (converted < flag.min || converted > flag.max)) {
+            throw InputError(flag.name + ": expected a number from " + std::to_string(flag.min) +
+                             " to " + std::to_string(flag.max) + ", got " + number_text(flag.value));
+        }
+        *flag.target = int(std::clamp(converted, double(flag.min), double(flag.max)));
+        if (!volume.map.identity()) {
+            std::printf("units: %s %s (file units) = %d in the volume's values\n",
+                        flag.name.c_str(), number_text(flag.value).c_str(), *flag.target);
+        }
+    }
 }
 
 Volume load_volume(const Options& options) {
@@ -275,15 +426,28 @@ Volume load_volume(const Options& options) {
         } else {
             volume = make_phantom();
         }
+        volume.format = "phantom";
         if (options.has_spacing) {
             volume.sx = options.raw.sx;
             volume.sy = options.raw.sy;
             volume.sz = options.raw.sz;
         }
+    } else if (volume_format_of(path) == "nifti") {
+        volume = load_nifti(path);
+    } else if (volume_format_of(path) == "nrrd") {
+        volume = load_nrrd(path);
+    } else if (volume_format_of(path) == "metaimage") {
+        volume = load_metaimage(path);
+    } else if (volume_format_of(path) == "dicom") {
+        volume = load_dicom_series(path);
     } else if (options.has_dims) {
         RawFormat format = options.raw;
         volume = load_raw(path, format);
-    } else if (options.has_endian || options.has_spacing) {
+    } else if (RawFormat named = options.raw; raw_format_from_name(path, &named)) {
+        // foot_256x256x256_uint8.raw: dims and type from the name (--type still wins).
+        if (options.has_type) named.type = options.raw.type;
+        volume = load_raw(path, named);
+    } else if (options.has_endian || options.has_spacing || options.has_type) {
         // A CThead-sized file with another byte order or spacing.
         RawFormat format = options.raw;
         format.nx = cthead_nx;
@@ -298,9 +462,13 @@ Volume load_volume(const Options& options) {
     } else {
         volume = load_cthead(path);
     }
-    std::printf("volume=%s dims=%dx%dx%d spacing=%g,%g,%g min=%d max=%d\n", volume.name.c_str(),
-                volume.nx, volume.ny, volume.nz, volume.sx, volume.sy, volume.sz,
-                volume.min_value, volume.max_value);
+    if (volume.format != "raw" && volume.format != "phantom" && options.has_spacing) {
+        volume.sx = options.raw.sx;  // --spacing overrides what the file says
+        volume.sy = options.raw.sy;
+        volume.sz = options.raw.sz;
+    }
+    std::printf("%s\n", volume_line(volume).c_str());
+    convert_file_units(options, volume);
     return volume;
 }
 

@@ -1,6 +1,7 @@
 // args.h: the command line every step shares, plus a step's own flags.
 //
 //   --volume PATH|phantom   --dims NX,NY,NZ  --endian little|big  --spacing SX,SY,SZ
+//   --type uint8|int8|uint16|int16|float32
 //   --view top|front|side|all  --out DIR  --no-window  --debug-pixel X,Y  --threads N  --help
 //   --pfm  --repeat N   (for tests and measurements: float images, repeated timing)
 // A step adds its own (--threshold, --slice, ...) before parse(). Any bad flag or number
@@ -17,7 +18,17 @@ struct Options {
     std::string volume;               // "" = data/CThead when present, else the phantom
     bool has_dims = false;            // --dims given: a generic raw file
     bool has_endian = false, has_spacing = false;
-    RawFormat raw;                    // --dims, --endian, --spacing
+    RawFormat raw;                    // --dims, --endian, --spacing, --type
+    bool has_type = false;
+    // Flags whose values are in the volume file's own units (--threshold): converted into the
+    // volume's int16 values by load_volume() through the volume's map (see ValueMap).
+    struct FileUnitsFlag {
+        std::string name;
+        double value = 0;             // as given, in file units
+        int* target = nullptr;        // the step's int, set by load_volume()
+        int min = 0, max = 0;
+    };
+    std::vector<FileUnitsFlag> file_units;
     std::string view = "all";         // top, front, side or all
     std::string out = "out";          // folder for the PNGs
     bool no_window = false;
@@ -27,6 +38,7 @@ struct Options {
     bool pfm = false;                 // --pfm: also write OUT/STEP_VIEW.pfm (float RGB)
     int repeat = 1;                   // --repeat N: render each view N times (timing)
     std::string window_script;        // tests only: events to inject into the preview window
+    std::string preset;               // --preset NAME ("" = none)
 };
 
 class Args {
@@ -48,6 +60,8 @@ public:
     std::string usage() const;
 
 private:
+    Options parse_words(int argc, char** argv);
+    std::vector<std::string> preset_words(const std::string& name) const;
     enum class Kind { integer, real, choice, text, on_off };
     struct Flag {
         std::string name;
@@ -61,12 +75,17 @@ private:
     std::vector<Flag> flags_;
 };
 
+// The presets in data/presets (NAME.preset), sorted. A preset holds "--flag value" lines.
+std::vector<std::string> preset_names();
+
 // Strict number parsing: the whole text must be a number in [min, max]. Throw InputError
 // "FLAG: expected WHAT, got 'TEXT'".
 int parse_int(const std::string& flag, const std::string& text, int min, int max);
 double parse_double(const std::string& flag, const std::string& text, double min, double max);
 
-// Loads what --volume names: the phantom, a CThead file, or a raw file with --dims.
+// Loads what --volume names: the phantom, a CThead file, a raw file (--dims or a name like
+// foot_256x256x256_uint8.raw), NIfTI, NRRD, MetaImage or a DICOM folder (common/formats.h).
+// Converts the file-units flags (--threshold) into the volume's values.
 // The default (no --volume) is data/CThead when present, else the phantom.
 Volume load_volume(const Options& options);
 

@@ -461,12 +461,8 @@ Volume make_phantom_sized(int nx, int ny, int nz) {
                          std::to_string(nx) + "x" + std::to_string(ny) + "x" +
                          std::to_string(nz));
     }
-    // Two products, each checked: three ints could wrap 64 bits (2^22 cubed is 0).
-    const uint64_t slice = uint64_t(nx) * uint64_t(ny);
-    if (slice > max_voxels || slice * uint64_t(nz) > max_voxels) {
-        throw InputError("phantom: " + std::to_string(nx) + "x" + std::to_string(ny) + "x" +
-                         std::to_string(nz) + " is more than the voxel limit");
-    }
+    // The voxel limit and the free memory, before anything is allocated (volume.h).
+    check_volume_size("phantom:", uint64_t(nx), uint64_t(ny), uint64_t(nz));
     Volume volume;
     volume.nx = nx;
     volume.ny = ny;

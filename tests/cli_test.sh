@@ -106,7 +106,7 @@ for source in steps/[0-9][0-9]_*.cpp; do
     expect_bad "$step" "has 0 bytes" --volume "$empty"
     expect_bad "$step" "has $((cthead_bytes - 1)) bytes" --volume "$short"
     expect_bad "$step" "over the limit" --volume "$raw" --dims 4194304,4194304,4194304
-    expect_bad "$step" "voxel limit" --volume phantom --dims 4194304,4194304,4194304
+    expect_bad "$step" "over the limit" --volume phantom --dims 4194304,4194304,4194304
     expect_bad "$step" "'--bogus'" --volume phantom --bogus
     expect_bad "$step" "--view" --volume phantom --view bogus
     expect_bad "$step" "--threads" --volume phantom --threads 0

@@ -1,6 +1,9 @@
 // test_check.cpp: the checker's metrics and heat map (compare.h), and read_image on PNG
 // and PPM files, good and bad.
 #include <doctest/doctest.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <zlib.h>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +13,8 @@
 #include "compare.h"
 #include "error.h"
 #include "image.h"
+#include "image_read.h"
+#include "output_folder.h"
 
 using namespace ctlab;
 namespace fs = std::filesystem;
@@ -53,6 +58,52 @@ std::string read_error(const std::string& path) {
 
 bool contains(const std::string& text, const std::string& part) {
     return text.find(part) != std::string::npos;
+}
+
+std::vector<unsigned char> bytes_of(const std::string& text) {
+    return std::vector<unsigned char>(text.begin(), text.end());
+}
+
+// The message of read_image_bytes(bytes), and whether it was a DamagedImage.
+std::pair<std::string, bool> bytes_error(const std::string& bytes) {
+    try {
+        read_image_bytes(bytes_of(bytes), "p");
+    } catch (const DamagedImage& error) {
+        return {error.what(), true};
+    } catch (const InputError& error) {
+        return {error.what(), false};
+    }
+    return {"", false};
+}
+
+void put_32(std::string& out, uint32_t value) {
+    for (int shift = 24; shift >= 0; shift -= 8) out += static_cast<char>((value >> shift) & 0xff);
+}
+
+// A PNG chunk with its length and CRC, written here with zlib's crc32.
+std::string png_chunk(const std::string& type, const std::string& data) {
+    std::string chunk;
+    put_32(chunk, static_cast<uint32_t>(data.size()));
+    chunk += type + data;
+    const std::string covered = type + data;
+    put_32(chunk, static_cast<uint32_t>(
+                      crc32(0, reinterpret_cast<const Bytef*>(covered.data()), covered.size())));
+    return chunk;
+}
+
+// An 8-bit RGB PNG of width x height whose image data is `raw` compressed by zlib.
+std::string png_with_raw(int width, int height, const std::string& raw) {
+    std::string header;
+    put_32(header, static_cast<uint32_t>(width));
+    put_32(header, static_cast<uint32_t>(height));
+    header += std::string("\x08\x02\x00\x00\x00", 5);
+    uLongf size = compressBound(raw.size());
+    std::string compressed(size, '\0');
+    compress2(reinterpret_cast<Bytef*>(&compressed[0]), &size,
+              reinterpret_cast<const Bytef*>(raw.data()), raw.size(), 9);
+    compressed.resize(size);
+    return std::string("\x89PNG\r\n\x1a\n", 8) + png_chunk("IHDR", header) +
+           png_chunk("IDAT", compressed) + png_chunk("IEND", "");
 }
 
 }  // namespace
@@ -273,4 +324,127 @@ TEST_CASE("read_image: bad files are InputErrors naming the file and the problem
         folder.file("broken.png", std::string("\x89PNG\r\n\x1a\n", 8) + "garbage garbage");
     CHECK(contains(read_error(broken), broken));
     CHECK(contains(read_error(broken), "PNG"));
+}
+
+TEST_CASE("read_image: a PNG's data must inflate to exactly its declared size") {
+    // 2x2 RGB: each row a filter byte (0, none) and 6 samples: 14 bytes in all.
+    const std::string row = std::string(1, '\0') + "\x10\x20\x30\x40\x50\x60";
+    const Image image = read_image_bytes(bytes_of(png_with_raw(2, 2, row + row)), "p");
+    REQUIRE(image.width == 2);
+    REQUIRE(image.height == 2);
+    CHECK(to_byte(image.at(1, 1).r) == 0x40);
+    CHECK(to_byte(image.at(0, 1).b) == 0x30);
+
+    // One byte more than the picture holds: refused as a bomb, not decoded.
+    const auto [more, more_damaged] = bytes_error(png_with_raw(2, 2, row + row + "x"));
+    CHECK(contains(more, "inflates to more than the 14 bytes its 2x2 picture holds"));
+    CHECK_FALSE(more_damaged);
+    // A megabyte of zeros behind a 2x2 header: stopped after the first 64 KiB inflated.
+    const auto [bomb, bomb_damaged] = bytes_error(png_with_raw(2, 2, std::string(1 << 20, '\0')));
+    CHECK(contains(bomb, "(a decompression bomb?)"));
+    CHECK_FALSE(bomb_damaged);
+    // One row short: damaged (the data stops early).
+    const auto [fewer, fewer_damaged] = bytes_error(png_with_raw(2, 2, row));
+    CHECK(contains(fewer, "holds 7 bytes, a 2x2 picture 14"));
+    CHECK(fewer_damaged);
+}
+
+TEST_CASE("read_image: a flipped byte is damaged (CRC), a bad checksum too (Adler-32)") {
+    const std::string row = std::string(1, '\0') + "\x10\x20\x30\x40\x50\x60";
+    const std::string good = png_with_raw(2, 2, row + row);
+    REQUIRE(bytes_error(good).first.empty());
+    // Every byte from the IHDR chunk's length to the end, flipped in turn: never a picture.
+    int damaged = 0, refused = 0;
+    for (size_t at = 8; at < good.size(); ++at) {
+        std::string bad = good;
+        bad[at] = static_cast<char>(bad[at] ^ 0x04);
+        const auto [message, is_damaged] = bytes_error(bad);
+        CHECK_MESSAGE(!message.empty(), "flipped byte " << at << " read as a picture");
+        (is_damaged ? damaged : refused)++;
+    }
+    CHECK(damaged > refused);  // most flips land where only the CRC can tell
+    // Inside IDAT's data: the CRC says so.
+    std::string flipped = good;
+    const size_t idat = flipped.find("IDAT");
+    flipped[idat + 6] = static_cast<char>(flipped[idat + 6] ^ 0x01);
+    const auto [message, is_damaged] = bytes_error(flipped);
+    CHECK(is_damaged);
+    CHECK(contains(message, "the CRC of its IDAT chunk"));
+    // The same flip with the CRC recomputed: zlib's Adler-32 (or the inflated size) says so.
+    const std::string data = flipped.substr(idat + 4, flipped.find("IEND") - 8 - idat - 4);
+    const std::string recomputed = flipped.substr(0, idat - 4) + png_chunk("IDAT", data) +
+                                   png_chunk("IEND", "");
+    const auto [adler, adler_damaged] = bytes_error(recomputed);
+    CHECK(!adler.empty());
+    CHECK(contains(adler, "PNG"));
+    // Bytes after IEND are not ignored.
+    CHECK(contains(bytes_error(good + "junk").first, "4 bytes after its end (IEND)"));
+}
+
+TEST_CASE("read_image: a PPM holds one picture: trailing bytes are refused") {
+    CHECK(contains(bytes_error(std::string("P6 1 1 255\n") + "abcdef").first,
+                   "3 bytes after its pixel data"));
+    CHECK(contains(bytes_error("P3 1 1 255 1 2 3 4").first, "more after its last sample"));
+    CHECK(bytes_error("P3 1 1 255 1 2 3\n# a comment at the end\n").first.empty());
+}
+
+TEST_CASE("read_image_at: never through a link, never a FIFO; the file's size bounded first") {
+    TempFolder folder;
+    write_png(flat(4, 3, 90), (folder.path / "real.png").string());
+    fs::create_symlink(folder.path / "real.png", folder.path / "link.png");
+    ::mkfifo((folder.path / "fifo.png").c_str(), 0600);
+    const int fd = ::open(folder.path.c_str(), O_RDONLY | O_DIRECTORY);
+    REQUIRE(fd >= 0);
+    CHECK(read_image_at(fd, "real.png", "real.png").width == 4);
+    auto error_at = [&](const std::string& name) {
+        try {
+            read_image_at(fd, name, name);
+        } catch (const InputError& error) {
+            return std::string(error.what());
+        }
+        return std::string();
+    };
+    CHECK(error_at("link.png") == "'link.png': is a symbolic link: not followed (a submission's "
+                                  "pictures must be ordinary files)");
+    CHECK(error_at("fifo.png") == "'fifo.png': is not an ordinary file");
+    CHECK(error_at("none.png") == "'none.png': no such file");
+    // A 1x1 PPM followed by a sparse megabyte: refused from its first bytes.
+    const std::string junk = folder.file("junk.ppm", std::string("P6 1 1 255\n") + "abc");
+    REQUIRE(::truncate(junk.c_str(), 1 << 20) == 0);
+    CHECK(contains(error_at("junk.ppm"), "more than its declared picture can need (14)"));
+    ::close(fd);
+    // The path reader follows links only when asked to.
+    const std::string link = (folder.path / "link.png").string();
+    CHECK(read_image_file(link, true).width == 4);
+    CHECK_THROWS_AS(read_image_file(link, false), InputError);
+}
+
+TEST_CASE("OutputFolder: replaces a planted link instead of writing through it") {
+    TempFolder folder;
+    const std::string victim = folder.file("victim.txt", "keep me");
+    fs::create_directory(folder.path / "out");
+    fs::create_symlink(victim, folder.path / "out" / "report.md");
+    const OutputFolder out = OutputFolder::open((folder.path / "out").string());
+    out.write("report.md", "the report");
+    std::ifstream victim_file(victim);
+    std::string kept((std::istreambuf_iterator<char>(victim_file)), std::istreambuf_iterator<char>());
+    CHECK(kept == "keep me");
+    CHECK(fs::is_regular_file(fs::symlink_status(folder.path / "out" / "report.md")));
+    // A subfolder that is a link is refused, not entered.
+    fs::create_directory_symlink(folder.path, folder.path / "out" / "pictures");
+    CHECK_THROWS_WITH_AS(out.subfolder("pictures"),
+                         doctest::Contains("a link or a file of that name is in the way"),
+                         InputError);
+    // No temporary is left behind.
+    int files = 0;
+    for (const auto& entry : fs::directory_iterator(folder.path / "out")) {
+        (void)entry;
+        ++files;
+    }
+    CHECK(files == 2);  // report.md and the pictures link
+    // png_bytes is the PNG write_png writes: it reads back exactly.
+    const Image picture = flat(5, 2, 77);
+    out.write("flat.png", png_bytes(picture));
+    CHECK(compare_images(read_image(out.path("flat.png")), picture, 0).max_abs == 0);
+    CHECK(printable("a\nb\x1b[31m") == "a\\x0ab\\x1b[31m");
 }

@@ -7,6 +7,10 @@
 # missing required package stops here (exit status 1) with the one sudo command to run, and
 # missing optional packages get a one-line note: the tests that need them are skipped.
 required="g++ make pkg-config libsdl2-dev libstb-dev doctest-dev"
+# The volume formats: nifticlib, teem (NRRD), GDCM (DICOM), zlib; the tests' independent
+# writers of those files: nibabel, pydicom, numpy.
+required="$required libnifti2-dev libteem-dev libgdcm-dev zlib1g-dev"
+required="$required python3-nibabel python3-pydicom python3-numpy"
 optional="xvfb xauth xdotool"  # tests/window_test.sh: virtual X display, real X input
 [ "${1:-}" = fuzz ] && required="$required clang libclang-rt-dev"
 

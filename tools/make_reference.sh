@@ -2,18 +2,53 @@
 # make_reference.sh: renders the reference images that data/reference/manifest.txt lists.
 #
 #   sh tools/make_reference.sh BUILD [VOLUME] [REFERENCE]      (what `make reference` runs)
+#   DIMS=NX,NY,NZ ENDIAN=little|big SPACING=SX,SY,SZ ARGS='...'  (optional, in the environment)
 #
 # Without VOLUME: the phantom, into data/reference/ (or REFERENCE). With VOLUME (a CThead
-# file), REFERENCE is required, so the phantom's references are never overwritten by accident.
-# Every step in steps/ gets its default run whether the manifest lists it or not. Images the
-# manifest no longer produces (NN_*.png) are removed from REFERENCE.
+# file, or a raw file of any size with DIMS=), REFERENCE is required, so the phantom's
+# references are never overwritten by accident. DIMS, ENDIAN and SPACING become --dims,
+# --endian and --spacing, and ARGS is added as it is, on every run (each step's default run
+# and every manifest line). Every step in steps/ gets its default run whether the manifest
+# lists it or not. Images the manifest no longer produces (NN_*.png) are removed from
+# REFERENCE. A REFERENCE other than data/reference/ gets a copy of the manifest and
+# volume.txt: the volume's path, dims, spacing, byte order, extra arguments, the commit and
+# the date, so the folder says how it was made.
 set -u
 build=${1:?usage: make_reference.sh BUILD [VOLUME] [REFERENCE]}
 volume=${2:-}
 reference=${3:-}
+dims=${DIMS:-}
+endian=${ENDIAN:-}
+spacing=${SPACING:-}
+extra=${ARGS:-}
 manifest=data/reference/manifest.txt
 
 fail() { echo "make reference: $*" >&2; exit 2; }
+
+# The volume's own flags, checked here so a typo stops the run before anything renders.
+volume_flags=
+if [ -n "$dims" ]; then
+    echo "$dims" | grep -qx '[0-9][0-9]*,[0-9][0-9]*,[0-9][0-9]*' ||
+        fail "DIMS=$dims: expected three whole numbers NX,NY,NZ, e.g. DIMS=64,80,40"
+    volume_flags="--dims $dims"
+fi
+if [ -n "$endian" ]; then
+    case "$endian" in little | big) ;; *) fail "ENDIAN=$endian: expected little or big" ;; esac
+    volume_flags="$volume_flags --endian $endian"
+fi
+if [ -n "$spacing" ]; then
+    echo "$spacing" | grep -qx '[0-9.eE+-]*,[0-9.eE+-]*,[0-9.eE+-]*' ||
+        fail "SPACING=$spacing: expected three numbers SX,SY,SZ, e.g. SPACING=1,1,2"
+    volume_flags="$volume_flags --spacing $spacing"
+fi
+case " $extra" in *" --volume"* | *" --out"* | *" --no-window"* | *" --debug-pixel"* | \
+                 *" --view"*)
+    fail "ARGS='$extra': --volume, --out, --no-window, --debug-pixel and --view are set by \
+make reference or the manifest" ;;
+esac
+if [ -z "$volume" ] && [ -n "$volume_flags" ]; then
+    fail "DIMS=, ENDIAN= and SPACING= describe a raw VOLUME=file: give VOLUME= too"
+fi
 
 [ -f "$manifest" ] || fail "no $manifest (run from the repository root)"
 if [ -z "$volume" ]; then
@@ -21,10 +56,14 @@ if [ -z "$volume" ]; then
     reference=${reference:-data/reference}
 else
     [ -f "$volume" ] || fail "VOLUME=$volume: no such file"
+    case "$volume" in -*) volume=./$volume ;; esac  # never read as a flag
     [ -n "$reference" ] || fail "VOLUME=$volume needs REFERENCE=folder (data/reference holds \
 the phantom's images), e.g. make reference VOLUME=$volume REFERENCE=ref-cthead"
     [ "${reference%/}" != data/reference ] || fail "REFERENCE=data/reference is the phantom's: \
 choose another folder for VOLUME=$volume"
+fi
+if [ "${reference%/}" = data/reference ] && [ -n "$extra" ]; then
+    fail "ARGS= would change the committed phantom references: give REFERENCE=folder"
 fi
 mkdir -p "$reference" || fail "cannot create $reference"
 
@@ -77,13 +116,15 @@ while read -r name arguments; do
     rm -rf "$work/out"
     # The arguments are split at spaces on purpose: they are flags and plain values.
     # shellcheck disable=SC2086
-    if ! "$build/$step" --volume "$volume" --no-window --out "$work/out" $arguments \
-            > "$work/log" 2>&1; then
+    if ! "$build/$step" --volume "$volume" $volume_flags --no-window --out "$work/out" \
+            $arguments $extra > "$work/log" 2>&1; then
         cat "$work/log" >&2
-        fail "$name failed: $build/$step --volume $volume $arguments"
+        fail "$name failed: $build/$step --volume $volume $volume_flags $arguments $extra"
     fi
     sed -n "s/^step=/$name: step=/p" "$work/log" |
         sed -E 's/ (time_ms|warm_ms|threads)=[^ ]*//g' >> "$work/counters"
+    # The volume as the step read it: "volume=... dims=NXxNYxNZ spacing=... min=... max=...".
+    [ -s "$work/volume_line" ] || grep -m 1 '^volume=' "$work/log" > "$work/volume_line"
     images=
     for image in "$work/out/$step"_*.png; do
         [ -f "$image" ] || fail "$name wrote no ${step}_*.png"
@@ -110,8 +151,23 @@ for image in "$reference"/[0-9][0-9]_*.png; do
     fi
 done
 if [ "${reference%/}" != data/reference ]; then
-    cp "$manifest" "$reference/manifest.txt"  # the folder says how it was made
-    echo "volume: $volume" > "$reference/volume.txt"
+    # The folder says how it was made.
+    field() { tr ' ' '\n' < "$work/volume_line" | sed -n "s/^$1=//p" | head -n 1; }
+    commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
+    git diff --quiet HEAD -- steps common 2>/dev/null || commit="$commit (with uncommitted changes)"
+    {
+        echo "# How this reference folder was made (tools/make_reference.sh)."
+        echo "volume: $volume"
+        echo "dims: $(field dims)"
+        echo "spacing: $(field spacing)"
+        echo "endian: ${endian:-little}"
+        echo "arguments: $volume_flags${extra:+ $extra}"
+        echo "commit: $commit"
+        echo "date: $(date -u '+%Y-%m-%d %H:%M:%S UTC')"
+    } > "$work/volume.txt"
+    cp "$manifest" "$work/manifest.txt"
+    mv "$work/manifest.txt" "$reference/manifest.txt" || fail "cannot write $reference/manifest.txt"
+    mv "$work/volume.txt" "$reference/volume.txt" || fail "cannot write $reference/volume.txt"
 fi
 echo "make reference: $(wc -l < "$work/made") images from $runs runs into $reference/ \
-(volume $volume)"
+(volume $volume${volume_flags:+ $volume_flags}${extra:+ $extra})"

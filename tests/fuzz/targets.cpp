@@ -3,6 +3,7 @@
 #include "targets.h"
 #include <sys/stat.h>
 #include <unistd.h>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -10,6 +11,7 @@
 #include "common/args.h"
 #include "common/compare.h"
 #include "common/error.h"
+#include "common/formats.h"
 #include "common/image.h"
 #include "common/transfer_function.h"
 #include "common/volume.h"
@@ -339,11 +341,69 @@ void image_file(const uint8_t* data, size_t size) {
     }
 }
 
+// A loaded volume of any format keeps the Volume's promises.
+NOT_FUZZED void check_loaded(const ctlab::Volume& volume) {
+    require(volume.nx >= 1 && volume.ny >= 1 && volume.nz >= 1, "a volume without voxels");
+    require(volume.voxel_count() <= ctlab::max_voxels, "a volume over the voxel limit");
+    require(volume.data.size() == volume.voxel_count(), "data size != nx*ny*nz");
+    require(std::isfinite(volume.sx) && std::isfinite(volume.sy) && std::isfinite(volume.sz) &&
+                volume.sx > 0 && volume.sy > 0 && volume.sz > 0,
+            "a spacing that is not a positive number");
+    require(std::isfinite(volume.map.scale) && volume.map.scale > 0 &&
+                std::isfinite(volume.map.offset),
+            "a value map that is not a positive finite line");
+    int16_t low = 32767, high = -32768;
+    for (int16_t value : volume.data) {
+        low = std::min(low, value);
+        high = std::max(high, value);
+    }
+    require(low == volume.min_value && high == volume.max_value, "min or max wrong");
+}
+
+// The input as a file named NAME in the scratch folder, given to `load`.
+void volume_file(const uint8_t* data, size_t size, const std::string& name,
+                 ctlab::Volume (*load)(const std::string&), const std::string& loaded_path) {
+    const std::string folder = scratch_folder();
+    const std::vector<unsigned char> bytes(data, data + size);
+    write_file(folder + "/" + name, bytes, bytes.size());
+    try {
+        check_loaded(load(folder + "/" + loaded_path));
+    } catch (const ctlab::InputError& error) {
+        check_message(error);
+    }
+}
+
+void nifti_file(const uint8_t* data, size_t size) {
+    // Byte 0 bit 0: gzipped (.nii.gz, as nifticlib reads it) or not (.nii).
+    const bool gz = size > 0 && (data[0] & 1);
+    const std::string name = gz ? "fuzz.nii.gz" : "fuzz.nii";
+    volume_file(size > 0 ? data + 1 : data, size > 0 ? size - 1 : 0, name, ctlab::load_nifti, name);
+}
+
+void nrrd_file(const uint8_t* data, size_t size) {
+    volume_file(data, size, "fuzz.nrrd", ctlab::load_nrrd, "fuzz.nrrd");
+}
+
+void metaimage_file(const uint8_t* data, size_t size) {
+    volume_file(data, size, "fuzz.mha", ctlab::load_metaimage, "fuzz.mha");
+}
+
+void dicom_file(const uint8_t* data, size_t size) {
+    // A series of one slice: a folder holding the input as its only file.
+    const std::string folder = scratch_folder() + "/series";
+    mkdir(folder.c_str(), 0700);
+    volume_file(data, size, "series/slice.dcm", ctlab::load_dicom_series, "series");
+}
+
 const std::vector<Target>& targets() {
     static const std::vector<Target> all = {{"raw", raw_volume},
                                             {"cthead", cthead_file},
                                             {"tf", transfer_function},
-                                            {"image", image_file}};
+                                            {"image", image_file},
+                                            {"nifti", nifti_file},
+                                            {"nrrd", nrrd_file},
+                                            {"metaimage", metaimage_file},
+                                            {"dicom", dicom_file}};
     return all;
 }
 

@@ -34,12 +34,19 @@ void transfer_function(const uint8_t* data, size_t size);
 // The checker's image reader (read_image_bytes), then a comparison of the picture with itself.
 void image_file(const uint8_t* data, size_t size);
 
+// The format loaders on the input as a file: NIfTI (byte 0 bit 0: .nii.gz, else .nii; the
+// rest is the file), NRRD (.nrrd), MetaImage (.mha), DICOM (a folder of one slice).
+void nifti_file(const uint8_t* data, size_t size);
+void nrrd_file(const uint8_t* data, size_t size);
+void metaimage_file(const uint8_t* data, size_t size);
+void dicom_file(const uint8_t* data, size_t size);
+
 struct Target {
     const char* name;  // the harness: tests/fuzz/seeds/NAME/, tests/fuzz/regressions/NAME/
     void (*run)(const uint8_t* data, size_t size);
 };
 
-// Every target, by harness name: raw, cthead, tf, image.
+// Every target, by harness name: raw, cthead, tf, image, nifti, nrrd, metaimage, dicom.
 const std::vector<Target>& targets();
 
 // libFuzzer's entry for one target: a broken promise aborts, so the fuzzer keeps the input.
