@@ -365,3 +365,23 @@ TEST_CASE("free camera: the default run matches its reference image, no NaN") {
     CHECK(c.max_abs <= 2);
     CHECK(c.over_tol_pct <= 0.1);
 }
+
+TEST_CASE("free camera: the picture and the work counts do not depend on the thread count") {
+    const TempFolder one("free_camera_threads1"), three("free_camera_threads3");
+    std::vector<Summary> summaries;
+    for (const TempFolder* folder : {&one, &three}) {
+        const std::string threads = folder == &one ? "1" : "3";
+        const RunResult run = run_step(free_camera, {"--volume", "phantom", "--size", "96x80",
+                                                     "--zoom", "0.3", "--projection",
+                                                     "perspective", "--out", folder->path(),
+                                                     "--pfm", "--threads", threads});
+        REQUIRE(run.status == 0);
+        summaries.push_back(run.summary("camera"));
+    }
+    CHECK(differing_pixels(pfm_of(one, free_camera, "camera"), pfm_of(three, free_camera, "camera"),
+                           false) == 0);
+    for (const char* counter : {"samples", "skipped", "gradients", "terminated"}) {
+        CAPTURE(counter);
+        CHECK(summaries[0].at(counter) == summaries[1].at(counter));
+    }
+}
