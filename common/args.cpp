@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 #include <algorithm>
+#include <unistd.h>
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -28,10 +29,10 @@ int parse_int(const std::string& flag, const std::string& text, int min, int max
     errno = 0;
     char* end = nullptr;
     const long value = std::strtol(text.c_str(), &end, 10);
-    if (text.empty() || *end != '\0' || errno == ERANGE || text.find_first_of(" \t") == 0) {
+    if (text.empty() || *end != '\0' || text.find_first_of(" \t") == 0) {
         throw InputError(flag + ": expected a whole number, got '" + text + "'");
     }
-    if (value < min || value > max) {
+    if (errno == ERANGE || value < min || value > max) {  // ERANGE: beyond even a long
         throw InputError(flag + ": expected a whole number from " + std::to_string(min) +
                          " to " + std::to_string(max) + ", got " + text);
     }
@@ -48,9 +49,16 @@ double parse_double(const std::string& flag, const std::string& text, double min
     errno = 0;
     char* end = nullptr;
     const double value = std::strtod(text.c_str(), &end);
-    if (text.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(value) ||
+    const bool out_of_range = errno == ERANGE;  // 1e999 overflows; 1e-308 underflows
+    if (text.empty() || *end != '\0' || (!out_of_range && !std::isfinite(value)) ||
         text.find_first_of(" \t") == 0) {
         throw InputError(flag + ": expected a number, got '" + text + "'");
+    }
+    if (out_of_range) {
+        throw InputError(flag + ": " + text + " is out of range (" +
+                         (std::fabs(value) > 1 ? "too large" : "too close to 0") +
+                         " for a double); expected a number from " + number_text(min) + " to " +
+                         number_text(max));
     }
     if (value < min || value > max) {
         throw InputError(flag + ": expected a number from " + number_text(min) + " to " +
@@ -393,9 +401,27 @@ static bool is_file_units_flag(const std::string& flag) {
     return flag == "--threshold" || flag == "--iso";
 }
 
-static bool file_exists(const std::string& path) {
-    struct stat info {};
-    return stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
+// Without --volume: data/CThead when there is one, else the phantom. Something else of that
+// name (a folder, a FIFO, a link to nothing) is a mistake to report, not a reason to fall back.
+static std::string default_volume_path() {
+    const std::string path = default_cthead_path;
+    const std::string advice = " (move it away, or choose --volume PATH or --volume phantom)";
+    struct stat link_info {}, info {};
+    if (lstat(default_cthead_path, &link_info) != 0) return "phantom";  // nothing there
+    if (stat(default_cthead_path, &info) != 0) {
+        char target[1024] = "";
+        const ssize_t size = readlink(default_cthead_path, target, sizeof target - 1);
+        if (size >= 0) target[size] = '\0';
+        throw InputError("'" + path + "' is a link to '" + target + "', which does not exist" +
+                         advice);
+    }
+    if (S_ISDIR(info.st_mode)) {
+        throw InputError("'" + path + "' is a folder, not the CThead file" + advice);
+    }
+    if (!S_ISREG(info.st_mode)) {
+        throw InputError("'" + path + "' is a FIFO or a device, not the CThead file" + advice);
+    }
+    return path;
 }
 
 // --threshold in file units -> the volume's int16 values. A hit is "value > threshold", so
@@ -417,7 +443,7 @@ static void convert_file_units(const Options& options, const Volume& volume) {
 
 Volume load_volume(const Options& options) {
     std::string path = options.volume;
-    if (path.empty()) path = file_exists(default_cthead_path) ? default_cthead_path : "phantom";
+    if (path.empty()) path = default_volume_path();
 
     Volume volume;
     if (path == "phantom") {

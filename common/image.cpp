@@ -10,6 +10,7 @@
 #include <cstring>
 #include <vector>
 #include "error.h"
+#include "output_files.h"
 
 namespace ctlab {
 
@@ -50,36 +51,21 @@ static void write_bytes(void* context, void* data, int size) {
 }
 
 void write_png(const Image& image, const std::string& path) {
-    const size_t slash = path.rfind('/');
-    if (slash != std::string::npos) make_folder(path.substr(0, slash));
     std::vector<unsigned char> bytes(static_cast<size_t>(image.width) * image.height * 3);
     for (size_t n = 0; n < image.pixels.size(); ++n) {
         bytes[3 * n + 0] = to_byte(image.pixels[n].r);
         bytes[3 * n + 1] = to_byte(image.pixels[n].g);
         bytes[3 * n + 2] = to_byte(image.pixels[n].b);
     }
-    // Write beside the target, then rename: the PNG appears whole or not at all.
-    const std::string temporary = path + ".tmp" + std::to_string(getpid());
-    std::FILE* file = std::fopen(temporary.c_str(), "wb");
-    if (!file) throw InputError("cannot write '" + path + "': " + std::strerror(errno));
-    const int encoded = stbi_write_png_to_func(write_bytes, file, image.width, image.height, 3,
-                                               bytes.data(), image.width * 3);
-    const bool write_failed = std::ferror(file) != 0;
-    const bool close_failed = std::fclose(file) != 0;
-    if (!encoded || write_failed || close_failed) {
-        std::remove(temporary.c_str());
-        throw InputError("cannot write '" + path + "' (disk full or no permission?)");
-    }
-    if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-        const std::string reason = std::strerror(errno);
-        std::remove(temporary.c_str());
-        throw InputError("cannot write '" + path + "': " + reason);
-    }
+    // Through a temporary renamed into place: the PNG appears whole or not at all (and, during
+    // a step's run, only together with the other views: see output_files.h).
+    write_output_file(path, [&](std::FILE* file) {
+        return stbi_write_png_to_func(write_bytes, file, image.width, image.height, 3,
+                                      bytes.data(), image.width * 3) != 0;
+    });
 }
 
 void write_pfm(const Image& image, const std::string& path) {
-    const size_t slash = path.rfind('/');
-    if (slash != std::string::npos) make_folder(path.substr(0, slash));
     const std::string header =
         "PF\n" + std::to_string(image.width) + " " + std::to_string(image.height) + "\n-1.0\n";
     std::vector<unsigned char> bytes(header.begin(), header.end());
@@ -97,20 +83,10 @@ void write_pfm(const Image& image, const std::string& path) {
             put(p.b);
         }
     }
-    const std::string temporary = path + ".tmp" + std::to_string(getpid());
-    std::FILE* file = std::fopen(temporary.c_str(), "wb");
-    if (!file) throw InputError("cannot write '" + path + "': " + std::strerror(errno));
-    const bool write_failed = std::fwrite(bytes.data(), 1, bytes.size(), file) != bytes.size();
-    const bool close_failed = std::fclose(file) != 0;
-    if (write_failed || close_failed) {
-        std::remove(temporary.c_str());
-        throw InputError("cannot write '" + path + "' (disk full or no permission?)");
-    }
-    if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-        const std::string reason = std::strerror(errno);
-        std::remove(temporary.c_str());
-        throw InputError("cannot write '" + path + "': " + reason);
-    }
+    // Like a PNG: through a temporary, renamed with the other outputs of the run.
+    write_output_file(path, [&](std::FILE* file) {
+        return std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
+    });
 }
 
 }  // namespace ctlab

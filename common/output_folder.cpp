@@ -82,20 +82,6 @@ void append_bytes(void* context, void* data, int size) {
 
 }  // namespace
 
-std::string printable(const std::string& text) {
-    std::string result;
-    for (unsigned char c : text) {
-        if (c < 0x20 || c == 0x7f) {
-            char escaped[8];
-            std::snprintf(escaped, sizeof escaped, "\\x%02x", c);
-            result += escaped;
-        } else {
-            result += static_cast<char>(c);
-        }
-    }
-    return result;
-}
-
 OutputFolder OutputFolder::open(const std::string& path, bool* created) {
     if (created) *created = false;
     if (::mkdir(path.c_str(), 0777) == 0) {

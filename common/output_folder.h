@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 #include <vector>
+#include "error.h"
 #include "image.h"
 
 namespace ctlab {
@@ -42,9 +43,5 @@ std::string png_bytes(const Image& image);
 // Writes `bytes` to PATH through an exclusive temporary in the same folder and a rename. The
 // folder must exist (it is not created). Throws InputError.
 void write_file_replacing(const std::string& path, const std::string& bytes);
-
-// Control characters (newline, ESC ...) as \xNN, so a file name cannot forge lines or
-// terminal sequences in a message or a report.
-std::string printable(const std::string& text);
 
 }  // namespace ctlab

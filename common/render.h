@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdint>
 #include <string>
+#include <system_error>
 #include <thread>
 #include <vector>
 #include "image.h"
@@ -44,14 +45,30 @@ private:
 };
 
 // What one ray did, sample by sample: filled only when a pixel is being debugged.
+// A long ray (a tall volume, a tiny step) could add millions of lines: the trace keeps the
+// first max_first_lines and the last max_last_lines, and counts the ones in between, so its
+// memory and output stay bounded whatever the request.
 class Trace {
 public:
+    static constexpr size_t max_first_lines = 1000;
+    static constexpr size_t max_last_lines = 20;
+
     void add(const char* format, ...) __attribute__((format(printf, 2, 3)));
-    const std::vector<std::string>& lines() const { return lines_; }
+    // The lines kept: the first ones, then the last ones (in order) when lines were dropped.
+    std::vector<std::string> lines() const;
+    const std::vector<std::string>& first_lines() const { return first_; }
+    std::vector<std::string> last_lines() const;  // empty unless more than max_first_lines
+    uint64_t not_shown() const { return added_ - first_.size() - last_.size(); }
 
 private:
-    std::vector<std::string> lines_;
+    std::vector<std::string> first_;
+    std::vector<std::string> last_;  // a ring of up to max_last_lines, oldest at last_next_
+    size_t last_next_ = 0;
+    uint64_t added_ = 0;
 };
+
+// Prints once per process "note: only STARTED of WANTED render threads could be started ...".
+void note_fewer_threads(int started, int wanted);
 
 // Calls row(y, work) for every image row, rows shared among `threads` threads. Each thread
 // counts into its own Work, summed at the end, so the result does not depend on threads.
@@ -66,14 +83,24 @@ void parallel_rows(int height, int threads, Work& total, RowFunction row) {
     }
     std::atomic<int> next_row{0};
     std::vector<Work> work(threads);
+    auto share_rows = [&](int n) {
+        Work own;  // this thread's counts, in its own cache lines
+        for (int y = next_row++; y < height; y = next_row++) row(y, own);
+        work[n] = own;
+    };
+    // This thread is worker 0. A thread that cannot be created (ulimit -u, out of memory)
+    // leaves its rows to those that were: fewer threads, the same picture, one note.
     std::vector<std::thread> pool;
-    for (int n = 0; n < threads; ++n) {
-        pool.emplace_back([&, n] {
-            Work own;  // this thread's counts, in its own cache lines
-            for (int y = next_row++; y < height; y = next_row++) row(y, own);
-            work[n] = own;
-        });
+    pool.reserve(threads - 1);
+    for (int n = 1; n < threads; ++n) {
+        try {
+            pool.emplace_back(share_rows, n);
+        } catch (const std::system_error&) {
+            note_fewer_threads(n, threads);
+            break;
+        }
     }
+    share_rows(0);
     for (auto& thread : pool) thread.join();
     for (const Work& w : work) total.add(w);
 }

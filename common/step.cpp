@@ -2,12 +2,33 @@
 #include "step.h"
 #include <unistd.h>
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
+#include <memory>
 #include <new>
 #include "error.h"
+#include "output_files.h"
 #include "window.h"
 
 namespace ctlab {
+
+// The summary lines must reach their reader: stdout to a full disk (>/dev/full) is an error,
+// found before any PNG is renamed into place. The first failed flush keeps its reason.
+static int stdout_error = 0;
+
+static void flush_stdout() {
+    errno = 0;
+    if (std::fflush(stdout) != 0 && stdout_error == 0) stdout_error = errno;
+}
+
+static void check_stdout() {
+    flush_stdout();
+    if (stdout_error != 0 || std::ferror(stdout)) {
+        throw InputError(std::string("cannot write the summary to standard output: ") +
+                         (stdout_error ? std::strerror(stdout_error) : "write error"));
+    }
+}
 
 std::string output_path(const Options& options, const View& view) {
     return options.out + "/" + options.step + "_" + view.name + ".png";
@@ -40,10 +61,10 @@ static void print_summary(const Options& options, const View& view, const Render
     if (!renderer.knob.name.empty()) {
         std::printf(" %s=%s", renderer.knob.name.c_str(), renderer.knob.value().c_str());
     }
-    if (renderer.settings) std::printf(" %s", renderer.settings().c_str());
+    if (renderer.settings) std::printf(" %s", printable(renderer.settings()).c_str());
     if (warm_ms >= 0) std::printf(" warm_ms=%.2f repeat=%d", warm_ms, options.repeat);
     std::printf("\n");
-    std::fflush(stdout);
+    flush_stdout();
 }
 
 void print_trace(const Options& options, const View& view, const Renderer& renderer, int x,
@@ -63,11 +84,17 @@ void print_trace(const Options& options, const View& view, const Renderer& rende
     Work work;
     Trace trace;
     const Rgb pixel = renderer.ray(view, x, y, work, &trace);
-    for (const std::string& line : trace.lines()) std::printf("  %s\n", line.c_str());
+    for (const std::string& line : trace.first_lines()) std::printf("  %s\n", line.c_str());
+    if (trace.not_shown() > 0) {
+        std::printf("  ... %llu more lines not shown (a trace keeps its first %zu and last %zu)\n",
+                    static_cast<unsigned long long>(trace.not_shown()), Trace::max_first_lines,
+                    Trace::max_last_lines);
+    }
+    for (const std::string& line : trace.last_lines()) std::printf("  %s\n", line.c_str());
     std::printf("pixel x=%d y=%d rgb=(%.6f, %.6f, %.6f) png=(%d, %d, %d) samples=%llu\n", x, y,
                 pixel.r, pixel.g, pixel.b, to_byte(pixel.r), to_byte(pixel.g), to_byte(pixel.b),
                 static_cast<unsigned long long>(work.samples));
-    std::fflush(stdout);
+    flush_stdout();
 }
 
 // --repeat N: the median time of renders 2..N of a view (the first, cold one is time_ms=).
@@ -115,6 +142,10 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         throw InputError("--out: cannot write to folder '" + options.out + "'");
     }
 
+    check_window_script(options);  // a typo in it is reported now, not after the PNGs
+
+    // All pictures or none: every file goes to a temporary, renamed when all are written.
+    auto outputs = std::make_unique<OutputFiles>();
     for (const View& view : views) {
         Work work;
         const Timer timer;
@@ -140,6 +171,9 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
             }
         }
     }
+    check_stdout();
+    outputs->commit();
+    outputs.reset();  // the signals' own handlers again, for the window
 
     if (!window_wanted(options)) return 0;
     Preview preview;
@@ -165,13 +199,13 @@ int guarded_main(const char* step, const std::function<int()>& body) {
     try {
         return body();
     } catch (const InputError& error) {
-        std::fprintf(stderr, "%s: error: %s\n", step, error.what());
+        std::fprintf(stderr, "%s: error: %s\n", step, printable(error.what()).c_str());
         return exit_bad_input;
     } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "%s: error: out of memory (is the volume too large?)\n", step);
         return exit_bad_input;
     } catch (const std::exception& error) {
-        std::fprintf(stderr, "%s: internal error: %s\n", step, error.what());
+        std::fprintf(stderr, "%s: internal error: %s\n", step, printable(error.what()).c_str());
         return 1;
     }
 }

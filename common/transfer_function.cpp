@@ -2,7 +2,9 @@
 #include "transfer_function.h"
 #include <sys/stat.h>
 #include <cerrno>
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <sstream>
 #include "error.h"
@@ -15,6 +17,10 @@ static const char* const classic_text =
     "-300    50 constant 1.0 0.79 0.6 0.12 skin\n"
     " 300 32768 constant 1.0 1.0  1.0 0.8  bone\n";
 static const char* const classic_source = "built-in-classic";
+// No real transfer function comes near this; the cap bounds the memory a file can ask for.
+constexpr long long max_tf_bytes = 1 << 20;
+static const char* const utf8_bom = "\xEF\xBB\xBF";
+static const char* const non_breaking_space = "\xC2\xA0";  // U+00A0 in UTF-8
 
 namespace {
 
@@ -97,8 +103,25 @@ TransferFunction parse_transfer_function(const std::string& text, const std::str
     std::istringstream lines(text);
     std::string line_text;
     LineReader reader{source, 0};
+    // What an editor hides: named, since the field they spoil would look right on screen.
+    if (text.compare(0, 3, utf8_bom) == 0) {
+        reader.line = 1;
+        reader.fail("the file starts with a UTF-8 byte order mark (bytes EF BB BF): save it "
+                    "as UTF-8 without BOM");
+    }
+    const size_t cr = text.find('\r');
+    if (cr != std::string::npos && (cr + 1 == text.size() || text[cr + 1] != '\n')) {
+        reader.line = 1 + int(std::count(text.begin(), text.begin() + cr, '\n'));
+        reader.fail("a line ends with CR alone (old Mac line endings): save the file with LF "
+                    "(or CRLF) line endings");
+    }
     while (std::getline(lines, line_text)) {
         ++reader.line;
+        const size_t nbsp = line_text.find(non_breaking_space);
+        if (nbsp != std::string::npos && nbsp < line_text.find('#')) {
+            reader.fail("a non-breaking space (bytes C2 A0) at byte " +
+                        std::to_string(nbsp + 1) + ": separate the fields with ordinary spaces");
+        }
         const size_t comment = line_text.find('#');
         if (comment != std::string::npos) line_text.erase(comment);
         std::istringstream words(line_text);
@@ -177,11 +200,30 @@ TransferFunction load_transfer_function(const std::string& path) {
     }
     std::vector<unsigned char> bytes;
     try {
+        struct stat info {};
+        if (stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode) &&
+            info.st_size > max_tf_bytes) {
+            throw InputError("'" + path + "' has " + std::to_string(info.st_size) +
+                             " bytes, over the limit of " + std::to_string(max_tf_bytes) +
+                             " bytes for a transfer function");
+        }
         bytes = read_file_bytes(path);
     } catch (const InputError& error) {
         throw InputError(std::string("--tf: ") + error.what());
     }
-    return parse_transfer_function(std::string(bytes.begin(), bytes.end()), path);
+    if (bytes.size() > size_t(max_tf_bytes)) {  // it grew after the check
+        throw InputError("--tf: '" + path + "' is over the limit of " +
+                         std::to_string(max_tf_bytes) + " bytes for a transfer function");
+    }
+    TransferFunction tf =
+        parse_transfer_function(std::string(bytes.begin(), bytes.end()), path);
+    if (tf.ranges.empty()) {
+        std::fprintf(stderr,
+                     "note: %s has no ranges: every value is transparent, the pictures will be "
+                     "black\n",
+                     printable(path).c_str());
+    }
+    return tf;
 }
 
 TransferFunction classic_transfer_function() {

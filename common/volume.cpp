@@ -521,10 +521,10 @@ void reorient_to_lab(Volume& volume, const Directions& directions, PatientFrame 
 
 std::string volume_line(const Volume& volume) {
     char text[512];
-    std::snprintf(text, sizeof text, "volume=%s dims=%dx%dx%d spacing=%g,%g,%g min=%d max=%d",
-                  volume.name.c_str(), volume.nx, volume.ny, volume.nz, volume.sx, volume.sy,
-                  volume.sz, volume.min_value, volume.max_value);
-    std::string line = text;
+    std::snprintf(text, sizeof text, " dims=%dx%dx%d spacing=%g,%g,%g min=%d max=%d",
+                  volume.nx, volume.ny, volume.nz, volume.sx, volume.sy, volume.sz,
+                  volume.min_value, volume.max_value);
+    std::string line = "volume=" + printable(volume.name) + text;  // a name is any bytes
     if (volume.format != "raw" && volume.format != "phantom") line += " format=" + volume.format;
     if (!volume.map.identity()) {
         std::snprintf(text, sizeof text, " map=file=%.9g*v%+.9g", volume.map.scale,

@@ -5,10 +5,19 @@
 // back to exactly one image pixel. Everything runs on the main thread, driven by SDL_WaitEvent.
 #include "window.h"
 #include <SDL.h>
+#include <arpa/inet.h>
+#include <dlfcn.h>
+#include <fcntl.h>
+#include <netdb.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <string>
 #include <vector>
@@ -25,6 +34,7 @@ constexpr int max_window_height = 800;
 constexpr int min_window_width = 240;   // window pixels: tiny images sit centred in this
 constexpr int min_window_height = 120;
 constexpr int max_zoom = 64;            // a 1 x 1 volume should not ask for a 800 x 800 block
+constexpr int display_probe_ms = 2000;  // an X server that has not answered by then never will
 
 // Where the image sits in the window: pixel (x, y) covers window pixels
 // [left + x*scale_x, left + (x+1)*scale_x) by [top + y*scale_y, top + (y+1)*scale_y).
@@ -70,6 +80,107 @@ Layout fit_view(const View& view) {
 void window_size_for(const View& view, const Layout& layout, int* width, int* height) {
     *width = std::max(min_window_width, view.width * layout.scale_x);
     *height = std::max(min_window_height, view.height * layout.scale_y);
+}
+
+// --- Is anyone there? ---------------------------------------------------------------------
+// SDL_Init opens the X display with Xlib, which waits for the server's first reply without a
+// time limit: a server (or a stale ssh tunnel) that accepts the connection and never answers
+// would hang the step after its PNGs. So first a connection of our own, abandoned after
+// display_probe_ms: the 12-byte X11 setup request, and any reply at all (even "authorization
+// required") proves the server alive.
+
+enum class Probe { answered, silent, unknown };  // unknown: let SDL find out
+
+// A connected socket to the X server DISPLAY names, or -1 (not a form we know: SDL decides).
+// DISPLAY is [host]:number[.screen]; no host (or "unix") is the local socket.
+int connect_display(const std::string& display, int timeout_ms) {
+    const size_t colon = display.rfind(':');
+    if (colon == std::string::npos || display.find('/') != std::string::npos) return -1;
+    const std::string host = display.substr(0, colon);
+    const int number = std::atoi(display.c_str() + colon + 1);
+    if (number < 0 || number > 59535) return -1;
+    int fd = -1;
+    if (host.empty() || host == "unix") {
+        fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        if (fd < 0) return -1;
+        sockaddr_un address {};
+        address.sun_family = AF_UNIX;
+        const std::string path = "/tmp/.X11-unix/X" + std::to_string(number);
+        // Linux first tries the abstract name (a leading NUL), as Xlib does, then the file.
+        std::memcpy(address.sun_path + 1, path.c_str(), path.size());
+        const socklen_t abstract_size =
+            socklen_t(offsetof(sockaddr_un, sun_path) + 1 + path.size());
+        if (connect(fd, reinterpret_cast<sockaddr*>(&address), abstract_size) == 0) return fd;
+        std::memset(address.sun_path, 0, sizeof address.sun_path);
+        std::memcpy(address.sun_path, path.c_str(), path.size());
+        if (connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0) return fd;
+        close(fd);
+        return -1;
+    }
+    addrinfo hints {}, *found = nullptr;
+    hints.ai_socktype = SOCK_STREAM;
+    const std::string port = std::to_string(6000 + number);
+    if (getaddrinfo(host.c_str(), port.c_str(), &hints, &found) != 0) return -1;
+    for (addrinfo* each = found; each && fd < 0; each = each->ai_next) {
+        fd = socket(each->ai_family, each->ai_socktype | SOCK_CLOEXEC | SOCK_NONBLOCK,
+                    each->ai_protocol);
+        if (fd < 0) continue;
+        if (connect(fd, each->ai_addr, each->ai_addrlen) == 0) break;
+        pollfd wait = {fd, POLLOUT, 0};
+        int error = 0;
+        socklen_t size = sizeof error;
+        if (errno == EINPROGRESS && poll(&wait, 1, timeout_ms) == 1 &&
+            getsockopt(fd, SOL_SOCKET, SO_ERROR, &error, &size) == 0 && error == 0) {
+            break;
+        }
+        close(fd);
+        fd = -1;
+    }
+    freeaddrinfo(found);
+    return fd;
+}
+
+Probe probe_display(const std::string& display) {
+    const int fd = connect_display(display, display_probe_ms);
+    if (fd < 0) return Probe::unknown;  // nobody listening: SDL_Init fails at once and says so
+    // Byte order 'l' (little-endian), protocol 11.0, no authorization name or data.
+    const unsigned char setup[12] = {'l', 0, 11, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    Probe result = Probe::silent;
+    if (send(fd, setup, sizeof setup, MSG_NOSIGNAL) == ssize_t(sizeof setup)) {
+        pollfd wait = {fd, POLLIN, 0};
+        if (poll(&wait, 1, display_probe_ms) == 1) result = Probe::answered;
+    } else {
+        result = Probe::unknown;
+    }
+    close(fd);
+    return result;
+}
+
+// --- The X server going away --------------------------------------------------------------
+// Xlib's default handler prints its own lines ("XIO: fatal IO error 11 ...") and exits. Ours
+// says it in ctlab's words. libX11 is loaded by SDL, so its handler is set through dlsym.
+char lost_display_message[512];
+
+int on_lost_display(void*) {
+    const ssize_t ignored = write(STDERR_FILENO, lost_display_message,
+                                  std::strlen(lost_display_message));
+    (void)ignored;
+    _exit(1);
+}
+
+void handle_lost_display(const std::string& step, const char* display) {
+    std::snprintf(lost_display_message, sizeof lost_display_message,
+                  "%s: error: lost the X display '%s' (the X server closed the connection); "
+                  "the PNGs are written\n",
+                  step.c_str(), printable(display ? display : "").c_str());
+    void* x11 = dlopen("libX11.so.6", RTLD_LAZY | RTLD_NOLOAD);  // only if SDL loaded it
+    if (!x11) return;
+    using Handler = int (*)(void*);
+    using SetHandler = Handler (*)(Handler);
+    if (auto set = reinterpret_cast<SetHandler>(dlsym(x11, "XSetIOErrorHandler"))) {
+        set(on_lost_display);
+    }
+    dlclose(x11);  // SDL still holds it: the library stays
 }
 
 // One injected event of --window-script, already turned into what SDL would deliver.
@@ -176,6 +287,7 @@ struct Session {
     SDL_Renderer* renderer = nullptr;
     SDL_Texture* texture = nullptr;
     int texture_width = 0, texture_height = 0;
+    int max_texture_width = max_window_width, max_texture_height = max_window_height;  // pixels
 
     ~Session() {
         if (texture) SDL_DestroyTexture(texture);
@@ -186,7 +298,8 @@ struct Session {
 };
 
 bool no_window() {
-    std::fprintf(stderr, "note: no window (SDL: %s); the PNGs are written\n", SDL_GetError());
+    std::fprintf(stderr, "note: no window (SDL: %s); the PNGs are written\n",
+                 printable(SDL_GetError()).c_str());
     return false;
 }
 
@@ -224,11 +337,23 @@ public:
         std::printf("window: this run has no such view\n");
     }
 
-    // Sizes the window for the current view's zoom (before its first render).
+    // Sizes the window for the current view's zoom (before its first render). A view wider or
+    // taller than the window's maximum (or the texture limit) is shown shrunk by whole
+    // factors: every shrink_x-th column and shrink_y-th row.
     void fit_window() {
-        layout_ = fit_view(view());
+        const View& full = view();
+        const int limit_x = std::max(1, std::min(max_window_width, session_.max_texture_width));
+        const int limit_y = std::max(1, std::min(max_window_height, session_.max_texture_height));
+        shrink_x_ = std::max(1, (full.width + limit_x - 1) / limit_x);
+        shrink_y_ = std::max(1, (full.height + limit_y - 1) / limit_y);
+        View shown = full;
+        shown.width = (full.width + shrink_x_ - 1) / shrink_x_;
+        shown.height = (full.height + shrink_y_ - 1) / shrink_y_;
+        shown.pixel_width = full.pixel_width * shrink_x_;
+        shown.pixel_height = full.pixel_height * shrink_y_;
+        layout_ = fit_view(shown);
         int width = 0, height = 0;
-        window_size_for(view(), layout_, &width, &height);
+        window_size_for(shown, layout_, &width, &height);
         SDL_SetWindowSize(session_.window, width, height);
     }
 
@@ -255,12 +380,13 @@ public:
     void click(int wx, int wy) {
         const int dx = wx - layout_.left, dy = wy - layout_.top;
         // Floor division by hand: dx / scale_x rounds -1 up to pixel 0.
-        const int x = dx < 0 ? -1 : dx / layout_.scale_x;
-        const int y = dy < 0 ? -1 : dy / layout_.scale_y;
-        if (x < 0 || y < 0 || x >= image_.width || y >= image_.height) {
+        const int shown_x = dx < 0 ? -1 : dx / layout_.scale_x;
+        const int shown_y = dy < 0 ? -1 : dy / layout_.scale_y;
+        if (shown_x < 0 || shown_y < 0 || shown_x >= shown_.width || shown_y >= shown_.height) {
             std::printf("window: click outside the image\n");
             return;
         }
+        const int x = shown_x * shrink_x_, y = shown_y * shrink_y_;  // the pixel shown there
         std::printf("window: click x=%d y=%d\n", x, y);
         std::fflush(stdout);
         if (preview_.trace) preview_.trace(view(), x, y);
@@ -268,22 +394,22 @@ public:
 
     // Window position of the centre of image pixel (x, y): where an injected click lands.
     void window_position(int x, int y, int* wx, int* wy) const {
-        *wx = layout_.left + x * layout_.scale_x + layout_.scale_x / 2;
-        *wy = layout_.top + y * layout_.scale_y + layout_.scale_y / 2;
+        *wx = layout_.left + x / shrink_x_ * layout_.scale_x + layout_.scale_x / 2;
+        *wy = layout_.top + y / shrink_y_ * layout_.scale_y + layout_.scale_y / 2;
     }
 
     // Repaints the last image, centred in the window as it is now (after a resize, too).
     void draw() {
         int window_width = 0, window_height = 0;
         SDL_GetWindowSize(session_.window, &window_width, &window_height);
-        layout_.left = std::max(0, (window_width - layout_.drawn_width(image_)) / 2);
-        layout_.top = std::max(0, (window_height - layout_.drawn_height(image_)) / 2);
+        layout_.left = std::max(0, (window_width - layout_.drawn_width(shown_)) / 2);
+        layout_.top = std::max(0, (window_height - layout_.drawn_height(shown_)) / 2);
 
         const Uint8 margin_grey = 40;  // dark surround, so the image's own black edge shows
         SDL_SetRenderDrawColor(session_.renderer, margin_grey, margin_grey, margin_grey, 255);
         SDL_RenderClear(session_.renderer);
-        const SDL_Rect target = {layout_.left, layout_.top, layout_.drawn_width(image_),
-                                 layout_.drawn_height(image_)};
+        const SDL_Rect target = {layout_.left, layout_.top, layout_.drawn_width(shown_),
+                                 layout_.drawn_height(shown_)};
         SDL_RenderCopy(session_.renderer, session_.texture, nullptr, &target);
         SDL_RenderPresent(session_.renderer);
     }
@@ -300,33 +426,43 @@ private:
         return text + time;
     }
 
-    // Copies the float image into the RGB24 texture (made anew when the size changes).
+    // Copies the float image, shrunk as fit_window() chose, into the RGB24 texture (made anew
+    // when the size changes).
     void upload() {
-        if (!session_.texture || session_.texture_width != image_.width ||
-            session_.texture_height != image_.height) {
+        shown_ = Image((image_.width + shrink_x_ - 1) / shrink_x_,
+                       (image_.height + shrink_y_ - 1) / shrink_y_);
+        for (int y = 0; y < shown_.height; ++y) {
+            for (int x = 0; x < shown_.width; ++x) {
+                shown_.at(x, y) = image_.at(x * shrink_x_, y * shrink_y_);
+            }
+        }
+        if (!session_.texture || session_.texture_width != shown_.width ||
+            session_.texture_height != shown_.height) {
             if (session_.texture) SDL_DestroyTexture(session_.texture);
             session_.texture = SDL_CreateTexture(session_.renderer, SDL_PIXELFORMAT_RGB24,
-                                                 SDL_TEXTUREACCESS_STATIC, image_.width,
-                                                 image_.height);
+                                                 SDL_TEXTUREACCESS_STATIC, shown_.width,
+                                                 shown_.height);
             if (!session_.texture) {
                 throw std::runtime_error(std::string("SDL_CreateTexture: ") + SDL_GetError());
             }
-            session_.texture_width = image_.width;
-            session_.texture_height = image_.height;
+            session_.texture_width = shown_.width;
+            session_.texture_height = shown_.height;
         }
-        std::vector<unsigned char> bytes(image_.pixels.size() * 3);
-        for (size_t n = 0; n < image_.pixels.size(); ++n) {
-            bytes[3 * n + 0] = to_byte(image_.pixels[n].r);
-            bytes[3 * n + 1] = to_byte(image_.pixels[n].g);
-            bytes[3 * n + 2] = to_byte(image_.pixels[n].b);
+        std::vector<unsigned char> bytes(shown_.pixels.size() * 3);
+        for (size_t n = 0; n < shown_.pixels.size(); ++n) {
+            bytes[3 * n + 0] = to_byte(shown_.pixels[n].r);
+            bytes[3 * n + 1] = to_byte(shown_.pixels[n].g);
+            bytes[3 * n + 2] = to_byte(shown_.pixels[n].b);
         }
-        SDL_UpdateTexture(session_.texture, nullptr, bytes.data(), image_.width * 3);
+        SDL_UpdateTexture(session_.texture, nullptr, bytes.data(), shown_.width * 3);
     }
 
     Preview& preview_;
     Session& session_;
     Layout layout_;
-    Image image_;
+    Image image_;                         // the view as rendered (and saved by S)
+    Image shown_;                         // what the texture holds: image_ shrunk
+    int shrink_x_ = 1, shrink_y_ = 1;     // image pixels per shown pixel, across and down
 };
 
 // Pushes script event `event` as the SDL event a user would cause, followed by `next_marker`:
@@ -361,6 +497,8 @@ void push_script_event(const ScriptEvent& script, const PreviewWindow& preview,
 
 }  // namespace
 
+void check_window_script(const Options& options) { parse_script(options.window_script); }
+
 bool window_wanted(const Options& options) {
     if (options.no_window) return false;
     const char* x11 = std::getenv("DISPLAY");
@@ -373,6 +511,19 @@ bool show_preview(const Options& options, Preview& preview) {
     if (preview.views.empty()) return false;
     preview.current = std::clamp(preview.current, 0, static_cast<int>(preview.views.size()) - 1);
 
+    const char* display = std::getenv("DISPLAY");
+    const char* requested_driver = std::getenv("SDL_VIDEODRIVER");
+    const bool x11_expected = display && *display &&
+                              (!requested_driver || std::string(requested_driver) == "x11");
+    if (x11_expected && probe_display(display) == Probe::silent) {
+        SDL_SetError("the X display '%s' accepted a connection but did not answer in %d s",
+                     printable(display).c_str(), display_probe_ms / 1000);
+        return no_window();
+    }
+
+    // Ctrl-C and SIGTERM end the program at once, as they did before the window: SDL would
+    // turn them into an SDL_QUIT event that a busy or hung event loop never reads.
+    SDL_SetHint(SDL_HINT_NO_SIGNAL_HANDLERS, "1");
     SDL_SetHint(SDL_HINT_RENDER_SCALE_QUALITY, "nearest");  // zoomed pixels stay square blocks
     // On X11, SDL drops a click that arrives just as the window gains focus: here it traces.
     SDL_SetHint(SDL_HINT_MOUSE_FOCUS_CLICKTHROUGH, "1");
@@ -403,6 +554,12 @@ bool show_preview(const Options& options, Preview& preview) {
         session.renderer = SDL_CreateRenderer(session.window, -1, SDL_RENDERER_SOFTWARE);
     }
     if (!session.renderer) return no_window();
+    if (driver == "x11") handle_lost_display(preview.step, display);
+    SDL_RendererInfo info;
+    if (SDL_GetRendererInfo(session.renderer, &info) == 0) {
+        if (info.max_texture_width > 0) session.max_texture_width = info.max_texture_width;
+        if (info.max_texture_height > 0) session.max_texture_height = info.max_texture_height;
+    }
 
     PreviewWindow window(preview, session);
     window.fit_window();

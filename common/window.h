@@ -22,11 +22,18 @@ struct Preview {
     std::function<std::string(const View&)> save_path;  // where S writes
 };
 
+// Checks --window-script (throws InputError on a bad event), so that run_views can refuse it
+// before rendering anything.
+void check_window_script(const Options& options);
+
 // True when a window can be tried: not --no-window, and DISPLAY or WAYLAND_DISPLAY is set.
 bool window_wanted(const Options& options);
 
 // Opens the window and runs until the user quits. Returns false (having printed one note)
-// when no window could be opened; the caller has already written its PNGs.
+// when no window could be opened (also when the X display accepts a connection and does not
+// answer within 2 s); the caller has already written its PNGs. Ctrl-C and SIGTERM end the
+// program at once; an X server that goes away ends it with one line and exit status 1. A view
+// larger than the window (or the GPU's texture limit) is shown shrunk by whole factors.
 // options.window_script (tests): comma-separated events injected after the first frame,
 // e.g. "key:2,key:Up,click:40:30,save,quit".
 bool show_preview(const Options& options, Preview& preview);

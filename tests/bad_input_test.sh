@@ -6,7 +6,13 @@
 # minute. tests/cli_test.sh runs the cases every step shares (missing file, a folder, an empty
 # file, one byte short, dims over the limit, unknown flag and --view, --threads 0, --debug-pixel
 # outside, --threshold abc, unwritable --out) on every step; this table adds the rest, and a
-# check that huge dims are refused before anything is allocated.
+# check that huge dims are refused before anything is allocated. Round 2 (issue 12) checks exit
+# statuses and exact first lines: numbers out of a double's range, escaped control characters,
+# stdout on a full disk, a full disk on the third view (simulated, and a real full tmpfs when
+# run as root), SIGINT mid-render, threads refused by ulimit -u, a long ray's trace, hostile
+# transfer-function files, a data/CThead that is not a file, and the window: a display that
+# accepts and never answers (a python3 listener), Ctrl-C and SIGTERM with the window open, a
+# view taller than any texture, and an X server (Xvfb) that goes away.
 #
 #   sh tests/bad_input_test.sh BUILD      (make test runs it with BUILD = build)
 #
@@ -20,7 +26,8 @@ cthead_bytes=14811136  # 256 x 256 x 113 int16
 passed=0
 failed=0
 work=$(mktemp -d) || exit 2
-trap 'rm -rf "$work"' EXIT INT TERM
+helpers=""  # background listeners and X servers, ended on the way out
+trap 'kill $helpers 2> /dev/null; wait 2> /dev/null; rm -rf "$work"' EXIT INT TERM
 pass() { passed=$((passed + 1)); }
 fail() {
     failed=$((failed + 1))
@@ -286,6 +293,310 @@ if [ $status -eq 2 ] && grep -qF "has 48 bytes, expected exactly 2147483648 for 
     pass
 else
     fail "huge dims on a 48-byte file: status $status: $(head -c 300 "$work/stderr")"
+fi
+
+
+# --- Round 2 (issue 12): no hang, no abort, bounded output, all pictures or none -----------------
+# Each case checks the exit status and the exact first line on stderr (an error is one line, and
+# no ESC byte reaches the terminal). A folder "as before" is compared by names and checksums.
+abs_build=$(cd "$build" && pwd)
+esc=$(printf '\033')
+# expect STATUS 'FIRST LINE' COMMAND...: within 20 s, on stdin /dev/null
+expect() {
+    want_status=$1 want_line=$2
+    shift 2
+    timeout 20 "$@" > "$work/stdout" 2> "$work/stderr" < /dev/null
+    status=$?
+    line=$(head -n 1 "$work/stderr")
+    if [ $status -ne "$want_status" ]; then
+        fail "$*: exit status $status, expected $want_status (124: it hung): $(head -c 300 "$work/stderr")"
+    elif [ "$line" != "$want_line" ]; then
+        fail "$*: stderr's first line is '$line', expected '$want_line'"
+    elif [ "$want_status" -eq 2 ] && [ "$(wc -l < "$work/stderr")" -ne 1 ]; then
+        fail "$*: expected one line on stderr, got: $(cat "$work/stderr")"
+    elif grep -q "$esc" "$work/stderr"; then
+        fail "$*: an ESC byte reached stderr"
+    else
+        pass
+        return 0
+    fi
+    return 1
+}
+# snapshot DIR: every name in DIR (hidden ones too) and every file's checksum
+snapshot() { (cd "$1" && find . | sort && find . -type f -exec md5sum {} + | sort); }
+# same_folder WHAT DIR BEFORE: DIR must be exactly as the snapshot BEFORE recorded
+same_folder() {
+    snapshot "$2" > "$work/after"
+    if cmp -s "$3" "$work/after"; then pass; else
+        fail "$1: the folder changed: $(diff "$3" "$work/after" | grep '^[<>]' | head -n 4)"
+    fi
+}
+# an output folder holding older pictures of every view (what a student has from a last run)
+older_pictures() {
+    rm -rf "$1"
+    "$build/08_lit_compositing" $small --skin-opacity 0.3 --no-window --out "$1" \
+        > /dev/null 2>&1 || fail "could not render the older pictures into $1"
+    snapshot "$1" > "$work/before"
+}
+# The signals a test sends must not be ignored (sh ignores SIGINT in background jobs).
+signals_on="env --default-signal=INT,TERM,HUP"
+# now_ms: a clock in milliseconds
+now_ms() { echo $(($(date +%s%N) / 1000000)); }
+small="--volume phantom --dims 96,96,48"  # quick to render: for the folder checks
+
+s=02_threshold
+expect 2 "07_compositing_order: error: --ert: 1e-308 is out of range (too close to 0 for a double); expected a number from 0 to 1" \
+    "$build/07_compositing_order" --volume phantom --no-window --out "$out" --ert 1e-308
+expect 2 "07_compositing_order: error: --ert: 1e999 is out of range (too large for a double); expected a number from 0 to 1" \
+    "$build/07_compositing_order" --volume phantom --no-window --out "$out" --ert 1e999
+expect 2 "$s: error: --threshold: expected a whole number from -32768 to 32767, got 99999999999999999999" \
+    "$build/$s" --volume phantom --no-window --out "$out" --threshold 99999999999999999999
+# A newline and an ESC sequence in a path: escaped, one line.
+expect 2 "$s: error: cannot open '$work/a\\nb\\x1b[31mc': No such file or directory" \
+    "$build/$s" --no-window --out "$out" --volume "$work/a
+b$esc[31mc"
+expect 2 "$s: error: --view: expected top, front, side or all, got 'top\\r\\x9b2J'" \
+    "$build/$s" --no-window --out "$out" --volume phantom --view "$(printf 'top\r\2332J')"
+
+# The summary cannot be written (stdout on a full disk): status 2, and no PNG.
+older_pictures "$out"
+expect 2 "08_lit_compositing: error: cannot write the summary to standard output: No space left on device" \
+    sh -c 'exec "$1" $3 --skin-opacity 0.5 --no-window --out "$2" > /dev/full' \
+    - "$build/08_lit_compositing" "$out" "$small"
+same_folder "stdout to /dev/full" "$out" "$work/before"
+# A bad --window-script is refused before anything is rendered.
+expect 2 "08_lit_compositing: error: --window-script: expected comma-separated key:1|2|3|Up|Down|plus|minus|s|q|Escape, click:X:Y, save or quit, got 'key:9'" \
+    "$build/08_lit_compositing" $small --skin-opacity 0.5 --no-window --out "$out" \
+    --window-script key:9
+same_folder "a bad --window-script" "$out" "$work/before"
+# A full disk on the third view (simulated: the writer's test hook fails the 3rd file).
+expect 2 "08_lit_compositing: error: cannot write '$out/08_lit_compositing_side.png': No space left on device" \
+    env CTLAB_TEST_FAIL_WRITE=3 "$build/08_lit_compositing" $small --skin-opacity 0.5 \
+    --no-window --out "$out"
+same_folder "a full disk on the third view" "$out" "$work/before"
+# A real full disk: a tmpfs filled to the last byte (when this test may mount one: as root).
+if [ "$(id -u)" = 0 ] && command -v unshare > /dev/null 2>&1 &&
+    unshare -m sh -c "mount -t tmpfs -o size=256k tmpfs '$work/out' 2> /dev/null"; then
+    expect 2 "08_lit_compositing: error: cannot write '$out/08_lit_compositing_top.png': No space left on device" \
+        unshare -m sh -c 'mount -t tmpfs -o size=256k tmpfs "$2" &&
+            "$1" $5 --skin-opacity 0.3 --no-window --out "$2" > /dev/null &&
+            dd if=/dev/zero of="$2/filler" bs=4k 2> /dev/null; snapshot() { (cd "$2" &&
+            find . | sort && find . -type f -exec md5sum {} + | sort); }; snapshot > "$3" &&
+            "$1" $5 --skin-opacity 0.5 --no-window --out "$2" > /dev/null;
+            status=$?; snapshot > "$4"; exit $status' \
+        - "$build/08_lit_compositing" "$out" "$work/full_before" "$work/full_after" "$small"
+    if [ -s "$work/full_before" ] && cmp -s "$work/full_before" "$work/full_after"; then pass; else
+        fail "a full tmpfs: the folder changed: $(diff "$work/full_before" "$work/full_after" | head -n 4)"
+    fi
+else
+    echo "bad input test: (a full tmpfs not tried: not root or no mount; the simulated one was)"
+fi
+
+# SIGINT mid-render: the view written so far is removed, the older pictures stay as they were.
+older_pictures "$out"
+$signals_on "$build/08_lit_compositing" --volume phantom --dims 320,320,200 --threads 1 \
+    --step 0.25 --no-window --out "$out" > "$work/stdout" 2> "$work/stderr" < /dev/null &
+pid=$!
+tries=0
+until grep -q 'view=top' "$work/stdout" || [ $tries -gt 300 ]; do
+    tries=$((tries + 1))
+    sleep 0.05
+done
+kill -INT $pid
+wait $pid
+status=$?
+if [ $status -eq 130 ] && [ $tries -le 300 ]; then pass; else
+    fail "SIGINT mid-render: exit status $status, expected 130 (killed by SIGINT): $(head -c 300 "$work/stderr")"
+fi
+same_folder "SIGINT mid-render" "$out" "$work/before"
+
+# Threads that cannot be created (ulimit -u): fewer threads, the same pictures, one note.
+rm -rf "$work/threads" "$work/nproc"
+mkdir "$work/threads" "$work/nproc"
+"$build/08_lit_compositing" $small --threads 1 --no-window --out "$work/threads" \
+    > /dev/null 2>&1
+chmod 711 "$work"
+chmod 777 "$work/nproc"
+if [ "$(id -u)" = 0 ]; then  # root ignores RLIMIT_NPROC: run as nobody, with 2 at most
+    limited="setpriv --reuid=65534 --regid=65534 --clear-groups prlimit --nproc=2"
+    started=2
+else
+    limited="prlimit --nproc=1"  # below what this user already runs: no new thread at all
+    started=1
+fi
+expect 0 "note: only $started of 8 render threads could be started (ulimit -u?); rendering with $started" \
+    $limited "$build/08_lit_compositing" $small --threads 8 --no-window \
+    --out "$work/nproc"
+for view in top front side; do
+    if cmp -s "$work/threads/08_lit_compositing_$view.png" "$work/nproc/08_lit_compositing_$view.png"
+    then pass; else fail "ulimit -u: the $view picture differs from the one-thread render"; fi
+done
+[ -z "$(find "$work/nproc" -name '*.tmp*')" ] && pass || fail "ulimit -u: a temporary was left"
+chmod 700 "$work"
+
+# --debug-pixel on a ray of 100000 samples: the trace keeps 1000 + 20 lines.
+head -c 200000 /dev/zero > "$work/long_ray"
+expect 0 "" "$build/$s" --volume "$work/long_ray" --dims 1,1,100000 --view top \
+    --debug-pixel 0,0 --no-window --out "$out"
+if [ "$(wc -l < "$work/stdout")" -eq 1025 ] &&
+    grep -qx '  \.\.\. 98980 more lines not shown (a trace keeps its first 1000 and last 20)' \
+        "$work/stdout"; then pass; else
+    fail "a long ray's trace: $(wc -l < "$work/stdout") lines, expected 1025 with the cut line"
+fi
+
+# Transfer-function files: too large, a BOM, a non-breaking space, CR-only lines; empty.
+head -c 2000000 /dev/zero > "$work/huge.tf"
+tf bom '\357\273\277-300 50 constant 1 0.79 0.6 0.12 skin\n'
+tf nbsp '# skin\n-300 50 constant\302\2401 0.79 0.6 0.12 skin\n'
+tf cr_only '# skin\r-300 50 constant 1 0.79 0.6 0.12 skin\r'
+tf crlf '# skin\r\n-300 50 constant 1 0.79 0.6 0.12 skin\r\n'
+tf nothing '# no ranges at all\n'
+t=06_transfer_function
+expect 2 "$t: error: --tf: '$work/huge.tf' has 2000000 bytes, over the limit of 1048576 bytes for a transfer function" \
+    "$build/$t" --volume phantom --no-window --out "$out" --tf "$work/huge.tf"
+expect 2 "$t: error: $work/bom.tf:1: the file starts with a UTF-8 byte order mark (bytes EF BB BF): save it as UTF-8 without BOM" \
+    "$build/$t" --volume phantom --no-window --out "$out" --tf "$work/bom.tf"
+expect 2 "$t: error: $work/nbsp.tf:2: a non-breaking space (bytes C2 A0) at byte 17: separate the fields with ordinary spaces" \
+    "$build/$t" --volume phantom --no-window --out "$out" --tf "$work/nbsp.tf"
+expect 2 "$t: error: $work/cr_only.tf:1: a line ends with CR alone (old Mac line endings): save the file with LF (or CRLF) line endings" \
+    "$build/$t" --volume phantom --no-window --out "$out" --tf "$work/cr_only.tf"
+expect 0 "" "$build/$t" --volume phantom --view top --no-window --out "$out" --tf "$work/crlf.tf"
+expect 0 "note: $work/nothing.tf has no ranges: every value is transparent, the pictures will be black" \
+    "$build/$t" --volume phantom --view top --no-window --out "$out" --tf "$work/nothing.tf"
+rm -rf "$out"
+mkdir "$out"
+
+# A data/CThead that is not a file is reported, not replaced by the phantom.
+for kind in folder fifo dangling; do
+    rm -rf "$work/cwd"
+    mkdir -p "$work/cwd/data"
+    case $kind in
+        folder) mkdir "$work/cwd/data/CThead"
+                what="is a folder, not the CThead file" ;;
+        fifo) mkfifo "$work/cwd/data/CThead"
+              what="is a FIFO or a device, not the CThead file" ;;
+        dangling) ln -s CThead.zip "$work/cwd/data/CThead"
+                  what="is a link to 'CThead.zip', which does not exist" ;;
+    esac
+    expect 2 "$s: error: 'data/CThead' $what (move it away, or choose --volume PATH or --volume phantom)" \
+        sh -c 'cd "$1" && exec "$2" --no-window --out out' - "$work/cwd" "$abs_build/$s"
+    [ -z "$(find "$work/cwd" -name '*.png')" ] && pass || fail "data/CThead as a $kind: a PNG"
+done
+
+
+# --- The window: a display that never answers, Ctrl-C, the texture limit, a dying X server ---
+# wait_until SECONDS COMMAND...: polls COMMAND every 0.05 s; false when it never succeeded
+wait_until() {
+    limit=$(($1 * 20))
+    shift
+    tries=0
+    until "$@"; do
+        tries=$((tries + 1))
+        [ $tries -gt $limit ] && return 1
+        sleep 0.05
+    done
+}
+pngs_in() { [ "$(find "$1" -name '*.png' 2> /dev/null | wc -l)" -eq "$2" ]; }
+lines_in() { [ "$(grep -c "$2" "$1")" -ge "$3" ]; }
+# signal_ends SIGNAL STATUS WHAT: sends SIGNAL to $pid; it must end with STATUS within a second
+signal_ends() {
+    start=$(now_ms)
+    kill -"$1" $pid
+    wait $pid
+    status=$?
+    took=$(($(now_ms) - start))
+    if [ $status -eq "$2" ] && [ $took -lt 1000 ]; then pass; else
+        fail "$3: SIG$1 gave exit status $status after $took ms (expected $2 within 1000 ms)"
+    fi
+}
+if command -v python3 > /dev/null 2>&1; then
+    # A TCP listener on 6000+N that accepts and never says a word: DISPLAY=127.0.0.1:N.
+    python3 -c '
+import socket, sys, time
+for number in range(150, 250):
+    listener = socket.socket()
+    try:
+        listener.bind(("127.0.0.1", 6000 + number))
+    except OSError:
+        continue
+    listener.listen(8)
+    print(number, flush=True)
+    time.sleep(120)
+    break
+' > "$work/listener" &
+    helpers="$helpers $!"
+    if wait_until 10 test -s "$work/listener"; then
+        silent=127.0.0.1:$(cat "$work/listener")
+        rm -rf "$out"
+        DISPLAY=$silent $signals_on "$build/$s" $small --out "$out" \
+            > "$work/stdout" 2> "$work/stderr" < /dev/null &
+        pid=$!
+        wait_until 20 pngs_in "$out" 3 || fail "silent display: the PNGs never appeared"
+        signal_ends INT 130 "a display that never answers"
+        pngs_in "$out" 3 && pass || fail "silent display: the PNGs are gone after SIGINT"
+        # Left alone, the step gives up on that display by itself.
+        expect 0 "note: no window (SDL: the X display '$silent' accepted a connection but did not answer in 2 s); the PNGs are written" \
+            env DISPLAY="$silent" "$build/$s" $small --view top --out "$out"
+    else
+        fail "the silent listener did not start"
+    fi
+else
+    echo "bad input test: SKIPPED the silent display (python3 not installed; an optional package)"
+fi
+
+# As in window_test.sh: SDL and the X libraries keep a few allocations to the end, which a
+# sanitizer build's leak checker would report as ours.
+ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+export ASAN_OPTIONS
+if command -v Xvfb > /dev/null 2>&1; then
+    Xvfb -displayfd 3 -nolisten tcp 3> "$work/xdisplay" > /dev/null 2>&1 &
+    xvfb=$!
+    helpers="$helpers $xvfb"
+    if wait_until 20 test -s "$work/xdisplay"; then
+        display=:$(cat "$work/xdisplay")
+        # A view taller than any texture: the preview shows it shrunk.
+        head -c 80000 /dev/zero > "$work/tall"
+        DISPLAY=$display timeout 20 "$build/$s" --volume "$work/tall" --dims 1,1,40000 \
+            --view top --out "$out" --window-script key:2,click:0:39999,quit \
+            > "$work/stdout" 2> "$work/stderr" < /dev/null
+        status=$?
+        if [ $status -eq 0 ] && grep -q "^step=$s view=front size=1x40000 " "$work/stdout" &&
+            grep -qx "window: click x=0 y=39950" "$work/stdout"; then pass; else
+            fail "a 1x40000 front view in the window: status $status: $(head -c 300 "$work/stderr")"
+        fi
+        # Ctrl-C and SIGTERM with the window open (the window's first frame prints a 2nd line).
+        for signal in INT TERM; do
+            DISPLAY=$display $signals_on "$build/$s" $small --view top --out "$out" \
+                > "$work/stdout" 2> "$work/stderr" < /dev/null &
+            pid=$!
+            if wait_until 20 lines_in "$work/stdout" "^step=$s view=top" 2; then
+                [ $signal = INT ] && signal_ends INT 130 "the open window"
+                [ $signal = TERM ] && signal_ends TERM 143 "the open window"
+            else
+                kill $pid
+                fail "the window did not open on $display: $(head -c 300 "$work/stderr")"
+            fi
+        done
+        # The X server goes away while the window is open: our line, status 1.
+        DISPLAY=$display "$build/$s" $small --view top --out "$out" \
+            > "$work/stdout" 2> "$work/stderr" < /dev/null &
+        pid=$!
+        if wait_until 20 lines_in "$work/stdout" "^step=$s view=top" 2; then
+            kill $xvfb
+            signal_ends CONT 1 "the X server going away"
+            line="$s: error: lost the X display '$display' (the X server closed the connection); the PNGs are written"
+            if grep -qxF "$line" "$work/stderr" && ! grep -q XIO "$work/stderr"; then pass; else
+                fail "the X server going away: stderr is $(head -c 300 "$work/stderr")"
+            fi
+        else
+            kill $pid
+            fail "the window did not open on $display: $(head -c 300 "$work/stderr")"
+        fi
+    else
+        fail "Xvfb did not start"
+    fi
+else
+    echo "bad input test: SKIPPED the window cases (Xvfb not installed; an optional package)"
 fi
 
 echo "bad input test: $passed passed, $failed failed"

@@ -117,7 +117,7 @@ expect 02_threshold_side.png damaged "does not match: a changed byte?"
 expect 03_depth_shading_top.png error "is 16384x16384 pixels: larger than the limit"
 expect 03_depth_shading_front.png error "more than its declared picture can need (14): refused unread"
 expect 03_depth_shading_side.png error "not an ordinary file"
-grep -q '^new\\x0aline.png,extra,' "$csv"
+grep -q '^new\\nline.png,extra,' "$csv"
 check $? "a file name with a newline is not reported escaped: $(grep extra "$csv")"
 [ "$(ls -A "$work/evil_report" | tr '\n' ' ')" = "pictures report.csv report.md " ] &&
     [ -z "$(ls -A "$work/evil_report/pictures")" ] && [ -z "$(ls -A "$work/elsewhere")" ]

@@ -446,5 +446,5 @@ TEST_CASE("OutputFolder: replaces a planted link instead of writing through it")
     const Image picture = flat(5, 2, 77);
     out.write("flat.png", png_bytes(picture));
     CHECK(compare_images(read_image(out.path("flat.png")), picture, 0).max_abs == 0);
-    CHECK(printable("a\nb\x1b[31m") == "a\\x0ab\\x1b[31m");
+    CHECK(printable("a\nb\x1b[31m") == "a\\nb\\x1b[31m");
 }
