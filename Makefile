@@ -105,8 +105,9 @@ help:
 	@echo "                run it (on the phantom): a crash then names its line"
 	@echo "make check-student   make check inside student/ (generated first if missing)"
 	@echo "make handouts   refresh the code listings in handouts/*.md from the steps' markers"
-	@echo "make bench      time every step and view, 1 thread and all cores, against a naive"
-	@echo "                loop: out/bench.md, and the handouts' speed tables (on an idle machine)"
+	@echo "make bench      time every step and view, 1 and 2 threads, cold and warm (the step"
+	@echo "                binaries with --repeat): out/bench.md, and the handouts' speed tables"
+	@echo "                (run it on an idle machine)"
 	@echo "make study      error against run time of the methods (depth, step size, early"
 	@echo "                termination, float/double): out/study/ and the handouts' tables"
 	@echo "make bench QUICK=1, make study QUICK=1   a quick run that checks they work (CI)"
@@ -162,8 +163,9 @@ clean:
 	rm -rf build build-san build-fuzz out
 
 # --- Measuring: speed and accuracy -----------------------------------------------------------
-# Every step and view timed with 1 thread and with all cores, and against a naive loop of the
-# same step (tools/bench.cpp): out/bench.md. Timing needs an idle machine: check `uptime`.
+# Every step and view timed with 1 and 2 threads, each step binary run with --repeat: the cold
+# first render and the warm median (tools/bench.cpp): out/bench.md. Timing needs an idle
+# machine: check `uptime`.
 # QUICK=1 (CI): a small volume and one render per case, to check the tool still works.
 # A full run then copies its figures into the handouts' <!-- measured: bench:... --> blocks
 # (tools/measured.cpp), so a handout's speed table is always the last `make bench`.

@@ -349,6 +349,7 @@ Options Args::parse_words(int argc, char** argv) {
                     Options::FileUnitsFlag units;
                     units.name = flag;
                     units.value = parse_double(flag, text, -1e30, 1e30);
+                    units.text = text;
                     units.target = static_cast<int*>(own.target);
                     units.min = int(own.min);
                     units.max = int(own.max);
@@ -431,7 +432,7 @@ static void convert_file_units(const Options& options, const Volume& volume) {
         const double converted = std::floor(volume.map.to_volume(flag.value) + 1e-9);
         if (volume.map.identity() && (converted < flag.min || converted > flag.max)) {
             throw InputError(flag.name + ": expected a number from " + std::to_string(flag.min) +
-                             " to " + std::to_string(flag.max) + ", got " + number_text(flag.value));
+                              " to " + std::to_string(flag.max) + ", got " + printable(flag.text));
         }
         *flag.target = int(std::clamp(converted, double(flag.min), double(flag.max)));
         if (!volume.map.identity()) {

@@ -25,6 +25,7 @@ struct Options {
     struct FileUnitsFlag {
         std::string name;
         double value = 0;             // as given, in file units
+        std::string text;             // as typed, for messages
         int* target = nullptr;        // the step's int, set by load_volume()
         int min = 0, max = 0;
     };

@@ -349,7 +349,9 @@ expect 2 "07_compositing_order: error: --ert: 1e-308 is out of range (too close 
     "$build/07_compositing_order" --volume phantom --no-window --out "$out" --ert 1e-308
 expect 2 "07_compositing_order: error: --ert: 1e999 is out of range (too large for a double); expected a number from 0 to 1" \
     "$build/07_compositing_order" --volume phantom --no-window --out "$out" --ert 1e999
-expect 2 "$s: error: --threshold: expected a whole number from -32768 to 32767, got 99999999999999999999" \
+expect 2 "$s: error: --threads: expected a whole number from 1 to 256, got 99999999999999999999" \
+    "$build/$s" --volume phantom --no-window --out "$out" --threads 99999999999999999999
+expect 2 "$s: error: --threshold: expected a number from -32768 to 32767, got 99999999999999999999" \
     "$build/$s" --volume phantom --no-window --out "$out" --threshold 99999999999999999999
 # A newline and an ESC sequence in a path: escaped, one line.
 expect 2 "$s: error: cannot open '$work/a\\nb\\x1b[31mc': No such file or directory" \

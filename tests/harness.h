@@ -1,5 +1,5 @@
 // harness.h: what several test files share: a temporary folder, stdout capture, a fake argv,
-// and the steps' main() functions run in-process (defined in test_steps.cpp).
+// and the steps run as processes on analytic volumes (harness.cpp, over tools/run_step.h).
 #pragma once
 #include <unistd.h>
 #include <cstdio>
@@ -10,37 +10,14 @@
 #include <vector>
 #include "args.h"
 #include "image.h"
-#include "step.h"
+#include "tools/run_step.h"
 #include "volume.h"
 
 namespace ctlab_test {
 
-// A folder of its own under the system temp folder, removed with everything in it.
-class TempFolder {
-public:
-    explicit TempFolder(const std::string& tag) {
-        static int count = 0;
-        path_ = std::filesystem::temp_directory_path() /
-                ("ctlab_" + tag + "_" + std::to_string(getpid()) + "_" + std::to_string(++count));
-        std::filesystem::create_directories(path_);
-    }
-    ~TempFolder() {
-        std::error_code ignored;
-        std::filesystem::remove_all(path_, ignored);
-    }
-    std::string path() const { return path_.string(); }
-    std::string path(const std::string& name) const { return (path_ / name).string(); }
-
-    // Writes a file of exactly these bytes and returns its path.
-    std::string file(const std::string& name, const std::vector<unsigned char>& bytes) const {
-        std::ofstream out(path(name), std::ios::binary);
-        out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-        return path(name);
-    }
-
-private:
-    std::filesystem::path path_;
-};
+// A folder of its own under the system temp folder, removed with everything in it
+// (tools/run_step.h: created exclusively with mkdtemp).
+using TempFolder = ctlab::TempFolder;
 
 // Everything body() printed to stdout (printf and std::cout both go through file 1).
 // Do not put doctest checks inside body: their report would be captured too.
@@ -86,30 +63,31 @@ private:
     std::vector<char*> pointers_;
 };
 
-// --- The steps, run in-process (test_steps.cpp includes tools/all_steps.h) -----------------
+// --- The steps, run as processes (tools/run_step.h) ---------------------------------------
 
-using StepMain = int (*)(int argc, char** argv);
+// Every part 1 step in steps/ (00..09) by name ("03_depth_shading"), sorted: each has a binary
+// in the build folder beside the test program. Part 2's steps (10 on) render one camera picture
+// and are tested in tests/test_free_camera.cpp.
+const std::vector<std::string>& step_names();
 
-struct StepEntry {
-    std::string name;  // "03_depth_shading", the step's own step_name
-    StepMain main;     // the step's main(), compiled inside a namespace of its own
+// One run of a step with --pfm: what it printed and the float images it wrote.
+struct StepRender {
+    ctlab::RunResult run;
+    std::vector<std::string> views;    // in the order rendered (top, front, side)
+    std::vector<ctlab::Image> images;  // the --pfm image of each, float RGB, before rounding
+    const ctlab::Image& image(const std::string& view) const;
+    const ctlab::Summary& summary(const std::string& view) const { return run.summary(view); }
 };
 
-// Every step the tests include, in order. test_golden.cpp checks it against steps/*.cpp.
-const std::vector<StepEntry>& included_steps();
+// Runs step `name` with these flags plus --pfm and --out (a temporary folder) and reads every
+// view's float image. With a volume, it is written to a temporary raw file first and loaded
+// with --volume/--dims/--spacing; without one, the flags say which volume. Checks (doctest)
+// that the step exits with status 0 and wrote a summary line and image per view.
+StepRender render(const std::string& name, const std::vector<std::string>& flags);
+StepRender render(const std::string& name, const std::vector<std::string>& flags,
+                  const ctlab::Volume& volume);
 
-// What a step's main() hands to run_views: its parsed options, volume and renderer.
-using RendererUse =
-    std::function<void(const ctlab::Options&, const ctlab::Volume&, const ctlab::Renderer&)>;
-
-// Runs step `name`'s main() in-process with these flags. Its load_volume() returns `volume`
-// instead of reading --volume, and where it would call run_views() it calls use() with the
-// renderer it built (valid only during the call). Returns main()'s exit status.
-int run_step(const std::string& name, const std::vector<std::string>& flags,
-             const ctlab::Volume& volume, const RendererUse& use);
-
-// Renders every view of a step as run_views would (render_view); images in top, front,
-// side order. Fails the test when main() does not reach run_views.
+// The images alone, in top, front, side order as rendered.
 std::vector<ctlab::Image> render_step(const std::string& name,
                                       const std::vector<std::string>& flags,
                                       const ctlab::Volume& volume);

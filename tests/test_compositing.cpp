@@ -1,34 +1,35 @@
-// test_compositing.cpp: steps 06-09. The transfer function file and its lookup table, both
-// compositing orders, early ray termination, opacity correction and lighting work, leaping
-// over empty space, and the
+// test_compositing.cpp: steps 06-09. The transfer function file (common code, called here),
+// and through the programs: the lookup table's boundaries and ramps, both compositing orders,
+// early ray termination, opacity correction, lighting work, leaping over empty space, and the
 // stiff cases of shared/numerics.md. Expected values come from closed forms computed here.
-// The steps are included whole, each in a namespace of its own, so their lesson functions
-// can be called directly (their main() becomes an ordinary function).
+//
+// The steps run as processes (harness.h, tools/run_step.h). Most cases render a column of
+// voxels, 1 x 1 x n (or a row of n columns, n x 1 x 1): the top view's pixel then is one ray,
+// its --pfm value C (over a black background), its summary line that ray's work, and its
+// --debug-pixel trace the ray sample by sample (T to 6 digits). With every colour white,
+// C = 1 - T, the ray's opacity. Transfer functions are written to temporary .tf files.
 #include <doctest/doctest.h>
 #include "common/ctlab.h"
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <string>
 #include <vector>
 #include "harness.h"
 
-namespace step06 {
-#include "../steps/06_transfer_function.cpp"
-}
-namespace step07 {
-#include "../steps/07_compositing_order.cpp"
-}
-namespace step08 {
-#include "../steps/08_lit_compositing.cpp"
-}
-namespace step09 {
-#include "../steps/09_empty_space.cpp"
-}
-
 using namespace ctlab;
+using ctlab_test::StepRender;
 
 namespace {
+
+constexpr const char* step06 = "06_transfer_function";  // back to front
+constexpr const char* step07 = "07_compositing_order";  // front to back, both orders
+constexpr const char* step08 = "08_lit_compositing";    // lit, physical step, correction
+constexpr const char* step09 = "09_empty_space";        // 08 plus leaping over empty bricks
+constexpr double default_ert = 0.01;                    // steps 07-09's --ert default
+// Step 09's flag that turns leaping over empty bricks off.
+const std::vector<std::string> no_leaping = {"--no-leaping"};
 
 // A column of voxels, 1 x 1 x n: the top view has one pixel whose ray runs over all of them.
 Volume column(const std::vector<int16_t>& values, double spacing = 1) {
@@ -42,19 +43,28 @@ Volume column(const std::vector<int16_t>& values, double spacing = 1) {
     return volume;
 }
 
-// A transfer function with one constant range over [from, to): colour (r, g, b), opacity a.
-TransferFunction one_range(int from, int to, float r, float g, float b, double a) {
-    TransferFunction tf;
-    tf.source = "test";
-    TfRange range;
-    range.from = from;
-    range.to = to;
-    range.start = range.end = {r, g, b, float(a)};
-    tf.ranges.push_back(range);
-    return tf;
+// A row of one-voxel rays, n x 1 x 1: top pixel x shows value x alone.
+Volume row(const std::vector<int16_t>& values, double spacing = 1) {
+    Volume volume;
+    volume.nx = int(values.size());
+    volume.ny = volume.nz = 1;
+    volume.sz = spacing;
+    volume.data = values;
+    volume.name = "row";
+    update_range(volume);
+    return volume;
 }
 
-View top(const Volume& volume) { return make_view(volume, ViewAxis::top); }
+// "FROM TO constant R G B A\n": one range of a .tf file.
+std::string tf_range(int from, int to, double r, double g, double b, double a) {
+    char line[200];
+    std::snprintf(line, sizeof line, "%d %d constant %.9g %.9g %.9g %.9g\n", from, to, r, g, b, a);
+    return line;
+}
+
+// The classic table with every colour white: then C = the opacity 1 - T.
+const std::string white_classic =
+    tf_range(-300, 50, 1, 1, 1, 0.12) + tf_range(300, 32768, 1, 1, 1, 0.8);
 
 // The message of the InputError body() throws ("" when it throws none).
 template <class Body>
@@ -71,41 +81,41 @@ bool contains(const std::string& text, const std::string& part) {
     return text.find(part) != std::string::npos;
 }
 
-// Front to back (step 07) over the one ray of a column, with threshold `ert`.
-step07::Accumulated f2b_column(const Volume& volume, const step07::Lut& lut, double ert,
-                               Work& work) {
-    step07::Params params;
-    params.ert = ert;
-    return step07::composite_front_to_back(volume, top(volume), 0, 0, lut, params, work,
-                                           nullptr);
+std::vector<std::string> joined(std::vector<std::string> a, const std::vector<std::string>& b) {
+    a.insert(a.end(), b.begin(), b.end());
+    return a;
 }
 
-// Step 08 over the one ray of a column: unlit, samples `step` apart, corrected or not.
-step08::Accumulated lit_column(const Volume& volume, const TransferFunction& tf, double step,
-                               bool correction, Work& work) {
-    step08::Params params;
-    params.ert = 0;
-    params.step = step;
-    params.unlit = true;
-    params.no_correction = !correction;
-    const step08::Lut lut = step08::build_lut(tf, step08::opacity_ratio(params));
-    return step08::composite_front_to_back(volume, top(volume), 0, 0, lut, params, work,
-                                           nullptr);
-}
-
-// Back to front (step 06) over the one ray of a column.
-Rgb b2f_column(const Volume& volume, const TransferFunction& tf, Work& work) {
-    const step06::Lut lut = step06::build_lut(tf);
-    return step06::composite_back_to_front(volume, top(volume), 0, 0, lut, work, nullptr);
-}
-
-// The same ranges, every colour white: then C = the opacity A = 1 - T.
-TransferFunction whitened(TransferFunction tf) {
-    for (TfRange& range : tf.ranges) {
-        range.start.r = range.start.g = range.start.b = 1;
-        range.end.r = range.end.g = range.end.b = 1;
+// Renders the top view of `volume` with the transfer function `tf_text` ("" = the default
+// classic.tf) and these flags; with trace, --debug-pixel 0,0 too.
+StepRender top_view(const char* step, const Volume& volume, const std::string& tf_text,
+                    std::vector<std::string> flags, bool trace = false) {
+    const ctlab_test::TempFolder folder("tf");
+    if (!tf_text.empty()) {
+        const std::vector<unsigned char> bytes(tf_text.begin(), tf_text.end());
+        flags = joined(flags, {"--tf", folder.file("test.tf", bytes)});
     }
-    return tf;
+    flags = joined(flags, {"--view", "top", "--threads", "1"});
+    if (trace) flags = joined(flags, {"--debug-pixel", "0,0"});
+    StepRender run = ctlab_test::render(step, flags, volume);
+    REQUIRE(run.images.size() == 1);
+    return run;
+}
+
+const Rgb& pixel(const StepRender& run, int x = 0) { return run.images[0].at(x, 0); }
+uint64_t count(const StepRender& run, const char* key) {
+    return summary_count(run.summary(run.views[0]), key);
+}
+
+// The transparency T after the last composited sample of the traced ray ("... T=0.00704").
+double traced_transparency(const StepRender& run) {
+    REQUIRE(run.run.traces.size() == 1);
+    double t = -1;
+    for (const std::string& line : run.run.traces[0].lines) {
+        const size_t at = line.find(" T=");
+        if (at != std::string::npos) t = std::strtod(line.c_str() + at + 3, nullptr);
+    }
+    return t;
 }
 
 // Mean channel difference of two pictures of the same size.
@@ -128,19 +138,13 @@ double max_difference(const Image& a, const Image& b) {
     return largest;
 }
 
-// The phantom once for every test below (it takes a few tens of ms).
-const Volume& phantom() {
-    static const Volume volume = make_phantom();
-    return volume;
+bool identical(const Image& a, const Image& b) {
+    return a.width == b.width && a.height == b.height &&
+           std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(Rgb)) == 0;
 }
 
-// The empty space step 09 leaps over, built as its main() builds it.
-step09::EmptySpace space09(const Volume& volume, const step09::Lut& lut) {
-    step09::EmptySpace space;
-    space.bricks = make_bricks(volume);
-    space.empty = step09::find_empty_bricks(space.bricks, lut);
-    return space;
-}
+// The phantom as the steps render it by default (full size, 2 threads).
+const std::vector<std::string> phantom = {"--volume", "phantom", "--threads", "2"};
 
 constexpr int skin_value = 0, bone_value = 1000;  // CT values inside the classic ranges
 
@@ -169,49 +173,58 @@ TEST_CASE("compositing: classic.tf and the built-in classic table are the same")
     CHECK(find_range(file, "skin")->start.a == 0.12f);
 }
 
-TEST_CASE("compositing: the classic lookup table maps the interval boundaries exactly") {
-    const step06::Lut lut = step06::build_lut(classic_transfer_function());
-    REQUIRE(lut.entries.size() == 65536);
-    auto entry = [&](int value) { return lut.entries[value - lowest_ct_value]; };
-    const Rgba skin = {1.0f, 0.79f, 0.6f, 0.12f}, bone = {1, 1, 1, 0.8f};
-    auto is = [](const Rgba& e, const Rgba& want) {
-        return e.r == want.r && e.g == want.g && e.b == want.b && e.a == want.a;
+TEST_CASE("compositing: the classic table maps the interval boundaries exactly, in 06-08") {
+    // One-voxel rays of the boundary values: each pixel is opacity * colour (T = 1 before
+    // it, a black background behind it), so exactly the table entry's a*c, or black.
+    const std::vector<int16_t> values = {-32768, -301, -300, 49, 50, 299, 300, 2248, 32767};
+    const Volume volume = row(values);
+    struct Entry {
+        double r, g, b, a;
     };
-    const Rgba clear = {0, 0, 0, 0};
-    CHECK(is(entry(-32768), clear));
-    CHECK(is(entry(-301), clear));
-    CHECK(is(entry(-300), skin));
-    CHECK(is(entry(49), skin));
-    CHECK(is(entry(50), clear));
-    CHECK(is(entry(299), clear));
-    CHECK(is(entry(300), bone));
-    CHECK(is(entry(2248), bone));
-    CHECK(is(entry(32767), bone));
-    // Steps 07 and 08 build the same table (08 at step 1 with correction).
-    CHECK(is(step07::build_lut(classic_transfer_function()).entries[300 - lowest_ct_value],
-             bone));
-    CHECK(is(step08::build_lut(classic_transfer_function(), 1.0).entries[49 - lowest_ct_value],
-             skin));
-    // A table nobody filled is all transparent (what a student's unwritten build_lut gives).
-    const step06::Lut unfilled;
-    CHECK(std::all_of(unfilled.entries.begin(), unfilled.entries.end(),
-                      [&](const Rgba& e) { return is(e, clear); }));
+    const Entry skin = {1.0, 0.79, 0.6, 0.12}, bone = {1, 1, 1, 0.8}, clear = {0, 0, 0, 0};
+    const Entry expected[] = {clear, clear, skin, skin, clear, clear, bone, bone, bone};
+    for (const auto& flags : {std::pair<const char*, std::vector<std::string>>{step06, {}},
+                              {step07, {}},
+                              {step07, {"--order", "b2f"}},
+                              {step08, {"--unlit"}}}) {
+        CAPTURE(flags.first);
+        const StepRender run = top_view(flags.first, volume, "", flags.second);
+        for (size_t x = 0; x < values.size(); ++x) {
+            CAPTURE(values[x]);
+            const Entry& e = expected[x];
+            // The table holds floats; the products are taken in double, as numerics.md says.
+            const double a = float(e.a);
+            CHECK(pixel(run, int(x)).r == doctest::Approx(a * float(e.r)).epsilon(1e-6));
+            CHECK(pixel(run, int(x)).g == doctest::Approx(a * float(e.g)).epsilon(1e-6));
+            CHECK(pixel(run, int(x)).b == doctest::Approx(a * float(e.b)).epsilon(1e-6));
+        }
+        // Each ray reads its one voxel; the 4 transparent ones are skipped, never shaded.
+        CHECK(count(run, "samples") == values.size());
+        CHECK(count(run, "skipped") == 4);
+    }
 }
 
 TEST_CASE("compositing: a ramp goes linearly from FROM to TO, and ends before TO") {
-    const TransferFunction tf = parse_transfer_function(
-        "# a ramp\n  0 100 ramp 0 0 0 0  1 0.5 0.25 1  soft  # trailing comment\n", "ramp.tf");
+    const std::string text =
+        "# a ramp\n  0 100 ramp 0 0 0 0  1 0.5 0.25 1  soft  # trailing comment\n";
+    const TransferFunction tf = parse_transfer_function(text, "ramp.tf");
     REQUIRE(tf.ranges.size() == 1);
     CHECK(tf.ranges[0].label == "soft");
     CHECK(tf.ranges[0].line == 2);
-    const step06::Lut lut = step06::build_lut(tf);
-    auto entry = [&](int value) { return lut.entries[value - lowest_ct_value]; };
-    CHECK(entry(0).a == 0.0f);
-    CHECK(entry(50).a == doctest::Approx(0.5));
-    CHECK(entry(50).g == doctest::Approx(0.25));
-    CHECK(entry(99).a == doctest::Approx(0.99));
-    CHECK(entry(100).a == 0.0f);  // TO is outside the range
-    CHECK(entry(-1).a == 0.0f);
+    // Through step 06, one-voxel rays: value v in [0, 100) has f = v/100 of the way, rgba =
+    // (f, f/2, f/4, f), shown as a * c = (f^2, f^2/2, f^2/4); 100 (TO) and -1 are outside.
+    const std::vector<int16_t> values = {0, 50, 99, 100, -1};
+    const StepRender run = top_view(step06, row(values), text, {});
+    for (size_t x = 0; x < values.size(); ++x) {
+        CAPTURE(values[x]);
+        const double f = values[x] >= 0 && values[x] < 100 ? values[x] / 100.0 : 0.0;
+        CHECK(pixel(run, int(x)).r == doctest::Approx(f * f).epsilon(1e-6));
+        CHECK(pixel(run, int(x)).g == doctest::Approx(f * f / 2).epsilon(1e-6));
+        CHECK(pixel(run, int(x)).b == doctest::Approx(f * f / 4).epsilon(1e-6));
+    }
+    CHECK(pixel(run, 1).g == doctest::Approx(0.125));  // a = 0.5, g = 0.25
+    CHECK(pixel(run, 2).r == doctest::Approx(0.99 * 0.99));
+    CHECK(pixel(run, 3).r == 0.0f);  // TO is outside the range
 }
 
 TEST_CASE("compositing: transfer function errors name the file and the line") {
@@ -273,24 +286,19 @@ TEST_CASE("compositing: skin, skin, bone gives the numerics.md colour in both or
     CHECK(expected_t == doctest::Approx(0.15488));
 
     const Volume volume = column({skin_value, skin_value, bone_value});
-    const TransferFunction classic = classic_transfer_function();
-    Work work;
-    const step07::Accumulated f2b = f2b_column(volume, step07::build_lut(classic), 0, work);
-    CHECK(f2b.r == doctest::Approx(expected[0]).epsilon(1e-6));
-    CHECK(f2b.g == doctest::Approx(expected[1]).epsilon(1e-6));
-    CHECK(f2b.b == doctest::Approx(expected[2]).epsilon(1e-6));
-    CHECK(f2b.transparency == doctest::Approx(expected_t).epsilon(1e-6));
-
-    const Rgb b2f_07 = step07::composite_back_to_front(volume, top(volume), 0, 0,
-                                                       step07::build_lut(classic), work, nullptr);
-    for (const Rgb b2f : {b2f_column(volume, classic, work), b2f_07}) {
-        CHECK(b2f.r == doctest::Approx(expected[0]).epsilon(1e-6));
-        CHECK(b2f.g == doctest::Approx(expected[1]).epsilon(1e-6));
-        CHECK(b2f.b == doctest::Approx(expected[2]).epsilon(1e-6));
+    const StepRender f2b = top_view(step07, volume, "", {"--ert", "0"}, true);
+    const StepRender b2f07 = top_view(step07, volume, "", {"--order", "b2f"});
+    const StepRender b2f06 = top_view(step06, volume, "", {});
+    for (const StepRender* run : {&f2b, &b2f07, &b2f06}) {
+        CAPTURE(run->run.command());
+        CHECK(pixel(*run).r == doctest::Approx(expected[0]).epsilon(1e-6));
+        CHECK(pixel(*run).g == doctest::Approx(expected[1]).epsilon(1e-6));
+        CHECK(pixel(*run).b == doctest::Approx(expected[2]).epsilon(1e-6));
     }
+    CHECK(traced_transparency(f2b) == doctest::Approx(expected_t).epsilon(1e-5));
     // Back to front keeps no T; with every colour white, C = 1 - T.
-    const Rgb opacity = b2f_column(volume, whitened(classic), work);
-    CHECK(1.0 - opacity.r == doctest::Approx(expected_t).epsilon(1e-6));
+    const StepRender opacity = top_view(step06, volume, white_classic, {});
+    CHECK(1.0 - pixel(opacity).r == doctest::Approx(expected_t).epsilon(1e-6));
 }
 
 TEST_CASE("compositing: homogeneous slabs match A = 1 - (1 - a)^n and T = (1 - a)^n") {
@@ -301,18 +309,17 @@ TEST_CASE("compositing: homogeneous slabs match A = 1 - (1 - a)^n and T = (1 - a
     for (const Slab slab : {Slab{0.12, 10}, Slab{0.12, 113}, Slab{1e-7, 1000000}}) {
         CAPTURE(slab.a);
         CAPTURE(slab.n);
-        const TransferFunction tf = one_range(100, 101, 1, 1, 1, slab.a);
-        const step07::Lut lut = step07::build_lut(tf);
-        const double a = lut.entries[100 - lowest_ct_value].a;  // the opacity as stored (float)
+        const std::string tf = tf_range(100, 101, 1, 1, 1, slab.a);
+        const double a = float(slab.a);  // the opacity as the table stores it (float)
         const double expected_t = std::exp(slab.n * std::log1p(-a));
         const Volume volume = column(std::vector<int16_t>(slab.n, 100));
-        Work work;
-        const step07::Accumulated f2b = f2b_column(volume, lut, 0, work);
-        CHECK(f2b.transparency == doctest::Approx(expected_t).epsilon(1e-9));
-        CHECK(f2b.r == doctest::Approx(-std::expm1(slab.n * std::log1p(-a))).epsilon(1e-9));
-        CHECK(work.samples == uint64_t(slab.n));
-        const Rgb b2f = b2f_column(volume, tf, work);
-        CHECK(b2f.r == doctest::Approx(1 - expected_t).epsilon(1e-6));
+        const bool trace = slab.n < 1000;  // a trace line per sample
+        const StepRender f2b = top_view(step07, volume, tf, {"--ert", "0"}, trace);
+        CHECK(pixel(f2b).r == doctest::Approx(-std::expm1(slab.n * std::log1p(-a))).epsilon(1e-6));
+        if (trace) CHECK(traced_transparency(f2b) == doctest::Approx(expected_t).epsilon(1e-5));
+        CHECK(count(f2b, "samples") == uint64_t(slab.n));
+        const StepRender b2f = top_view(step06, volume, tf, {});
+        CHECK(pixel(b2f).r == doctest::Approx(1 - expected_t).epsilon(1e-6));
     }
     // numerics.md's numbers: a = 0.12, n = 10 gives A = 0.72150; n = 113 gives T = 5.33e-7.
     CHECK(1 - std::pow(0.88, 10) == doctest::Approx(0.72150).epsilon(1e-5));
@@ -336,60 +343,52 @@ TEST_CASE("compositing: a = 0.8, n = 1000 stays finite and never subnormal") {
     CHECK(first_subnormal >= 50);
     CHECK(first_subnormal <= 60);
 
-    const TransferFunction tf = one_range(100, 101, 1, 1, 1, 0.8);
+    const std::string tf = tf_range(100, 101, 1, 1, 1, 0.8);
     const Volume volume = column(std::vector<int16_t>(1000, 100));
-    const step07::Lut lut = step07::build_lut(tf);
     // --ert 0: the ray still stops once T < 1e-300, before any subnormal.
-    Work work;
-    const step07::Accumulated ray = f2b_column(volume, lut, 0, work);
-    const double a = lut.entries[100 - lowest_ct_value].a;
+    const StepRender ray = top_view(step07, volume, tf, {"--ert", "0"}, true);
+    const double a = 0.8f;
     const int stop_after = int(std::ceil(std::log(1e-300) / std::log1p(-a)));  // about 430
-    CHECK(std::fpclassify(ray.transparency) == FP_NORMAL);
-    CHECK(ray.transparency < 1e-300);
-    CHECK(ray.transparency == doctest::Approx(std::pow(1 - a, stop_after)).epsilon(1e-9));
-    CHECK(work.samples == uint64_t(stop_after));
-    CHECK(work.terminated == 1);
-    CHECK(std::isfinite(ray.r));
-    CHECK(ray.r == doctest::Approx(1.0));
+    const double t = traced_transparency(ray);
+    CHECK(std::fpclassify(t) == FP_NORMAL);
+    CHECK(t < 1e-300);
+    CHECK(t == doctest::Approx(std::pow(1 - a, stop_after)).epsilon(1e-5));
+    CHECK(count(ray, "samples") == uint64_t(stop_after));
+    CHECK(count(ray, "terminated") == 1);
+    CHECK(std::isfinite(pixel(ray).r));
+    CHECK(pixel(ray).r == doctest::Approx(1.0));
     // With the default threshold 0.01 the ray stops after 3 samples (0.2^3 = 0.008).
-    Work early;
-    const step07::Accumulated stopped = f2b_column(volume, lut, step07::default_ert, early);
-    CHECK(early.samples == 3);
-    CHECK(stopped.transparency == doctest::Approx(0.008).epsilon(1e-6));
-    CHECK(1.0 - stopped.r <= step07::default_ert);  // the error bound T* * max(c)
+    const StepRender stopped = top_view(step07, volume, tf, {}, true);
+    CHECK(count(stopped, "samples") == 3);
+    CHECK(traced_transparency(stopped) == doctest::Approx(0.008).epsilon(1e-5));
+    CHECK(1.0 - pixel(stopped).r <= default_ert + 1e-7);  // the error bound T* * max(c)
     // Back to front goes through all 1000 samples and still gives a clean 1.
-    const Rgb b2f = b2f_column(volume, tf, early);
-    CHECK(b2f.r == 1.0f);
+    const StepRender b2f = top_view(step06, volume, tf, {});
+    CHECK(pixel(b2f).r == 1.0f);
+    CHECK(count(b2f, "samples") == 1000);
 }
 
 TEST_CASE("compositing: opacity exactly 1 hides what is behind; opacity 0 adds nothing") {
     // Value 100: red and opaque; value 200: green, half transparent.
-    TransferFunction tf = one_range(100, 101, 1, 0, 0, 1.0);
-    TfRange green;
-    green.from = 200;
-    green.to = 201;
-    green.start = green.end = {0, 1, 0, 0.5f};
-    tf.ranges.push_back(green);
+    const std::string tf = tf_range(100, 101, 1, 0, 0, 1.0) + tf_range(200, 201, 0, 1, 0, 0.5);
     const Volume volume = column({100, 200, 200, 100});
-    Work work;
-    const step07::Accumulated f2b = f2b_column(volume, step07::build_lut(tf), 0, work);
-    CHECK(f2b.r == 1.0);
-    CHECK(f2b.g == 0.0);
-    CHECK(f2b.transparency == 0.0);
-    CHECK(work.samples == 1);  // T = 0 after one sample: nothing more to see
-    const Rgb b2f = b2f_column(volume, tf, work);
-    CHECK(b2f.r == 1.0f);
-    CHECK(b2f.g == 0.0f);
+    const StepRender f2b = top_view(step07, volume, tf, {"--ert", "0"}, true);
+    CHECK(pixel(f2b).r == 1.0f);
+    CHECK(pixel(f2b).g == 0.0f);
+    CHECK(traced_transparency(f2b) == 0.0);
+    CHECK(count(f2b, "samples") == 1);  // T = 0 after one sample: nothing more to see
+    for (const StepRender& b2f : {top_view(step06, volume, tf, {}),
+                                  top_view(step07, volume, tf, {"--order", "b2f"})}) {
+        CHECK(pixel(b2f).r == 1.0f);
+        CHECK(pixel(b2f).g == 0.0f);
+    }
 
     // Everything transparent: nothing is shaded, the background (black) shows.
-    const step07::Lut clear = step07::build_lut(load_transfer_function(
-        "data/tf/transparent.tf"));
-    Work none;
-    const step07::Accumulated empty = f2b_column(volume, clear, 0, none);
-    CHECK(empty.transparency == 1.0);
-    CHECK(empty.r == 0.0);
-    CHECK(none.skipped == none.samples);
-    CHECK(none.samples == 4);
+    const StepRender none = top_view(
+        step07, volume, "", {"--tf", "data/tf/transparent.tf", "--ert", "0"});
+    CHECK(pixel(none).r == 0.0f);
+    CHECK(count(none, "skipped") == count(none, "samples"));
+    CHECK(count(none, "samples") == 4);
 }
 
 TEST_CASE("compositing: extinction alpha = -expm1(-kappa h) stays in [0, 1]; kappa h does not") {
@@ -409,103 +408,107 @@ TEST_CASE("compositing: extinction alpha = -expm1(-kappa h) stays in [0, 1]; kap
 }
 
 TEST_CASE("compositing: front to back and back to front agree on the phantom") {
-    const step07::Lut lut = step07::build_lut(classic_transfer_function());
-    for (const View& view : views_named(phantom(), "all")) {
-        CAPTURE(view.name);
-        for (const double ert : {0.0, 0.01, 0.1}) {
-            CAPTURE(ert);
-            step07::Params params;
-            params.ert = ert;
-            Work f2b_work, b2f_work;
-            const Image f2b = render_image(view, 2, f2b_work, [&](int x, int y, Work& w) {
-                return step07::over_background(step07::composite_front_to_back(
-                    phantom(), view, x, y, lut, params, w, nullptr));
-            });
-            const Image b2f = render_image(view, 2, b2f_work, [&](int x, int y, Work& w) {
-                return step07::composite_back_to_front(phantom(), view, x, y, lut, w, nullptr);
-            });
+    const StepRender b2f = ctlab_test::render(step07, joined(phantom, {"--order", "b2f"}));
+    REQUIRE(b2f.images.size() == 3);
+    for (const double ert : {0.0, 0.01, 0.1}) {
+        CAPTURE(ert);
+        const StepRender f2b =
+            ctlab_test::render(step07, joined(phantom, {"--ert", std::to_string(ert)}));
+        REQUIRE(f2b.images.size() == 3);
+        for (size_t v = 0; v < 3; ++v) {
+            const std::string& view = f2b.views[v];
+            CAPTURE(view);
+            const Summary& f = f2b.summary(view);
+            const Summary& b = b2f.summary(view);
             const double max_colour = 1.0;  // the largest colour channel in the classic table
             const double allowed = ert == 0 ? 1e-5 : ert * max_colour + 1e-6;
-            CHECK(max_difference(f2b, b2f) <= allowed);
-            CHECK(b2f_work.terminated == 0);
+            CHECK(max_difference(f2b.image(view), b2f.image(view)) <= allowed);
+            CHECK(summary_count(b, "terminated") == 0);
             // Neither order leaps (step 09 does): every sample reached is read.
-            CHECK(b2f_work.leapt == 0);
-            CHECK(f2b_work.leapt == 0);
+            CHECK(summary_count(b, "leapt") == 0);
+            CHECK(summary_count(f, "leapt") == 0);
+            const uint64_t reached = summary_count(f, "samples");
             if (ert > 0) {
                 // Early termination reaches fewer samples than going all the way.
-                CHECK(f2b_work.samples < b2f_work.samples);
-                CHECK(f2b_work.terminated > 0);
+                CHECK(reached < summary_count(b, "samples"));
+                CHECK(summary_count(f, "terminated") > 0);
             } else {
-                CHECK(f2b_work.samples == b2f_work.samples);
+                CHECK(reached == summary_count(b, "samples"));
             }
-            CHECK(f2b_work.gradients == 0);
+            CHECK(summary_count(f, "gradients") == 0);
         }
     }
 }
 
 TEST_CASE("compositing: step 07 --order both writes the difference picture") {
     const ctlab_test::TempFolder out("compositing");
-    ctlab_test::FakeArgv argv({"--volume", "phantom", "--view", "front", "--no-window",
-                               "--threads", "2", "--order", "both", "--out", out.path()});
-    int status = -1;
-    const std::string printed = ctlab_test::capture_stdout(
-        [&] { status = step07::main(argv.argc(), argv.argv()); });
-    CHECK(status == 0);
-    CHECK(contains(printed, "order=both ert=0.01 max_order_diff="));
-    CHECK(contains(printed, "ert_skipped_fraction="));
-    CHECK(contains(printed, "diff_scale=100"));
+    const RunResult run = run_step(step07, {"--volume", "phantom", "--view", "front", "--threads",
+                                            "2", "--order", "both", "--out", out.path()});
+    CHECK(run.status == 0);
+    CHECK(contains(run.out, "order=both ert=0.01 max_order_diff="));
+    CHECK(contains(run.out, "ert_skipped_fraction="));
+    CHECK(contains(run.out, "diff_scale=100"));
+    REQUIRE(run.summaries.size() == 1);
+    CHECK(summary_number(run.summaries[0], "max_order_diff") <= default_ert + 1e-6);
     const Image diff = read_image(out.path("07_compositing_order_front_diff.png"));
     CHECK(diff.width == 256);
     CHECK(diff.height == 113);
 
-    // Bad input: exit status 2 (and one line on stderr).
-    ctlab_test::FakeArgv bad({"--tf", "no/such.tf", "--out", out.path()});
-    CHECK(step07::main(bad.argc(), bad.argv()) == exit_bad_input);
+    // Bad input: exit status 2 and one line on stderr.
+    const RunResult bad = run_step(step07, {"--tf", "no/such.tf", "--out", out.path()});
+    CHECK(bad.status == exit_bad_input);
+    CHECK(std::count(bad.err.begin(), bad.err.end(), '\n') == 1);
 }
 
 TEST_CASE("compositing: the trace shows RGBA, C and T per sample and where the ray stopped") {
     const Volume volume = column({-1000, skin_value, bone_value, bone_value, bone_value,
                                   bone_value});
-    const step07::Lut lut = step07::build_lut(classic_transfer_function());
-    step07::Params params;  // default ert 0.01
-    Work work;
-    Trace trace;
-    step07::composite_front_to_back(volume, top(volume), 0, 0, lut, params, work, &trace);
+    const StepRender run = top_view(step07, volume, "", {}, true);  // default ert 0.01
+    REQUIRE(run.run.traces.size() == 1);
+    const std::vector<std::string>& lines = run.run.traces[0].lines;
     // T: 0.88 (skin), 0.176, 0.0352, 0.00704 (bone) < 0.01: stop before the last sample.
-    REQUIRE(trace.lines().size() == 6);  // 5 samples, then the termination note
-    CHECK(contains(trace.lines()[0], "transparent: skipped"));
-    CHECK(contains(trace.lines()[1], "rgba=(1.000, 0.790, 0.600, 0.1200)"));
-    CHECK(contains(trace.lines()[1], "T=0.88"));
-    CHECK(contains(trace.lines()[4], "T=0.00704"));
-    CHECK(contains(trace.lines()[5], "early ray termination at n=4, 1 samples not visited"));
+    REQUIRE(lines.size() == 6);  // 5 samples, then the termination note
+    CHECK(contains(lines[0], "transparent: skipped"));
+    CHECK(contains(lines[1], "rgba=(1.000, 0.790, 0.600, 0.1200)"));
+    CHECK(contains(lines[1], "T=0.88"));
+    CHECK(contains(lines[4], "T=0.00704"));
+    CHECK(contains(lines[5], "early ray termination at n=4, 1 samples not visited"));
 }
 
 // --- Step 08: lighting work, step size and opacity correction ---------------------------
 
-TEST_CASE("compositing: opacity correction at extreme ratios matches the closed form") {
-    for (const float alpha : {1e-7f, 0.12f, 0.5f, 0.8f, 0.999f}) {
-        for (const double ratio : {1e-3, 0.25, 0.5, 1.0, 2.0, 4.0, 1e3}) {
-            CAPTURE(alpha);
-            CAPTURE(ratio);
-            const float corrected = step08::corrected_opacity(alpha, ratio);
+TEST_CASE("compositing: opacity correction at every step size matches the closed form") {
+    // One sample per ray: a one-voxel column of depth `spacing` sampled at --step = spacing.
+    // That sample stands for `step` units of depth, so its opacity is corrected to
+    // 1 - (1 - a)^(step / unit length), the unit length being one: white, unlit, shown as
+    // the corrected opacity itself. A row of rays holds the opacities 1e-7 to 1 side by side.
+    const std::vector<double> alphas = {0, 1e-7, 0.12, 0.5, 0.8, 0.999, 1};
+    std::string tf;
+    std::vector<int16_t> values;
+    for (size_t n = 0; n < alphas.size(); ++n) {
+        tf += tf_range(100 + int(n), 101 + int(n), 1, 1, 1, alphas[n]);
+        values.push_back(int16_t(100 + n));
+    }
+    for (const double ratio : {0.25, 0.5, 1.0, 2.0, 4.0}) {  // --step's whole range
+        CAPTURE(ratio);
+        const StepRender run = top_view(step08, row(values, ratio), tf,
+                                        {"--step", std::to_string(ratio), "--unlit", "--ert", "0"});
+        CHECK(count(run, "samples") == values.size());  // one per ray
+        for (size_t n = 0; n < alphas.size(); ++n) {
+            CAPTURE(alphas[n]);
+            const double alpha = float(alphas[n]);
+            const long double exact = 1.0L - std::pow(1.0L - alpha, (long double)ratio);
+            const float corrected = pixel(run, int(n)).r;
             CHECK(corrected >= 0.0f);
             CHECK(corrected <= 1.0f);
-            const long double exact = 1.0L - std::pow(1.0L - alpha, (long double)ratio);
             CHECK(corrected == doctest::Approx(double(exact)).epsilon(1e-6));
+            if (alphas[n] == 0 || alphas[n] == 1) CHECK(corrected == float(alphas[n]));
         }
-        CHECK(step08::corrected_opacity(alpha, 1.0) == doctest::Approx(alpha).epsilon(1e-6));
     }
-    for (const double ratio : {1e-3, 1.0, 1e3}) {
-        CHECK(step08::corrected_opacity(0.0f, ratio) == 0.0f);
-        CHECK(step08::corrected_opacity(1.0f, ratio) == 1.0f);
-    }
-    // Two half steps let through what one whole step does.
-    const float half = step08::corrected_opacity(0.12f, 0.5);
-    CHECK((1 - half) * (1 - half) == doctest::Approx(0.88).epsilon(1e-6));
 }
 
 TEST_CASE("compositing: a slab keeps its opacity at any step, in 1- and 2-unit spacing") {
-    const TransferFunction tf = one_range(100, 101, 1, 1, 1, 0.12);
+    const std::string tf = tf_range(100, 101, 1, 1, 1, 0.12);
     const double a = 0.12f;
     const int n = 20;
     for (const double spacing : {1.0, 2.0}) {
@@ -515,95 +518,102 @@ TEST_CASE("compositing: a slab keeps its opacity at any step, in 1- and 2-unit s
         for (const double step : {0.25, 0.5, 1.0, 2.0, 4.0}) {
             CAPTURE(spacing);
             CAPTURE(step);
-            Work work;
-            const step08::Accumulated ray = lit_column(volume, tf, step, true, work);
-            CHECK(ray.transparency == doctest::Approx(expected_t).epsilon(1e-5));
-            CHECK(work.samples == uint64_t(std::lround(depth / step)));
-            CHECK(work.gradients == 0);
+            const StepRender ray = top_view(
+                step08, volume, tf, {"--step", std::to_string(step), "--unlit", "--ert", "0"});
+            CHECK(1.0 - pixel(ray).r == doctest::Approx(expected_t).epsilon(1e-5));
+            CHECK(count(ray, "samples") == uint64_t(std::lround(depth / step)));
+            CHECK(count(ray, "gradients") == 0);
         }
         // Without correction, half the step makes the slab twice as thick, optically.
-        Work work;
-        const step08::Accumulated uncorrected = lit_column(volume, tf, 0.5, false, work);
-        CHECK(uncorrected.transparency == doctest::Approx(std::pow(1 - a, 2 * depth))
-                                              .epsilon(1e-5));
+        const StepRender uncorrected = top_view(
+            step08, volume, tf, {"--step", "0.5", "--unlit", "--ert", "0", "--no-correction"});
+        CHECK(1.0 - pixel(uncorrected).r ==
+              doctest::Approx(std::pow(1 - a, 2 * depth)).epsilon(1e-5));
     }
 }
 
 TEST_CASE("compositing: step 08 interpolates along the ray and never reads outside") {
     // Values from -32768 to 32767 and back: every fractional position maps into the table.
     const Volume volume = column({-32768, 32767, -32768, 32767});
-    const View view = top(volume);
-    CHECK(step08::value_along_ray(volume, view, 0, 0, 0.0) == -32768.0f);
-    CHECK(step08::value_along_ray(volume, view, 0, 0, 0.5) == doctest::Approx(-0.5));
-    CHECK(step08::value_along_ray(volume, view, 0, 0, 3.0) == 32767.0f);
-    CHECK(step08::value_along_ray(volume, view, 0, 0, 3.75) == 32767.0f);  // clamped at the end
-    const TransferFunction tf = one_range(lowest_ct_value, ct_value_end, 1, 1, 1, 0.01);
+    const std::string tf = tf_range(lowest_ct_value, ct_value_end, 1, 1, 1, 0.01);
+    // The values the trace prints at t = 0, 0.5, ..., 3.5 (--step 0.5): the voxels at whole
+    // t, halfway between them (-0.5), and past the last voxel its value (clamped at the end).
+    const StepRender traced = top_view(step08, volume, tf,
+                                       {"--step", "0.5", "--unlit", "--ert", "0"}, true);
+    REQUIRE(traced.run.traces.size() == 1);
+    const std::vector<std::string>& lines = traced.run.traces[0].lines;
+    REQUIRE(lines.size() == 8);
+    const double expected[8] = {-32768, -0.5, 32767, -0.5, -32768, -0.5, 32767, 32767};
+    for (int n = 0; n < 8; ++n) {
+        CAPTURE(lines[n]);
+        double t = -1, value = 0;
+        REQUIRE(std::sscanf(lines[n].c_str(), "t=%lf value=%lf", &t, &value) == 2);
+        CHECK(t == doctest::Approx(0.5 * n));
+        CHECK(value == doctest::Approx(expected[n]));
+    }
     const double a = 0.01f;
     for (const double step : {0.25, 0.3, 1.0, 4.0}) {
         CAPTURE(step);
-        Work work;
-        const step08::Accumulated ray = lit_column(volume, tf, step, true, work);
-        const double covered = double(work.samples) * step;  // each sample stands for `step`
+        const StepRender ray = top_view(step08, volume, tf,
+                                        {"--step", std::to_string(step), "--unlit", "--ert", "0"});
+        const double covered = double(count(ray, "samples")) * step;  // each stands for `step`
         CHECK(covered == doctest::Approx(4.0).epsilon(0.1));
-        CHECK(ray.transparency == doctest::Approx(std::pow(1 - a, covered)).epsilon(1e-5));
+        CHECK(1.0 - pixel(ray).r == doctest::Approx(std::pow(1 - a, covered)).epsilon(1e-5));
     }
 }
 
 TEST_CASE("compositing: gradients only where alpha > 0; none unlit or fully transparent") {
-    const View view = make_view(phantom(), ViewAxis::front);
-    auto render = [&](const TransferFunction& tf, bool unlit, Work& work) {
-        step09::Params params;
-        params.unlit = unlit;
-        const step09::Lut lut = step09::build_lut(tf, step09::opacity_ratio(params));
-        const step09::EmptySpace space = space09(phantom(), lut);
-        return render_image(view, 2, work, [&](int x, int y, Work& w) {
-            return step09::over_background(step09::composite_front_to_back(
-                phantom(), view, x, y, lut, space, params, w, nullptr));
-        });
+    auto front = [](const std::vector<std::string>& flags) {
+        const StepRender run = ctlab_test::render(step09, joined(joined(phantom, {"--view",
+                                                                                  "front"}),
+                                                                 flags));
+        REQUIRE(run.images.size() == 1);
+        return run;
     };
-    Work lit, unlit, clear;
-    render(classic_transfer_function(), false, lit);
-    render(classic_transfer_function(), true, unlit);
-    const Image black = render(load_transfer_function("data/tf/transparent.tf"), false, clear);
-    CHECK(lit.gradients > 0);
-    CHECK(lit.gradients <= 2 * (lit.samples - lit.skipped));  // at most two per shaded sample
-    CHECK(unlit.gradients == 0);
-    CHECK(unlit.samples == lit.samples);
-    CHECK(clear.gradients == 0);
-    CHECK(clear.samples == 0);  // every brick is empty: not one voxel read, all leapt over
-    CHECK(clear.leapt == uint64_t(view.width) * view.height * view.ray_length);  // step 1
-    CHECK(clear.terminated == 0);
-    CHECK(max_difference(black, Image(view.width, view.height)) == 0);
+    const StepRender lit = front({}), unlit = front({"--unlit"}),
+                     clear = front({"--tf", "data/tf/transparent.tf"});
+    const View view = make_view(make_phantom_sized(4, 4, 4), ViewAxis::front);  // for names only
+    const Summary &l = lit.summary("front"), &u = unlit.summary("front"),
+                  &c = clear.summary("front");
+    CHECK(summary_count(l, "gradients") > 0);
+    // At most two per shaded sample.
+    CHECK(summary_count(l, "gradients") <=
+          2 * (summary_count(l, "samples") - summary_count(l, "skipped")));
+    CHECK(summary_count(u, "gradients") == 0);
+    CHECK(summary_count(u, "samples") == summary_count(l, "samples"));
+    CHECK(summary_count(c, "gradients") == 0);
+    CHECK(summary_count(c, "samples") == 0);  // every brick is empty: not one voxel read
+    // All leapt over: every sample of every ray of the 256x113 front view (256 deep, step 1).
+    CHECK(summary_count(c, "leapt") == uint64_t(256) * 113 * 256);
+    CHECK(summary_count(c, "terminated") == 0);
+    CHECK(max_difference(clear.images[0], Image(256, 113)) == 0);
+    CHECK(view.name == "front");
 }
 
 TEST_CASE("compositing: leaping over empty bricks changes no pixel, only the work") {
     // Step 09 with and without leaping, every view of the phantom: the same pictures bit for
     // bit; every sample is either visited or leapt over; the lighting and termination work is
     // the same. Also at steps that do not divide a brick (0.3, 2.5).
-    const TransferFunction classic = classic_transfer_function();
-    for (const View& view : views_named(phantom(), "all")) {
-        CAPTURE(view.name);
-        for (const double step : {0.3, 1.0, 2.5}) {
-            CAPTURE(step);
-            step09::Params params08;
-            params08.step = step;
-            const step09::Lut lut08 = step09::build_lut(classic, step09::opacity_ratio(params08));
-            const step09::EmptySpace leap08 = space09(phantom(), lut08);
-            auto render08 = [&](const step09::EmptySpace& space, Work& work) {
-                return render_image(view, 2, work, [&](int x, int y, Work& w) {
-                    return step09::over_background(step09::composite_front_to_back(
-                        phantom(), view, x, y, lut08, space, params08, w, nullptr));
-                });
-            };
-            Work leaping08, reading08;
-            const Image leapt08 = render08(leap08, leaping08);
-            const Image read08 = render08({}, reading08);
-            CHECK(std::memcmp(leapt08.pixels.data(), read08.pixels.data(),
-                              read08.pixels.size() * sizeof(Rgb)) == 0);
-            CHECK(leaping08.leapt > 2 * leaping08.samples);
-            CHECK(leaping08.samples + leaping08.leapt == reading08.samples);
-            CHECK(leaping08.gradients == reading08.gradients);
-            CHECK(leaping08.terminated == reading08.terminated);
+    for (const char* step : {"0.3", "1", "2.5"}) {
+        CAPTURE(step);
+        const std::vector<std::string> flags = joined(phantom, {"--step", step});
+        const StepRender leaping = ctlab_test::render(step09, flags);
+        const StepRender reading = ctlab_test::render(step09, joined(flags, no_leaping));
+        REQUIRE(leaping.images.size() == 3);
+        REQUIRE(reading.images.size() == 3);
+        for (size_t v = 0; v < 3; ++v) {
+            const std::string& view = leaping.views[v];
+            CAPTURE(view);
+            CHECK(identical(leaping.image(view), reading.image(view)));
+            const Summary& l = leaping.summary(view);
+            const Summary& r = reading.summary(view);
+            CHECK(summary_count(r, "leapt") == 0);
+            // The phantom is mostly air.
+            CHECK(summary_count(l, "leapt") > 2 * summary_count(l, "samples"));
+            CHECK(summary_count(l, "samples") + summary_count(l, "leapt") ==
+                  summary_count(r, "samples"));
+            CHECK(summary_count(l, "gradients") == summary_count(r, "gradients"));
+            CHECK(summary_count(l, "terminated") == summary_count(r, "terminated"));
         }
     }
 }
@@ -616,72 +626,40 @@ TEST_CASE("compositing: a sample between an empty brick and bone is not leapt ov
     std::vector<int16_t> values(3 * brick_size, -1000);
     for (int k = brick_size; k < 3 * brick_size; ++k) values[k] = 1000;
     const Volume volume = column(values);
-    const Bricks bricks = make_bricks(volume);
-    REQUIRE(bricks.count() == 3);
-    CHECK(bricks.ranges[0].min == -1000);
-    CHECK(bricks.ranges[0].max == 1000);  // voxel brick_size, past the brick, is included
-    step09::Params params;
-    params.step = 0.25;
-    params.ert = 0;
-    params.unlit = true;
-    const step09::Lut lut = step09::build_lut(classic_transfer_function(),
-                                              step09::opacity_ratio(params));
-    CHECK(step09::value_along_ray(volume, top(volume), 0, 0, brick_size - 0.5) == 0.0f);
-    Work leaping, reading;
-    Trace trace;
-    const step09::Accumulated leapt = step09::composite_front_to_back(
-        volume, top(volume), 0, 0, lut, space09(volume, lut), params, leaping, &trace);
-    const step09::Accumulated read = step09::composite_front_to_back(
-        volume, top(volume), 0, 0, lut, {}, params, reading, nullptr);
-    CHECK(leapt.r == read.r);
-    CHECK(leapt.transparency == read.transparency);
-    CHECK(leapt.transparency < 1);
-    CHECK(leaping.leapt == 0);  // no brick is empty: each holds bone or touches it
+    const std::vector<std::string> flags = {"--step", "0.25", "--ert", "0", "--unlit"};
+    const StepRender leaping = top_view(step09, volume, "", flags, true);
+    const StepRender reading = top_view(step09, volume, "", joined(flags, no_leaping));
+    CHECK(pixel(leaping).r == pixel(reading).r);
+    CHECK(pixel(leaping).r > 0);  // T < 1: the bone shows
+    CHECK(count(leaping, "leapt") == 0);  // no brick is empty: each holds bone or touches it
+    bool zero_at_7_5 = false;
+    for (const std::string& line : leaping.run.traces[0].lines) {
+        zero_at_7_5 = zero_at_7_5 || line.rfind("t=   7.50 value=    0.00", 0) == 0;
+    }
+    CHECK(zero_at_7_5);
 
     // Air all along, but for bone in the last brick: the first two bricks are leapt over.
     std::vector<int16_t> far(3 * brick_size, -1000);
     far.back() = 1000;
-    const Volume far_column = column(far);
-    Work far_work;
-    Trace far_trace;
-    step09::composite_front_to_back(far_column, top(far_column), 0, 0, lut,
-                                    space09(far_column, lut), params, far_work, &far_trace);
+    const StepRender far_run = top_view(step09, column(far), "", flags, true);
     const uint64_t samples = 3 * brick_size * 4;  // step 0.25
-    CHECK(far_work.samples + far_work.leapt == samples);
-    CHECK(far_work.leapt == 2 * brick_size * 4);  // bricks 0 and 1, four samples a voxel
-    CHECK(contains(far_trace.lines()[0], "empty brick"));
+    CHECK(count(far_run, "samples") + count(far_run, "leapt") == samples);
+    CHECK(count(far_run, "leapt") == 2 * brick_size * 4);  // bricks 0 and 1, 4 samples a voxel
+    REQUIRE(far_run.run.traces.size() == 1);
+    CHECK(contains(far_run.run.traces[0].lines[0], "empty brick"));
 }
 
-TEST_CASE("compositing: the empty bricks follow the table, also when it changes") {
-    // Step 09 in-process: the knob takes the step to 2 and back to 1 (the table is corrected
-    // again each time, and its empty bricks found again); each picture equals a fresh render
-    // at that step. Without skin the table leaves more bricks empty.
-    auto render = [](const std::vector<std::string>& flags, const std::vector<int>& presses,
-                     std::vector<Image>& images, std::vector<Work>& works) {
-        ctlab_test::run_step("09_empty_space", flags, phantom(),
-                             [&](const Options& options, const Volume&, const Renderer& r) {
-            const View view = make_view(phantom(), ViewAxis::front);
-            for (const int steps : presses) {
-                if (steps != 0) r.knob.adjust(view, steps);
-                works.emplace_back();
-                images.push_back(render_view(options, view, r, works.back()));
-            }
-        });
-    };
-    std::vector<Image> fresh, knob;
-    std::vector<Work> fresh_work, knob_work;
-    render({"--no-window", "--step", "2"}, {0}, fresh, fresh_work);
-    render({"--no-window"}, {0}, fresh, fresh_work);
-    render({"--no-window", "--skin-opacity", "0"}, {0}, fresh, fresh_work);
-    render({"--no-window"}, {+1, -1}, knob, knob_work);  // step 2, and back to 1
-    REQUIRE(fresh.size() == 3);
-    REQUIRE(knob.size() == 2);
-    CHECK(max_difference(fresh[0], knob[0]) == 0);
-    CHECK(max_difference(fresh[1], knob[1]) == 0);
-    CHECK(knob_work[0].leapt == fresh_work[0].leapt);
-    CHECK(knob_work[1].leapt == fresh_work[1].leapt);
-    CHECK(fresh_work[2].leapt > fresh_work[1].leapt);  // no skin: more empty bricks
-    CHECK(max_difference(fresh[2], fresh[1]) > 0.1);   // and the skin is gone
+TEST_CASE("compositing: the empty bricks follow the table's skin opacity") {
+    // Step 09 at skin opacity 0 and at the default 0.12: without skin, the skin's bricks
+    // become empty and are leapt over, and the skin is gone from the picture.
+    const std::vector<std::string> front = joined(phantom, {"--view", "front"});
+    const StepRender no_skin = ctlab_test::render(step09, joined(front, {"--skin-opacity", "0"}));
+    const StepRender skin = ctlab_test::render(step09, front);
+    CHECK(summary_count(no_skin.summary("front"), "leapt") >
+          summary_count(skin.summary("front"), "leapt"));
+    CHECK(max_difference(no_skin.images[0], skin.images[0]) > 0.1);
+    CHECK(no_skin.summary("front").at("skin_opacity") == "0");
+    CHECK(skin.summary("front").at("skin_opacity") == "0.12");
 }
 
 TEST_CASE("compositing: step 08 at step 1 and 0.5 looks the same with correction") {
@@ -689,27 +667,23 @@ TEST_CASE("compositing: step 08 at step 1 and 0.5 looks the same with correction
     // interpolate through [-300, 50) (air next to the head rest, say); lit, also the grain
     // of gradients taken from the phantom's noise, interpolated differently at half steps.
     for (const bool unlit : {false, true}) {
-        for (const View& view : views_named(phantom(), "all")) {
-            auto render = [&](double step, bool correction) {
-                step08::Params params;
-                params.step = step;
-                params.unlit = unlit;
-                params.no_correction = !correction;
-                const step08::Lut lut = step08::build_lut(classic_transfer_function(),
-                                                          step08::opacity_ratio(params));
-                Work work;
-                return render_image(view, 2, work, [&](int x, int y, Work& w) {
-                    return step08::over_background(step08::composite_front_to_back(
-                        phantom(), view, x, y, lut, params, w, nullptr));
-                });
-            };
-            const double corrected = mean_difference(render(1, true), render(0.5, true));
-            const double uncorrected = mean_difference(render(1, false), render(0.5, false));
-            MESSAGE("step 08 " << std::string(unlit ? "unlit " : "lit ") << view.name
+        auto render = [&](const char* step, bool correction) {
+            std::vector<std::string> flags = joined(phantom, {"--step", step});
+            if (unlit) flags.push_back("--unlit");
+            if (!correction) flags.push_back("--no-correction");
+            return ctlab_test::render(step08, flags);
+        };
+        const StepRender whole = render("1", true), half = render("0.5", true);
+        const StepRender whole_raw = render("1", false), half_raw = render("0.5", false);
+        for (const std::string& view : whole.views) {
+            const double corrected = mean_difference(whole.image(view), half.image(view));
+            const double uncorrected =
+                mean_difference(whole_raw.image(view), half_raw.image(view));
+            MESSAGE("step 08 " << std::string(unlit ? "unlit " : "lit ") << view
                                << ": mean |step 1 - step 0.5| = " << corrected
                                << " with correction, " << uncorrected << " without");
             CAPTURE(unlit);
-            CAPTURE(view.name);
+            CAPTURE(view);
             if (unlit) {
                 CHECK(corrected < 0.005);
                 CHECK(corrected * 5 < uncorrected);

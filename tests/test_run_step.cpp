@@ -5,6 +5,8 @@
 #include <doctest/doctest.h>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 #include "error.h"
@@ -127,8 +129,36 @@ TEST_CASE("run_step: read_pfm reads both byte orders and rows bottom to top") {
     }
     CHECK_THROWS_AS(read_pfm(folder.file("short.pfm", bytes_of("PF\n1 2\n-1.0\n", {1}, false))),
                     InputError);
-    CHECK_THROWS_AS(read_pfm(folder.file("p6.pfm", std::string("P6\n1 1\n255\nabc"))),
+    CHECK_THROWS_AS(read_pfm(folder.text_file("p6.pfm", std::string("P6\n1 1\n255\nabc"))),
                     InputError);
-    CHECK_THROWS_AS(read_pfm(folder.file("huge.pfm", std::string("PF\n99999999 1\n-1\n"))),
+    CHECK_THROWS_AS(read_pfm(folder.text_file("huge.pfm", std::string("PF\n99999999 1\n-1\n"))),
                     InputError);
+}
+
+TEST_CASE("run_step: no program outside steps/ compiles a step's source") {
+    // The seam: tests, tools and common/ run the step binaries, never #include a .cpp, so
+    // a lesson function's name and signature are the step's own business.
+    int files = 0;
+    std::string offenders;
+    for (const char* folder : {"common", "tests", "tools"}) {
+        for (const auto& entry : std::filesystem::recursive_directory_iterator(folder)) {
+            const std::string ext = entry.path().extension().string();
+            if (ext != ".cpp" && ext != ".h") continue;
+            ++files;
+            std::ifstream in(entry.path());
+            for (std::string line; std::getline(in, line);) {
+                const size_t start = line.find_first_not_of(" \t");
+                if (start == std::string::npos || line.compare(start, 8, "#include") != 0) {
+                    continue;
+                }
+                if (line.find(".cpp") != std::string::npos ||
+                    line.find("steps/") != std::string::npos) {
+                    offenders += "\n  " + entry.path().string() + ": " + line;
+                }
+            }
+        }
+    }
+    CHECK_MESSAGE(offenders.empty(), "a step's source included outside steps/:" << offenders);
+    CHECK(files > 20);
+    CHECK_FALSE(std::filesystem::exists("tools/all_steps.h"));
 }

@@ -1,112 +1,54 @@
 // test_steps.cpp: steps 00-05 against closed-form answers (a linear ramp, a sphere, constant,
 // one-voxel-thick and int16-extreme volumes); every step, later ones too, for NaN on those
-// volumes, for thread-count independence, and for the debug trace against the image.
+// volumes, and for the debug trace against the image.
 //
-// Each step is compiled here inside a namespace of its own (tools/all_steps.h), so its lesson
-// functions (step04::gradient_at, step05::first_hit, ...) can be called directly; its main()
-// becomes an ordinary function. The namespaces sit in an unnamed one, so other test files may
-// include the same steps without a clash at link time.
+// The steps run as programs (tools/run_step.h, harness.h): each analytic volume is written to
+// a temporary raw file and rendered with --pfm, and the test reads what a student would see:
+// the float image, the summary line's counters, and the --debug-pixel trace (the gradient a
+// lit step printed, step 05's sub-voxel t_hit). The expected values are closed forms computed
+// here; nothing here calls or repeats a lesson function, so a lesson may change its names.
 #include <doctest/doctest.h>
-#include "common/ctlab.h"
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <string>
 #include <vector>
 #include "harness.h"
-
-namespace {
-
-// What run_step() gives a step's main() in place of load_volume() and run_views().
-const ctlab::Volume* harness_volume = nullptr;
-const ctlab_test::RendererUse* harness_use = nullptr;
-bool harness_reached_run_views = false;
-
-ctlab::Volume harness_load_volume(const ctlab::Options&) { return *harness_volume; }
-
-int harness_run_views(const ctlab::Options& options, const ctlab::Volume& volume,
-                      const ctlab::Renderer& renderer) {
-    harness_reached_run_views = true;
-    (*harness_use)(options, volume, renderer);
-    return 0;
-}
-
-}  // namespace
-
-// While the steps are included, load_volume and run_views name the two functions above: a
-// step's main() then takes its volume from run_step() and hands its renderer to the test
-// instead of writing PNGs. Only the steps' text sees the macros; they end after it.
-#define load_volume harness_load_volume
-#define run_views harness_run_views
-namespace {
-#include "tools/all_steps.h"
-}  // namespace
-#undef load_volume
-#undef run_views
-
-namespace ctlab_test {
-
-const std::vector<StepEntry>& included_steps() {
-    // A new step: add it to tools/all_steps.h.
-    static const std::vector<StepEntry> steps = [] {
-        std::vector<StepEntry> entries;
-        for (const IncludedStep& step : all_steps) entries.push_back({step.name, step.main});
-        return entries;
-    }();
-    return steps;
-}
-
-int run_step(const std::string& name, const std::vector<std::string>& flags,
-             const ctlab::Volume& volume, const RendererUse& use) {
-    StepMain step_main = nullptr;
-    for (const StepEntry& step : included_steps()) {
-        if (step.name == name) step_main = step.main;
-    }
-    const bool known = step_main != nullptr;
-    REQUIRE_MESSAGE(known, "no step named " << name << " in the tests");
-    harness_volume = &volume;
-    harness_use = &use;
-    harness_reached_run_views = false;
-    FakeArgv argv(flags);
-    const int status = step_main(argv.argc(), argv.argv());
-    harness_volume = nullptr;
-    harness_use = nullptr;
-    return status;
-}
-
-std::vector<ctlab::Image> render_step(const std::string& name,
-                                      const std::vector<std::string>& flags,
-                                      const ctlab::Volume& volume) {
-    std::vector<ctlab::Image> images;
-    const int status =
-        run_step(name, flags, volume,
-                 [&](const ctlab::Options& options, const ctlab::Volume& loaded,
-                     const ctlab::Renderer& renderer) {
-                     for (const ctlab::View& view : ctlab::views_named(loaded, options.view)) {
-                         ctlab::Work work;
-                         images.push_back(ctlab::render_view(options, view, renderer, work));
-                     }
-                 });
-    CHECK_MESSAGE(status == 0, name << " exited with status " << status);
-    CHECK_MESSAGE(harness_reached_run_views, name << " did not reach run_views");
-    return images;
-}
-
-}  // namespace ctlab_test
+#include "vec3.h"
+#include "view.h"
 
 using namespace ctlab;
-using ctlab_test::included_steps;
+using ctlab_test::render;
 using ctlab_test::render_step;
-using ctlab_test::run_step;
+using ctlab_test::step_names;
+using ctlab_test::StepRender;
 
 namespace {
 
 constexpr ViewAxis all_axes[] = {ViewAxis::top, ViewAxis::front, ViewAxis::side};
+constexpr const char* axis_view[] = {"top", "front", "side"};
+constexpr double pi = 3.14159265358979323846;
+constexpr double rad = pi / 180;
 
-// Where step 05's hit lies along the ray, in samples: its sample index plus the fraction.
-double along(const step05::Hit& hit) { return hit.n + double(hit.fraction); }
+// The lighting the handouts of steps 04 and 05 specify: ambient 0.1, plus (1 - ambient) N.L
+// for the outward normal N; the light at --light-angle degrees to the right of the viewer
+// (default 30) and 20 degrees above.
+constexpr float ambient = 0.1f;
+constexpr double default_light_angle = 30, light_elevation = 20;
 
-// A volume whose value at voxel (i, j, k) is value(i, j, k), clamped to int16.
+Vec3 light_towards(const View& view, double angle) {
+    const double a = angle * rad, e = light_elevation * rad;
+    return volume_direction(view, float(std::sin(a) * std::cos(e)), float(-std::sin(e)),
+                            float(-std::cos(a) * std::cos(e)));
+}
+
+double lit_shade(const Vec3& outward_normal, const Vec3& light) {
+    return ambient + (1 - ambient) * std::max(0.0, double(dot(outward_normal, light)));
+}
+
+// A volume whose value at voxel (i, j, k) is value(i, j, k), rounded and clamped to int16.
 Volume make_volume(int nx, int ny, int nz, const std::function<double(int, int, int)>& value,
                    double sx = 1, double sy = 1, double sz = 1) {
     Volume volume;
@@ -139,9 +81,6 @@ Volume ramp_volume(int nx, int ny, int nz, double sx = 1, double sy = 1, double 
 bool finite(const Rgb& pixel) {
     return std::isfinite(pixel.r) && std::isfinite(pixel.g) && std::isfinite(pixel.b);
 }
-bool finite(const Vec3& v) {
-    return std::isfinite(v.i) && std::isfinite(v.j) && std::isfinite(v.k);
-}
 
 // Steps 00-05 show a grey in 0..1; later ones may leave values above 1 to the PNG's clamp.
 bool shows_unit_grey(const std::string& step) { return step < "06"; }
@@ -154,6 +93,59 @@ int bad_pixels(const Image& image, bool must_be_unit) {
         if (!finite(p) || (must_be_unit && !in_unit)) ++bad;
     }
     return bad;
+}
+
+// "--debug-pixel X,Y"
+std::vector<std::string> debug_pixel(int x, int y) {
+    return {"--debug-pixel", std::to_string(x) + "," + std::to_string(y)};
+}
+
+std::vector<std::string> joined(std::vector<std::string> a, const std::vector<std::string>& b) {
+    a.insert(a.end(), b.begin(), b.end());
+    return a;
+}
+
+// The trace of `view` in a run; fails the test when there is none.
+const PixelTrace* trace_of(const StepRender& render, const std::string& view) {
+    for (const PixelTrace& trace : render.run.traces) {
+        if (trace.view == view) return &trace;
+    }
+    FAIL_CHECK("no trace of the " << view << " view in: " << render.run.out);
+    return nullptr;
+}
+
+// The lit steps' last trace line "gradient=(GI, GJ, GK) shade=S": the gradient at the hit.
+bool traced_gradient(const PixelTrace& trace, Vec3& gradient) {
+    for (const std::string& line : trace.lines) {
+        float g[3];
+        if (std::sscanf(line.c_str(), "gradient=(%f, %f, %f)", &g[0], &g[1], &g[2]) == 3) {
+            gradient = {g[0], g[1], g[2]};
+            return true;
+        }
+    }
+    return false;
+}
+
+// Step 05's "crossing between n=A and n=B: hit at A + F", in samples along the ray (or a
+// hit at n = 0 when the first sample is already above); false for a miss.
+bool traced_t_hit(const PixelTrace& trace, double& t_hit) {
+    for (const std::string& line : trace.lines) {
+        const size_t at = line.find("hit at ");
+        if (at != std::string::npos) {
+            int whole = 0;
+            double fraction = 0;
+            if (std::sscanf(line.c_str() + at, "hit at %d + %lf", &whole, &fraction) == 2) {
+                t_hit = whole + fraction;
+                return true;
+            }
+        }
+    }
+    if (!trace.lines.empty() && trace.lines[0].rfind("n=  0 ", 0) == 0 &&
+        trace.lines[0].find("hit") != std::string::npos) {
+        t_hit = 0;
+        return true;
+    }
+    return false;
 }
 
 // Physical position of a voxel centre: index times spacing (voxel centres at whole indices).
@@ -186,7 +178,7 @@ Vec3 outward_normal(const Vec3& gradient) { return (-1.0f / length(gradient)) * 
 
 double angle_degrees(const Vec3& a, const Vec3& b) {
     const double cosine = std::clamp(double(dot(a, b)) / (length(a) * length(b)), -1.0, 1.0);
-    return std::acos(cosine) * 180 / 3.14159265358979323846;
+    return std::acos(cosine) * 180 / pi;
 }
 
 // Where the ray through pixel (x, y) meets the sphere, in samples along the ray:
@@ -217,7 +209,11 @@ RayMeeting meet_sphere(const Volume& volume, const View& view, const Sphere& sph
 
 // --- The linear ramp -----------------------------------------------------------------------
 
-TEST_CASE("ramp: step 04/05 gradient is exactly (3, 5, 7)/spacing everywhere, borders too") {
+TEST_CASE("ramp: steps 04/05 light it with the exact gradient (3, 5, 7)/spacing, borders too") {
+    // Along every axis the ramp's differences are exact, one-sided at the border as central
+    // inside: the gradient is (3/sx, 5/sy, 7/sz) at every voxel and at every point between
+    // two, so every hit pixel shows the same closed-form shade (for any light angle), and the
+    // trace prints that gradient: at the volume's first and last pixels and in between.
     struct Spacing {
         double sx, sy, sz;
     };
@@ -225,35 +221,46 @@ TEST_CASE("ramp: step 04/05 gradient is exactly (3, 5, 7)/spacing everywhere, bo
         CAPTURE(s.sx);
         CAPTURE(s.sy);
         CAPTURE(s.sz);
-        const Volume volume = ramp_volume(9, 7, 5, s.sx, s.sy, s.sz, -60);
-        const Vec3 expected = {float(3 / s.sx), float(5 / s.sy), float(7 / s.sz)};
-        Work work;
-        int checked = 0;
-        for (int k = 0; k < volume.nz; ++k)
-            for (int j = 0; j < volume.ny; ++j)
-                for (int i = 0; i < volume.nx; ++i) {
-                    const Vec3 g4 = step04::gradient_at(volume, {i, j, k}, work);
-                    const Vec3 g5 = step05::gradient_at(volume, {i, j, k}, work);
-                    // Exact: small whole differences divided by powers of two.
-                    CHECK(g4.i == expected.i);
-                    CHECK(g4.j == expected.j);
-                    CHECK(g4.k == expected.k);
-                    CHECK(g5.i == expected.i);
-                    CHECK(g5.j == expected.j);
-                    CHECK(g5.k == expected.k);
-                    ++checked;
+        const Volume volume = ramp_volume(9, 7, 5, s.sx, s.sy, s.sz, -60);  // -60 .. 22
+        const Vec3 gradient = {float(3 / s.sx), float(5 / s.sy), float(7 / s.sz)};
+        const Vec3 normal = outward_normal(gradient);
+        for (const char* step : {"04_gradient_lighting", "05_interpolated_hits"}) {
+            for (const double angle : {-180.0, -45.0, 0.0, 30.0, 90.0}) {
+                CAPTURE(step);
+                CAPTURE(angle);
+                // The trace of pixel 0,0 in every view, or of 6,4 (the last of the side view).
+                const bool last = angle == 0.0 || angle == 90.0;
+                std::vector<std::string> flags = {"--threshold", "0", "--light-angle",
+                                                  std::to_string(angle)};
+                flags = joined(flags, last ? debug_pixel(6, 4) : debug_pixel(0, 0));
+                const StepRender lit = render(step, flags, volume);
+                REQUIRE(lit.images.size() == 3);
+                int hits = 0;
+                for (ViewAxis axis : all_axes) {
+                    const View view = make_view(volume, axis);
+                    CAPTURE(view.name);
+                    const double expected = lit_shade(normal, light_towards(view, angle));
+                    const Image& image = lit.image(view.name);
+                    int view_hits = 0;
+                    for (const Rgb& pixel : image.pixels) {
+                        if (pixel.r == 0.0f) continue;  // a miss (every shade is >= 0.1)
+                        CHECK(pixel.r == doctest::Approx(expected).epsilon(1e-5));
+                        ++view_hits;
+                    }
+                    const Summary& summary = lit.summary(view.name);
+                    CHECK(summary_count(summary, "hits") == uint64_t(view_hits));
+                    CHECK(summary_count(summary, "gradients") >= uint64_t(view_hits));
+                    CHECK(view_hits > 0);
+                    hits += view_hits;
                 }
-        CHECK(checked == 9 * 7 * 5);
-        CHECK(work.gradients == uint64_t(2 * checked));
-        // Interpolated between two voxels, as step 05 does at a sub-voxel hit.
-        for (ViewAxis axis : all_axes) {
-            const View view = make_view(volume, axis);
-            for (float t : {0.0f, 0.25f, 1.5f, float(view.ray_length - 1) - 0.125f}) {
-                const Vec3 g = step05::gradient_along_ray(volume, view, 1, 2, int(t),
-                                                          t - float(int(t)), work);
-                CHECK(g.i == doctest::Approx(expected.i).epsilon(1e-6));
-                CHECK(g.j == doctest::Approx(expected.j).epsilon(1e-6));
-                CHECK(g.k == doctest::Approx(expected.k).epsilon(1e-6));
+                for (const PixelTrace& trace : lit.run.traces) {
+                    Vec3 traced;
+                    if (!traced_gradient(trace, traced)) continue;  // that ray missed
+                    CHECK(traced.i == doctest::Approx(gradient.i).epsilon(1e-3));
+                    CHECK(traced.j == doctest::Approx(gradient.j).epsilon(1e-3));
+                    CHECK(traced.k == doctest::Approx(gradient.k).epsilon(1e-3));
+                }
+                CHECK(hits > 0);
             }
         }
     }
@@ -261,66 +268,89 @@ TEST_CASE("ramp: step 04/05 gradient is exactly (3, 5, 7)/spacing everywhere, bo
 
 TEST_CASE("ramp: step 05's crossing is the analytic one; steps 02/03 stop at the next sample") {
     // Along any ray the ramp is f0 + slope * t, so the surface f = tau is at
-    // t* = (tau - f0) / slope; step 03 hits the first whole t above it.
+    // t* = (tau - f0) / slope; steps 02/03 hit the first whole t above it. Step 03's picture
+    // is 1 - t/N (so every pixel gives its t); the counters of all three are sums of closed
+    // forms over the rays; step 05's t_hit is read from the trace of a few pixels.
     const Volume volume = ramp_volume(10, 12, 14);
     const int coefficient[3] = {7, 5, 3};  // the slope along the ray: top k, front j, side i
     for (int threshold : {100, 101, 97, 0, -5, 172, 173}) {
         CAPTURE(threshold);
-        int crossings = 0, misses = 0, at_edge = 0;
+        const std::vector<std::string> flags = {"--threshold", std::to_string(threshold)};
+        const StepRender r2 = render("02_threshold", flags, volume);
+        const StepRender r3 = render("03_depth_shading", flags, volume);
+        const StepRender r5 = render("05_interpolated_hits", joined(flags, debug_pixel(1, 2)),
+                                     volume);
+        const StepRender r5b = render("05_interpolated_hits", joined(flags, debug_pixel(9, 0)),
+                                      volume);
+        int crossings = 0, misses = 0, at_edge = 0, traced = 0;
         for (ViewAxis axis : all_axes) {
             const View view = make_view(volume, axis);
             CAPTURE(view.name);
             const int slope = coefficient[int(axis)];
+            const Image& image2 = r2.image(view.name);
+            const Image& image3 = r3.image(view.name);
+            uint64_t samples = 0, hits = 0, terminated = 0;
             for (int y = 0; y < view.height; ++y) {
                 for (int x = 0; x < view.width; ++x) {
                     const Voxel first = view.voxel(x, y, 0);
                     const int f0 = 3 * first.i + 5 * first.j + 7 * first.k;
                     const int f_last = f0 + slope * (view.ray_length - 1);
-                    Work work3, work5;
-                    const auto hit2 =
-                        step02::first_hit(volume, view, x, y, threshold, work3, nullptr);
-                    const auto hit3 =
-                        step03::first_hit(volume, view, x, y, threshold, work3, nullptr);
-                    const auto hit5 =
-                        step05::first_hit(volume, view, x, y, threshold, work5, nullptr);
+                    const float shade3 = image3.at(x, y).r;
+                    const float shade2 = image2.at(x, y).r;
                     if (f_last <= threshold) {  // never above: no hit, every sample read
-                        CHECK_FALSE(hit2.found);
-                        CHECK_FALSE(hit3.found);
-                        CHECK_FALSE(hit5.found);
-                        CHECK(work5.samples == uint64_t(view.ray_length));
-                        CHECK(step03::shade(hit3, view.ray_length) == 0.0f);
+                        CHECK(shade2 == 0.0f);
+                        CHECK(shade3 == 0.0f);
+                        samples += view.ray_length;
                         ++misses;
                         continue;
                     }
-                    REQUIRE(hit3.found);
-                    REQUIRE(hit5.found);
-                    CHECK(hit2.found);
-                    if (f0 > threshold) {  // already above at the volume's edge
-                        CHECK(hit3.n == 0);
-                        CHECK(along(hit5) == 0.0);
-                        CHECK(step03::shade(hit3, view.ray_length) == 1.0f);
+                    CHECK(shade2 == 1.0f);
+                    const int t_first_above =
+                        f0 > threshold ? 0 : (threshold - f0) / slope + 1;  // whole division
+                    CHECK(shade3 == doctest::Approx(1.0 - double(t_first_above) /
+                                                              view.ray_length));
+                    // t + 1 samples read, one hit, stopped early unless at the last sample.
+                    samples += t_first_above + 1;
+                    ++hits;
+                    terminated += t_first_above + 1 < view.ray_length;
+                    if (f0 > threshold) {
+                        CHECK(shade3 == 1.0f);
                         ++at_edge;
+                    } else {
+                        ++crossings;
+                    }
+                }
+            }
+            for (const StepRender* run : {&r2, &r3, &r5}) {
+                const Summary& summary = run->summary(view.name);
+                CHECK(summary_count(summary, "samples") == samples);
+                CHECK(summary_count(summary, "hits") == hits);
+                CHECK(summary_count(summary, "terminated") == terminated);
+            }
+            // Step 05's sub-voxel t of the traced rays.
+            for (const StepRender* run : {&r5, &r5b}) {
+                for (const PixelTrace& trace : run->run.traces) {
+                    if (trace.view != view.name) continue;
+                    const Voxel first = view.voxel(trace.x, trace.y, 0);
+                    const int f0 = 3 * first.i + 5 * first.j + 7 * first.k;
+                    const int f_last = f0 + slope * (view.ray_length - 1);
+                    double t_hit = -1;
+                    const bool found = traced_t_hit(trace, t_hit);
+                    CHECK(found == (f_last > threshold));
+                    if (!found) {
+                        CHECK(trace.samples == uint64_t(view.ray_length));
                         continue;
                     }
-                    const double t_surface = double(threshold - f0) / slope;
-                    const int t_first_above = (threshold - f0) / slope + 1;  // whole division
-                    CHECK(hit2.n == t_first_above);
-                    CHECK(hit3.n == t_first_above);
-                    CHECK(along(hit5) == doctest::Approx(t_surface).epsilon(1e-6));
-                    CHECK(std::abs(along(hit5) - t_surface) < 1e-5);
-                    CHECK(step03::shade(hit3, view.ray_length) ==
-                          doctest::Approx(1.0 - double(t_first_above) / view.ray_length));
-                    // Both stop at the first sample above: t + 1 samples read, one hit.
-                    CHECK(work5.samples == uint64_t(t_first_above + 1));
-                    CHECK(work5.hits == 1);
-                    CHECK(work5.terminated == (t_first_above + 1 < view.ray_length ? 1u : 0u));
-                    ++crossings;
+                    const double t_surface = f0 > threshold ? 0 : double(threshold - f0) / slope;
+                    CHECK(std::abs(t_hit - t_surface) < 1.5e-6);  // printed with 6 decimals
+                    ++traced;
                 }
             }
         }
         // Every threshold above crosses some rays, except the ones past the ramp's range.
         CHECK(crossings + misses + at_edge == 10 * 12 + 10 * 14 + 12 * 14);
         if (threshold >= 0 && threshold < 170) CHECK(crossings > 0);
+        if (threshold >= 0 && threshold < 170) CHECK(traced > 0);
     }
 }
 
@@ -328,6 +358,10 @@ TEST_CASE("ramp: step 05's crossing is the analytic one; steps 02/03 stop at the
 
 TEST_CASE("sphere: hits, depth and normals of steps 03/04/05 against the closed form") {
     // Spacing 1:1:2 like CThead, a centre off the voxel grid. Positions are index * spacing.
+    // Step 03's depth is read from its picture (1 - t/N) at every pixel; step 05's sub-voxel
+    // t_hit and the normals of steps 04/05 from the --debug-pixel traces of a grid of pixels
+    // (every fourth column and row near the sphere's middle: one run traces the same pixel in
+    // all three views).
     const Sphere sphere{{31.3, 29.6, 31.7}, 20.0};
     const Volume volume = make_volume(
         64, 64, 32,
@@ -335,22 +369,60 @@ TEST_CASE("sphere: hits, depth and normals of steps 03/04/05 against the closed 
             return sphere.value({i * 1.0, j * 1.0, k * 2.0});
         },
         1, 1, 2);
-    const int threshold = 400;  // the steps' default, so their pictures can be checked too
+    const std::vector<Image> depth3 = render_step("03_depth_shading", {}, volume);
     const std::vector<Image> lit4 = render_step("04_gradient_lighting", {}, volume);
     const std::vector<Image> lit5 = render_step("05_interpolated_hits", {}, volume);
+    REQUIRE(depth3.size() == 3);
     REQUIRE(lit4.size() == 3);
     REQUIRE(lit5.size() == 3);
+    // The traced grid: pixel (x, y) -> its traces in steps 04 and 05, per view.
+    constexpr int grid = 4;
+    struct Traced {
+        PixelTrace step4, step5;
+        bool has4 = false, has5 = false;
+    };
+    std::vector<std::vector<Traced>> traced(3);  // [view][y * 64 + x]
+    for (auto& view : traced) view.resize(64 * 64);
+    const ctlab_test::TempFolder folder("sphere");
+    const std::vector<std::string> volume_flags =
+        write_raw_volume(volume, folder.path("sphere.raw"));
+    for (int y = 1; y < 64; y += grid) {
+        for (int x = 1; x < 64; x += grid) {
+            bool wanted = false;  // a measured ray (rho <= 0.8 R) in some view
+            for (ViewAxis axis : all_axes) {
+                const View view = make_view(volume, axis);
+                wanted = wanted || (x < view.width && y < view.height &&
+                                    meet_sphere(volume, view, sphere, x, y).rho <=
+                                        0.8 * sphere.radius);
+            }
+            if (!wanted) continue;
+            for (const char* step : {"04_gradient_lighting", "05_interpolated_hits"}) {
+                const RunResult run = run_step(
+                    step, joined(joined(volume_flags, {"--out", folder.path()}), debug_pixel(x, y)));
+                REQUIRE(run.status == 0);
+                for (const PixelTrace& trace : run.traces) {
+                    for (int v = 0; v < 3; ++v) {
+                        if (trace.view != axis_view[v]) continue;
+                        Traced& entry = traced[v][y * 64 + x];
+                        if (step[1] == '4') {
+                            entry.step4 = trace;
+                            entry.has4 = true;
+                        } else {
+                            entry.step5 = trace;
+                            entry.has5 = true;
+                        }
+                    }
+                }
+            }
+        }
+    }
     for (ViewAxis axis : all_axes) {
         const View view = make_view(volume, axis);
         CAPTURE(view.name);
-        // Diffuse + ambient with the analytic normal: what the pictures should show.
-        const Vec3 light = step05::light_direction(view, step05::default_light_angle);
-        auto expected_shade = [&](const Vec3& normal) {
-            return step05::ambient + (1 - step05::ambient) * std::max(0.0f, dot(normal, light));
-        };
+        const Vec3 light = light_towards(view, default_light_angle);
         double error3_sum = 0, error5_sum = 0, normal4_sum = 0, normal5_sum = 0;
         double error5_max = 0, normal5_max = 0;
-        int measured = 0, hits = 0, misses = 0, unsure = 0;
+        int measured = 0, hits = 0, misses = 0, unsure = 0, traced_hits = 0;
         for (int y = 0; y < view.height; ++y) {
             for (int x = 0; x < view.width; ++x) {
                 const RayMeeting meeting = meet_sphere(volume, view, sphere, x, y);
@@ -362,21 +434,20 @@ TEST_CASE("sphere: hits, depth and normals of steps 03/04/05 against the closed 
                     inside = inside || d < sphere.radius - 0.01;
                     near_surface = near_surface || std::abs(d - sphere.radius) <= 0.01;
                 }
-                Work work;
-                const auto hit3 = step03::first_hit(volume, view, x, y, threshold, work, nullptr);
-                const auto hit4 = step04::first_hit(volume, view, x, y, threshold, work, nullptr);
-                const auto hit5 = step05::first_hit(volume, view, x, y, threshold, work, nullptr);
+                const float shade3 = depth3[int(axis)].at(x, y).r;
+                const bool hit3 = shade3 > 0, hit4 = lit4[int(axis)].at(x, y).r > 0,
+                           hit5 = lit5[int(axis)].at(x, y).r > 0;  // shades are >= ambient
                 if (meeting.rho > sphere.radius) {  // rays that pass the sphere never hit
-                    CHECK_FALSE(hit3.found);
-                    CHECK_FALSE(hit5.found);
+                    CHECK_FALSE(hit3);
+                    CHECK_FALSE(hit5);
                 }
                 if (near_surface && !inside) {
                     ++unsure;
                     continue;
                 }
-                CHECK(hit3.found == inside);
-                CHECK(hit4.found == inside);
-                CHECK(hit5.found == inside);
+                CHECK(hit3 == inside);
+                CHECK(hit4 == inside);
+                CHECK(hit5 == inside);
                 if (!inside) {
                     ++misses;
                     continue;
@@ -385,91 +456,112 @@ TEST_CASE("sphere: hits, depth and normals of steps 03/04/05 against the closed 
                 CHECK(meeting.rho <= sphere.radius);
                 // Depth: step 03 is up to one sample late, plus what rounding to int16 moves
                 // the surface (0.005 in distance, about 0.005 R / h along a ray of half-chord h).
-                const double error3 = hit3.n - meeting.t_surface;
-                const double error5 = along(hit5) - meeting.t_surface;
+                const double t3 = std::round((1.0 - shade3) * view.ray_length);
+                const double error3 = t3 - meeting.t_surface;
                 const double half_chord = std::sqrt(std::max(0.0, sphere.radius * sphere.radius -
                                                                       meeting.rho * meeting.rho)) /
                                           view.ray_spacing;
                 CHECK(error3 > -0.01);
                 CHECK(error3 < 1 + 0.01 * sphere.radius / std::max(half_chord, 0.01));
+                // The first sample inside: the voxel step 04 takes its normal at.
+                const Voxel voxel4 = view.voxel(x, y, int(t3));
+                const Vec3 true_normal4 = analytic_normal(sphere, position(volume, voxel4));
+                // The rendered pixels: within what a 1 degree normal error changes (0.016).
+                CHECK(std::abs(lit4[int(axis)].at(x, y).r - lit_shade(true_normal4, light)) <
+                      0.02);
+                const Traced& entry = traced[int(axis)][y * 64 + x];
                 if (meeting.rho > 0.8 * sphere.radius) continue;  // near grazing: depth only
                 ++measured;
                 error3_sum += std::abs(error3);
+                if (!entry.has4 || !entry.has5) continue;  // not on the traced grid
+                // Step 05's sub-voxel hit and the normals of both steps, from their traces.
+                double t5 = -1;
+                REQUIRE(traced_t_hit(entry.step5, t5));
+                const double error5 = t5 - meeting.t_surface;
                 error5_sum += std::abs(error5);
                 error5_max = std::max(error5_max, std::abs(error5));
-                // Normals: step 04 at the hit voxel, step 05 at the sub-voxel hit point.
-                const Voxel voxel4 = view.voxel(x, y, hit4.n);
-                const Vec3 normal4 = outward_normal(step04::gradient_at(volume, voxel4, work));
-                const double angle4 =
-                    angle_degrees(normal4, analytic_normal(sphere, position(volume, voxel4)));
+                Vec3 gradient4, gradient5;
+                REQUIRE(traced_gradient(entry.step4, gradient4));
+                REQUIRE(traced_gradient(entry.step5, gradient5));
+                const double angle4 = angle_degrees(outward_normal(gradient4), true_normal4);
                 const Point p0 = position(volume, view.voxel(x, y, 0));
                 const Vec3 unit_ray = volume_direction(view, 0, 0, 1);
-                const double distance = along(hit5) * view.ray_spacing;
-                const Point p5 = {p0.x + distance * unit_ray.i, p0.y + distance * unit_ray.j,
-                                  p0.z + distance * unit_ray.k};
-                const Vec3 normal5 =
-                    outward_normal(step05::gradient_along_ray(volume, view, x, y, hit5.n,
-                                                              hit5.fraction, work));
-                const double angle5 = angle_degrees(normal5, analytic_normal(sphere, p5));
+                const double along = t5 * view.ray_spacing;
+                const Point p5 = {p0.x + along * unit_ray.i, p0.y + along * unit_ray.j,
+                                  p0.z + along * unit_ray.k};
+                const Vec3 true_normal5 = analytic_normal(sphere, p5);
+                const double angle5 = angle_degrees(outward_normal(gradient5), true_normal5);
                 normal4_sum += angle4;
                 normal5_sum += angle5;
                 normal5_max = std::max(normal5_max, angle5);
                 CHECK(angle4 < 1.0);
                 CHECK(angle5 < 1.0);
-                // The rendered pixels: within what a 1 degree normal error changes (0.016).
-                const Vec3 true_normal4 = analytic_normal(sphere, position(volume, voxel4));
-                CHECK(std::abs(lit4[int(axis)].at(x, y).r - expected_shade(true_normal4)) < 0.02);
-                const Vec3 true_normal5 = analytic_normal(sphere, p5);
-                CHECK(std::abs(lit5[int(axis)].at(x, y).r - expected_shade(true_normal5)) < 0.02);
+                CHECK(std::abs(lit5[int(axis)].at(x, y).r - lit_shade(true_normal5, light)) <
+                      0.02);
+                // The traced ray is the picture's.
+                CHECK(std::abs(entry.step5.rgb.r - lit5[int(axis)].at(x, y).r) <= 5e-7);
+                ++traced_hits;
             }
         }
         CHECK(hits > 500);
         CHECK(misses > 500);
         CHECK(unsure < hits / 100);
         REQUIRE(measured > 300);
-        const double mean3 = error3_sum / measured, mean5 = error5_sum / measured;
+        REQUIRE(traced_hits > 20);
+        const double mean3 = error3_sum / measured, mean5 = error5_sum / traced_hits;
         MESSAGE("sphere " << view.name << ": mean |depth error| step 03 = " << mean3
                           << ", step 05 = " << mean5 << " (max " << error5_max
-                          << ") samples; mean normal error step 04 = " << normal4_sum / measured
-                          << " deg, step 05 = " << normal5_sum / measured << " deg (max "
-                          << normal5_max << ")");
+                          << ") samples; mean normal error step 04 = "
+                          << normal4_sum / traced_hits << " deg, step 05 = "
+                          << normal5_sum / traced_hits << " deg (max " << normal5_max
+                          << "); step 05 over " << traced_hits << " traced rays");
         CHECK(mean5 * 5 <= mean3);
         CHECK(error5_max < 0.05);
-        CHECK(normal5_sum / measured < 0.5);
+        CHECK(normal5_sum / traced_hits < 0.5);
     }
 }
 
 // --- Lighting ------------------------------------------------------------------------------
 
-TEST_CASE("lighting: diffuse + ambient, and no normal for a zero gradient") {
-    const float ambient = step04::ambient;
-    const Vec3 to_light = {0, 0.6f, -0.8f};
-    // The outward normal is -gradient/|gradient|: a gradient of any size against the light.
-    CHECK(step04::shade({0, -3.0f, 4.0f}, to_light) == doctest::Approx(1.0));
-    CHECK(step05::shade({0, -300.0f, 400.0f}, to_light) == doctest::Approx(1.0));
-    CHECK(step04::shade({0, 3.0f, -4.0f}, to_light) == ambient);  // facing away
-    CHECK(step04::shade({7.0f, 0, 0}, to_light) == ambient);      // lit edge-on
-    CHECK(step04::shade({0, 0, 0}, to_light) == ambient);         // no normal: no NaN
-    CHECK(step05::shade({0, 0, 0}, to_light) == ambient);
-    // 60 degrees between normal and light: ambient + (1 - ambient) cos 60.
-    const Vec3 normal_60 = {0, 0.6f * 0.5f + 0.8f * 0.8660254f, -0.8f * 0.5f + 0.6f * 0.8660254f};
-    CHECK(step04::shade(-1.0f * normal_60, to_light) ==
-          doctest::Approx(ambient + (1 - ambient) * 0.5).epsilon(1e-5));
-
-    // The light: unit length; angle 0 comes from the viewer's side, 20 degrees from above.
-    Volume volume = ramp_volume(4, 5, 6);
-    for (ViewAxis axis : all_axes) {
-        const View view = make_view(volume, axis);
-        for (double angle : {-180.0, -45.0, 0.0, 30.0, 90.0}) {
-            CHECK(length(step04::light_direction(view, angle)) == doctest::Approx(1.0));
+TEST_CASE("lighting: a slab's face lit at known angles; no normal inside gives ambient") {
+    // A slab: air (-1000) for k < 3, bone (1000) from k = 3, 8x8x8. Its face has the outward
+    // normal -k. From the top, every ray meets the face (at k = 3): N.L = cos(angle) cos(20),
+    // negative (facing away from the light) for |angle| > 90, where only the ambient remains.
+    // From the front and side, the rays of rows k >= 3 start in bone: on row 3 the gradient
+    // (1000 - (-1000)) / 2 along k gives the face's normal and N.L = sin(20), the light's
+    // elevation, for any angle; on the rows below the gradient is zero: no normal, ambient.
+    const Volume slab = make_volume(8, 8, 8, [](int, int, int k) { return k >= 3 ? 1000 : -1000; });
+    const Vec3 normal = {0, 0, -1};
+    for (const char* step : {"04_gradient_lighting", "05_interpolated_hits"}) {
+        for (const double angle : {-180.0, -90.0, -45.0, 0.0, 30.0, 60.0, 90.0, 180.0}) {
+            CAPTURE(step);
+            CAPTURE(angle);
+            const StepRender lit =
+                render(step, {"--light-angle", std::to_string(angle), "--threads", "1"}, slab);
+            for (ViewAxis axis : all_axes) {
+                const View view = make_view(slab, axis);
+                CAPTURE(view.name);
+                const Vec3 light = light_towards(view, angle);
+                CHECK(length(light) == doctest::Approx(1.0));
+                const double face = lit_shade(normal, light);
+                if (axis == ViewAxis::top) {
+                    const double n_dot_l = std::cos(angle * rad) * std::cos(light_elevation * rad);
+                    CHECK(face == doctest::Approx(ambient + (1 - ambient) * std::max(0.0, n_dot_l)));
+                } else {
+                    CHECK(face == doctest::Approx(ambient + (1 - ambient) *
+                                                                std::sin(light_elevation * rad)));
+                }
+                const Image& image = lit.image(view.name);
+                int wrong = 0;
+                for (int y = 0; y < image.height; ++y)
+                    for (int x = 0; x < image.width; ++x) {
+                        double expected = face;
+                        if (axis != ViewAxis::top) expected = y < 3 ? 0.0 : y == 3 ? face : ambient;
+                        wrong += std::abs(image.at(x, y).r - expected) > 1e-5;
+                    }
+                CHECK(wrong == 0);
+            }
         }
-        const double rad = 3.14159265358979323846 / 180;
-        const Vec3 expected =
-            volume_direction(view, 0, float(-std::sin(20 * rad)), float(-std::cos(20 * rad)));
-        const Vec3 light = step05::light_direction(view, 0);
-        CHECK(light.i == doctest::Approx(expected.i));
-        CHECK(light.j == doctest::Approx(expected.j));
-        CHECK(light.k == doctest::Approx(expected.k));
     }
 }
 
@@ -483,25 +575,25 @@ TEST_CASE("constant volume: every step, every view, the known value and never Na
         float below;  // volume -1000: nothing above
     };
     const Expected expected[] = {
-        {"00_slices", 0.0f, 0.0f},                        // min..max display of a zero range: 0
-        {"01_ray_loops", 0.0f, 0.0f},                     // same mapping
-        {"02_threshold", 1.0f, 0.0f},                     // hit / miss
-        {"03_depth_shading", 1.0f, 0.0f},                 // hit at t = 0: 1 - 0/N
-        {"04_gradient_lighting", step04::ambient, 0.0f},  // zero gradient: ambient only
-        {"05_interpolated_hits", step05::ambient, 0.0f},
+        {"00_slices", 0.0f, 0.0f},             // min..max display of a zero range: 0
+        {"01_ray_loops", 0.0f, 0.0f},          // same mapping
+        {"02_threshold", 1.0f, 0.0f},          // hit / miss
+        {"03_depth_shading", 1.0f, 0.0f},      // hit at n = 0: 1 - 0/N
+        {"04_gradient_lighting", ambient, 0.0f},  // zero gradient: no normal, ambient only
+        {"05_interpolated_hits", ambient, 0.0f},
     };
     for (int value : {500, -1000}) {
         const Volume volume = make_volume(8, 6, 4, [&](int, int, int) { return value; });
         CHECK(volume.min_value == volume.max_value);
-        for (const auto& step : included_steps()) {
-            CAPTURE(step.name);
+        for (const std::string& step : step_names()) {
+            CAPTURE(step);
             CAPTURE(value);
-            const std::vector<Image> images = render_step(step.name, {"--no-window"}, volume);
-            REQUIRE(images.size() == 3);
-            for (const Image& image : images) {
-                CHECK(bad_pixels(image, shows_unit_grey(step.name)) == 0);
+            const StepRender rendered = render(step, {"--threads", "1"}, volume);
+            REQUIRE(rendered.images.size() == 3);
+            for (const Image& image : rendered.images) {
+                CHECK(bad_pixels(image, shows_unit_grey(step)) == 0);
                 for (const Expected& known : expected) {
-                    if (step.name != known.step) continue;
+                    if (step != known.step) continue;
                     const float want = value > 400 ? known.above : known.below;
                     for (const Rgb& pixel : image.pixels) {
                         CHECK(pixel.r == want);
@@ -511,9 +603,7 @@ TEST_CASE("constant volume: every step, every view, the known value and never Na
                 }
             }
         }
-        // Step 00's tables: a single grey; equalised, all voxels are at or below the value.
-        CHECK(step00::linear_display(volume).grey_of == std::vector<float>{0.0f});
-        CHECK(step00::equalised_display(volume).grey_of == std::vector<float>{1.0f});
+        // Equalised, every voxel is at or below the one value: white.
         const std::vector<Image> equalised = render_step("00_slices", {"--equalise"}, volume);
         for (const Image& image : equalised) CHECK(image.at(0, 0).r == 1.0f);
     }
@@ -534,48 +624,51 @@ TEST_CASE("1x1x1 and one-voxel-thick volumes: every step and view, finite, right
                 return 300 + 20 * i + 10 * j + 15 * k + 200 * (i + j + k == 0);
             },
             1, 1, 2);
-        // Gradients: finite everywhere; zero along a one-voxel axis, exact elsewhere.
-        Work work;
-        for (int k = 0; k < dims.nz; ++k)
-            for (int j = 0; j < dims.ny; ++j)
-                for (int i = 0; i < dims.nx; ++i) {
-                    if (i + j + k <= 1) continue;  // the corner voxel breaks the ramp
-                    const Vec3 g = step04::gradient_at(volume, {i, j, k}, work);
-                    CHECK(finite(g));
-                    CHECK(g.i == (dims.nx > 1 ? 20.0f : 0.0f));
-                    CHECK(g.j == (dims.ny > 1 ? 10.0f : 0.0f));
-                    CHECK(g.k == (dims.nz > 1 ? 7.5f : 0.0f));
-                }
-        const Vec3 corner = step05::gradient_at(volume, {0, 0, 0}, work);
-        CHECK(finite(corner));
-
-        for (const auto& step : included_steps()) {
-            CAPTURE(step.name);
-            const std::vector<Image> images = render_step(step.name, {}, volume);
+        for (const std::string& step : step_names()) {
+            CAPTURE(step);
+            const std::vector<Image> images = render_step(step, {}, volume);
             const std::vector<View> views = views_named(volume, "all");
             REQUIRE(images.size() == 3);
             for (size_t n = 0; n < views.size(); ++n) {
                 CAPTURE(views[n].name);
                 CHECK(images[n].width == views[n].width);
                 CHECK(images[n].height == views[n].height);
-                CHECK(bad_pixels(images[n], shows_unit_grey(step.name)) == 0);
+                CHECK(bad_pixels(images[n], shows_unit_grey(step)) == 0);
             }
         }
-        // Every ray of the surface steps on these volumes: gradients at the hits are finite.
-        for (ViewAxis axis : all_axes) {
-            const View view = make_view(volume, axis);
-            for (int y = 0; y < view.height; ++y)
-                for (int x = 0; x < view.width; ++x) {
-                    const auto hit = step05::first_hit(volume, view, x, y, 400, work, nullptr);
-                    if (!hit.found) continue;
-                    CHECK(finite(step05::gradient_along_ray(volume, view, x, y, hit.n, hit.fraction,
-                                                            work)));
-                    CHECK(along(hit) >= 0.0);
-                    CHECK(along(hit) <= double(view.ray_length - 1));
+        // Gradients at the hits: finite; zero along a one-voxel axis, exact elsewhere
+        // (20, 10, 15/2 per unit) away from the corner voxel that breaks the ramp. Traced at
+        // a pixel away from the corner (clamped into each view) in steps 04 and 05.
+        const int x = std::min(6, std::max(dims.nx, dims.ny) - 1);
+        const int y = std::min(4, std::max(dims.ny, dims.nz) - 1);
+        for (const char* step : {"04_gradient_lighting", "05_interpolated_hits"}) {
+            const StepRender lit = render(step, debug_pixel(x, y), volume);
+            int checked = 0;
+            for (const PixelTrace& trace : lit.run.traces) {
+                CAPTURE(trace.view);
+                Vec3 g;
+                if (!traced_gradient(trace, g)) continue;
+                CHECK(finite(Rgb{g.i, g.j, g.k}));
+                double t_hit = 0;
+                if (step[1] == '5' && traced_t_hit(trace, t_hit)) {
+                    const View view = make_view(volume, trace.view == "top"     ? ViewAxis::top
+                                                        : trace.view == "front" ? ViewAxis::front
+                                                                                : ViewAxis::side);
+                    CHECK(t_hit >= 0.0);
+                    CHECK(t_hit <= double(view.ray_length - 1));
                 }
+                if (dims.nx * dims.ny * dims.nz == 1) continue;
+                if (step[1] == '4') {
+                    CHECK(g.i == (dims.nx > 1 ? 20.0f : 0.0f));
+                    CHECK(g.j == (dims.ny > 1 ? 10.0f : 0.0f));
+                    CHECK(g.k == (dims.nz > 1 ? 7.5f : 0.0f));
+                }
+                ++checked;
+            }
+            if (dims.nx * dims.ny * dims.nz > 1) CHECK(checked > 0);
         }
     }
-    // 1x1x1 with 500 > 400: a hit at t = 0 in every view: white in step 02, 1 - 0/1 in 03.
+    // 1x1x1 with 500 > 400: a hit at n = 0 in every view: white in step 02, 1 - 0/1 in 03.
     const Volume single = make_volume(1, 1, 1, [](int, int, int) { return 500; });
     for (const char* name : {"02_threshold", "03_depth_shading"}) {
         for (const Image& image : render_step(name, {}, single)) CHECK(image.at(0, 0).r == 1.0f);
@@ -589,8 +682,6 @@ TEST_CASE("int16 extremes: MIP and display reach exactly 1, thresholds at the ex
     });
     REQUIRE(volume.min_value == -32768);
     REQUIRE(volume.max_value == 32767);
-    CHECK(step01::display_grey(volume, 32767) == 1.0f);
-    CHECK(step01::display_grey(volume, -32768) == 0.0f);
 
     // MIP: every top ray meets 32767. Front (x = i) and side (x = j) rows y = k >= 2 are
     // 32767; of the rows k < 2 only the ray through the bright voxel (3, 3, 0) is: x 3, y 0.
@@ -603,14 +694,17 @@ TEST_CASE("int16 extremes: MIP and display reach exactly 1, thresholds at the ex
             CHECK(mip[1].at(x, y).r == expected);
             CHECK(mip[2].at(x, y).r == expected);
         }
-    // Step 00's display of the two extremes, linear and equalised.
-    const step00::Display display = step00::linear_display(volume);
-    CHECK(display.grey_of.size() == 65536);
-    CHECK(display.grey_of.front() == 0.0f);
-    CHECK(display.grey_of.back() == 1.0f);
-    const step00::Display equalised = step00::equalised_display(volume);
-    CHECK(equalised.grey_of.front() == doctest::Approx(31.0 / 64));  // 31 of 64 voxels lowest
-    CHECK(equalised.grey_of.back() == 1.0f);
+    // Step 00's display of the two extremes, linear and equalised (slice k = 0 of the top
+    // view: -32768 but for the bright voxel at 3, 3). Equalised, -32768 is the lowest value
+    // of 31 of the 64 voxels: 31/64.
+    const std::vector<Image> linear = render_step("00_slices", {"--view", "top", "--slice", "0"},
+                                                  volume);
+    CHECK(linear[0].at(0, 0).r == 0.0f);
+    CHECK(linear[0].at(3, 3).r == 1.0f);
+    const std::vector<Image> equalised =
+        render_step("00_slices", {"--view", "top", "--slice", "0", "--equalise"}, volume);
+    CHECK(equalised[0].at(0, 0).r == doctest::Approx(31.0 / 64));
+    CHECK(equalised[0].at(3, 3).r == 1.0f);
 
     // Threshold 32767: nothing is above it; -32768: everything but the lowest value is.
     for (const Image& image : render_step("02_threshold", {"--threshold", "32767"}, volume)) {
@@ -621,32 +715,43 @@ TEST_CASE("int16 extremes: MIP and display reach exactly 1, thresholds at the ex
     CHECK(lowest[0].at(0, 0).r == 0.5f);  // top ray: first above at k = 2 of 4
     CHECK(lowest[0].at(3, 3).r == 1.0f);  // the bright voxel at k = 0
     // Step 05 between -32768 and 32767: the fraction (tau - v0)/(v1 - v0) over 65535.
-    const View top = make_view(volume, ViewAxis::top);
-    Work work;
-    CHECK(along(step05::first_hit(volume, top, 0, 0, -32768, work, nullptr)) == 1.0);
-    CHECK(along(step05::first_hit(volume, top, 0, 0, 32766, work, nullptr)) ==
-          doctest::Approx(1.0 + 65534.0 / 65535.0).epsilon(1e-7));
-    CHECK(along(step05::first_hit(volume, top, 0, 0, 0, work, nullptr)) ==
-          doctest::Approx(1.0 + 32768.0 / 65535.0).epsilon(1e-7));
-    CHECK_FALSE(step05::first_hit(volume, top, 0, 0, 32767, work, nullptr).found);
+    auto t_hit_at = [&](int threshold, double& t_hit) {
+        const StepRender run =
+            render("05_interpolated_hits",
+                   joined({"--view", "top", "--threshold", std::to_string(threshold)},
+                          debug_pixel(0, 0)),
+                   volume);
+        REQUIRE(run.run.traces.size() == 1);
+        return traced_t_hit(run.run.traces[0], t_hit);
+    };
+    double t_hit = 0;
+    CHECK(t_hit_at(-32768, t_hit));
+    CHECK(t_hit == 1.0);
+    CHECK(t_hit_at(32766, t_hit));
+    CHECK(std::abs(t_hit - (1.0 + 65534.0 / 65535.0)) < 1e-6);
+    CHECK(t_hit_at(0, t_hit));
+    CHECK(std::abs(t_hit - (1.0 + 32768.0 / 65535.0)) < 1e-6);
+    CHECK_FALSE(t_hit_at(32767, t_hit));
     // Step 04 at that hit: gradient (f(k=3) - f(k=1)) / 2 along +k, normal -k, towards the
     // viewer; the light at angle 30, elevation 20 gives N.L = cos 30 cos 20.
-    const std::vector<Image> lit = render_step("04_gradient_lighting", {"--view", "top"}, volume);
-    const Vec3 gradient = step04::gradient_at(volume, {1, 1, 2}, work);
+    const StepRender lit = render("04_gradient_lighting",
+                                  joined({"--view", "top"}, debug_pixel(1, 1)), volume);
+    REQUIRE(lit.run.traces.size() == 1);
+    Vec3 gradient;
+    REQUIRE(traced_gradient(lit.run.traces[0], gradient));
     CHECK(gradient.k == 65535.0f / 2);
-    const double rad = 3.14159265358979323846 / 180;
-    CHECK(lit[0].at(1, 1).r ==
-          doctest::Approx(step04::ambient +
-                          (1 - step04::ambient) * std::cos(30 * rad) * std::cos(20 * rad))
+    CHECK(lit.images[0].at(1, 1).r ==
+          doctest::Approx(ambient + (1 - ambient) * std::cos(30 * rad) * std::cos(20 * rad))
               .epsilon(1e-5));
-    for (const auto& step : included_steps()) {
+    for (const std::string& step : step_names()) {
         for (const char* threshold : {"-32768", "32767"}) {
             std::vector<std::string> flags;
-            const bool has_threshold = step.name >= "02" && step.name < "06";
+            const bool has_threshold = step >= "02" && step < "06";
             if (has_threshold) flags = {"--threshold", threshold};
-            for (const Image& image : render_step(step.name, flags, volume)) {
-                CHECK(bad_pixels(image, shows_unit_grey(step.name)) == 0);
+            for (const Image& image : render_step(step, flags, volume)) {
+                CHECK(bad_pixels(image, shows_unit_grey(step)) == 0);
             }
+            if (!has_threshold) break;  // one run is enough without a threshold
         }
     }
 }
@@ -657,9 +762,7 @@ TEST_CASE("step 00: slices read the documented voxels; equalisation uses the who
     // Value = unique per voxel, so each pixel tells which voxel it showed.
     const Volume volume =
         make_volume(7, 5, 3, [](int i, int j, int k) { return 100 * k + 10 * j + i; });
-    const step00::Display display = step00::linear_display(volume);
     const float range = float(volume.max_value - volume.min_value);
-    CHECK(display.grey_of[1] == 1.0f / range);  // float division, not integer
     const std::vector<Image> images = render_step("00_slices", {"--slice", "1"}, volume);
     REQUIRE(images.size() == 3);
     const View views[3] = {make_view(volume, ViewAxis::top), make_view(volume, ViewAxis::front),
@@ -668,6 +771,7 @@ TEST_CASE("step 00: slices read the documented voxels; equalisation uses the who
         for (int y = 0; y < views[n].height; ++y)
             for (int x = 0; x < views[n].width; ++x) {
                 const Voxel voxel = views[n].voxel(x, y, 1);
+                // Float division (integer division would give 0 everywhere but the maximum).
                 const float want =
                     float(volume.at(voxel.i, voxel.j, voxel.k) - volume.min_value) / range;
                 CHECK(images[n].at(x, y).r == want);
@@ -675,13 +779,10 @@ TEST_CASE("step 00: slices read the documented voxels; equalisation uses the who
     }
 
     // 2x2x2: slice k = 0 holds 0, 0, 1, 3; slice k = 1 is all 3. Cumulative fractions over
-    // all 8 voxels: value 0 -> 2/8, 1 -> 3/8, 2 -> 3/8 (absent), 3 -> 8/8.
+    // all 8 voxels: value 0 -> 2/8, 1 -> 3/8, 3 -> 8/8.
     const int values[8] = {0, 0, 1, 3, 3, 3, 3, 3};
     const Volume small =
         make_volume(2, 2, 2, [&](int i, int j, int k) { return values[(k * 2 + j) * 2 + i]; });
-    const step00::Display cdf = step00::equalised_display(small);
-    CHECK(cdf.min_value == 0);
-    CHECK(cdf.grey_of == std::vector<float>{0.25f, 0.375f, 0.375f, 1.0f});
     const std::vector<Image> top =
         render_step("00_slices", {"--equalise", "--view", "top", "--slice", "0"}, small);
     REQUIRE(top.size() == 1);
@@ -698,114 +799,72 @@ TEST_CASE("step 01: MIP starts from the first sample (an all-negative volume kee
     // f = -1000 + i + 2j + 3k: the largest value of each ray is at its far end.
     const Volume volume =
         make_volume(5, 4, 3, [](int i, int j, int k) { return -1000 + i + 2 * j + 3 * k; });
+    const float range = float(volume.max_value - volume.min_value);
+    const StepRender mip = render("01_ray_loops", debug_pixel(1, 1), volume);
     for (ViewAxis axis : all_axes) {
         const View view = make_view(volume, axis);
         CAPTURE(view.name);
+        const Image& image = mip.image(view.name);
         for (int y = 0; y < view.height; ++y)
             for (int x = 0; x < view.width; ++x) {
                 const Voxel far = view.voxel(x, y, view.ray_length - 1);
-                Work work;
-                Trace trace;
-                const int highest = step01::mip_ray(volume, view, x, y, work, &trace);
-                CHECK(highest == -1000 + far.i + 2 * far.j + 3 * far.k);
-                CHECK(work.samples == uint64_t(view.ray_length));
-                CHECK(trace.lines().size() == size_t(view.ray_length));
+                const int highest = -1000 + far.i + 2 * far.j + 3 * far.k;
+                CHECK(image.at(x, y).r == float(highest - volume.min_value) / range);
             }
+        // Every sample of every ray read; the trace prints one line per sample.
+        CHECK(summary_count(mip.summary(view.name), "samples") ==
+              uint64_t(view.width) * view.height * view.ray_length);
+        const PixelTrace* trace = trace_of(mip, view.name);
+        REQUIRE(trace);
+        CHECK(trace->lines.size() == size_t(view.ray_length));
+        CHECK(trace->samples == uint64_t(view.ray_length));
     }
-    // A ray of -5 everywhere except one -3 in the middle: max -3, never 0.
+    // A ray of -5 everywhere except one -3 in the middle: max -3, shown as (-3 + 5)/2 = 1;
+    // a maximum started from 0 would show (0 + 5)/2 = 2.5 (the float image keeps it).
     const Volume dip = make_volume(1, 1, 3, [](int, int, int k) { return k == 1 ? -3 : -5; });
-    Work work;
-    CHECK(step01::mip_ray(dip, make_view(dip, ViewAxis::top), 0, 0, work, nullptr) == -3);
+    const std::vector<Image> images = render_step("01_ray_loops", {"--view", "top"}, dip);
+    CHECK(images[0].at(0, 0).r == 1.0f);
 }
 
-// --- Threads and the debug trace -----------------------------------------------------------
+// --- The debug trace -----------------------------------------------------------------------
 
-TEST_CASE("threads: --threads 1 and --threads 2 give identical images and work counts") {
-    const Volume phantom = make_phantom_sized(128, 128, 57);
-    for (const auto& step : included_steps()) {
-        CAPTURE(step.name);
-        std::vector<Image> images[2];
-        std::vector<Work> works[2];
-        for (int n = 0; n < 2; ++n) {
-            const std::string threads = n == 0 ? "1" : "2";
-            run_step(step.name, {"--threads", threads}, phantom,
-                     [&](const Options& options, const Volume& volume, const Renderer& renderer) {
-                         for (const View& view : views_named(volume, "all")) {
-                             Work work;
-                             images[n].push_back(render_view(options, view, renderer, work));
-                             works[n].push_back(work);
-                         }
-                     });
+TEST_CASE("debug trace: the traced ray gives the image's pixel, and prints it") {
+    // Every step on a small phantom, three pixels of every view: the trace's last line gives
+    // the very value of the float image (%.6f) and its PNG bytes, after a header and at least
+    // one line per sample read.
+    const std::vector<std::string> phantom = {"--volume", "phantom", "--dims", "48,48,22"};
+    for (const std::string& step : step_names()) {
+        CAPTURE(step);
+        for (const auto& pixel : {std::pair<int, int>{24, 11}, {0, 0}, {47, 21}}) {
+            const StepRender run = render(
+                step, joined(joined(phantom, {"--threads", "2"}), debug_pixel(pixel.first,
+                                                                               pixel.second)));
+            int traced = 0;
+            for (const PixelTrace& trace : run.run.traces) {
+                CAPTURE(trace.view);
+                CHECK(trace.complete);
+                CHECK(trace.x == pixel.first);
+                CHECK(trace.y == pixel.second);
+                CHECK(trace.header.rfind("debug pixel x=" + std::to_string(pixel.first) +
+                                             " y=" + std::to_string(pixel.second) +
+                                             " view=" + trace.view,
+                                         0) == 0);
+                const Rgb& drawn = run.image(trace.view).at(trace.x, trace.y);
+                char printed[100], expected[100];
+                std::snprintf(printed, sizeof printed, "%.6f %.6f %.6f", trace.rgb.r,
+                              trace.rgb.g, trace.rgb.b);
+                std::snprintf(expected, sizeof expected, "%.6f %.6f %.6f", drawn.r, drawn.g,
+                              drawn.b);
+                CHECK(std::string(printed) == expected);
+                CHECK(trace.png[0] == to_byte(drawn.r));
+                CHECK(trace.png[1] == to_byte(drawn.g));
+                CHECK(trace.png[2] == to_byte(drawn.b));
+                // A line per sample read; a ray that only leapt over empty bricks still says so.
+                CHECK(trace.lines.size() >= trace.samples);
+                CHECK_FALSE(trace.lines.empty());
+                ++traced;
+            }
+            CHECK(traced == 3);  // 48x48 top; 48x22 front and side: 47,21 is inside all
         }
-        REQUIRE(images[0].size() == 3);
-        REQUIRE(images[1].size() == 3);
-        for (int v = 0; v < 3; ++v) {
-            REQUIRE(images[0][v].pixels.size() == images[1][v].pixels.size());
-            CHECK(std::memcmp(images[0][v].pixels.data(), images[1][v].pixels.data(),
-                              images[0][v].pixels.size() * sizeof(Rgb)) == 0);
-            CHECK(works[0][v].samples == works[1][v].samples);
-            CHECK(works[0][v].leapt == works[1][v].leapt);
-            CHECK(works[0][v].hits == works[1][v].hits);
-            CHECK(works[0][v].gradients == works[1][v].gradients);
-            CHECK(works[0][v].terminated == works[1][v].terminated);
-            CHECK(works[0][v].samples > 0);
-        }
-    }
-}
-
-TEST_CASE("debug trace: the traced ray gives the image's pixel, and print_trace prints it") {
-    const Volume phantom = make_phantom_sized(48, 48, 22);
-    for (const auto& step : included_steps()) {
-        CAPTURE(step.name);
-        run_step(step.name, {"--threads", "2"}, phantom,
-                 [&](const Options& options, const Volume& volume, const Renderer& renderer) {
-                     for (const View& view : views_named(volume, "all")) {
-                         CAPTURE(view.name);
-                         Work image_work;
-                         const Image image = render_view(options, view, renderer, image_work);
-                         // Every pixel: the ray with a trace is the same code and gives the same
-                         // value.
-                         Work ray_work;
-                         int different = 0, untraced = 0;
-                         for (int y = 0; y < view.height; ++y)
-                             for (int x = 0; x < view.width; ++x) {
-                                 Work work;
-                                 Trace trace;
-                                 const Rgb pixel = renderer.ray(view, x, y, work, &trace);
-                                 const Rgb& drawn = image.at(x, y);
-                                 if (pixel.r != drawn.r || pixel.g != drawn.g || pixel.b != drawn.b)
-                                     ++different;
-                                 // A line per sample read; a ray that only leapt over empty
-                                 // bricks (09) still says so.
-                                 if (trace.lines().size() < work.samples ||
-                                     trace.lines().empty())
-                                     ++untraced;
-                                 ray_work.add(work);
-                             }
-                         CHECK(different == 0);
-                         CHECK(untraced == 0);
-                         CHECK(ray_work.samples == image_work.samples);
-                         CHECK(ray_work.leapt == image_work.leapt);
-                         CHECK(ray_work.hits == image_work.hits);
-                         CHECK(ray_work.gradients == image_work.gradients);
-
-                         // What --debug-pixel prints: the header, the samples, then this pixel.
-                         const int x = view.width / 2, y = view.height / 2;
-                         const std::string printed = ctlab_test::capture_stdout(
-                             [&] { print_trace(options, view, renderer, x, y); });
-                         const Rgb& drawn = image.at(x, y);
-                         char last[200];
-                         std::snprintf(last, sizeof last,
-                                       "pixel x=%d y=%d rgb=(%.6f, %.6f, %.6f) png=(%d, %d, %d)", x,
-                                       y, drawn.r, drawn.g, drawn.b, to_byte(drawn.r),
-                                       to_byte(drawn.g), to_byte(drawn.b));
-                         const size_t last_start = printed.rfind('\n', printed.size() - 2) + 1;
-                         const std::string last_line = printed.substr(last_start);
-                         CHECK(last_line.rfind(last, 0) == 0);
-                         CHECK(printed.rfind("debug pixel x=" + std::to_string(x) +
-                                                 " y=" + std::to_string(y) + " view=" + view.name,
-                                             0) == 0);
-                     }
-                 });
     }
 }

@@ -1,13 +1,13 @@
 // test_threads.cpp: the parallel pixel loop changes how fast a picture comes, never what it
 // is. Every step, every view, a few non-default settings: 1, 2, 3 and 7 threads give the same
-// pixels bit for bit and the same work counts (make bench times the same renders).
+// pixels bit for bit (the --pfm float images) and the same summary lines but for time and
+// thread count (make bench times the same renders). The steps run as programs (harness.h).
 #include <doctest/doctest.h>
 #include <atomic>
 #include <cstring>
 #include <string>
 #include <vector>
 #include "harness.h"
-#include "phantom.h"
 #include "render.h"
 
 using namespace ctlab;
@@ -17,31 +17,14 @@ namespace {
 constexpr int thread_counts[] = {1, 2, 3, 7};  // 7: more threads than this machine has cores
 
 // The phantom, small: 64 x 64 x 29 keeps every step's rays short.
-const Volume& small_phantom() {
-    static const Volume volume = make_phantom_sized(64, 64, 29);
-    return volume;
-}
+const std::vector<std::string> small_phantom = {"--volume", "phantom", "--dims", "64,64,29"};
 
-struct Render {
-    std::vector<Image> images;  // top, front, side
-    std::vector<Work> works;
-};
-
-Render render_with_threads(const std::string& step, std::vector<std::string> flags,
-                           int threads) {
+ctlab_test::StepRender render_with_threads(const std::string& step,
+                                           std::vector<std::string> flags, int threads) {
+    flags.insert(flags.end(), small_phantom.begin(), small_phantom.end());
     flags.push_back("--threads");
     flags.push_back(std::to_string(threads));
-    Render render;
-    const int status = ctlab_test::run_step(step, flags, small_phantom(),
-        [&](const Options& options, const Volume& volume, const Renderer& renderer) {
-            for (const View& view : views_named(volume, "all")) {
-                Work work;
-                render.images.push_back(render_view(options, view, renderer, work));
-                render.works.push_back(work);
-            }
-        });
-    CHECK(status == 0);
-    return render;
+    return ctlab_test::render(step, flags);
 }
 
 bool identical(const Image& a, const Image& b) {
@@ -49,24 +32,36 @@ bool identical(const Image& a, const Image& b) {
            std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(Rgb)) == 0;
 }
 
+// The summary line's counters: every key but the timing and the thread count.
+Summary counters(Summary summary) {
+    for (const char* key : {"time_ms", "warm_ms", "threads"}) summary.erase(key);
+    return summary;
+}
+
 void check_same_for_every_thread_count(const std::string& step,
                                        const std::vector<std::string>& flags) {
-    const Render one = render_with_threads(step, flags, 1);
+    const ctlab_test::StepRender one = render_with_threads(step, flags, 1);
     REQUIRE(one.images.size() == 3);
     for (const int threads : thread_counts) {
         if (threads == 1) continue;
         CAPTURE(threads);
-        const Render many = render_with_threads(step, flags, threads);
+        const ctlab_test::StepRender many = render_with_threads(step, flags, threads);
         REQUIRE(many.images.size() == 3);
         for (size_t v = 0; v < 3; ++v) {
-            CAPTURE(v);
-            CHECK(identical(one.images[v], many.images[v]));
-            CHECK(one.works[v].samples == many.works[v].samples);
-            CHECK(one.works[v].skipped == many.works[v].skipped);
-            CHECK(one.works[v].leapt == many.works[v].leapt);
-            CHECK(one.works[v].gradients == many.works[v].gradients);
-            CHECK(one.works[v].terminated == many.works[v].terminated);
-            CHECK(one.works[v].hits == many.works[v].hits);
+            CAPTURE(one.views[v]);
+            REQUIRE(one.views[v] == many.views[v]);
+            CHECK(identical(one.images[v], many.images[v]));  // the float images, bit for bit
+            const Summary& a = one.run.summaries[v];
+            const Summary& b = many.run.summaries[v];
+            CHECK(summary_count(b, "threads") == uint64_t(threads));
+            // samples, skipped, leapt, gradients, terminated, hits and the step's own
+            for (const char* key : {"samples", "skipped", "leapt", "gradients", "terminated",
+                                    "hits"}) {
+                CAPTURE(key);
+                CHECK(summary_count(a, key) == summary_count(b, key));
+            }
+            CHECK(counters(a) == counters(b));
+            CHECK(summary_count(a, "samples") > 0);
         }
     }
 }
@@ -74,9 +69,9 @@ void check_same_for_every_thread_count(const std::string& step,
 }  // namespace
 
 TEST_CASE("threads: every step and view gives the same pixels with 1, 2, 3 and 7 threads") {
-    for (const auto& step : ctlab_test::included_steps()) {
-        CAPTURE(step.name);
-        check_same_for_every_thread_count(step.name, {});
+    for (const std::string& step : ctlab_test::step_names()) {
+        CAPTURE(step);
+        check_same_for_every_thread_count(step, {});
     }
 }
 

@@ -320,7 +320,7 @@ std::string TempFolder::file(const std::string& name,
     return path(name);
 }
 
-std::string TempFolder::file(const std::string& name, const std::string& text) const {
+std::string TempFolder::text_file(const std::string& name, const std::string& text) const {
     return file(name, std::vector<unsigned char>(text.begin(), text.end()));
 }
 

@@ -97,7 +97,7 @@ public:
     std::string path(const std::string& name) const { return path_ + "/" + name; }
     // Writes a file of exactly these bytes and returns its path.
     std::string file(const std::string& name, const std::vector<unsigned char>& bytes) const;
-    std::string file(const std::string& name, const std::string& text) const;
+    std::string text_file(const std::string& name, const std::string& text) const;
 
 private:
     std::string path_;

@@ -9,23 +9,27 @@
 //              8-bit units (RMSE and max over every channel of every pixel)
 //   ert        early ray termination thresholds 0 .. 0.1 (steps 07 and 08, top view):
 //              time saved against error added
-//   precision  float against double sums; the cost of subnormal arithmetic on this machine
+//   precision  the cost of subnormal arithmetic on this machine, and of a float ray
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
 //              error measured here (handouts/numerics.md quotes them)
 //
-//   build/study [--out DIR] [--runs N] [--quick]           (make study: about a minute)
+//   build/study [--out DIR] [--runs N] [--quick]      (make study: a few minutes)
 //
 // --quick (make study QUICK=1, run by CI so the study cannot rot): one render per case, the
-// phantom at 64 x 64 x 29 and a reference step of 1/16. Its figures are not to be quoted.
+// phantom at 64 x 64 x 29 (written to a raw file) and a reference step of 1/16. Its figures
+// are not to be quoted, and its tables are not marked as sections for the handouts.
 //
 // Writes DIR/error_vs_time.csv, DIR/error_vs_time.png (log-log, a panel per study),
 // DIR/error_vs_time.md (the tables) and DIR/numerics.md. handouts/error_vs_time.md and
 // handouts/numerics.md discuss one run of it.
 //
-// The methods are the steps' own code: each step is compiled in here in a namespace of its
-// own (as the tests do) and its lesson functions are called directly. Where the study needs
-// a variant no step has (finer ray steps for the first hit, float sums), it is written
-// below, marked "study variant", built from the same lesson functions.
+// The methods are the steps themselves: each runs as its own program (tools/run_step.h) on
+// volumes written here (analytic shapes as raw files, the phantom), and the study reads what
+// it writes: the float picture (--pfm), the summary line (samples, and with --repeat the
+// median time of the warm renders) and the --debug-pixel trace (step 05's sub-voxel depth).
+// Where the study needs a variant no step has, it changes the input, never the code: thinner
+// slices of the same shape for finer first-hit steps (to 1/8 voxel); a stretched phantom with
+// a thinned table for compositing steps finer than --step allows (1/8, and the 1/32 reference).
 #include "common/ctlab.h"
 #include <cfloat>
 #include <cstdarg>
@@ -37,11 +41,10 @@
 #include <xmmintrin.h>  // the MXCSR register: flush-to-zero and denormals-are-zero
 #endif
 
-// The steps, each in a namespace of its own (step03::first_hit, ...); their main() is not
-// run here, so load_volume and run_views keep their own meaning.
-#include "all_steps.h"
+#include <thread>
 #include "machine_load.h"
 #include "plot.h"
+#include "run_step.h"
 
 using namespace ctlab;
 
@@ -92,11 +95,6 @@ ImageError image_error(const Image& image, const Image& reference) {
     return {std::sqrt(sum / (3.0 * image.pixels.size())) * byte_units, largest * byte_units};
 }
 
-bool identical(const Image& a, const Image& b) {
-    return a.pixels.size() == b.pixels.size() &&
-           std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(Rgb)) == 0;
-}
-
 std::string format(const char* pattern, ...) __attribute__((format(printf, 1, 2)));
 std::string format(const char* pattern, ...) {
     char text[1024];
@@ -130,6 +128,119 @@ void record(const Point& point) {
                 point.study.c_str(), point.method.c_str(), point.parameter.c_str(), point.ms,
                 point.error, point.max_error, point.error_unit.c_str());
     std::fflush(stdout);
+}
+
+// --- Running the steps --------------------------------------------------------------------
+
+// One folder for the whole run: the volumes, transfer functions and pictures it writes.
+const TempFolder& scratch() {
+    static const TempFolder folder("study");
+    return folder;
+}
+
+// One run of a step: what it printed and its float pictures (--pfm), in summary-line order.
+struct Run {
+    RunResult result;
+    std::vector<Image> images;
+    const Summary& line(size_t n = 0) const { return result.summaries.at(n); }
+    uint64_t count(const char* key, size_t n = 0) const { return summary_count(line(n), key); }
+    // Timed runs: the median of the renders after the first (warm_ms=); else time_ms=.
+    double ms(size_t n = 0) const {
+        return line(n).count("warm_ms") ? summary_number(line(n), "warm_ms")
+                                        : summary_number(line(n), "time_ms");
+    }
+    const Image& image(size_t n = 0) const { return images.at(n); }
+};
+
+// Runs `step` with these flags (1 thread unless they say otherwise), --pfm into the scratch
+// folder; timed: --repeat runs + 1, the first render the warm-up, the median of the others.
+Run run(const std::string& step, std::vector<std::string> flags, bool timed = false) {
+    if (std::find(flags.begin(), flags.end(), "--threads") == flags.end()) {
+        flags.insert(flags.end(), {"--threads", "1"});
+    }
+    const std::string out = scratch().path("out");
+    flags.insert(flags.end(), {"--pfm", "--out", out});
+    if (timed) flags.insert(flags.end(), {"--repeat", std::to_string(runs + 1)});
+    Run result;
+    result.result = run_step(step, flags, 3600);
+    if (result.result.status != 0 || result.result.summaries.empty()) {
+        throw std::runtime_error(result.result.command() + " failed (status " +
+                                 std::to_string(result.result.status) + "): " +
+                                 result.result.err);
+    }
+    for (const Summary& line : result.result.summaries) {
+        result.images.push_back(read_pfm(step_output(out, step, line.at("view"), "pfm")));
+    }
+    return result;
+}
+
+std::vector<std::string> operator+(std::vector<std::string> a, const std::vector<std::string>& b) {
+    a.insert(a.end(), b.begin(), b.end());
+    return a;
+}
+
+// A volume as a raw file in the scratch folder: the flags that load it.
+std::vector<std::string> volume_flags(const Volume& volume, const std::string& name) {
+    return write_raw_volume(volume, scratch().path(name + ".raw"));
+}
+
+// A transfer function file in the scratch folder: the --tf flag naming it.
+std::vector<std::string> tf_flags(const std::string& text, const std::string& name) {
+    const std::string path = scratch().path(name + ".tf");
+    std::ofstream(path) << text;
+    return {"--tf", path};
+}
+
+// "FROM TO constant R G B A\n": one range of a .tf file.
+std::string tf_range(int from, int to, double r, double g, double b, double a) {
+    return format("%d %d constant %.9g %.9g %.9g %.9g\n", from, to, r, g, b, a);
+}
+
+// Step 05's "crossing between n=A and n=B: hit at A + F" in samples along the ray, or a
+// hit at n = 0.
+bool traced_t_hit(const PixelTrace& trace, double& t_hit) {
+    for (const std::string& line : trace.lines) {
+        const size_t at = line.find("hit at ");
+        int whole = 0;
+        double fraction = 0;
+        if (at != std::string::npos &&
+            std::sscanf(line.c_str() + at, "hit at %d + %lf", &whole, &fraction) == 2) {
+            t_hit = whole + fraction;
+            return true;
+        }
+    }
+    if (!trace.lines.empty() && trace.lines[0].rfind("n=  0 ", 0) == 0 &&
+        trace.lines[0].find("hit") != std::string::npos) {
+        t_hit = 0;
+        return true;
+    }
+    return false;
+}
+
+// The lit steps' trace line "gradient=(GI, GJ, GK) shade=S".
+bool traced_gradient(const PixelTrace& trace, double g[3]) {
+    for (const std::string& line : trace.lines) {
+        if (std::sscanf(line.c_str(), "gradient=(%lf, %lf, %lf)", &g[0], &g[1], &g[2]) == 3) {
+            return true;
+        }
+    }
+    return false;
+}
+
+// The transparency after the traced ray's last composited sample ("... T=0.00704").
+double traced_transparency(const Run& run) {
+    double t = -1;
+    for (const PixelTrace& trace : run.result.traces) {
+        for (const std::string& line : trace.lines) {
+            const size_t at = line.find(" T=");
+            if (at != std::string::npos) t = std::strtod(line.c_str() + at + 3, nullptr);
+        }
+    }
+    return t;
+}
+
+std::vector<std::string> debug_pixel(int x, int y) {
+    return {"--debug-pixel", format("%d,%d", x, y)};
 }
 
 // --- 1. First-hit depth against analytic surfaces ---------------------------------------
@@ -209,22 +320,33 @@ struct DepthHit {
     double t = 0;  // samples (voxels) along the ray
 };
 
-// Where step 05's hit lies along the ray, in samples: its sample index plus the fraction.
-double crossing_of(const step05::Hit& hit) { return hit.n + double(hit.fraction); }
+// The shape sampled at voxel centres as shape_volume does, but with slices h voxels apart
+// along k: what a scanner with thinner slices would give (h = 1: shape_volume itself).
+Volume finer_shape_volume(const Ellipsoid& shape, double h) {
+    Volume volume;
+    volume.nx = cthead_nx, volume.ny = cthead_ny;
+    volume.nz = int(std::lround((cthead_nz - 1) / h)) + 1;
+    volume.sx = cthead_sx, volume.sy = cthead_sy, volume.sz = cthead_sz * h;
+    volume.name = shape.name;
+    volume.data.resize(volume.voxel_count());
+    for (int k = 0; k < volume.nz; ++k)
+        for (int j = 0; j < volume.ny; ++j)
+            for (int i = 0; i < volume.nx; ++i) {
+                const double v = shape.value(i * volume.sx, j * volume.sy, k * volume.sz);
+                volume.data[(size_t(k) * volume.ny + j) * volume.nx + i] =
+                    int16_t(std::clamp(std::round(v), -32768.0, 32767.0));
+            }
+    update_range(volume);
+    return volume;
+}
 
-// Study variant (no step has it): step 03's rule - the first sample above the threshold -
-// with samples `h` voxels apart, each read as step 08 reads it (linear along the ray).
-DepthHit first_hit_finer(const Volume& volume, const View& view, int x, int y, double h,
-                         Work& work) {
-    const int count = int(std::floor((view.ray_length - 1) / h + 1e-9)) + 1;
-    for (int n = 0; n < count; ++n) {
-        const double position = n * h;
-        ++work.samples;
-        if (step08::value_along_ray(volume, view, x, y, position) > surface_threshold) {
-            return {true, position};
-        }
+// Step 03's picture is 1 - t/N for a hit at sample t of N, 0 for a miss: its depth map.
+std::vector<DepthHit> depth_from_picture(const Image& image, int ray_length, double h) {
+    std::vector<DepthHit> hits;
+    for (const Rgb& p : image.pixels) {
+        hits.push_back({p.r > 0, std::round((1.0 - p.r) * ray_length) * h});
     }
-    return {};
+    return hits;
 }
 
 void depth_study() {
@@ -234,6 +356,9 @@ void depth_study() {
         {"sphere", 127.6, 128.3, 112.7, 80, 80, 80, 0},
         {"ellipsoid", 128.4, 127.3, 113.3, 100, 70, 45, 30 * pi / 180},
     };
+    constexpr int traced_every = 16;  // step 05's depth: traced rays, every 16th pixel
+    const std::vector<std::string> top = {"--view", "top", "--threshold",
+                                          std::to_string(surface_threshold)};
     for (const Ellipsoid& shape : shapes) {
         const Volume volume = shape_volume(shape);
         const View view = make_view(volume, ViewAxis::top);
@@ -242,44 +367,16 @@ void depth_study() {
             for (int x = 0; x < view.width; ++x) {
                 truth.push_back(analytic_top(volume, shape, x, y));
             }
-
-        struct Method {
-            std::string name, parameter;
-            std::function<DepthHit(int x, int y, Work&)> hit;
-        };
-        std::vector<Method> methods;
-        methods.push_back({"nearest sample (step 03)", "1", [&](int x, int y, Work& work) {
-            const step03::Hit hit = step03::first_hit(volume, view, x, y, surface_threshold,
-                                                      work, nullptr);
-            return DepthHit{hit.found, double(hit.n)};
-        }});
-        for (const double h : {0.5, 0.25, 0.125, 0.0625}) {
-            methods.push_back({"nearest, finer steps", step_text(h),
-                               [&, h](int x, int y, Work& work) {
-                                   return first_hit_finer(volume, view, x, y, h, work);
-                               }});
-        }
-        methods.push_back({"interpolated (step 05)", "1", [&](int x, int y, Work& work) {
-            const step05::Hit hit = step05::first_hit(volume, view, x, y, surface_threshold,
-                                                      work, nullptr);
-            return DepthHit{hit.found, crossing_of(hit)};
-        }});
-
-        for (const Method& method : methods) {
-            std::vector<DepthHit> hits(truth.size());
-            Work work;
-            const double ms = median_ms([&] {
-                work = Work();
-                for (int y = 0; y < view.height; ++y)
-                    for (int x = 0; x < view.width; ++x) {
-                        hits[size_t(y) * view.width + x] = method.hit(x, y, work);
-                    }
-            });
-            // Error over the rays that pass well inside (min |q| <= 0.9): near grazing the
-            // depth error of any sampling grows without bound and says little.
+        // Error over the rays that pass well inside (min |q| <= 0.9): near grazing the depth
+        // error of any sampling grows without bound and says little. `only`: the rays with
+        // a figure (empty: all).
+        auto record_depth = [&](const std::string& method, const std::string& parameter,
+                                const std::vector<DepthHit>& hits, const std::vector<bool>& only,
+                                double ms, uint64_t samples, const std::string& unit) {
             double sum = 0, largest = 0;
             int measured = 0, disagree = 0;
             for (size_t n = 0; n < truth.size(); ++n) {
+                if (!only.empty() && !only[n]) continue;
                 if (truth[n].hit && truth[n].closest < 0.98 && !hits[n].found) ++disagree;
                 if (!truth[n].hit && hits[n].found) ++disagree;
                 if (!truth[n].hit || !hits[n].found || truth[n].closest > 0.9) continue;
@@ -288,177 +385,144 @@ void depth_study() {
                 largest = std::max(largest, error);
                 ++measured;
             }
-            Point point;
-            point.study = "depth";
-            point.method = shape.name + ": " + method.name;
-            point.parameter = method.parameter;
-            point.ms = ms;
-            point.error = sum / measured;
-            point.max_error = largest;
-            point.error_unit = "voxels (mean |t - t*|, max)";
-            point.samples = work.samples;
-            record(point);
+            record({"depth", shape.name + ": " + method, parameter, ms, sum / measured, largest,
+                    unit, samples});
             if (disagree > 0) std::printf("    (%d rays hit or miss unlike the surface)\n",
                                           disagree);
+        };
+        const std::string unit = "voxels (mean |t - t*|, max)";
+        const std::vector<std::string> flags = volume_flags(volume, shape.name);
+        const Run nearest = run("03_depth_shading", flags + top, true);
+        record_depth("nearest sample (step 03)", "1",
+                     depth_from_picture(nearest.image(), view.ray_length, 1), {}, nearest.ms(),
+                     nearest.count("samples"), unit);
+        // Thinner slices: the same shape sampled every h voxels along the ray, rendered by
+        // step 03 (its depth t counts the thin slices: t * h voxels).
+        for (const double h : {0.5, 0.25, 0.125}) {
+            const Volume finer = finer_shape_volume(shape, h);
+            const Run thin = run("03_depth_shading",
+                                 volume_flags(finer, shape.name + "_finer") + top, true);
+            record_depth("nearest, finer steps", step_text(h),
+                         depth_from_picture(thin.image(), finer.nz, h), {}, thin.ms(),
+                         thin.count("samples"), unit);
         }
+        std::remove(scratch().path(shape.name + "_finer.raw").c_str());
+        // Step 05: its time from a whole render; its depth from the traces of the rays on a
+        // grid of every 16th pixel that pass well inside.
+        const Run interpolated = run("05_interpolated_hits", flags + top, true);
+        std::vector<DepthHit> hits(truth.size());
+        std::vector<bool> traced(truth.size(), false);
+        for (int y = traced_every / 2; y < view.height; y += traced_every)
+            for (int x = traced_every / 2; x < view.width; x += traced_every) {
+                const size_t n = size_t(y) * view.width + x;
+                if (!truth[n].hit || truth[n].closest > 0.9) continue;
+                const Run ray = run("05_interpolated_hits", flags + top + debug_pixel(x, y));
+                if (ray.result.traces.size() != 1) continue;
+                double t = 0;
+                hits[n] = {traced_t_hit(ray.result.traces[0], t), t};
+                traced[n] = true;
+            }
+        record_depth("interpolated (step 05)", "1", hits, traced, interpolated.ms(),
+                     interpolated.count("samples"),
+                     format("voxels (mean |t - t*|, max), traced rays every %d pixels",
+                            traced_every));
     }
 }
 
 // --- 2. Compositing: step size and opacity correction -----------------------------------
 
-const Volume& phantom() {
-    static const Volume volume = quick ? make_phantom_sized(quick_dims[0], quick_dims[1],
-                                                            quick_dims[2])
-                                       : make_phantom();
-    return volume;
+// The flags that load the phantom: the built-in one, or with --quick a small one as a raw
+// file. Its spacing, for the stretched copies of the step study.
+struct Phantom {
+    std::vector<std::string> flags;
+    double sx = cthead_sx, sy = cthead_sy, sz = cthead_sz;
+};
+
+const Phantom& phantom_volume() {
+    static const Phantom phantom = [] {
+        Phantom p;
+        if (!quick) {
+            p.flags = {"--volume", "phantom"};
+            return p;
+        }
+        Volume small = make_phantom_sized(quick_dims[0], quick_dims[1], quick_dims[2]);
+        // CThead's spacing, so that a step in physical units is the same fraction of a voxel
+        // as on the full phantom (and the stretched copies stay within the steps' limit of
+        // samples per ray).
+        small.sx = cthead_sx, small.sy = cthead_sy, small.sz = cthead_sz;
+        p.flags = volume_flags(small, "phantom_quick");
+        p.sx = small.sx, p.sy = small.sy, p.sz = small.sz;
+        return p;
+    }();
+    return phantom;
 }
 
-// Step 08's picture, rendered by step 09 (step 08 plus leaping over empty bricks: the same
-// pixels, less work): its table for this step, then its front-to-back ray for every pixel.
-Image render_08(const View& view, const step09::Params& params, int threads, Work& work,
-                double* ms = nullptr) {
-    const step09::Lut lut = step09::build_lut(classic_transfer_function(),
-                                              step09::opacity_ratio(params));
-    step09::EmptySpace space;  // leaping over empty bricks, as the step does by default
-    space.bricks = make_bricks(phantom());
-    space.empty = step09::find_empty_bricks(space.bricks, lut);
-    auto render = [&] {
-        work = Work();
-        return render_image(view, threads, work, [&](int x, int y, Work& w) {
-            return step09::over_background(step09::composite_front_to_back(
-                phantom(), view, x, y, lut, space, params, w, nullptr));
-        });
-    };
-    Image image;
-    if (ms) *ms = median_ms([&] { image = render(); });
-    else image = render();
-    return image;
-}
-
-// Study variant (no step has it): step 08's front-to-back loop, line for line, with the sums
-// C and T held in Real. Real = double is step 08 itself (the study checks the pictures are
-// identical); Real = float is what a renderer that keeps everything in float would get.
-// In float, T cannot fall below 1e-300 without reaching 0, so with --ert 0 the ray runs
-// until T is exactly 0 (after passing through subnormal values).
-template <class Real>
-Rgb composite_front_to_back_in(const View& view, int x, int y, const step09::Lut& lut,
-                               const step09::EmptySpace& space, const step09::Params& params,
-                               Work& work) {
-    const Volume& volume = phantom();
-    const double stop_below = std::max(params.ert, step09::min_transparency);
-    const double depth = view.ray_length * view.ray_spacing;
-    const int sample_count = std::max(1, int(std::lround(depth / params.step)));
-    const double voxels_per_sample = params.step / view.ray_spacing;
-    const Vec3 to_light = params.unlit ? Vec3{}
-                                       : step09::light_direction(view, params.light_angle);
-    Real r = 0, g = 0, b = 0, transparency = 1;
-    for (int n = 0; n < sample_count; ++n) {
-        const double position = n * voxels_per_sample;
-        const int before = std::min(int(position), view.ray_length - 1);
-        const float fraction = float(position - before);
-        if (space.is_empty(view.voxel(x, y, before))) {
-            const int brick_end = (before / brick_size + 1) * brick_size;
-            const int next = std::min(sample_count,
-                                      std::max(n + 1, int(brick_end / voxels_per_sample)));
-            work.leapt += next - n;
-            n = next - 1;
-            continue;
-        }
-        const float value = step09::value_along_ray(volume, view, x, y, position);
-        const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
-        ++work.samples;
-        if (sample.a == 0.0f) {
-            ++work.skipped;
-            continue;
-        }
-        double light = 1.0;
-        if (!params.unlit) {
-            light = step09::shade(step09::gradient_along_ray(volume, view, x, y, before,
-                                                             fraction, work),
-                                  to_light);
-        }
-        const Real weight = Real(transparency * Real(sample.a) * Real(light));
-        r += weight * Real(sample.r);
-        g += weight * Real(sample.g);
-        b += weight * Real(sample.b);
-        transparency *= Real(1) - Real(sample.a);
-        if (transparency < stop_below && n + 1 < sample_count) {
-            ++work.terminated;
-            break;
-        }
-    }
-    return {float(r), float(g), float(b)};  // over the black background
-}
-
-template <class Real>
-Image render_08_in(const View& view, const step09::Params& params, Work& work, double* ms) {
-    const step09::Lut lut = step09::build_lut(classic_transfer_function(),
-                                              step09::opacity_ratio(params));
-    step09::EmptySpace space;  // leaping over empty bricks, as step 09 does
-    space.bricks = make_bricks(phantom());
-    space.empty = step09::find_empty_bricks(space.bricks, lut);
-    Image image;
-    *ms = median_ms([&] {
-        work = Work();
-        image = render_image(view, 1, work, [&](int x, int y, Work& w) {
-            return composite_front_to_back_in<Real>(view, x, y, lut, space, params, w);
-        });
-    });
-    return image;
-}
+// Step 08's pictures are rendered by step 09 (step 08 plus leaping over empty bricks: the
+// same pixels, less work; tests/test_compositing.cpp checks that they are identical).
+constexpr const char* lit_step = "09_empty_space";
 
 void step_study() {
     std::printf("step: step 08 (lit) on the phantom, front view, step 4 .. 1/8 voxel, no early "
                 "termination, against step %s\n", step_text(reference_step).c_str());
-    const View view = make_view(phantom(), ViewAxis::front);
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
-    step09::Params params;  // step 08 plus leaping: the same pictures
-    params.ert = 0;
-    params.step = reference_step;
-    Work work;
+    const std::vector<std::string> front = {"--view", "front", "--ert", "0"};
+    // Steps finer than --step allows (1/4 voxel): the same phantom with every spacing
+    // `scale` times larger, rendered at step 1/4 (1/(4 scale) of its voxel), and, with
+    // correction, a table whose opacities hold for 1/scale of the thickness,
+    // a' = 1 - (1 - a)^(1/scale): a sample 1/(4 scale) voxel long is then corrected to
+    // 1 - (1 - a)^(1/(4 scale)), as in the phantom itself at that step. Without correction
+    // each sample takes the table's a as it is, as in the phantom. The gradients are `scale`
+    // times smaller and point the same way: the light is the same.
+    constexpr double min_step = 0.25;  // step 08's --step limit, physical units
+    auto render_at = [&](double step, bool correction, int threads, bool timed) {
+        const Phantom& phantom = phantom_volume();
+        std::vector<std::string> flags = phantom.flags + front;
+        double scale = 1;
+        if (step < min_step) {
+            scale = min_step / step;
+            std::string thinned;
+            for (const TfRange& range : classic_transfer_function().ranges) {
+                const double a = range.start.a;
+                thinned += tf_range(range.from, range.to, range.start.r, range.start.g,
+                                    range.start.b,
+                                    correction ? -std::expm1(std::log1p(-a) / scale) : a);
+            }
+            flags = flags + tf_flags(thinned, "thinned") +
+                    std::vector<std::string>{"--spacing",
+                                             format("%g,%g,%g", scale * phantom.sx,
+                                                    scale * phantom.sy, scale * phantom.sz)};
+        }
+        flags = flags + std::vector<std::string>{"--step", format("%g", step * scale),
+                                                 "--threads", std::to_string(threads)};
+        if (!correction) flags.push_back("--no-correction");
+        return run(lit_step, flags, timed);
+    };
     const Timer timer;
-    const Image reference = render_08(view, params, cores, work);
+    const Run reference = render_at(reference_step, true, cores, false);
     std::printf("  reference: step %s, %.1f Msamples, %.1f s on %d threads\n",
-                step_text(reference_step).c_str(), work.samples / 1e6, timer.ms() / 1000, cores);
-    params.step = 2 * reference_step;  // how converged is the reference itself?
-    const ImageError half = image_error(render_08(view, params, cores, work), reference);
+                step_text(reference_step).c_str(), reference.count("samples") / 1e6,
+                timer.ms() / 1000, cores);
+    const Run half = render_at(2 * reference_step, true, cores, false);
+    const ImageError half_error = image_error(half.image(), reference.image());
     std::printf("  the reference against step %s: RMSE %.3f, max %.3f (8-bit units)\n",
-                step_text(params.step).c_str(), half.rmse, half.max);
+                step_text(2 * reference_step).c_str(), half_error.rmse, half_error.max);
     Point convergence;
     convergence.study = "step-reference";
-    convergence.method = "step 1/16 against step 1/32";
+    convergence.method = "step " + step_text(2 * reference_step) + " against step " +
+                         step_text(reference_step);
     convergence.parameter = step_text(2 * reference_step);
-    convergence.error = half.rmse;
-    convergence.max_error = half.max;
+    convergence.error = half_error.rmse;
+    convergence.max_error = half_error.max;
     convergence.error_unit = "8-bit (RMSE, max)";
     record(convergence);
 
     for (const double step : {4.0, 2.0, 1.0, 0.5, 0.25, 0.125}) {
         for (const bool correction : {true, false}) {
-            params.step = step;
-            params.no_correction = !correction;
-            double ms = 0;
-            const Image image = render_08(view, params, 1, work, &ms);
-            const ImageError error = image_error(image, reference);
+            const Run image = render_at(step, correction, 1, true);
+            const ImageError error = image_error(image.image(), reference.image());
             record({"step", correction ? "opacity corrected" : "not corrected", step_text(step),
-                    ms, error.rmse, error.max, "8-bit (RMSE, max)", work.samples});
-            if (!correction) continue;
-            // The same in float sums (study variant), and its check that double is step 08.
-            Work float_work, double_work;
-            double float_ms = 0, double_ms = 0;
-            const Image in_float = render_08_in<float>(view, params, float_work, &float_ms);
-            const Image in_double = render_08_in<double>(view, params, double_work, &double_ms);
-            if (!identical(in_double, image)) {
-                throw std::runtime_error("study: the double variant differs from step 08");
-            }
-            const ImageError float_error = image_error(in_float, reference);
-            record({"step", "opacity corrected, float sums", step_text(step), float_ms,
-                    float_error.rmse, float_error.max, "8-bit (RMSE, max)", float_work.samples});
-            const ImageError float_vs_double = image_error(in_float, image);
-            record({"precision", "float sums against double (step 08)", step_text(step),
-                    float_ms / double_ms, float_vs_double.rmse, float_vs_double.max,
-                    "8-bit (RMSE, max); ms column = float time / double time",
-                    float_work.samples});
+                    image.ms(), error.rmse, error.max, "8-bit (RMSE, max)",
+                    image.count("samples")});
         }
     }
 }
@@ -467,47 +531,29 @@ void step_study() {
 
 void ert_study() {
     std::printf("ert: early ray termination thresholds, top view of the phantom, 1 thread\n");
-    const View view = make_view(phantom(), ViewAxis::top);
-    const step07::Lut lut07 = step07::build_lut(classic_transfer_function());
+    const std::vector<std::string> top =
+        phantom_volume().flags + std::vector<std::string>{"--view", "top"};
     Image full07, full08;
     for (const double ert : {0.0, 0.001, 0.01, 0.05, 0.1}) {
-        step07::Params params07;
-        params07.ert = ert;
-        Work work;
-        Image image;
-        const double ms = median_ms([&] {
-            work = Work();
-            image = render_image(view, 1, work, [&](int x, int y, Work& w) {
-                return step07::over_background(step07::composite_front_to_back(
-                    phantom(), view, x, y, lut07, params07, w, nullptr));
-            });
-        });
-        if (ert == 0) full07 = image;
-        const ImageError error = image_error(image, full07);
-        record({"ert", "step 07 front to back", format("%g", ert), ms, error.rmse, error.max,
-                "8-bit, added (against T* = 0)", work.samples});
-
-        step09::Params params08;  // step 08 plus leaping: the same pictures
-        params08.ert = ert;
-        double ms08 = 0;
-        const Image image08 = render_08(view, params08, 1, work, &ms08);
-        if (ert == 0) full08 = image08;
-        const ImageError error08 = image_error(image08, full08);
-        record({"ert", "step 08 lit, step 1", format("%g", ert), ms08, error08.rmse,
-                error08.max, "8-bit, added (against T* = 0)", work.samples});
+        const std::vector<std::string> flags =
+            top + std::vector<std::string>{"--ert", format("%g", ert)};
+        const Run f2b = run("07_compositing_order", flags, true);
+        if (ert == 0) full07 = f2b.image();
+        const ImageError error = image_error(f2b.image(), full07);
+        record({"ert", "step 07 front to back", format("%g", ert), f2b.ms(), error.rmse,
+                error.max, "8-bit, added (against T* = 0)", f2b.count("samples")});
+        const Run lit = run(lit_step, flags, true);
+        if (ert == 0) full08 = lit.image();
+        const ImageError error08 = image_error(lit.image(), full08);
+        record({"ert", "step 08 lit, step 1", format("%g", ert), lit.ms(), error08.rmse,
+                error08.max, "8-bit, added (against T* = 0)", lit.count("samples")});
     }
     // Back to front cannot stop early: every sample, every time.
-    Work work;
-    Image image;
-    const double ms = median_ms([&] {
-        work = Work();
-        image = render_image(view, 1, work, [&](int x, int y, Work& w) {
-            return step07::composite_back_to_front(phantom(), view, x, y, lut07, w, nullptr);
-        });
-    });
-    const ImageError error = image_error(image, full07);
-    record({"ert", "step 07 back to front", "-", ms, error.rmse, error.max,
-            "8-bit (against front to back, T* = 0)", work.samples});
+    const Run b2f = run("07_compositing_order",
+                        top + std::vector<std::string>{"--order", "b2f"}, true);
+    const ImageError error = image_error(b2f.image(), full07);
+    record({"ert", "step 07 back to front", "-", b2f.ms(), error.rmse, error.max,
+            "8-bit (against front to back, T* = 0)", b2f.count("samples")});
 }
 
 // --- 4. Subnormal arithmetic --------------------------------------------------------------
@@ -617,6 +663,7 @@ void add_case(const std::string& name, const std::string& test, double analytic,
     cases.push_back(c);
 }
 
+// A column of voxels, 1 x 1 x n: the top view's one pixel is one ray.
 Volume column(const std::vector<int16_t>& values, double spacing = 1) {
     Volume volume;
     volume.nx = volume.ny = 1;
@@ -628,41 +675,30 @@ Volume column(const std::vector<int16_t>& values, double spacing = 1) {
     return volume;
 }
 
-TransferFunction one_range(int from, int to, float r, float g, float b, double a) {
-    TransferFunction tf;
-    tf.source = "study";
-    TfRange range;
-    range.from = from;
-    range.to = to;
-    range.start = range.end = {r, g, b, float(a)};
-    tf.ranges.push_back(range);
-    return tf;
-}
-
-step07::Accumulated f2b_column(const Volume& volume, const TransferFunction& tf, double ert,
-                               Work& work) {
-    step07::Params params;
-    params.ert = ert;
-    return step07::composite_front_to_back(volume, make_view(volume, ViewAxis::top), 0, 0,
-                                           step07::build_lut(tf), params, work, nullptr);
-}
-
-Rgb b2f_column(const Volume& volume, const TransferFunction& tf, Work& work) {
-    return step06::composite_back_to_front(volume, make_view(volume, ViewAxis::top), 0, 0,
-                                           step06::build_lut(tf), work, nullptr);
+// The top view of a column rendered by `step` with the transfer function `tf` ("" = the
+// default), these flags and, with trace, the trace of its ray.
+Run column_run(const std::string& step, const Volume& volume, const std::string& tf,
+               const std::vector<std::string>& flags, bool trace = false) {
+    std::vector<std::string> all = volume_flags(volume, "column") +
+                                   std::vector<std::string>{"--view", "top"} + flags;
+    if (!tf.empty()) all = all + tf_flags(tf, "column");
+    if (trace) all = all + debug_pixel(0, 0);
+    return run(step, all);
 }
 
 void compositing_cases() {
     const char* test_c = "test_compositing.cpp";
+    const std::string f2b = "07_compositing_order", b2f = "06_transfer_function";
+    const std::string lit = "08_lit_compositing";
+    const std::vector<std::string> no_ert = {"--ert", "0"};
     // Skin, skin, bone: the closed form of numerics.md.
     {
         const Volume volume = column({0, 0, 1000});
-        const TransferFunction classic = classic_transfer_function();
         const double a = 0.12, bone = 0.8, skin[3] = {1.0, 0.79, 0.6};
-        Work work;
-        const step07::Accumulated f2b = f2b_column(volume, classic, 0, work);
-        const Rgb b2f = b2f_column(volume, classic, work);
-        const double f2b_rgb[3] = {f2b.r, f2b.g, f2b.b}, b2f_rgb[3] = {b2f.r, b2f.g, b2f.b};
+        const Run front = column_run(f2b, volume, "", no_ert, true);
+        const Run back = column_run(b2f, volume, "", {});
+        const Rgb f = front.image().at(0, 0), b = back.image().at(0, 0);
+        const double f2b_rgb[3] = {f.r, f.g, f.b}, b2f_rgb[3] = {b.r, b.g, b.b};
         const char* channel[3] = {"red", "green", "blue"};
         for (int n = 0; n < 3; ++n) {
             const double exact = a * skin[n] + (1 - a) * a * skin[n] + (1 - a) * (1 - a) * bone;
@@ -671,8 +707,8 @@ void compositing_cases() {
             add_case(std::string("skin, skin, bone: C ") + channel[n] + ", back to front",
                      test_c, exact, b2f_rgb[n]);
         }
-        add_case("skin, skin, bone: T", test_c, (1 - a) * (1 - a) * (1 - bone),
-                 f2b.transparency);
+        add_case("skin, skin, bone: T (trace, 6 digits)", test_c, (1 - a) * (1 - a) * (1 - bone),
+                 traced_transparency(front));
     }
     // Homogeneous slabs: T = (1 - a)^n with a as stored (a float).
     struct Slab {
@@ -680,18 +716,21 @@ void compositing_cases() {
         int n;
     };
     for (const Slab slab : {Slab{0.12, 10}, Slab{0.12, 113}, Slab{1e-7, 1000000}}) {
-        const TransferFunction tf = one_range(100, 101, 1, 1, 1, slab.a);
+        const std::string tf = tf_range(100, 101, 1, 1, 1, slab.a);
         const double a = double(float(slab.a));
         const double exact_t = std::exp(slab.n * std::log1p(-a));
         const Volume volume = column(std::vector<int16_t>(slab.n, 100));
-        Work work;
-        const step07::Accumulated f2b = f2b_column(volume, tf, 0, work);
+        const bool trace = slab.n < 1000;  // a trace line per sample
+        const Run front = column_run(f2b, volume, tf, no_ert, trace);
         const std::string name = format("slab a = %g, n = %d: ", slab.a, slab.n);
-        add_case(name + "T, front to back (double)", test_c, exact_t, f2b.transparency);
-        add_case(name + "A = 1 - T, front to back", test_c, -std::expm1(slab.n * std::log1p(-a)),
-                 f2b.r);
+        if (trace) {
+            add_case(name + "T, front to back (trace, 6 digits)", test_c, exact_t,
+                     traced_transparency(front));
+        }
+        add_case(name + "A = 1 - T, front to back (float out)", test_c,
+                 -std::expm1(slab.n * std::log1p(-a)), front.image().at(0, 0).r);
         add_case(name + "A, back to front (float out)", test_c, 1 - exact_t,
-                 b2f_column(volume, tf, work).r);
+                 column_run(b2f, volume, tf, {}).image().at(0, 0).r);
         float t_float = 1;  // the same product kept in float
         for (int n = 0; n < slab.n; ++n) t_float *= 1.0f - float(slab.a);
         add_case(name + "T kept in float", "study variant", exact_t, t_float);
@@ -713,38 +752,34 @@ void compositing_cases() {
         add_case("a = 0.8: first n with float T = 0", "study variant",
                  std::ceil(std::log(std::ldexp(1.0, -150)) / std::log1p(-a)), first_zero,
                  "%.0f");
-        const TransferFunction tf = one_range(100, 101, 1, 1, 1, 0.8);
+        const std::string tf = tf_range(100, 101, 1, 1, 1, 0.8);
         const Volume volume = column(std::vector<int16_t>(1000, 100));
-        Work work;
-        const step07::Accumulated ray = f2b_column(volume, tf, 0, work);
+        const Run ray = column_run(f2b, volume, tf, no_ert);
         add_case("a = 0.8, n = 1000, T* = 0: samples until T < 1e-300", test_c,
-                 std::ceil(std::log(1e-300) / std::log1p(-a)), double(work.samples), "%.0f");
-        add_case("a = 0.8, n = 1000, T* = 0: C", test_c, 1.0, ray.r);
-        Work early;
-        const step07::Accumulated stopped = f2b_column(volume, tf, step07::default_ert, early);
-        add_case("a = 0.8, T* = 0.01: samples visited", test_c, 3, double(early.samples),
+                 std::ceil(std::log(1e-300) / std::log1p(-a)), double(ray.count("samples")),
                  "%.0f");
-        add_case("a = 0.8, T* = 0.01: C (error <= T* max c = 0.01)", test_c, 1.0, stopped.r);
-        Work all;
+        add_case("a = 0.8, n = 1000, T* = 0: C", test_c, 1.0, ray.image().at(0, 0).r);
+        const Run stopped = column_run(f2b, volume, tf, {"--ert", "0.01"});
+        add_case("a = 0.8, T* = 0.01: samples visited", test_c, 3,
+                 double(stopped.count("samples")), "%.0f");
+        add_case("a = 0.8, T* = 0.01: C (error <= T* max c = 0.01)", test_c, 1.0,
+                 stopped.image().at(0, 0).r);
         add_case("a = 0.8, n = 1000: C back to front", test_c, 1.0,
-                 b2f_column(volume, tf, all).r);
+                 column_run(b2f, volume, tf, {}).image().at(0, 0).r);
     }
     // Opacity 1 hides everything behind; opacity 0 adds nothing.
     {
-        TransferFunction tf = one_range(100, 101, 1, 0, 0, 1.0);
-        TfRange green;
-        green.from = 200, green.to = 201, green.start = green.end = {0, 1, 0, 0.5f};
-        tf.ranges.push_back(green);
+        const std::string tf = tf_range(100, 101, 1, 0, 0, 1.0) + tf_range(200, 201, 0, 1, 0, 0.5);
         const Volume volume = column({100, 200, 200, 100});
-        Work work;
-        const step07::Accumulated ray = f2b_column(volume, tf, 0, work);
-        add_case("opacity 1 in front: C red", test_c, 1.0, ray.r);
-        add_case("opacity 1 in front: C green (hidden)", test_c, 0.0, ray.g);
-        add_case("opacity 1 in front: samples visited", test_c, 1, double(work.samples), "%.0f");
-        const TransferFunction clear = one_range(1000, 1001, 1, 1, 1, 0.5);  // 100, 200: none
-        Work none;
-        const step07::Accumulated empty = f2b_column(volume, clear, 0, none);
-        add_case("everything transparent: T", test_c, 1.0, empty.transparency);
+        const Run ray = column_run(f2b, volume, tf, no_ert);
+        add_case("opacity 1 in front: C red", test_c, 1.0, ray.image().at(0, 0).r);
+        add_case("opacity 1 in front: C green (hidden)", test_c, 0.0, ray.image().at(0, 0).g);
+        add_case("opacity 1 in front: samples visited", test_c, 1, double(ray.count("samples")),
+                 "%.0f");
+        const std::string clear = tf_range(1000, 1001, 1, 1, 1, 0.5);  // 100, 200: none
+        const Run empty = column_run(f2b, volume, clear, no_ert);
+        add_case("everything transparent: C (T = 1, black behind)", test_c, 0.0,
+                 empty.image().at(0, 0).r);
     }
     // Extinction: alpha = 1 - exp(-kappa h), best -expm1(-kappa h).
     {
@@ -758,17 +793,36 @@ void compositing_cases() {
                  1.0f - std::exp(-float(kh)), "%.12g");
         add_case("T at kappa h = 3: first order 1 - kappa h", test_c, std::exp(-3.0), 1 - 3.0);
     }
-    // Opacity correction, over the test's grid: the stable form against the plain one.
+    // Opacity correction over --step's range: step 08's stable form (one sample of depth
+    // `ratio`, white, unlit: the picture is the corrected opacity) against the plain one.
     {
+        const std::vector<float> alphas = {1e-7f, 0.12f, 0.5f, 0.8f, 0.999f};
+        std::string tf;
+        std::vector<int16_t> values;
+        for (size_t n = 0; n < alphas.size(); ++n) {
+            tf += tf_range(100 + int(n), 101 + int(n), 1, 1, 1, alphas[n]);
+            values.push_back(int16_t(100 + n));
+        }
         double stable = 0, plain_float = 0, plain_double = 0;
         std::string worst_float, worst_double;
-        for (const float alpha : {1e-7f, 0.12f, 0.5f, 0.8f, 0.999f}) {
-            for (const double ratio : {1e-3, 0.25, 0.5, 1.0, 2.0, 4.0, 1e3}) {
+        for (const double ratio : {0.25, 0.5, 1.0, 2.0, 4.0}) {
+            Volume row;  // n x 1 x 1, depth `ratio`: one sample per ray at --step ratio
+            row.nx = int(values.size());
+            row.ny = row.nz = 1;
+            row.sz = ratio;
+            row.data = values;
+            update_range(row);
+            const Run corrected = run(
+                lit, volume_flags(row, "row") + tf_flags(tf, "row") +
+                         std::vector<std::string>{"--view", "top", "--unlit", "--ert", "0",
+                                                  "--step", format("%g", ratio)});
+            for (size_t n = 0; n < alphas.size(); ++n) {
+                const float alpha = alphas[n];
                 const long double exact = 1.0L - std::pow(1.0L - alpha, (long double)ratio);
                 auto relative = [&](double value) {
                     return double(std::abs(value - exact) / exact);
                 };
-                stable = std::max(stable, relative(step08::corrected_opacity(alpha, ratio)));
+                stable = std::max(stable, relative(corrected.image().at(int(n), 0).r));
                 const double f = relative(1.0f - std::pow(1.0f - alpha, float(ratio)));
                 const double d = relative(1.0 - std::pow(1.0 - double(alpha), ratio));
                 const std::string where = format("%g, %g", alpha, ratio);
@@ -779,8 +833,8 @@ void compositing_cases() {
         Case c;
         c.test = test_c;
         c.analytic = "1 - (1 - alpha)^ratio, long double";
-        c.name = "opacity correction, -expm1(ratio log1p(-alpha)) -> float (step 08)";
-        c.measured = "alpha 1e-7..0.999, ratio 1e-3..1e3";
+        c.name = "opacity correction, step 08's picture of one corrected sample (float)";
+        c.measured = "alpha 1e-7..0.999, ratio 0.25..4";
         c.rel_error = stable;
         cases.push_back(c);
         c.name = "opacity correction, 1 - pow(1 - alpha, ratio) in float";
@@ -795,46 +849,37 @@ void compositing_cases() {
     }
     // A slab keeps its opacity at any step with correction, in 1- and 2-unit spacing.
     {
-        const TransferFunction tf = one_range(100, 101, 1, 1, 1, 0.12);
+        const std::string tf = tf_range(100, 101, 1, 1, 1, 0.12);
         const double a = double(0.12f);
         double worst = 0;
         for (const double spacing : {1.0, 2.0}) {
             const Volume volume = column(std::vector<int16_t>(20, 100), spacing);
             const double exact = std::pow(1 - a, 20 * spacing);
             for (const double step : {0.25, 0.5, 1.0, 2.0, 4.0}) {
-                step08::Params params;
-                params.ert = 0, params.step = step, params.unlit = true;
-                Work work;
-                const step08::Accumulated ray = step08::composite_front_to_back(
-                    volume, make_view(volume, ViewAxis::top), 0, 0,
-                    step08::build_lut(tf, step08::opacity_ratio(params)), params, work,
-                    nullptr);
-                worst = std::max(worst, std::abs(ray.transparency - exact) / exact);
+                const Run ray = column_run(lit, volume, tf,
+                                           {"--ert", "0", "--unlit", "--step", format("%g", step)});
+                const double t = 1.0 - ray.image().at(0, 0).r;  // white: C = 1 - T
+                worst = std::max(worst, std::abs(t - exact) / exact);
             }
             if (spacing == 1) {
-                step08::Params params;
-                params.ert = 0, params.step = 0.5, params.unlit = true;
-                params.no_correction = true;
-                Work work;
-                const step08::Accumulated ray = step08::composite_front_to_back(
-                    volume, make_view(volume, ViewAxis::top), 0, 0,
-                    step08::build_lut(tf, step08::opacity_ratio(params)), params, work,
-                    nullptr);
+                const Run ray = column_run(lit, volume, tf,
+                                           {"--ert", "0", "--unlit", "--step", "0.5",
+                                            "--no-correction"});
                 add_case("slab a = 0.12, 20 units, step 0.5 NOT corrected: T", test_c, exact,
-                         ray.transparency);
+                         1.0 - ray.image().at(0, 0).r);
             }
         }
         Case c;
         c.name = "slab a = 0.12, 20 units, steps 0.25..4, spacing 1 and 2: T, corrected";
         c.test = test_c;
         c.analytic = "(1 - a)^depth";
-        c.measured = "worst of 10";
+        c.measured = "worst of 10 (T = 1 - C, float picture)";
         c.rel_error = worst;
         cases.push_back(c);
     }
 }
 
-// The surface cases of test_steps.cpp: the ramp, the sphere, the int16 extremes.
+// The surface cases of test_steps.cpp: the ramp, the int16 extremes, a constant volume.
 Volume make_volume(int nx, int ny, int nz, const std::function<double(int, int, int)>& value,
                    double sx = 1, double sy = 1, double sz = 1) {
     Volume volume;
@@ -853,161 +898,98 @@ Volume make_volume(int nx, int ny, int nz, const std::function<double(int, int, 
 
 void surface_cases() {
     const char* test_s = "test_steps.cpp";
+    const std::string lit04 = "04_gradient_lighting", hit05 = "05_interpolated_hits";
     // Ramp f = 3i + 5j + 7k: gradients and crossings are exact.
     {
         double worst_gradient = 0;
+        int traced = 0;
         for (const double s : {1.0, 2.0, 0.5}) {
             const Volume ramp = make_volume(9, 7, 5, [](int i, int j, int k) {
                 return 3 * i + 5 * j + 7 * k - 60; }, 1, 1, s);
-            Work work;
-            for (int k = 0; k < ramp.nz; ++k)
-                for (int j = 0; j < ramp.ny; ++j)
-                    for (int i = 0; i < ramp.nx; ++i) {
-                        const Vec3 g = step04::gradient_at(ramp, {i, j, k}, work);
-                        worst_gradient = std::max({worst_gradient, std::abs(g.i - 3.0),
-                                                   std::abs(g.j - 5.0), std::abs(g.k - 7 / s)});
-                    }
+            for (const auto& pixel : {std::pair<int, int>{0, 0}, {4, 3}, {6, 4}}) {
+                const Run lit = run(lit04, volume_flags(ramp, "ramp") +
+                                               std::vector<std::string>{"--threshold", "0"} +
+                                               debug_pixel(pixel.first, pixel.second));
+                for (const PixelTrace& trace : lit.result.traces) {
+                    double g[3];
+                    if (!traced_gradient(trace, g)) continue;
+                    worst_gradient = std::max({worst_gradient, std::abs(g[0] - 3.0),
+                                               std::abs(g[1] - 5.0), std::abs(g[2] - 7 / s)});
+                    ++traced;
+                }
+            }
         }
         Case c;
-        c.name = "ramp 3i + 5j + 7k: gradient, borders included (spacing 1, 2, 0.5 along k)";
+        c.name = "ramp 3i + 5j + 7k: gradient at the hit, borders included (spacing 1, 2, 0.5 "
+                 "along k)";
         c.test = test_s;
         c.analytic = "(3, 5, 7 / s_k)";
-        c.measured = "every voxel";
+        c.measured = format("%d traced rays (printed to 0.01)", traced);
         c.abs_error = worst_gradient;
         cases.push_back(c);
 
         const Volume ramp = make_volume(10, 12, 14, [](int i, int j, int k) {
             return 3 * i + 5 * j + 7 * k; });
+        const std::vector<std::string> flags = volume_flags(ramp, "ramp");
         double worst_crossing = 0;
+        int crossings = 0;
         for (const int threshold : {100, 101, 97, 0, -5, 172, 173}) {
-            for (const ViewAxis axis : {ViewAxis::top, ViewAxis::front, ViewAxis::side}) {
-                const View view = make_view(ramp, axis);
-                const int slope = axis == ViewAxis::top ? 7 : axis == ViewAxis::front ? 5 : 3;
-                for (int y = 0; y < view.height; ++y)
-                    for (int x = 0; x < view.width; ++x) {
-                        const Voxel first = view.voxel(x, y, 0);
-                        const int f0 = 3 * first.i + 5 * first.j + 7 * first.k;
-                        Work work;
-                        const step05::Hit hit =
-                            step05::first_hit(ramp, view, x, y, threshold, work, nullptr);
-                        if (!hit.found || f0 > threshold) continue;
-                        const double exact = double(threshold - f0) / slope;
-                        worst_crossing =
-                            std::max(worst_crossing, std::abs(crossing_of(hit) - exact));
-                    }
+            for (const auto& pixel : {std::pair<int, int>{0, 0}, {1, 2}, {5, 7}, {9, 11}}) {
+                const Run ray = run(hit05, flags + std::vector<std::string>{
+                                                       "--threshold", std::to_string(threshold)} +
+                                               debug_pixel(pixel.first, pixel.second));
+                for (const PixelTrace& trace : ray.result.traces) {
+                    const ViewAxis axis = trace.view == "top"     ? ViewAxis::top
+                                          : trace.view == "front" ? ViewAxis::front
+                                                                  : ViewAxis::side;
+                    const View view = make_view(ramp, axis);
+                    const int slope = axis == ViewAxis::top ? 7 : axis == ViewAxis::front ? 5 : 3;
+                    const Voxel first = view.voxel(trace.x, trace.y, 0);
+                    const int f0 = 3 * first.i + 5 * first.j + 7 * first.k;
+                    double t = 0;
+                    if (!traced_t_hit(trace, t) || f0 > threshold) continue;
+                    worst_crossing = std::max(worst_crossing,
+                                              std::abs(t - double(threshold - f0) / slope));
+                    ++crossings;
+                }
             }
         }
-        c.name = "ramp: step 05's crossing, every ray, 7 thresholds";
+        c.name = "ramp: step 05's crossing, 7 thresholds";
         c.analytic = "(tau - f0) / slope";
-        c.measured = "in samples";
+        c.measured = format("in samples, %d traced rays (printed to 1e-6)", crossings);
         c.abs_error = worst_crossing;
         cases.push_back(c);
-    }
-    // The sphere of the test: 64 x 64 x 32, spacing 1:1:2, R = 20, centre off the grid.
-    {
-        const Ellipsoid sphere = {"sphere", 31.3, 29.6, 31.7, 20, 20, 20, 0};
-        const Volume volume = make_volume(64, 64, 32, [&](int i, int j, int k) {
-            return sphere.value(i * 1.0, j * 1.0, k * 2.0); }, 1, 1, 2);
-        for (const ViewAxis axis : {ViewAxis::top, ViewAxis::front, ViewAxis::side}) {
-            const View view = make_view(volume, axis);
-            double sum3 = 0, sum5 = 0, max5 = 0, normal4 = 0, normal5 = 0, max_normal5 = 0;
-            int measured = 0;
-            for (int y = 0; y < view.height; ++y)
-                for (int x = 0; x < view.width; ++x) {
-                    // The ray: from the voxel at t = 0 along the view axis, physical units.
-                    const Voxel v0 = view.voxel(x, y, 0);
-                    const double p0[3] = {v0.i * volume.sx, v0.j * volume.sy, v0.k * volume.sz};
-                    const Vec3 unit = volume_direction(view, 0, 0, 1);
-                    const double d[3] = {unit.i, unit.j, unit.k};
-                    const double c[3] = {sphere.ci, sphere.cj, sphere.ck};
-                    double along = 0, to_c2 = 0;
-                    for (int n = 0; n < 3; ++n) {
-                        along += (c[n] - p0[n]) * d[n];
-                        to_c2 += (c[n] - p0[n]) * (c[n] - p0[n]);
-                    }
-                    const double rho2 = to_c2 - along * along, r2 = sphere.a * sphere.a;
-                    if (rho2 > 0.64 * r2) continue;  // as the test: rho <= 0.8 R
-                    const double exact = (along - std::sqrt(r2 - rho2)) / view.ray_spacing;
-                    Work work;
-                    const step03::Hit hit3 =
-                        step03::first_hit(volume, view, x, y, surface_threshold, work, nullptr);
-                    const step05::Hit hit5 =
-                        step05::first_hit(volume, view, x, y, surface_threshold, work, nullptr);
-                    if (!hit3.found || !hit5.found) continue;
-                    ++measured;
-                    sum3 += std::abs(hit3.n - exact);
-                    sum5 += std::abs(crossing_of(hit5) - exact);
-                    max5 = std::max(max5, std::abs(crossing_of(hit5) - exact));
-                    // Normals: step 04 at the hit voxel, step 05 at the sub-voxel point.
-                    auto angle = [&](Vec3 gradient, const double p[3]) {
-                        const double size = length(gradient);
-                        double dot = 0, dist = 0;
-                        for (int n = 0; n < 3; ++n) dist += (p[n] - c[n]) * (p[n] - c[n]);
-                        dist = std::sqrt(dist);
-                        const double g[3] = {gradient.i, gradient.j, gradient.k};
-                        for (int n = 0; n < 3; ++n) dot += -g[n] / size * (p[n] - c[n]) / dist;
-                        return std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / pi;
-                    };
-                    const Voxel v4 = view.voxel(x, y, hit3.n);
-                    const double p4[3] = {v4.i * volume.sx, v4.j * volume.sy, v4.k * volume.sz};
-                    const double a4 = angle(step04::gradient_at(volume, v4, work), p4);
-                    const double s5 = crossing_of(hit5) * view.ray_spacing;
-                    const double p5[3] = {p0[0] + s5 * d[0], p0[1] + s5 * d[1],
-                                          p0[2] + s5 * d[2]};
-                    const double a5 = angle(
-                        step05::gradient_along_ray(volume, view, x, y, hit5.n, hit5.fraction, work),
-                        p5);
-                    normal4 += a4;
-                    normal5 += a5;
-                    max_normal5 = std::max(max_normal5, a5);
-                }
-            const std::string name = "sphere R = 20, " + view.name + " view (" +
-                                     std::to_string(measured) + " rays, rho <= 0.8 R): ";
-            Case c;
-            c.test = test_s;
-            c.analytic = "c - sqrt(R^2 - rho^2)";
-            c.name = name + "depth, step 03 (mean)";
-            c.measured = "samples";
-            c.abs_error = sum3 / measured;
-            cases.push_back(c);
-            c.name = name + "depth, step 05 (mean; max)";
-            c.measured = format("max %.4f samples", max5);
-            c.abs_error = sum5 / measured;
-            cases.push_back(c);
-            c.analytic = "(p - c) / R";
-            c.name = name + "normal, step 04 at the hit voxel (mean)";
-            c.measured = "degrees";
-            c.abs_error = normal4 / measured;
-            cases.push_back(c);
-            c.name = name + "normal, step 05 at the sub-voxel hit (mean; max)";
-            c.measured = format("max %.3f degrees", max_normal5);
-            c.abs_error = normal5 / measured;
-            cases.push_back(c);
-        }
     }
     // int16 extremes: a crossing between -32768 and 32767.
     {
         const Volume volume = make_volume(4, 4, 4, [](int i, int j, int k) {
             return (k >= 2 || (i == 3 && j == 3 && k == 0)) ? 32767 : -32768; });
-        const View top = make_view(volume, ViewAxis::top);
-        Work work;
-        add_case("int16 extremes: step 05 crossing at threshold 32766", test_s,
-                 1.0 + 65534.0 / 65535.0,
-                 crossing_of(step05::first_hit(volume, top, 0, 0, 32766, work, nullptr)));
-        add_case("int16 extremes: step 05 crossing at threshold 0", test_s,
-                 1.0 + 32768.0 / 65535.0,
-                 crossing_of(step05::first_hit(volume, top, 0, 0, 0, work, nullptr)));
-        const Vec3 gradient = step04::gradient_at(volume, {1, 1, 2}, work);
-        add_case("int16 extremes: gradient (32767 + 32768) / 2 along k", test_s, 65535.0 / 2,
-                 gradient.k);
+        const std::vector<std::string> flags =
+            volume_flags(volume, "extremes") + std::vector<std::string>{"--view", "top"};
+        auto crossing = [&](int threshold) {
+            const Run ray = run(hit05, flags + std::vector<std::string>{
+                                                   "--threshold", std::to_string(threshold)} +
+                                           debug_pixel(0, 0));
+            double t = -1;
+            if (ray.result.traces.size() == 1) traced_t_hit(ray.result.traces[0], t);
+            return t;
+        };
+        add_case("int16 extremes: step 05 crossing at threshold 32766 (trace)", test_s,
+                 1.0 + 65534.0 / 65535.0, crossing(32766));
+        add_case("int16 extremes: step 05 crossing at threshold 0 (trace)", test_s,
+                 1.0 + 32768.0 / 65535.0, crossing(0));
+        const Run lit = run(lit04, flags + debug_pixel(1, 1));
+        double g[3] = {0, 0, 0};
+        if (lit.result.traces.size() == 1) traced_gradient(lit.result.traces[0], g);
+        add_case("int16 extremes: gradient (32767 + 32768) / 2 along k (trace)", test_s,
+                 65535.0 / 2, g[2]);
     }
-    // A constant volume: zero gradient, no normal: ambient, never NaN.
+    // A constant volume: zero gradient, no normal: ambient (0.1, handout 05), never NaN.
     {
         const Volume volume = make_volume(8, 6, 4, [](int, int, int) { return 500; });
-        Work work;
-        const Vec3 gradient = step05::gradient_at(volume, {3, 2, 1}, work);
-        add_case("constant volume: shade of a zero gradient = ambient", test_s,
-                 step05::ambient, step05::shade(gradient, {0, 0, -1}));
+        const Run lit = run(hit05, volume_flags(volume, "constant"));
+        add_case("constant volume: shade of a zero gradient = ambient", test_s, 0.1,
+                 lit.image().at(3, 2).r);
     }
 }
 
@@ -1077,7 +1059,7 @@ void write_plot(const std::string& path) {
         nearest.x.insert(nearest.x.end(), finer.x.begin(), finer.x.end());
         nearest.y.insert(nearest.y.end(), finer.y.begin(), finer.y.end());
         nearest.notes.insert(nearest.notes.end(), finer.notes.begin(), finer.notes.end());
-        nearest.label = (n == 0 ? "SPHERE" : "ELLIPSOID") + std::string(": NEAREST, H = 1..1/16");
+        nearest.label = (n == 0 ? "SPHERE" : "ELLIPSOID") + std::string(": NEAREST, H = 1..1/8");
     }
     depth.series.erase(depth.series.begin() + 4);
     depth.series.erase(depth.series.begin() + 1);
@@ -1089,8 +1071,6 @@ void write_plot(const std::string& path) {
     step.series = {
         series_of("step", "opacity corrected", "CORRECTED, STEP 4..1/8", blue),
         series_of("step", "not corrected", "NOT CORRECTED", red),
-        series_of("step", "opacity corrected, float sums", "CORRECTED, FLOAT SUMS", orange,
-                  false),
     };
 
     plot::Panel ert;
@@ -1151,13 +1131,6 @@ std::string numerics_table(const SubnormalCost& cost, const std::vector<FloatRay
     return out.str();
 }
 
-std::string load_average() {
-    std::ifstream in("/proc/loadavg");
-    std::string one, five, fifteen;
-    in >> one >> five >> fifteen;
-    return one + " " + five + " " + fifteen;
-}
-
 // The CPU's name, from /proc/cpuinfo ("unknown" elsewhere).
 std::string cpu_model() {
     std::ifstream in("/proc/cpuinfo");
@@ -1174,6 +1147,13 @@ std::string cpu_model() {
 std::string section(const std::string& name, const std::string& body) {
     if (quick) return body;
     return "<!-- section: " + name + " -->\n" + body + "<!-- end section -->\n";
+}
+
+std::string load_average() {
+    std::ifstream in("/proc/loadavg");
+    std::string one, five, fifteen;
+    in >> one >> five >> fifteen;
+    return one + " " + five + " " + fifteen;
 }
 
 int run(int argc, char** argv) {
@@ -1228,7 +1208,8 @@ int run(int argc, char** argv) {
     const std::string written_by = format(
         "Written by `make study` (tools/study.cpp) in %.0f s on %d cores (%s); load average "
         "%s before, %s after; other processes used %.0f%% of the cores meanwhile. "
-        "Times: median of %d renders, 1 thread.\n",
+        "Times: each step run as a program with --repeat, the median of the %d renders after "
+        "the first, 1 thread.\n",
         total.ms() / 1000, cores, cpu_model().c_str(), load_before.c_str(),
         load_average().c_str(), 100 * others.share(), runs);
     md << written_by << "\n";
@@ -1238,16 +1219,12 @@ int run(int argc, char** argv) {
        << section("study:depth", written_by + "\n" + markdown_table("depth", "step h (voxels)"))
        << "\n";
     md << "## Compositing step (step 08 lit, front view, T* = 0; error in 8-bit units against "
-          "step 1/32)\n\n"
+       << "step " << step_text(reference_step) << ")\n\n"
        << section("study:step", written_by + "\n" + markdown_table("step-reference", "step") +
                                     "\n" + markdown_table("step", "step (voxels)"))
        << "\n";
     md << "## Early ray termination (top view; error added against T* = 0, 8-bit units)\n\n"
        << section("study:ert", written_by + "\n" + markdown_table("ert", "T*")) << "\n";
-    md << "## Float against double sums (step 08, front view; ms column: float time / double "
-          "time)\n\n"
-       << section("study:precision", written_by + "\n" + markdown_table("precision", "step"))
-       << "\n";
     std::ofstream(out + "/error_vs_time.md") << md.str();
     std::ofstream(out + "/numerics.md")
         << "# The stiff cases, measured\n\n"

@@ -1,0 +1,84 @@
+// harness.cpp: the steps run as processes for the tests (see harness.h).
+#include "harness.h"
+#include <doctest/doctest.h>
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+
+namespace ctlab_test {
+
+namespace fs = std::filesystem;
+
+// The repository: the current folder when the tests run from it (make test), else the
+// folder above the test binary's (build/ctlab_tests).
+static fs::path repository() {
+    if (fs::is_directory("steps") && fs::is_directory("data")) return ".";
+    return fs::path(ctlab::build_folder()).parent_path();
+}
+
+const std::vector<std::string>& step_names() {
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> found;
+        for (const auto& entry : fs::directory_iterator(repository() / "steps")) {
+            const std::string file = entry.path().filename().string();
+            const bool numbered = file.size() > 7 &&
+                                  std::isdigit(static_cast<unsigned char>(file[0])) &&
+                                  std::isdigit(static_cast<unsigned char>(file[1])) &&
+                                  file[2] == '_';
+            // Part 1 only (00..09): part 2's steps render one camera picture, not the three
+            // axis views every test here expects (tests/test_free_camera.cpp has them).
+            if (numbered && entry.path().extension() == ".cpp" && file < "10") {
+                found.push_back(entry.path().stem().string());
+            }
+        }
+        std::sort(found.begin(), found.end());
+        return found;
+    }();
+    return names;
+}
+
+const ctlab::Image& StepRender::image(const std::string& view) const {
+    for (size_t n = 0; n < views.size(); ++n) {
+        if (views[n] == view) return images[n];
+    }
+    throw std::runtime_error(run.command() + ": no image of the " + view + " view");
+}
+
+static StepRender render_in(const TempFolder& folder, const std::string& name,
+                            std::vector<std::string> flags) {
+    flags.insert(flags.end(), {"--pfm", "--out", folder.path()});
+    StepRender result;
+    result.run = ctlab::run_step(name, flags);
+    INFO(result.run.command() << "\n" << result.run.err);
+    CHECK_MESSAGE(result.run.status == 0, name << " exited with status " << result.run.status);
+    CHECK(result.run.summaries.size() > 0);
+    for (const ctlab::Summary& summary : result.run.summaries) {
+        const auto view = summary.find("view");
+        if (view == summary.end()) continue;
+        result.views.push_back(view->second);
+        result.images.push_back(
+            ctlab::read_pfm(ctlab::step_output(folder.path(), name, view->second, "pfm")));
+    }
+    return result;
+}
+
+StepRender render(const std::string& name, const std::vector<std::string>& flags) {
+    const TempFolder folder("render");
+    return render_in(folder, name, flags);
+}
+
+StepRender render(const std::string& name, const std::vector<std::string>& flags,
+                  const ctlab::Volume& volume) {
+    const TempFolder folder("render");
+    std::vector<std::string> all = ctlab::write_raw_volume(volume, folder.path("volume.raw"));
+    all.insert(all.end(), flags.begin(), flags.end());
+    return render_in(folder, name, all);
+}
+
+std::vector<ctlab::Image> render_step(const std::string& name,
+                                      const std::vector<std::string>& flags,
+                                      const ctlab::Volume& volume) {
+    return render(name, flags, volume).images;
+}
+
+}  // namespace ctlab_test
