@@ -215,13 +215,6 @@ void write_text(const std::string& path, const std::string& text) {
     out << text;
 }
 
-std::string build_folder() {
-    char path[4096];
-    const ssize_t size = readlink("/proc/self/exe", path, sizeof path - 1);
-    if (size <= 0) return "build";
-    return std::filesystem::path(std::string(path, size_t(size))).parent_path().string();
-}
-
 }  // namespace
 
 TEST_CASE("formats: a bad file of each format gets one line naming it, and exit status 2") {

@@ -3,6 +3,7 @@
 // image, link and `function()` a handout names exists; every quoted --debug-pixel trace is
 // what the step prints today. Paths are relative to the repository root, where tests run.
 #include <doctest/doctest.h>
+#include "tools/run_step.h"
 #include <unistd.h>
 #include <algorithm>
 #include <cstdio>
@@ -132,13 +133,6 @@ std::vector<QuotedTrace> quoted_traces(const std::string& markdown) {
     return traces;
 }
 
-// The folder the running test binary is in (build/ or build-san/): the steps are beside it.
-std::string build_folder() {
-    char path[4096];
-    const ssize_t size = readlink("/proc/self/exe", path, sizeof path - 1);
-    if (size <= 0) return "build";
-    return fs::path(std::string(path, size)).parent_path().string();
-}
 
 // What a shell command prints on stdout.
 std::string output_of(const std::string& command) {
@@ -270,7 +264,7 @@ TEST_CASE("every quoted --debug-pixel trace is what the step prints") {
         MESSAGE("skipped in a student tree: the traces are the solution's, the code the student's");
         return;
     }
-    const std::string build = build_folder();
+    const std::string build = ctlab::build_folder();  // the steps are beside the tests
     const fs::path out = fs::temp_directory_path() / ("ctlab_handout_traces_" +
                                                       std::to_string(getpid()));
     int traces = 0;
