@@ -78,9 +78,14 @@ void print_trace(const Options& options, const View& view, const Renderer& rende
     const std::string samples = renderer.ray_samples
                                     ? renderer.ray_samples(view)
                                     : std::to_string(view.ray_length) + " samples";
-    std::printf("debug pixel x=%d y=%d view=%s step=%s (ray over %s, %s)\n", x, y,
-                view.name.c_str(), options.step.c_str(), axis_names[int(view.axis)],
-                samples.c_str());
+    if (view.camera) {
+        std::printf("debug pixel x=%d y=%d view=%s step=%s (ray from the camera, %s)\n", x, y,
+                    view.name.c_str(), options.step.c_str(), samples.c_str());
+    } else {
+        std::printf("debug pixel x=%d y=%d view=%s step=%s (ray over %s, %s)\n", x, y,
+                    view.name.c_str(), options.step.c_str(), axis_names[int(view.axis)],
+                    samples.c_str());
+    }
     Work work;
     Trace trace;
     const Rgb pixel = renderer.ray(view, x, y, work, &trace);
@@ -118,7 +123,8 @@ static bool inside(const View& view, int x, int y) {
 }
 
 int run_views(const Options& options, const Volume& volume, const Renderer& renderer) {
-    const std::vector<View> views = views_named(volume, options.view);
+    const std::vector<View> views =
+        renderer.views.empty() ? views_named(volume, options.view) : renderer.views;
 
     // Refuse bad requests before any work, so nothing is half done.
     if (options.has_debug_pixel) {
@@ -180,8 +186,8 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
     if (!window_wanted(options)) return 0;
     Preview preview;
     preview.step = options.step;
-    preview.views = views_named(volume, "all");
-    preview.current = int(views[0].axis);
+    preview.views = renderer.views.empty() ? views_named(volume, "all") : renderer.views;
+    preview.current = renderer.views.empty() ? int(views[0].axis) : 0;
     preview.render = [&](const View& view, Work& work) {
         const Timer timer;
         Image image = render_view(options, view, renderer, work);

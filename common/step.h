@@ -3,6 +3,7 @@
 #pragma once
 #include <functional>
 #include <string>
+#include <vector>
 #include "args.h"
 #include "image.h"
 #include "render.h"
@@ -31,6 +32,9 @@ struct Renderer {
     // The trace header's samples along a ray of a view, "226 samples at step 1 over 113
     // voxels spaced 2" (empty: "113 samples", one per voxel).
     std::function<std::string(const View&)> ray_samples;
+    // Part 2: the views to render instead of --view's axis views (a camera's image); empty:
+    // the axis views, as part 1.
+    std::vector<View> views;
 };
 
 // Renders every selected view: PNG to OUT/STEP_VIEW.png (--pfm: the float image to

@@ -39,6 +39,15 @@ View make_view(const Volume& volume, ViewAxis axis) {
     return view;
 }
 
+View make_camera_view(int width, int height) {
+    View view;
+    view.camera = true;
+    view.name = "camera";
+    view.width = width;
+    view.height = height;
+    return view;
+}
+
 Vec3 volume_direction(const View& view, float along_x, float along_y, float along_ray) {
     switch (view.axis) {
         case ViewAxis::top: return {along_x, along_y, along_ray};    // x = i, y = j, ray = k

@@ -4,6 +4,9 @@
 //   front = image (x, y) = (i, k), the ray runs over j (from the face backwards)
 //   side  = image (x, y) = (j, k), the ray runs over i
 // Image row y = k in front and side, so the head stands upright. Rays start at index 0.
+//   camera = part 2: an image of any size from a camera the step places (steps/10_*); its
+//            rays are the step's own, so ray_length, voxel() and volume_direction() do not
+//            apply to it.
 #pragma once
 #include <string>
 #include <vector>
@@ -19,8 +22,9 @@ struct Voxel {
 };
 
 struct View {
-    ViewAxis axis = ViewAxis::top;
-    std::string name;        // "top", "front" or "side"
+    ViewAxis axis = ViewAxis::top;  // (a camera view keeps the default: it has no axis)
+    bool camera = false;     // part 2: a camera's image, made by make_camera_view
+    std::string name;        // "top", "front", "side" or "camera"
     int width = 0;           // image columns
     int height = 0;          // image rows
     int ray_length = 0;      // voxels along the ray axis (one sample each, up to step 07)
@@ -43,6 +47,9 @@ View make_view(const Volume& volume, ViewAxis axis);
 // A direction given in the view's frame (along image x to the right, along image y down,
 // along the ray away from the viewer) as components along the volume axes i, j, k.
 Vec3 volume_direction(const View& view, float along_x, float along_y, float along_ray);
+
+// A camera's image, width x height pixels (part 2): view=camera in the summary line.
+View make_camera_view(int width, int height);
 
 // "top", "front", "side" -> views; "all" -> all three. Throws InputError otherwise.
 std::vector<View> views_named(const Volume& volume, const std::string& which);

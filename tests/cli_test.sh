@@ -122,7 +122,10 @@ for source in steps/[0-9][0-9]_*.cpp; do
     status=$?
     [ $status -eq 0 ] && [ ! -s "$work/stderr" ]
     check $? "$step --volume phantom: status $status, stderr: $(cat "$work/stderr")"
-    for view_size in top:256x256 front:256x113 side:256x113; do
+    # Part 1 (00..09) renders the three axis views; part 2 (10 on) one camera picture.
+    views="top:256x256 front:256x113 side:256x113" trace_view=front view_flag="--view front"
+    case "$step" in 0[0-9]_*) ;; *) views="camera:512x512" trace_view=camera view_flag= ;; esac
+    for view_size in $views; do
         view=${view_size%%:*}
         size=${view_size#*:}
         png="$out/${step}_$view.png"
@@ -138,11 +141,12 @@ for source in steps/[0-9][0-9]_*.cpp; do
     check $? "$step: temporary files left in $out"
 
     # --debug-pixel: the trace of one ray, its last line the pixel (image column 128, row 60).
-    "$build/$step" --volume phantom --no-window --out "$out" --view front --debug-pixel 128,60 \
+    # shellcheck disable=SC2086
+    "$build/$step" --volume phantom --no-window --out "$out" $view_flag --debug-pixel 128,60 \
         > "$work/stdout" 2> "$work/stderr"
     status=$?
     last=$(tail -n 1 "$work/stdout")
-    trace_lines=$(sed -n '/^debug pixel x=128 y=60 view=front/,$p' "$work/stdout" | wc -l)
+    trace_lines=$(sed -n "/^debug pixel x=128 y=60 view=$trace_view/,\$p" "$work/stdout" | wc -l)
     [ $status -eq 0 ] && [ "$trace_lines" -ge 3 ] &&
         echo "$last" | grep -q '^pixel x=128 y=60 rgb=([0-9.]*, [0-9.]*, [0-9.]*) png=('
     check $? "$step --debug-pixel 128,60: status $status, $trace_lines trace lines, last: $last"
@@ -151,7 +155,7 @@ done
 check $? "found only $steps steps in steps/"
 
 # A generic raw file: --dims, --endian big; the loader's line and the side view's size.
-step=$(basename "$(ls steps/[0-9][0-9]_*.cpp | tail -n 1)" .cpp)
+step=$(basename "$(ls steps/0[0-9]_*.cpp | tail -n 1)" .cpp)  # part 1's last: it has a side view
 "$build/$step" --volume "$raw" --dims 4,3,2 --endian big --view side --no-window \
     --out "$work/raw_out" > "$work/stdout" 2> "$work/stderr"
 status=$?

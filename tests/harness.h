@@ -65,8 +65,9 @@ private:
 
 // --- The steps, run as processes (tools/run_step.h) ---------------------------------------
 
-// Every step in steps/ by name ("03_depth_shading"), sorted: each has a binary in the build
-// folder beside the test program.
+// Every part 1 step in steps/ (00..09) by name ("03_depth_shading"), sorted: each has a binary
+// in the build folder beside the test program. Part 2's steps (10 on) render one camera picture
+// and are tested in tests/test_free_camera.cpp.
 const std::vector<std::string>& step_names();
 
 // One run of a step with --pfm: what it printed and the float images it wrote.

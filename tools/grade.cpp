@@ -64,6 +64,8 @@ constexpr int max_details = 4;             // lines of "look at" printed per ste
 constexpr int gap = 4;                     // pixels between the side-by-side panels
 constexpr int exit_pass = 0, exit_fail = 1;
 const std::vector<std::string> views = {"top", "front", "side"};
+// The pictures a run may write: part 1's views, or part 2's one camera picture (steps 10 on).
+const std::vector<std::string> pictures = {"top", "front", "side", "camera"};
 // The work counters of the summary line that a run must reproduce (common/render.h's Work).
 const std::vector<std::string> work_counters = {"samples", "skipped", "leapt",
                                                 "gradients", "terminated", "hits"};
@@ -689,7 +691,7 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
     arguments.insert(arguments.end(), settings_.extra_args.begin(), settings_.extra_args.end());
     ++result.runs;
     std::vector<std::string> graded_views;  // those the reference run rendered
-    for (const std::string& view : views) {
+    for (const std::string& view : pictures) {
         if (!settings_.view.empty() && view != settings_.view) continue;
         if (fs::is_regular_file(fs::symlink_status(reference_picture(step, run, view), error))) {
             graded_views.push_back(view);

@@ -1,0 +1,387 @@
+// test_free_camera.cpp: step 10 (the orbit camera) run as a program (tools/run_step.h): its
+// pictures along the three axes against part 1's (step 08), the slab method's stiff cases seen
+// in its traces and float images, trilinear samples on a linear ramp against the closed form,
+// and a sphere whose silhouette has the same radius from every direction.
+#include <doctest/doctest.h>
+#include <unistd.h>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+#include "compare.h"
+#include "image.h"
+#include "phantom.h"
+#include "tools/run_step.h"
+#include "volume.h"
+
+using namespace ctlab;
+
+namespace {
+
+const std::string free_camera = "10_free_camera";
+const std::string part1 = "08_lit_compositing";
+
+// Runs a step with --pfm into `folder` and returns its result; the image is read separately.
+RunResult render(const std::string& step, const std::vector<std::string>& volume_flags,
+                 std::vector<std::string> flags, const TempFolder& folder) {
+    flags.insert(flags.begin(), volume_flags.begin(), volume_flags.end());
+    flags.insert(flags.end(), {"--out", folder.path(), "--pfm", "--threads", "2"});
+    RunResult run = run_step(step, flags);
+    INFO(run.command() << "\n" << run.err);
+    REQUIRE(run.status == 0);
+    return run;
+}
+
+Image pfm_of(const TempFolder& folder, const std::string& step, const std::string& view) {
+    return read_pfm(step_output(folder.path(), step, view, "pfm"));
+}
+
+// Pixels whose channels differ at all, between a and b (b mirrored left-right if asked).
+int differing_pixels(const Image& a, const Image& b, bool mirror_b) {
+    REQUIRE(a.width == b.width);
+    REQUIRE(a.height == b.height);
+    int count = 0;
+    for (int y = 0; y < a.height; ++y) {
+        for (int x = 0; x < a.width; ++x) {
+            const Rgb& p = a.at(x, y);
+            const Rgb& q = b.at(mirror_b ? b.width - 1 - x : x, y);
+            if (p.r != q.r || p.g != q.g || p.b != q.b) ++count;
+        }
+    }
+    return count;
+}
+
+int non_finite_pixels(const Image& image) {
+    int count = 0;
+    for (const Rgb& p : image.pixels) {
+        if (!std::isfinite(p.r) || !std::isfinite(p.g) || !std::isfinite(p.b)) ++count;
+    }
+    return count;
+}
+
+// The phantom with spacing 1,1,1, so a camera's square pixels land on every voxel centre in
+// the front and side views too.
+std::vector<std::string> isotropic_phantom(const TempFolder& folder) {
+    Volume volume = make_phantom();
+    volume.sx = volume.sy = volume.sz = 1;
+    return write_raw_volume(volume, folder.path("phantom_iso.raw"));
+}
+
+// Every "p=(X, Y, Z) value=V" of a trace, as numbers.
+struct TracedSample {
+    double x, y, z, value;
+};
+std::vector<TracedSample> traced_samples(const PixelTrace& trace) {
+    std::vector<TracedSample> samples;
+    for (const std::string& line : trace.lines) {
+        const size_t at = line.find("p=(");
+        if (at == std::string::npos) continue;
+        TracedSample s{};
+        if (std::sscanf(line.c_str() + at, "p=(%lf, %lf, %lf) value=%lf", &s.x, &s.y, &s.z,
+                        &s.value) == 4) {
+            samples.push_back(s);
+        }
+    }
+    return samples;
+}
+
+// The line of a trace that starts with `prefix` ("box", "ray"), or "".
+std::string trace_line(const PixelTrace& trace, const std::string& prefix) {
+    for (const std::string& line : trace.lines) {
+        if (line.compare(0, prefix.size(), prefix) == 0) return line;
+    }
+    return "";
+}
+
+}  // namespace
+
+TEST_CASE("free camera: along the three axes it draws part 1's top and side views and the "
+          "mirror of its front view, bit for bit") {
+    // Orthographic, zoom 1 (one pixel per voxel), the image the size of part 1's, the step the
+    // spacing along the ray: every sample is a voxel centre, where trilinear is the voxel.
+    const TempFolder folder("free_camera_axes");
+    const std::vector<std::string> phantom = {"--volume", "phantom"};
+    for (const std::string lighting : {"unlit", "lit"}) {
+        CAPTURE(lighting);
+        const bool lit = lighting == "lit";
+        std::vector<std::string> light_flags;
+        if (!lit) light_flags.push_back("--unlit");
+
+        // Top: the phantom as it is (spacing 1,1,2), the step 2 along k.
+        std::vector<std::string> top = {"--azimuth", "180", "--elevation", "90", "--size",
+                                        "256x256", "--step", "2"};
+        top.insert(top.end(), light_flags.begin(), light_flags.end());
+        render(free_camera, phantom, top, folder);
+        std::vector<std::string> part1_top = {"--view", "top", "--step", "2"};
+        part1_top.insert(part1_top.end(), light_flags.begin(), light_flags.end());
+        render(part1, phantom, part1_top, folder);
+        const Image camera_top = pfm_of(folder, free_camera, "camera");
+        CHECK(differing_pixels(camera_top, pfm_of(folder, part1, "top"), false) == 0);
+
+        // Side and front need square pixels on the voxels: the phantom at spacing 1,1,1.
+        const std::vector<std::string> iso = isotropic_phantom(folder);
+        std::vector<std::string> side = {"--azimuth", "90", "--elevation", "0", "--size",
+                                         "256x113", "--step", "1"};
+        side.insert(side.end(), light_flags.begin(), light_flags.end());
+        render(free_camera, iso, side, folder);
+        std::vector<std::string> part1_side = {"--view", "side", "--step", "1"};
+        part1_side.insert(part1_side.end(), light_flags.begin(), light_flags.end());
+        render(part1, iso, part1_side, folder);
+        CHECK(differing_pixels(pfm_of(folder, free_camera, "camera"), pfm_of(folder, part1, "side"),
+                               false) == 0);
+
+        // Front: the camera facing the face sees part 1's front view mirrored. Lit, its light
+        // (30 degrees to the camera's right) is part 1's mirrored too: --light-angle -30 there.
+        std::vector<std::string> front = {"--azimuth", "0", "--elevation", "0", "--size",
+                                          "256x113", "--step", "1"};
+        front.insert(front.end(), light_flags.begin(), light_flags.end());
+        render(free_camera, iso, front, folder);
+        std::vector<std::string> part1_front = {"--view", "front", "--step", "1"};
+        if (lit) part1_front.insert(part1_front.end(), {"--light-angle", "-30"});
+        part1_front.insert(part1_front.end(), light_flags.begin(), light_flags.end());
+        render(part1, iso, part1_front, folder);
+        const Image camera_front = pfm_of(folder, free_camera, "camera");
+        const Image part1_front_image = pfm_of(folder, part1, "front");
+        if (lit) {
+            // The mirrored light is the same direction, computed in another order: within
+            // 1/255 (the brief's bound where the path differs), most pixels identical.
+            int over = 0;
+            for (int y = 0; y < camera_front.height; ++y) {
+                for (int x = 0; x < camera_front.width; ++x) {
+                    const Rgb& p = camera_front.at(x, y);
+                    const Rgb& q = part1_front_image.at(camera_front.width - 1 - x, y);
+                    if (std::fabs(p.r - q.r) > 1 / 255.0 || std::fabs(p.g - q.g) > 1 / 255.0 ||
+                        std::fabs(p.b - q.b) > 1 / 255.0) {
+                        ++over;
+                    }
+                }
+            }
+            CHECK(over == 0);
+        } else {
+            CHECK(differing_pixels(camera_front, part1_front_image, true) == 0);
+            // ... and it is not the unmirrored picture (the phantom is not symmetric).
+            CHECK(differing_pixels(camera_front, part1_front_image, false) > 100);
+        }
+    }
+}
+
+TEST_CASE("free camera: the slab method's stiff cases give an entry and exit or a clean "
+          "miss, never NaN") {
+    const TempFolder folder("free_camera_slab");
+    const std::vector<std::string> phantom = {"--volume", "phantom"};
+
+    SUBCASE("rays parallel to two faces, their origins on the faces' planes (0 * inf)") {
+        // Looking straight down k: direction (0, -0, 1). Pixel (0, 0) starts on the planes
+        // i = 0 and j = 0 and runs along the box's edge from corner (0, 0, 0) to (0, 0, 224);
+        // pixel (255, 255) along the opposite edge, on the planes i = 255 and j = 255.
+        const RunResult run = render(free_camera, phantom,
+                                     {"--azimuth", "180", "--elevation", "90", "--size",
+                                      "256x256", "--step", "2", "--debug-pixel", "0,0"},
+                                     folder);
+        CHECK(non_finite_pixels(pfm_of(folder, free_camera, "camera")) == 0);
+        REQUIRE(run.traces.size() == 1);
+        const PixelTrace& trace = run.traces[0];
+        CHECK(trace.complete);
+        CHECK(run.out.find("nan") == std::string::npos);
+        const std::string ray = trace_line(trace, "ray");
+        CHECK(ray.compare(0, 19, "ray origin=(0, 0, -") == 0);  // below the crown, k < 0
+        CHECK(ray.find("direction=(0, -0, 1)") != std::string::npos);
+        CHECK(trace_line(trace, "box").find("at (0.0000, 0.0000, 0.0000) through the k face")
+              != std::string::npos);
+        CHECK(trace_line(trace, "box").find("at (0.0000, 0.0000, 224.0000)") !=
+              std::string::npos);
+        CHECK(trace.samples > 0);
+
+        const RunResult far = render(free_camera, phantom,
+                                     {"--azimuth", "180", "--elevation", "90", "--size",
+                                      "256x256", "--step", "2", "--debug-pixel", "255,255"},
+                                     folder);
+        REQUIRE(far.traces.size() == 1);
+        CHECK(trace_line(far.traces[0], "box").find("exit t=") != std::string::npos);
+        CHECK(trace_line(far.traces[0], "box").find("(255.0000, 255.0000, 224.0000)") !=
+              std::string::npos);
+    }
+
+    SUBCASE("rays that miss the box") {
+        // Zoomed out, the image's corner pixels pass beside the box.
+        const RunResult run = render(free_camera, phantom,
+                                     {"--size", "128x128", "--zoom", "0.25", "--debug-pixel",
+                                      "0,0"},
+                                     folder);
+        const Image image = pfm_of(folder, free_camera, "camera");
+        CHECK(non_finite_pixels(image) == 0);
+        REQUIRE(run.traces.size() == 1);
+        CHECK(trace_line(run.traces[0], "box").find("missed") != std::string::npos);
+        CHECK(run.traces[0].samples == 0);
+        CHECK(image.at(0, 0).r == 0.0f);
+        CHECK(image.at(64, 64).r > 0.0f);  // the centre pixel meets the head
+    }
+
+    SUBCASE("a perspective camera inside the box") {
+        const RunResult run = render(free_camera, phantom,
+                                     {"--projection", "perspective", "--zoom", "20", "--size",
+                                      "96x64", "--fov", "90", "--debug-pixel", "48,32"},
+                                     folder);
+        CHECK(non_finite_pixels(pfm_of(folder, free_camera, "camera")) == 0);
+        REQUIRE(run.traces.size() == 1);
+        const std::string box = trace_line(run.traces[0], "box");
+        CHECK(box.find("entry t=0.000000") != std::string::npos);
+        CHECK(box.find("none (starts inside)") != std::string::npos);
+        CHECK(run.out.find("nan") == std::string::npos);
+    }
+
+    SUBCASE("every axis-aligned camera, ortho and perspective: no NaN anywhere") {
+        for (const char* azimuth : {"-180", "-90", "0", "90", "180", "270"}) {
+            for (const char* elevation : {"-90", "0", "90"}) {
+                for (const char* projection : {"ortho", "perspective"}) {
+                    CAPTURE(azimuth);
+                    CAPTURE(elevation);
+                    CAPTURE(projection);
+                    const RunResult run = render(
+                        free_camera, phantom,
+                        {"--azimuth", azimuth, "--elevation", elevation, "--projection",
+                         projection, "--size", "64x48", "--zoom", "0.25", "--unlit"},
+                        folder);
+                    const Image image = pfm_of(folder, free_camera, "camera");
+                    CHECK(non_finite_pixels(image) == 0);
+                    CHECK(summary_count(run.summary("camera"), "samples") > 0);
+                }
+            }
+        }
+    }
+}
+
+TEST_CASE("free camera: trilinear samples of a linear ramp equal the closed form") {
+    // value(i, j, k) = 3i + 5j + 7k on a 9x8x7 grid with spacing 1, 0.5, 2: a linear field in
+    // physical space, value(x, y, z) = 3x + 10y + 3.5z, which trilinear reproduces anywhere.
+    Volume volume;
+    volume.nx = 9;
+    volume.ny = 8;
+    volume.nz = 7;
+    volume.sx = 1;
+    volume.sy = 0.5;
+    volume.sz = 2;
+    volume.data.resize(volume.voxel_count());
+    for (int k = 0; k < volume.nz; ++k)
+        for (int j = 0; j < volume.ny; ++j)
+            for (int i = 0; i < volume.nx; ++i)
+                volume.data[(size_t(k) * volume.ny + j) * volume.nx + i] = int16_t(3 * i + 5 * j +
+                                                                                   7 * k);
+    const TempFolder folder("free_camera_ramp");
+    const std::vector<std::string> raw = write_raw_volume(volume, folder.path("ramp.raw"));
+    for (const std::string projection : {"ortho", "perspective"}) {
+        CAPTURE(projection);
+        const RunResult run = render(free_camera, raw,
+                                     {"--projection", projection, "--azimuth", "33",
+                                      "--elevation", "-21", "--size", "24x24", "--zoom", "2",
+                                      "--step", "0.25", "--ert", "0", "--debug-pixel", "12,11"},
+                                     folder);
+        REQUIRE(run.traces.size() == 1);
+        const std::vector<TracedSample> samples = traced_samples(run.traces[0]);
+        CHECK(samples.size() >= 15);  // the box is 3.5 units deep along j: a chord of ~4.5
+        CHECK(samples.size() == run.traces[0].samples);
+        double worst = 0;
+        for (const TracedSample& s : samples) {
+            worst = std::max(worst, std::fabs(s.value - (3 * s.x + 10 * s.y + 3.5 * s.z)));
+        }
+        CHECK(worst < 2e-3);  // the trace's 4 decimals and float rounding of values up to 112
+    }
+}
+
+TEST_CASE("free camera: a sphere has the same silhouette radius from every direction") {
+    // A radial ramp: value 300 + 100 * (20 - r), r the distance from the centre of a 64^3
+    // grid, clamped to int16 range: bone (>= 300) exactly inside r = 20. Skin is switched off.
+    constexpr int n = 64;
+    constexpr double radius = 20;
+    Volume volume;
+    volume.nx = volume.ny = volume.nz = n;
+    volume.data.resize(volume.voxel_count());
+    const double centre = (n - 1) / 2.0;
+    for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                const double r = std::sqrt((i - centre) * (i - centre) +
+                                           (j - centre) * (j - centre) +
+                                           (k - centre) * (k - centre));
+                const double value = std::clamp(300 + 100 * (radius - r), -1000.0, 2000.0);
+                volume.data[(size_t(k) * n + j) * n + i] = int16_t(std::lround(value));
+            }
+    const TempFolder folder("free_camera_sphere");
+    const std::vector<std::string> raw = write_raw_volume(volume, folder.path("sphere.raw"));
+    const char* directions[][2] = {{"0", "0"},   {"30", "20"},   {"90", "0"},  {"180", "90"},
+                                   {"-45", "-60"}, {"123", "37"}, {"200", "-5"}};
+    double smallest = 1e9, largest = 0;
+    for (const auto& direction : directions) {
+        CAPTURE(direction[0]);
+        CAPTURE(direction[1]);
+        render(free_camera, raw,
+               {"--azimuth", direction[0], "--elevation", direction[1], "--size", "64x64",
+                "--step", "0.25", "--skin-opacity", "0", "--unlit"},
+               folder);
+        const Image image = pfm_of(folder, free_camera, "camera");
+        int inside = 0;
+        for (const Rgb& p : image.pixels) inside += p.r > 0.5f ? 1 : 0;
+        const double seen = std::sqrt(inside / 3.14159265358979323846);  // pixels
+        CHECK(std::fabs(seen - radius) < 0.5);
+        smallest = std::min(smallest, seen);
+        largest = std::max(largest, seen);
+    }
+    CHECK(largest - smallest < 0.5);
+}
+
+TEST_CASE("free camera: bad camera flags are refused with status 2") {
+    for (const std::vector<std::string>& flags :
+         std::vector<std::vector<std::string>>{{"--view", "top"},
+                                               {"--size", "512"},
+                                               {"--size", "0x10"},
+                                               {"--size", "10x9999"},
+                                               {"--elevation", "91"},
+                                               {"--projection", "fisheye"},
+                                               {"--zoom", "0"},
+                                               {"--fov", "180"}}) {
+        std::vector<std::string> args = {"--volume", "phantom"};
+        args.insert(args.end(), flags.begin(), flags.end());
+        const RunResult run = run_step(free_camera, args);
+        CAPTURE(run.command());
+        CHECK(run.status == 2);
+        CHECK(run.err.find("error: " + flags[0]) != std::string::npos);
+    }
+}
+
+TEST_CASE("free camera: the default run matches its reference image, no NaN") {
+    // As test_golden.cpp does for part 1 (same tolerance): make reference renders it.
+    const TempFolder folder("free_camera_golden");
+    const RunResult run = render(free_camera, {"--volume", "phantom"}, {}, folder);
+    const Image image = pfm_of(folder, free_camera, "camera");
+    CHECK(non_finite_pixels(image) == 0);
+    CHECK(summary_count(run.summary("camera"), "samples") > 0);
+    CHECK(run.summary("camera").at("size") == "512x512");
+    const std::string path = "data/reference/10_free_camera_camera.png";
+    REQUIRE_MESSAGE(access(path.c_str(), R_OK) == 0, "missing " << path << ": make reference");
+    const Image reference = read_image(path);
+    const Comparison c = compare_images(image, reference, 1, "the float render", path);
+    INFO(comparison_line(c));
+    CHECK(c.max_abs <= 2);
+    CHECK(c.over_tol_pct <= 0.1);
+}
+
+TEST_CASE("free camera: the picture and the work counts do not depend on the thread count") {
+    const TempFolder one("free_camera_threads1"), three("free_camera_threads3");
+    std::vector<Summary> summaries;
+    for (const TempFolder* folder : {&one, &three}) {
+        const std::string threads = folder == &one ? "1" : "3";
+        const RunResult run = run_step(free_camera, {"--volume", "phantom", "--size", "96x80",
+                                                     "--zoom", "0.3", "--projection",
+                                                     "perspective", "--out", folder->path(),
+                                                     "--pfm", "--threads", threads});
+        REQUIRE(run.status == 0);
+        summaries.push_back(run.summary("camera"));
+    }
+    CHECK(differing_pixels(pfm_of(one, free_camera, "camera"), pfm_of(three, free_camera, "camera"),
+                           false) == 0);
+    for (const char* counter : {"samples", "skipped", "gradients", "terminated"}) {
+        CAPTURE(counter);
+        CHECK(summaries[0].at(counter) == summaries[1].at(counter));
+    }
+}
