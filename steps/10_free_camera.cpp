@@ -94,6 +94,7 @@ static Vec3d box_high(const Volume& volume) {
     return {(volume.nx - 1) * volume.sx, (volume.ny - 1) * volume.sy, (volume.nz - 1) * volume.sz};
 }
 
+//> lesson: camera
 // sin and cos of an angle in degrees, exact at multiples of 90: std::sin(180 * pi / 180) is
 // 1.2e-16, not 0, and a camera meant to look along an axis would look a hair past it, its
 // samples a hair off the voxel centres.
@@ -107,7 +108,6 @@ static double sin_degrees(double angle) {
 }
 static double cos_degrees(double angle) { return sin_degrees(angle + 90); }
 
-//> lesson: camera
 // The orbit camera looks at the centre of the box from `azimuth` degrees around the vertical
 // and `elevation` degrees above the i-j plane. Up is -k (k runs from the crown down). Azimuth
 // 0, elevation 0 stands in front of the face (small j) looking along +j; azimuth 90 looks along
@@ -205,6 +205,7 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
 }
 //< lesson: slab
 
+//> lesson: opacity_correction
 // The opacity correction of step 08, unchanged.
 static float corrected_opacity(float alpha, double ratio) {
     if (alpha <= 0.0f) return 0.0f;
@@ -215,12 +216,14 @@ static float corrected_opacity(float alpha, double ratio) {
 static double opacity_ratio(const Params& params) {
     return params.no_correction ? 1.0 : params.step / unit_length;
 }
+//< lesson: opacity_correction
 
 // Step 08's lookup table, unchanged: one RGBA per CT value, opacities corrected for the step.
 struct Lut {
     std::vector<Rgba> entries = std::vector<Rgba>(ct_value_end - lowest_ct_value);
 };
 
+//> lesson: lookup_table
 static Rgba mix(const Rgba& a, const Rgba& b, float f) {
     return {a.r + f * (b.r - a.r), a.g + f * (b.g - a.g), a.b + f * (b.b - a.b),
             a.a + f * (b.a - a.a)};
@@ -239,6 +242,7 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
     }
     return lut;
 }
+//< lesson: lookup_table
 
 // The eight voxels around a point: along one axis, the voxel at or below it, the next one
 // (the same one at the last voxel) and how far the point is between them, 0..1.
@@ -278,6 +282,7 @@ static float trilinear(const Volume& volume, const Vec3d& point) {
 }
 //< lesson: trilinear
 
+//> lesson: gradient
 // Step 08's derivative and gradient at a voxel, unchanged.
 template <class Sample>
 static float derivative(Sample sample, int n, int count, double spacing) {
@@ -297,7 +302,7 @@ static Vec3 gradient_at(const Volume& volume, int i, int j, int k, Work& work) {
             derivative(along_k, k, volume.nz, volume.sz)};
 }
 
-static Vec3 lerp(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
+static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
 // The gradient at a point: the voxels' gradients interpolated trilinearly, as the values are.
 // At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
@@ -308,16 +313,18 @@ static Vec3 gradient_trilinear(const Volume& volume, const Vec3d& point, Work& w
     auto g = [&](int i, int j, int k) { return gradient_at(volume, i, j, k, work); };
     auto along_i = [&](int j, int k) {
         return ci.fraction == 0.0f ? g(ci.low, j, k)
-                                   : lerp(g(ci.low, j, k), g(ci.high, j, k), ci.fraction);
+                                   : lerp_vector(g(ci.low, j, k), g(ci.high, j, k), ci.fraction);
     };
     auto along_ij = [&](int k) {
         return cj.fraction == 0.0f ? along_i(cj.low, k)
-                                   : lerp(along_i(cj.low, k), along_i(cj.high, k), cj.fraction);
+                                   : lerp_vector(along_i(cj.low, k), along_i(cj.high, k), cj.fraction);
     };
     return ck.fraction == 0.0f ? along_ij(ck.low)
-                               : lerp(along_ij(ck.low), along_ij(ck.high), ck.fraction);
+                               : lerp_vector(along_ij(ck.low), along_ij(ck.high), ck.fraction);
 }
+//< lesson: gradient
 
+//> lesson: shade
 // Step 08's diffuse shading, unchanged.
 static float shade(Vec3 gradient, Vec3 to_light) {
     const float size = length(gradient);
@@ -336,7 +343,9 @@ static Vec3 light_direction(const Camera& camera, double angle) {
     return along_x * axis(camera.right) + (-along_y) * axis(camera.up) +
            along_ray * axis(camera.forward);
 }
+//< lesson: shade
 
+//> lesson: front_to_back
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
@@ -357,7 +366,6 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
                span.t_exit, out.i, out.j, out.k, step);
 }
 
-//> lesson: front_to_back
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
 // transparent, composited front to back; early ray termination as in step 07.
