@@ -503,7 +503,7 @@ lines_in() { [ "$(grep -c "$2" "$1")" -ge "$3" ]; }
 # signal_ends SIGNAL STATUS WHAT: sends SIGNAL to $pid; it must end with STATUS within a second
 signal_ends() {
     start=$(now_ms)
-    kill -"$1" $pid
+    kill -"$1" $pid 2> /dev/null  # it may have ended already (the X server going away)
     wait $pid
     status=$?
     took=$(($(now_ms) - start))
@@ -585,6 +585,7 @@ if command -v Xvfb > /dev/null 2>&1; then
         pid=$!
         if wait_until 20 lines_in "$work/stdout" "^step=$s view=top" 2; then
             kill $xvfb
+            wait $xvfb 2> /dev/null  # reaped here: no "Terminated" line from the shell
             signal_ends CONT 1 "the X server going away"
             line="$s: error: lost the X display '$display' (the X server closed the connection); the PNGs are written"
             if grep -qxF "$line" "$work/stderr" && ! grep -q XIO "$work/stderr"; then pass; else

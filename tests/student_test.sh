@@ -254,9 +254,11 @@ fi
 # Step 01's mip_top (nothing outside step 01 names it), then step 02's first_hit (tests,
 # bench and study must not compile a step's lesson functions: they run the step binaries).
 change_signature() {  # FILE FUNCTION: adds a first parameter `int unused_first` to FUNCTION
-    sed -i "s/\\(static [A-Za-z]* $2(\\)/\\1int unused_first, /; s/\\([^a-z_]$2(\\)\\(volume\\)/\\1 0, \\2/" "$1"
+    # [[maybe_unused]]: the kit may be built with -Werror (CI's WERROR=1), and the point is
+    # the new signature, not a warning about the parameter.
+    sed -i "s/\\(static [A-Za-z]* $2(\\)/\\1[[maybe_unused]] int unused_first, /; s/\\([^a-z_]$2(\\)\\(volume\\)/\\1 0, \\2/" "$1"
     sed -i "s/static \\([A-Za-z]*\\) $2( 0, /static \\1 $2(/" "$1"
-    grep -q "$2(int unused_first, " "$1" && grep -q "$2( 0, volume" "$1"
+    grep -qF "$2([[maybe_unused]] int unused_first, " "$1" && grep -q "$2( 0, volume" "$1"
 }
 for change in "01 mip_top" "02 first_hit"; do
     set -- $change
