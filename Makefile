@@ -154,14 +154,17 @@ run:
 	@$(MAKE) --no-print-directory $(BUILD)/$(STEP_TARGET)
 	$(BUILD)/$(STEP_TARGET) $(ARGS)
 
-# What step NN teaches: its diff against step NN-1. In a student tree, of the steps as they
+# What step NN teaches: its diff against the step its header's "// Builds on:  NN_name" names
+# (part 2's steps branch: 12 may build on 10), else against step NN-1. In a student tree, of the steps as they
 # were handed out (.ctlab/pristine/, written by make student), not of the student's own code.
 DIFF_STEPS := $(if $(wildcard .ctlab-student),$(if $(wildcard .ctlab/pristine/steps),.ctlab/pristine/steps,steps),steps)
 diff:
 	@if [ -z "$(STEP_NUMBER)" ]; then echo "make diff: say which step by number, e.g. make diff STEP=3 (got '$(STEP)')"; exit 2; fi
-	@previous=$$(printf '%02d' $$(expr $(STEP_NUMBER) - 1)); \
-	 old=$$(ls $(DIFF_STEPS)/$${previous}_*.cpp 2>/dev/null); \
-	 new=$$(ls $(DIFF_STEPS)/$(STEP_NUMBER)_*.cpp 2>/dev/null); \
+	@new=$$(ls $(DIFF_STEPS)/$(STEP_NUMBER)_*.cpp 2>/dev/null); \
+	 base=$$(sed -n 's|^// Builds on: *\([0-9][0-9]_[a-z0-9_]*\).*|\1|p' $$new /dev/null | head -n 1); \
+	 previous=$$(printf '%02d' $$(expr $(STEP_NUMBER) - 1)); \
+	 if [ -n "$$base" ]; then old=$$(ls $(DIFF_STEPS)/$$base.cpp 2>/dev/null); \
+	 else old=$$(ls $(DIFF_STEPS)/$${previous}_*.cpp 2>/dev/null); fi; \
 	 if [ -z "$$new" ] || [ -z "$$old" ]; then echo "make diff: no step $(STEP) or no step before it"; exit 2; fi; \
 	 diff -u "$$old" "$$new" || true
 
