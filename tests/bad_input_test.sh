@@ -6,7 +6,7 @@
 # minute. tests/cli_test.sh runs the cases every step shares (missing file, a folder, an empty
 # file, one byte short, dims over the limit, unknown flag and --view, --threads 0, --debug-pixel
 # outside, --threshold abc, unwritable --out) on every step; this table adds the rest, and a
-# check that huge dims are refused before anything is allocated. Round 2 (the hard cases) checks exit
+# check that huge dims are refused before anything is allocated. Round 2 (hard cases) checks exit
 # statuses and exact first lines: numbers out of a double's range, escaped control characters,
 # stdout on a full disk, a full disk on the third view (simulated, and a real full tmpfs when
 # run as root), SIGINT mid-render, threads refused by ulimit -u, a long ray's trace, hostile
