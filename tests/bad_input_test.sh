@@ -296,7 +296,7 @@ else
 fi
 
 
-# --- Round 2: no hang, no abort, bounded output, all pictures or none -------------------------------
+# --- Round 2: no hang, no abort, bounded output, all pictures or none ---------------------------
 # Each case checks the exit status and the exact first line on stderr (an error is one line, and
 # no ESC byte reaches the terminal). A folder "as before" is compared by names and checksums.
 abs_build=$(cd "$build" && pwd)
