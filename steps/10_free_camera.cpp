@@ -37,6 +37,7 @@ constexpr double degrees = 3.14159265358979323846 / 180;
 constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
 constexpr double default_elevation = 20;  // degrees above the i-j plane
 constexpr double default_fov = 30;        // degrees, the perspective image's height
+constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
 constexpr const char* default_size = "512x512";  // pixels, columns x rows
 constexpr int max_image_side = 8192;             // pixels, --size limit per side
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
@@ -649,7 +650,7 @@ int main(int argc, char** argv) {
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
                         "degrees above the i-j plane; 90 looks down from the crown");
-        args.add_double("--zoom", &params.zoom, 0.01, 100,
+        args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
                         "ortho: pixels per voxel; perspective: walks the eye in (>1)");
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
@@ -716,6 +717,17 @@ int main(int argc, char** argv) {
                              update_empty_space();
                          },
                          [&] { return number(params.step); }};
+        renderer.orbit.turn = [&](double azimuth, double elevation) {
+            params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
+            params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
+        };
+        renderer.orbit.zoom = [&](double factor) {
+            params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
+        };
+        renderer.orbit.value = [&] {
+            return "azimuth=" + number(params.azimuth) + " elevation=" +
+                   number(params.elevation) + " zoom=" + number(params.zoom);
+        };
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "tf=" + tf.source +
