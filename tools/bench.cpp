@@ -479,6 +479,7 @@ int run(int argc, char** argv) {
     }
 
     const std::string load_before = load_average();
+    const std::string started = utc_now();
     const machine::OtherLoad others;
     std::ostringstream report;
     report << "# ctlab benchmark\n\n";
@@ -560,7 +561,8 @@ int run(int argc, char** argv) {
         }
         std::vector<Row> quoted = first_rows;  // step 09's section has its --unlit rows too
         quoted.insert(quoted.end(), unlit_rows.begin(), unlit_rows.end());
-        const std::string when = utc_now() + ", load average " + load_before + " before it";
+        const std::string when = "started " + started + ", load average " + load_before +
+                                 " before it, " + load_average() + " after";
         for (const std::string& name : names) {
             report << step_section(quoted, name, cores, runs, others.share(), when) << "\n";
         }
