@@ -173,8 +173,10 @@ clean:
 
 # --- Measuring: speed and accuracy -----------------------------------------------------------
 # Every step and view timed with 1 and 2 threads, each step binary run with --repeat: the cold
-# first render and the warm median (tools/bench.cpp): out/bench.md. Timing needs an idle
-# machine: check `uptime`.
+# first render and the warm median (tools/bench.cpp): out/bench.md; then step 09 --unlit,
+# and every step's top view on the phantom at 512^3 (time per visited sample against the
+# 256x256 view's, peak memory against the volume's size). Each target: met or missed.
+# Timing needs an idle machine: check `uptime`.
 # QUICK=1 (CI): a small volume and one render per case, to check the tool still works.
 # A full run then copies its figures into the handouts' <!-- measured: bench:... --> blocks
 # (tools/measured.cpp), so a handout's speed table is always the last `make bench`.

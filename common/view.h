@@ -8,6 +8,8 @@
 //            rays are the step's own, so ray_length, voxel() and volume_direction() do not
 //            apply to it.
 #pragma once
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 #include "vec3.h"
@@ -43,6 +45,20 @@ struct View {
 };
 
 View make_view(const Volume& volume, ViewAxis axis);
+
+// The voxels along the ray through pixel (x, y) of an axis view, as they lie in memory: the
+// ray's voxel n is first[n * stride], the same value as volume.at() of view.voxel(x, y, n).
+// Where a ray starts and how far apart its voxels lie are worked out once per ray, not per
+// sample. Speed: the top view's voxels lie nx*ny values apart (128 KiB on CThead), the front
+// view's nx, the side view's 1.
+struct RayVoxels {
+    const int16_t* first = nullptr;  // the voxel at n = 0
+    ptrdiff_t stride = 0;            // values from one voxel of the ray to the next
+
+    int16_t operator[](int n) const { return first[n * stride]; }
+};
+
+RayVoxels ray_voxels(const Volume& volume, const View& view, int x, int y);
 
 // A direction given in the view's frame (along image x to the right, along image y down,
 // along the ray away from the viewer) as components along the volume axes i, j, k.

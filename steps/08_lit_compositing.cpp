@@ -93,15 +93,14 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 
 //> lesson: sample_along_ray
 // The CT value `position` voxels along the ray (fractional): linear between the two voxels on
-// the ray axis around it. Past the last voxel it stays at the last one: nothing outside is read.
-static float value_along_ray(const Volume& volume, const View& view, int x, int y,
-                             double position) {
-    const int before = std::min(int(position), view.ray_length - 1);
-    const int after = std::min(before + 1, view.ray_length - 1);
+// the ray axis around it. `voxels` are the ray's voxels (voxels[n]: the one at n, common/view.h),
+// `ray_length` of them. Past the last voxel it stays at the last one: nothing outside is read.
+static float value_along_ray(const RayVoxels& voxels, int ray_length, double position) {
+    const int before = std::min(int(position), ray_length - 1);
+    const int after = std::min(before + 1, ray_length - 1);
     const float fraction = float(position - before);
-    const Voxel a = view.voxel(x, y, before), b = view.voxel(x, y, after);
-    const float value_before = volume.at(a.i, a.j, a.k);
-    const float value_after = volume.at(b.i, b.j, b.k);
+    const float value_before = voxels[before];
+    const float value_after = voxels[after];
     return value_before + fraction * (value_after - value_before);
 }
 //< lesson: sample_along_ray
@@ -183,13 +182,14 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
     const int sample_count = samples_along_ray(view, params.step);
     const double voxels_per_sample = params.step / view.ray_spacing;
     const Vec3 to_light = params.unlit ? Vec3{} : light_direction(view, params.light_angle);
+    const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
     Accumulated ray;
     for (int n = 0; n < sample_count; ++n) {
         const double t = n * params.step;                // physical units from the first voxel
         const double position = n * voxels_per_sample;  // the same in voxels, fractional
         const int before = std::min(int(position), view.ray_length - 1);  // voxel at or before
         const float fraction = float(position - before);  // of the way to the next voxel, 0..1
-        const float value = value_along_ray(volume, view, x, y, position);
+        const float value = value_along_ray(voxels, view.ray_length, position);
         // The entry of the whole value at or below it (the range [from, to) it falls into):
         // value - lowest_ct_value >= 0, so int() rounds down.
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];

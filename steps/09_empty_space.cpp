@@ -94,18 +94,27 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 
 //> lesson: sample_along_ray
 // The CT value `position` voxels along the ray (fractional): linear between the two voxels on
-// the ray axis around it. Past the last voxel it stays at the last one: nothing outside is read.
-static float value_along_ray(const Volume& volume, const View& view, int x, int y,
-                             double position) {
-    const int before = std::min(int(position), view.ray_length - 1);
-    const int after = std::min(before + 1, view.ray_length - 1);
+// the ray axis around it. `voxels` are the ray's voxels (voxels[n]: the one at n, common/view.h),
+// `ray_length` of them. Past the last voxel it stays at the last one: nothing outside is read.
+static float value_along_ray(const RayVoxels& voxels, int ray_length, double position) {
+    const int before = std::min(int(position), ray_length - 1);
+    const int after = std::min(before + 1, ray_length - 1);
     const float fraction = float(position - before);
-    const Voxel a = view.voxel(x, y, before), b = view.voxel(x, y, after);
-    const float value_before = volume.at(a.i, a.j, a.k);
-    const float value_after = volume.at(b.i, b.j, b.k);
+    const float value_before = voxels[before];
+    const float value_after = voxels[after];
     return value_before + fraction * (value_after - value_before);
 }
 //< lesson: sample_along_ray
+
+// The flags of the bricks one ray crosses, as RayVoxels gives its voxels: where the ray's
+// first brick lies among the flags and how far apart its bricks lie, worked out once per ray.
+struct RayBricks {
+    const uint8_t* first = nullptr;  // the flag of the brick holding the ray's voxel 0
+    ptrdiff_t stride = 0;            // flags from one brick along the ray to the next
+
+    // Whether the ray's voxel n lies in a brick the table leaves wholly transparent.
+    bool is_empty(int n) const { return first && first[(n / brick_size) * stride]; }
+};
 
 // Empty space: the volume's bricks (common/bricks.h: the smallest and largest value of each
 // 8x8x8 block of voxels) and, for the current table, the ones it leaves wholly transparent.
@@ -113,8 +122,12 @@ struct EmptySpace {
     Bricks bricks;
     std::vector<uint8_t> empty;  // one flag per brick, 1: transparent; none: leap over nothing
 
-    bool is_empty(const Voxel& voxel) const {
-        return !empty.empty() && empty[bricks.index(voxel.i, voxel.j, voxel.k)];
+    RayBricks along_ray(const View& view, int x, int y) const {
+        if (empty.empty()) return {};  // --no-leaping: no brick is empty
+        const Voxel start = view.voxel(x, y, 0);
+        const Voxel next = view.voxel(x, y, brick_size);  // index arithmetic only: never read
+        const size_t first = bricks.index(start.i, start.j, start.k);
+        return {&empty[first], ptrdiff_t(bricks.index(next.i, next.j, next.k)) - ptrdiff_t(first)};
     }
 };
 
@@ -218,13 +231,15 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
     const int sample_count = samples_along_ray(view, params.step);
     const double voxels_per_sample = params.step / view.ray_spacing;
     const Vec3 to_light = params.unlit ? Vec3{} : light_direction(view, params.light_angle);
+    const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
+    const RayBricks bricks = space.along_ray(view, x, y);     // the same for its bricks
     Accumulated ray;
     for (int n = 0; n < sample_count; ++n) {
         const double t = n * params.step;                // physical units from the first voxel
         const double position = n * voxels_per_sample;  // the same in voxels, fractional
         const int before = std::min(int(position), view.ray_length - 1);  // voxel at or before
         const float fraction = float(position - before);  // of the way to the next voxel, 0..1
-        if (space.is_empty(view.voxel(x, y, before))) {
+        if (bricks.is_empty(before)) {
             const int brick_end = (before / brick_size + 1) * brick_size;  // voxels
             const int next = std::min(sample_count,
                                       std::max(n + 1, int(brick_end / voxels_per_sample)));
@@ -234,7 +249,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
             n = next - 1;
             continue;
         }
-        const float value = value_along_ray(volume, view, x, y, position);
+        const float value = value_along_ray(voxels, view.ray_length, position);
         // The entry of the whole value at or below it (the range [from, to) it falls into):
         // value - lowest_ct_value >= 0, so int() rounds down.
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];

@@ -25,12 +25,17 @@ inline double busy_seconds() {
     return (user + nice + system + irq + softirq + steal) / double(sysconf(_SC_CLK_TCK));
 }
 
-// CPU seconds this process (all its threads) has used.
+// CPU seconds this process (all its threads) and the children it has waited for (the step
+// programs it timed) have used: theirs is our own load, not the others'.
 inline double own_seconds() {
-    rusage usage {};
-    getrusage(RUSAGE_SELF, &usage);
-    return usage.ru_utime.tv_sec + usage.ru_utime.tv_usec * 1e-6 + usage.ru_stime.tv_sec +
-           usage.ru_stime.tv_usec * 1e-6;
+    double seconds = 0;
+    for (const int who : {RUSAGE_SELF, RUSAGE_CHILDREN}) {
+        rusage usage {};
+        getrusage(who, &usage);
+        seconds += usage.ru_utime.tv_sec + usage.ru_utime.tv_usec * 1e-6 +
+                   usage.ru_stime.tv_sec + usage.ru_stime.tv_usec * 1e-6;
+    }
+    return seconds;
 }
 
 class OtherLoad {

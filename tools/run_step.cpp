@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -169,8 +170,10 @@ RunResult run_program(const std::string& program, const std::vector<std::string>
     close(out_pipe[0]);
     close(err_pipe[0]);
     int wait_status = 0;
-    while (waitpid(child, &wait_status, 0) < 0 && errno == EINTR) {
+    rusage usage {};
+    while (wait4(child, &wait_status, 0, &usage) < 0 && errno == EINTR) {
     }
+    result.max_rss_kib = usage.ru_maxrss;  // Linux: kibibytes
     if (WIFEXITED(wait_status)) result.status = WEXITSTATUS(wait_status);
     if (WIFSIGNALED(wait_status)) result.status = 128 + WTERMSIG(wait_status);
     parse_output(result);

@@ -47,6 +47,7 @@ struct RunResult {
     std::string out, err;              // everything on stdout and stderr
     std::vector<Summary> summaries;    // the summary lines, in order (lines starting "step=")
     std::vector<PixelTrace> traces;    // the --debug-pixel traces, in order
+    long max_rss_kib = 0;              // the program's peak resident memory (ru_maxrss), KiB
 
     // The summary line of a view ("top", "front", "side"); throws when there is none.
     const Summary& summary(const std::string& view) const;

@@ -34,6 +34,7 @@
 #include <cfloat>
 #include <cstdarg>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <functional>
 #include <sstream>
@@ -457,9 +458,9 @@ const Phantom& phantom_volume() {
     return phantom;
 }
 
-// Step 08's pictures are rendered by step 09 (step 08 plus leaping over empty bricks: the
-// same pixels, less work; tests/test_compositing.cpp checks that they are identical).
-constexpr const char* lit_step = "09_empty_space";
+// The rows called "step 08" are timed on step 08 itself: step 09 gives the same pixels with
+// less work (it leaps over empty bricks), so its times would not be step 08's.
+constexpr const char* lit_step = "08_lit_compositing";
 
 void step_study() {
     std::printf("step: step 08 (lit) on the phantom, front view, step 4 .. 1/8 voxel, no early "
@@ -1149,6 +1150,14 @@ std::string section(const std::string& name, const std::string& body) {
     return "<!-- section: " + name + " -->\n" + body + "<!-- end section -->\n";
 }
 
+// The date and time now, "2026-11-23 13:10 UTC".
+std::string utc_now() {
+    const std::time_t now = std::time(nullptr);
+    char text[32];
+    std::strftime(text, sizeof text, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
+    return text;
+}
+
 std::string load_average() {
     std::ifstream in("/proc/loadavg");
     std::string one, five, fifteen;
@@ -1177,6 +1186,7 @@ int run(int argc, char** argv) {
     }
     make_folder(out);
     const std::string load_before = load_average();
+    const std::string started = utc_now();
     const machine::OtherLoad others;
     const Timer total;
     depth_study();
@@ -1206,11 +1216,12 @@ int run(int argc, char** argv) {
               "1/16. Do not quote these figures.\n\n";
     }
     const std::string written_by = format(
-        "Written by `make study` (tools/study.cpp) in %.0f s on %d cores (%s); load average "
-        "%s before, %s after; other processes used %.0f%% of the cores meanwhile. "
-        "Times: each step run as a program with --repeat, the median of the %d renders after "
-        "the first, 1 thread.\n",
-        total.ms() / 1000, cores, cpu_model().c_str(), load_before.c_str(),
+        "Figures of the last `make study` (tools/study.cpp), not typed by hand: started %s, %.0f s on "
+        "%d cores (%s); load average %s before, %s after; other processes used %.0f%% of the "
+        "cores meanwhile (a shared machine inflates the times; the errors do not depend on "
+        "it). Times: each step run as a program with --repeat, the median of the %d renders "
+        "after the first, 1 thread.\n",
+        started.c_str(), total.ms() / 1000, cores, cpu_model().c_str(), load_before.c_str(),
         load_average().c_str(), 100 * others.share(), runs);
     md << written_by << "\n";
     // Each table marked as a section that tools/measured.cpp copies into the handouts' blocks
