@@ -477,8 +477,12 @@ public:
     }
 
     // After previews: the camera as it is now, at full size (prints its summary line).
+    // A move not yet previewed (the release came in the same batch of events) counts too.
     void refine() {
-        if (moved_) apply_orbit();
+        if (moved_) {
+            apply_orbit();
+            refine_due_ = true;
+        }
         if (!refine_due_) return;
         refine_due_ = false;
         std::printf("window: orbit %s (%d previews at %dx%d)\n", preview_.orbit.value().c_str(),
