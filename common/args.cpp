@@ -425,11 +425,16 @@ static std::string default_volume_path() {
     return path;
 }
 
-// --threshold in file units -> the volume's int16 values. A hit is "value > threshold", so
-// the largest int16 t with file(t) <= T keeps exactly the same voxels: t = floor(T').
+// --threshold in file units -> the volume's int16 values. A hit is "value > threshold". A
+// shift map loses nothing: the largest int16 t with file(t) <= T keeps exactly the same
+// voxels, t = floor(T'). A scale map rounded every sample to the nearest int16 when loading:
+// T' is rounded the same way, so a sample equal to T in the file stays not above it (as in
+// int16), and the voxels above T are kept to within half a volume step.
 static void convert_file_units(const Options& options, const Volume& volume) {
     for (const Options::FileUnitsFlag& flag : options.file_units) {
-        const double converted = std::floor(volume.map.to_volume(flag.value) + 1e-9);
+        const double volume_value = volume.map.to_volume(flag.value);
+        const double converted = volume.map.scale == 1.0 ? std::floor(volume_value + 1e-9)
+                                                         : std::round(volume_value);
         if (volume.map.identity() && (converted < flag.min || converted > flag.max)) {
             throw InputError(flag.name + ": expected a number from " + std::to_string(flag.min) +
                               " to " + std::to_string(flag.max) + ", got " + printable(flag.text));

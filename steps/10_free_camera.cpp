@@ -494,17 +494,17 @@ int main(int argc, char** argv) {
         int width = 0, height = 0;
         parse_size(params.size, &width, &height);
 
-        // --- Transfer function: the file, then its lookup table for this step size ---
-        TransferFunction tf = load_transfer_function(params.tf_path);
-        if (params.skin_opacity >= 0) {
-            set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
-        }
-        Lut lut = build_lut(tf, opacity_ratio(params));
-
         // --- Volume ---
         const Volume volume = load_volume(options);
         const std::string refused = too_many_samples(volume, params.step);
         if (!refused.empty()) throw InputError(refused);
+
+        // --- Transfer function: the file (in the file's units), its table for this step size ---
+        TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
+        if (params.skin_opacity >= 0) {
+            set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
+        }
+        Lut lut = build_lut(tf, opacity_ratio(params));
 
         // --- View: the camera ---
         const Camera camera = make_camera(volume, params, width, height);
