@@ -31,6 +31,12 @@ std::string shown(const std::string& text) {
     return text.size() <= longest ? text : text.substr(0, longest) + "...";
 }
 
+bool looks_like_number(const std::string& text) {
+    char* end = nullptr;
+    std::strtod(text.c_str(), &end);
+    return end != text.c_str() && *end == '\0';
+}
+
 // Reads one line's fields and reports problems as "SOURCE:LINE: ...".
 struct LineReader {
     std::string source;
@@ -50,7 +56,10 @@ struct LineReader {
         const long value = std::strtol(text.c_str(), &end, 10);
         // The whole field must be the number (a NUL byte inside would end c_str() early).
         if (end != text.c_str() + text.size() || errno == ERANGE) {
-            fail(name + " must be a whole CT value, got '" + shown(text) + "'");
+            // A decimal is for a volume whose values are mapped (floats: map= on its line).
+            const bool decimal = looks_like_number(text);
+            fail(name + " must be a whole CT value, got '" + shown(text) + "'" +
+                 (decimal ? " (this volume's values are whole numbers)" : ""));
         }
         if (value < lowest_ct_value || value > ct_value_end) {
             fail(name + " must be from " + std::to_string(lowest_ct_value) + " to " +
@@ -120,12 +129,6 @@ int volume_value(double file_value, const ValueMap& map) {
     const double value = map.scale == 1.0 ? std::ceil(file_value - map.offset)
                                           : std::round(map.to_volume(file_value));
     return int(std::clamp(value, double(lowest_ct_value), double(ct_value_end)));
-}
-
-bool looks_like_number(const std::string& text) {
-    char* end = nullptr;
-    std::strtod(text.c_str(), &end);
-    return end != text.c_str() && *end == '\0';
 }
 
 }  // namespace
