@@ -129,7 +129,8 @@ std::string Args::usage() const {
         "                          first (cold) render, warm_ms= the median of the others\n"
         "  --help                  this text\n";
     text += "  --preset NAME           a volume's settings from data/presets/NAME.preset (flags\n"
-            "                          given on the command line win):";
+            "                          given on the command line win; key P in the window\n"
+            "                          switches to the next preset):";
     const std::vector<std::string> names = preset_names();
     for (const std::string& name : names) text += " " + name;
     text += names.empty() ? " none found\n" : "\n";
@@ -170,6 +171,43 @@ std::vector<std::string> preset_names() {
     std::sort(names.begin(), names.end());
     return names;
 }
+
+std::string next_preset(const std::string& current) {
+    const std::vector<std::string> names = preset_names();
+    if (names.empty()) return "";
+    const auto after = std::upper_bound(names.begin(), names.end(), current);
+    return after == names.end() ? names.front() : *after;
+}
+
+namespace {
+// What the window's P key asked for, and the preset it switched to (see request_preset).
+struct PresetSwitch {
+    bool requested = false;
+    std::string requested_name;
+    bool active = false;  // Args::parse uses `name` in place of the command line's --preset
+    std::string name;
+};
+PresetSwitch preset_switch;
+}  // namespace
+
+void request_preset(const std::string& name) {
+    preset_switch.requested = true;
+    preset_switch.requested_name = name;
+}
+
+bool take_preset_request(std::string* name) {
+    if (!preset_switch.requested) return false;
+    preset_switch.requested = false;
+    *name = preset_switch.requested_name;
+    return true;
+}
+
+void switch_preset(const std::string& name) {
+    preset_switch.active = !name.empty();
+    preset_switch.name = name;
+}
+
+const std::string& switched_preset() { return preset_switch.name; }
 
 // The preset's lines "flag value" (or "flag" alone for a switch) as words, keeping only the
 // flags this step has: a preset names settings for every step (the threshold of step 02, the
@@ -220,7 +258,8 @@ Options Args::parse(int argc, char** argv) {
     // --preset NAME: its settings go first, so that the command line's own flags win.
     std::vector<std::string> words;
     std::vector<std::string> given(argv + std::min(argc, 1), argv + argc);
-    for (size_t n = 0; n < given.size(); ++n) {
+    if (preset_switch.active) words = preset_words(preset_switch.name);  // the window's P
+    for (size_t n = 0; n < given.size() && !preset_switch.active; ++n) {
         std::string value;
         if (given[n] == "--preset" && n + 1 < given.size()) {
             value = given[n + 1];
@@ -233,15 +272,19 @@ Options Args::parse(int argc, char** argv) {
         }
         for (const std::string& word : preset_words(value)) words.push_back(word);
     }
+    Options options;
     if (!words.empty()) {
         std::vector<char*> all;
         all.push_back(argc > 0 ? argv[0] : nullptr);
         for (std::string& word : words) all.push_back(word.data());
         for (int n = 1; n < argc; ++n) all.push_back(argv[n]);
         all.push_back(nullptr);
-        return parse_words(int(all.size()) - 1, all.data());
+        options = parse_words(int(all.size()) - 1, all.data());
+    } else {
+        options = parse_words(argc, argv);
     }
-    return parse_words(argc, argv);
+    if (preset_switch.active) options.preset = preset_switch.name;
+    return options;
 }
 
 Options Args::parse_words(int argc, char** argv) {
@@ -425,11 +468,16 @@ static std::string default_volume_path() {
     return path;
 }
 
-// --threshold in file units -> the volume's int16 values. A hit is "value > threshold", so
-// the largest int16 t with file(t) <= T keeps exactly the same voxels: t = floor(T').
+// --threshold in file units -> the volume's int16 values. A hit is "value > threshold". A
+// shift map loses nothing: the largest int16 t with file(t) <= T keeps exactly the same
+// voxels, t = floor(T'). A scale map rounded every sample to the nearest int16 when loading:
+// T' is rounded the same way, so a sample equal to T in the file stays not above it (as in
+// int16), and the voxels above T are kept to within half a volume step.
 static void convert_file_units(const Options& options, const Volume& volume) {
     for (const Options::FileUnitsFlag& flag : options.file_units) {
-        const double converted = std::floor(volume.map.to_volume(flag.value) + 1e-9);
+        const double volume_value = volume.map.to_volume(flag.value);
+        const double converted = volume.map.scale == 1.0 ? std::floor(volume_value + 1e-9)
+                                                         : std::round(volume_value);
         if (volume.map.identity() && (converted < flag.min || converted > flag.max)) {
             throw InputError(flag.name + ": expected a number from " + std::to_string(flag.min) +
                               " to " + std::to_string(flag.max) + ", got " + printable(flag.text));

@@ -79,6 +79,18 @@ private:
 // The presets in data/presets (NAME.preset), sorted. A preset holds "--flag value" lines.
 std::vector<std::string> preset_names();
 
+// The preset after `current` in preset_names(), wrapping round ("" when there are none).
+std::string next_preset(const std::string& current);
+
+// The preview window's P key: the step runs again with another preset (guarded_main does it).
+// request_preset() records the wish; switch_preset() makes Args::parse use that preset in place
+// of the command line's --preset (the command line's other flags still win); "" goes back to
+// the command line as typed. switched_preset(): the preset in use, "" when as typed.
+void request_preset(const std::string& name);
+bool take_preset_request(std::string* name);
+void switch_preset(const std::string& name);
+const std::string& switched_preset();
+
 // Strict number parsing: the whole text must be a number in [min, max]. Throw InputError
 // "FLAG: expected WHAT, got 'TEXT'".
 int parse_int(const std::string& flag, const std::string& text, int min, int max);

@@ -34,8 +34,9 @@ const char* volume_formats_help() {
            "              any file with --dims NX,NY,NZ [--type T] [--endian E] [--spacing S]\n"
            "  CThead      data/CThead (256x256x113 int16, the default when present)\n"
            "  Values that do not fit int16 are mapped linearly (map= on the volume line);\n"
-           "  --threshold stays in the file's own units. Oriented files are turned so that\n"
-           "  i points to the patient's right, j backwards from the face, k down from the crown.\n";
+           "  --threshold and --tf files stay in the file's own units. Oriented files are\n"
+           "  turned so that i points to the patient's right, j backwards from the face, k down\n"
+           "  from the crown.\n";
 }
 
 }  // namespace ctlab

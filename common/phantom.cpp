@@ -286,8 +286,8 @@ std::vector<Shape> head_shapes() {
     }
     // An amalgam filling on the biting surface of an upper molar (the third tooth, x < 128).
     const double filling_angle = arch_angle * (2.0 * 2 / (teeth_per_jaw - 1) - 1);
-    s.push_back(ellipsoid(filling, {centre_x + arch_rx * std::sin(filling_angle),
-                                    arch_cy - arch_ry * std::cos(filling_angle), 162},
+    s.push_back(ellipsoid(filling, {float(centre_x + arch_rx * std::sin(filling_angle)),
+                                    float(arch_cy - arch_ry * std::cos(filling_angle)), 162},
                           {2.5, 2.5, 4}));
 
     // Airway: the pharynx behind the mouth, down the neck.

@@ -208,17 +208,46 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
 }
 
 int guarded_main(const char* step, const std::function<int()>& body) {
-    try {
-        return body();
-    } catch (const InputError& error) {
-        std::fprintf(stderr, "%s: error: %s\n", step, printable(error.what()).c_str());
-        return exit_bad_input;
-    } catch (const std::bad_alloc&) {
-        std::fprintf(stderr, "%s: error: out of memory (is the volume too large?)\n", step);
-        return exit_bad_input;
-    } catch (const std::exception& error) {
-        std::fprintf(stderr, "%s: internal error: %s\n", step, printable(error.what()).c_str());
-        return 1;
+    size_t presets_failed = 0;  // in a row, since the window's P key
+    for (;;) {
+        std::string kind = "error", message;
+        int status = 0;
+        try {
+            status = body();
+            std::string next;
+            if (!take_preset_request(&next)) return status;
+            // The window's P key: the whole step again (volume, transfer function, views).
+            presets_failed = 0;
+            switch_preset(next);
+            std::printf("window: preset=%s\n", next.c_str());
+            std::fflush(stdout);
+            continue;
+        } catch (const InputError& error) {
+            message = error.what();
+            status = exit_bad_input;
+        } catch (const std::bad_alloc&) {
+            message = "out of memory (is the volume too large?)";
+            status = exit_bad_input;
+        } catch (const std::exception& error) {
+            kind = "internal error";
+            message = error.what();
+            status = 1;
+        }
+        // A preset the window switched to that does not fit this volume or step (a threshold
+        // beyond its values, a missing data/CThead): said in one line, then the next preset;
+        // after every preset failed, the command line as typed (which ran before).
+        if (status == exit_bad_input && !switched_preset().empty()) {
+            const std::string failed = switched_preset();
+            std::printf("window: preset %s does not fit: %s\n", failed.c_str(),
+                        printable(message).c_str());
+            const bool more = ++presets_failed < preset_names().size();
+            switch_preset(more ? next_preset(failed) : "");
+            std::printf("window: preset=%s\n", more ? switched_preset().c_str() : "(as typed)");
+            std::fflush(stdout);
+            continue;
+        }
+        std::fprintf(stderr, "%s: %s: %s\n", step, kind.c_str(), printable(message).c_str());
+        return status;
     }
 }
 

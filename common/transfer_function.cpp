@@ -31,6 +31,12 @@ std::string shown(const std::string& text) {
     return text.size() <= longest ? text : text.substr(0, longest) + "...";
 }
 
+bool looks_like_number(const std::string& text) {
+    char* end = nullptr;
+    std::strtod(text.c_str(), &end);
+    return end != text.c_str() && *end == '\0';
+}
+
 // Reads one line's fields and reports problems as "SOURCE:LINE: ...".
 struct LineReader {
     std::string source;
@@ -50,13 +56,28 @@ struct LineReader {
         const long value = std::strtol(text.c_str(), &end, 10);
         // The whole field must be the number (a NUL byte inside would end c_str() early).
         if (end != text.c_str() + text.size() || errno == ERANGE) {
-            fail(name + " must be a whole CT value, got '" + shown(text) + "'");
+            // A decimal is for a volume whose values are mapped (floats: map= on its line).
+            const bool decimal = looks_like_number(text);
+            fail(name + " must be a whole CT value, got '" + shown(text) + "'" +
+                 (decimal ? " (this volume's values are whole numbers)" : ""));
         }
         if (value < lowest_ct_value || value > ct_value_end) {
             fail(name + " must be from " + std::to_string(lowest_ct_value) + " to " +
                  std::to_string(ct_value_end) + ", got " + shown(text));
         }
         return int(value);
+    }
+
+    // FROM or TO in the units of a file whose values are not int16's own: any finite number.
+    double file_value(const std::string& name, const std::string& text) const {
+        char* end = nullptr;
+        const double value = std::strtod(text.c_str(), &end);
+        if (end == text.c_str() || end != text.c_str() + text.size()) {
+            fail(name + " must be a number (a value in the volume file's units), got '" +
+                 shown(text) + "'");
+        }
+        if (!std::isfinite(value)) fail(name + " must be a finite number, got " + shown(text));
+        return value;
     }
 
     // A colour channel or an opacity: a number from 0 to 1 (NaN and infinity refused).
@@ -85,19 +106,35 @@ struct LineReader {
     }
 };
 
-std::string range_text(const TfRange& range) {
-    return "[" + std::to_string(range.from) + ", " + std::to_string(range.to) + ")";
+// A FROM or TO as a message shows it: whole numbers as they are, others with 9 digits.
+std::string value_text(double value) {
+    char text[40];
+    if (value == std::floor(value) && std::fabs(value) < 1e15) {
+        std::snprintf(text, sizeof text, "%.0f", value);
+    } else {
+        std::snprintf(text, sizeof text, "%.9g", value);
+    }
+    return text;
 }
 
-bool looks_like_number(const std::string& text) {
-    char* end = nullptr;
-    std::strtod(text.c_str(), &end);
-    return end != text.c_str() && *end == '\0';
+// The range as the file gives it, in the file's units.
+std::string range_text(const TfRange& range) {
+    return "[" + value_text(range.file_from) + ", " + value_text(range.file_to) + ")";
+}
+
+// A FROM or TO in file units -> the volume's int16 values (see parse_transfer_function): a
+// shift is exact (the smallest volume value whose file value is at least `file_value`); a
+// scale rounds as store_samples() rounded each sample.
+int volume_value(double file_value, const ValueMap& map) {
+    const double value = map.scale == 1.0 ? std::ceil(file_value - map.offset)
+                                          : std::round(map.to_volume(file_value));
+    return int(std::clamp(value, double(lowest_ct_value), double(ct_value_end)));
 }
 
 }  // namespace
 
-TransferFunction parse_transfer_function(const std::string& text, const std::string& source) {
+TransferFunction parse_transfer_function(const std::string& text, const std::string& source,
+                                         const ValueMap& map) {
     TransferFunction tf;
     tf.source = source;
     std::istringstream lines(text);
@@ -136,8 +173,17 @@ TransferFunction parse_transfer_function(const std::string& text, const std::str
         }
         TfRange range;
         range.line = reader.line;
-        range.from = reader.ct_value("FROM", fields[0]);
-        range.to = reader.ct_value("TO", fields[1]);
+        if (map.identity()) {  // CT values (or the file's whole numbers), as they are
+            range.from = reader.ct_value("FROM", fields[0]);
+            range.to = reader.ct_value("TO", fields[1]);
+            range.file_from = range.from;
+            range.file_to = range.to;
+        } else {
+            range.file_from = reader.file_value("FROM", fields[0]);
+            range.file_to = reader.file_value("TO", fields[1]);
+            range.from = volume_value(range.file_from, map);
+            range.to = volume_value(range.file_to, map);
+        }
         if (fields[2] != "constant" && fields[2] != "ramp") {
             reader.fail("the kind must be constant or ramp, got '" + shown(fields[2]) + "'");
         }
@@ -150,7 +196,7 @@ TransferFunction parse_transfer_function(const std::string& text, const std::str
                         ") and an optional label: " + std::to_string(fields.size()) +
                         " fields found");
         }
-        if (range.from >= range.to) {
+        if (range.file_from >= range.file_to) {
             reader.fail("FROM must be below TO, got " + fields[0] + " " + fields[1] +
                         " (the range is FROM <= value < TO)");
         }
@@ -167,12 +213,12 @@ TransferFunction parse_transfer_function(const std::string& text, const std::str
         // Sorted, not overlapping, and every label once.
         if (!tf.ranges.empty()) {
             const TfRange& previous = tf.ranges.back();
-            if (range.from < previous.from) {
+            if (range.file_from < previous.file_from) {
                 reader.fail("ranges must be sorted by FROM: " + range_text(range) +
                             " comes after " + range_text(previous) + " on line " +
                             std::to_string(previous.line));
             }
-            if (range.from < previous.to) {
+            if (range.file_from < previous.file_to) {
                 reader.fail("the range " + range_text(range) + " overlaps " +
                             range_text(previous) + " on line " + std::to_string(previous.line));
             }
@@ -193,10 +239,29 @@ static bool file_exists(const std::string& path) {
     return stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
 }
 
-TransferFunction load_transfer_function(const std::string& path) {
+// One line saying what the ranges became in the volume's values (only for a map that is not
+// the identity: CT users see nothing new).
+static void print_units(const TransferFunction& tf, const ValueMap& map) {
+    if (map.identity()) return;
+    std::string text = "units: --tf " + printable(tf.source) + " (file units)";
+    constexpr size_t most_shown = 8;  // ranges: a long file still prints one short line
+    for (size_t n = 0; n < tf.ranges.size() && n < most_shown; ++n) {
+        const TfRange& range = tf.ranges[n];
+        text += " " + range_text(range) + " = [" + std::to_string(range.from) + ", " +
+                std::to_string(range.to) + ")";
+    }
+    if (tf.ranges.size() > most_shown) text += " ...";
+    std::printf("%s in the volume's values\n", text.c_str());
+}
+
+TransferFunction load_transfer_function(const std::string& path, const ValueMap& map) {
     if (path.empty()) {
-        if (!file_exists(classic_tf_path)) return classic_transfer_function();
-        return load_transfer_function(classic_tf_path);
+        if (!file_exists(classic_tf_path)) {
+            TransferFunction tf = parse_transfer_function(classic_text, classic_source, map);
+            print_units(tf, map);
+            return tf;
+        }
+        return load_transfer_function(classic_tf_path, map);
     }
     std::vector<unsigned char> bytes;
     try {
@@ -216,7 +281,8 @@ TransferFunction load_transfer_function(const std::string& path) {
                          std::to_string(max_tf_bytes) + " bytes for a transfer function");
     }
     TransferFunction tf =
-        parse_transfer_function(std::string(bytes.begin(), bytes.end()), path);
+        parse_transfer_function(std::string(bytes.begin(), bytes.end()), path, map);
+    print_units(tf, map);
     if (tf.ranges.empty()) {
         std::fprintf(stderr,
                      "note: %s has no ranges: every value is transparent, the pictures will be "

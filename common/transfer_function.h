@@ -6,6 +6,7 @@
 #pragma once
 #include <string>
 #include <vector>
+#include "volume.h"
 
 namespace ctlab {
 
@@ -21,7 +22,8 @@ constexpr int lowest_ct_value = -32768;
 constexpr int ct_value_end = 32768;  // one past the highest int16
 
 struct TfRange {
-    int from = 0, to = 0;  // CT values from <= value < to (half open)
+    int from = 0, to = 0;  // volume values from <= value < to (half open); CT values for CT
+    double file_from = 0, file_to = 0;  // FROM and TO as the file gives them (file units)
     bool ramp = false;     // false: `start` everywhere; true: linear from `start` at from to
                            // `end` at to
     Rgba start, end;       // end == start for a constant range
@@ -38,11 +40,25 @@ struct TransferFunction {
 constexpr const char* classic_tf_path = "data/tf/classic.tf";
 
 // Parses the text of a .tf file. Every problem throws InputError "SOURCE:LINE: what was wrong".
-TransferFunction parse_transfer_function(const std::string& text, const std::string& source);
+// FROM and TO are values in the volume file's own units, turned into the volume's int16
+// values through `map` (volume.map), as --threshold is:
+// - the identity (CT, and any file of whole numbers that fit int16): FROM and TO must be whole
+//   numbers from -32768 to 32768 and are taken as they are;
+// - a shift (whole numbers beyond int16, e.g. uint16 above 32767): exact, FROM becomes the
+//   smallest volume value whose file value is at least FROM;
+// - a scale (floats, scaled NIfTI): rounded like the samples were when the volume was loaded,
+//   so a sample equal to FROM in the file lands in the range, as it would in int16.
+// Either may clamp to the int16 values, and a range narrower than one volume step may become
+// empty (from == to); the order of the ranges is kept.
+TransferFunction parse_transfer_function(const std::string& text, const std::string& source,
+                                         const ValueMap& map = ValueMap{});
 
-// Reads and parses a file. An empty path means the default: data/tf/classic.tf when present,
-// else the built-in classic table (the same ranges, for runs from another folder).
-TransferFunction load_transfer_function(const std::string& path);
+// Reads and parses a file, for a volume whose values relate to its file's by `map` (see
+// parse_transfer_function). An empty path means the default: data/tf/classic.tf when present,
+// else the built-in classic table (the same ranges, for runs from another folder). A map that
+// is not the identity prints one line "units: --tf PATH (file units) [F, T) = [f, t) ...".
+TransferFunction load_transfer_function(const std::string& path,
+                                        const ValueMap& map = ValueMap{});
 
 // The classic table (skin and bone) without any file; a test checks it equals classic.tf.
 TransferFunction classic_transfer_function();

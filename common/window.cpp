@@ -215,6 +215,7 @@ const KeyName script_keys[] = {
     {"Down", SDLK_DOWN, SDL_SCANCODE_DOWN},  {"plus", SDLK_KP_PLUS, SDL_SCANCODE_KP_PLUS},
     {"minus", SDLK_MINUS, SDL_SCANCODE_MINUS}, {"s", SDLK_s, SDL_SCANCODE_S},
     {"q", SDLK_q, SDL_SCANCODE_Q},           {"Escape", SDLK_ESCAPE, SDL_SCANCODE_ESCAPE},
+    {"p", SDLK_p, SDL_SCANCODE_P},
 };
 
 // "key:2,key:Up,click:40:30,save,quit" -> events. Throws InputError on anything else.
@@ -222,7 +223,7 @@ std::vector<ScriptEvent> parse_script(const std::string& script) {
     std::vector<ScriptEvent> events;
     if (script.empty()) return events;
     const std::string expected =
-        "--window-script: expected comma-separated key:1|2|3|Up|Down|plus|minus|s|q|Escape, "
+        "--window-script: expected comma-separated key:1|2|3|Up|Down|plus|minus|s|q|Escape|p, "
         "click:X:Y, press:X:Y, move:X:Y, release:X:Y, wheel:N, wait:MS, save or quit, got '";
     size_t start = 0;
     while (start <= script.size()) {
@@ -278,7 +279,8 @@ std::vector<ScriptEvent> parse_script(const std::string& script) {
 }
 
 // What a key does in the preview (several keys share a meaning).
-enum class Action { none, view_top, view_front, view_side, knob_up, knob_down, save, quit };
+enum class Action { none, view_top, view_front, view_side, knob_up, knob_down, save, quit,
+                    next_preset };
 
 Action action_of(SDL_Keycode key) {
     switch (key) {
@@ -290,6 +292,7 @@ Action action_of(SDL_Keycode key) {
         case SDLK_DOWN: case SDLK_MINUS: case SDLK_KP_MINUS: return Action::knob_down;
         case SDLK_s: return Action::save;
         case SDLK_q: case SDLK_ESCAPE: return Action::quit;
+        case SDLK_p: return Action::next_preset;
         default: return Action::none;
     }
 }
@@ -751,7 +754,9 @@ bool show_preview(const Options& options, Preview& preview) {
 
     const Uint32 window_id = SDL_GetWindowID(session.window);
     const Uint32 next_marker = SDL_RegisterEvents(1);  // "push the next script event"
-    size_t next_script = 0;
+    // The script goes on where it was when P ran the step again with the next preset.
+    static size_t script_done = 0;
+    size_t& next_script = script_done;
     bool script_waits = false;  // a wait:MS event holds the script until script_resumes
     Uint32 script_resumes = 0;
     auto push_marker = [&] {
@@ -821,6 +826,16 @@ bool show_preview(const Options& options, Preview& preview) {
                 case Action::knob_down: window.change_knob(-1); break;
                 case Action::save: window.save(); break;
                 case Action::quit: return true;
+                case Action::next_preset: {
+                    // The step runs again with it (guarded_main), in a new window.
+                    const std::string next = next_preset(options.preset);
+                    if (next.empty()) {
+                        std::printf("window: no presets in data/presets\n");
+                        break;
+                    }
+                    request_preset(next);
+                    return true;
+                }
                 case Action::none: break;
             }
         }

@@ -1,7 +1,8 @@
 // window.h: the SDL2 preview window. It is a layer on top: every step works without it.
 //
 // Keys: 1/2/3 top/front/side; Up/Down or +/- change the step's knob and re-render (render
-// time in the title); left click prints that pixel's trace; S saves a PNG; Esc/Q quits.
+// time in the title); left click prints that pixel's trace; S saves a PNG; P runs the step
+// again with the next preset (data/presets, in name order); Esc/Q quits.
 // Part 2 (Preview::orbit set): drag with the left button to turn the camera, the wheel to
 // zoom; while it moves the window shows coarse previews (1 in 2x2 pixels or fewer, to stay
 // near 25 frames a second) and renders at full size when the mouse stops or is released.

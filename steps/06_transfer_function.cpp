@@ -101,15 +101,15 @@ int main(int argc, char** argv) {
                         "opacity of the range labelled skin (default: as the file says)");
         const Options options = args.parse(argc, argv);
 
-        // --- Transfer function: the file, then its lookup table ---
-        TransferFunction tf = load_transfer_function(params.tf_path);
+        // --- Volume ---
+        const Volume volume = load_volume(options);
+
+        // --- Transfer function: the file (in the volume file's units), its lookup table ---
+        TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
         Lut lut = build_lut(tf);
-
-        // --- Volume ---
-        const Volume volume = load_volume(options);
 
         // --- Render: one ray per pixel ---
         Renderer renderer;

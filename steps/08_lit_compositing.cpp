@@ -280,17 +280,17 @@ int main(int argc, char** argv) {
                         "use the TF opacities unchanged, whatever the step");
         const Options options = args.parse(argc, argv);
 
-        // --- Transfer function: the file, then its lookup table for this step size ---
-        TransferFunction tf = load_transfer_function(params.tf_path);
-        if (params.skin_opacity >= 0) {
-            set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
-        }
-        Lut lut = build_lut(tf, opacity_ratio(params));
-
         // --- Volume ---
         const Volume volume = load_volume(options);
         const std::string refused = too_many_samples(volume, params.step);
         if (!refused.empty()) throw InputError(refused);
+
+        // --- Transfer function: the file (in the file's units), its table for this step size ---
+        TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
+        if (params.skin_opacity >= 0) {
+            set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
+        }
+        Lut lut = build_lut(tf, opacity_ratio(params));
 
         // --- Render: one ray per pixel ---
         Renderer renderer;

@@ -138,6 +138,34 @@ magic=$(od -An -tx1 -N8 "$saved" 2>/dev/null | tr -d ' \n')
 check "the saved file is a PNG (magic bytes: '$magic')" [ "$magic" = "89504e470d0a1a0a" ]
 check "q quits the window" grep -qx "window: key=q" "$work/stdout"
 
+# --- P: the next preset (data/presets in name order), the whole step run again ------------------
+# 06 on the phantom: ct, cthead and eight_bit run (the command line's --volume wins); float's
+# table (0.12 ..) does not fit CT values: one line, then phantom; the script goes on (Up).
+tf_binary=$build/06_transfer_function
+if [ -x "$tf_binary" ]; then
+    xvfb "$tf_binary" --volume phantom --view top --out "$work/preset_out" \
+        --window-script "key:p,key:p,key:p,key:p,key:Up,quit" > "$work/stdout" 2> "$work/stderr"
+    status=$?
+    check "presets: the step exits with status 0 (got $status; $(head -c 300 "$work/stderr"))" \
+        [ "$status" -eq 0 ]
+    check "presets: P switches to the first preset, ct" after "window: key=p" "^window: preset=ct$"
+    check "presets: ct renders with its table" after "window: preset=ct" \
+        '^step=06_transfer_function view=top .* tf=data/tf/classic.tf'
+    check "presets: eight_bit renders with its table" after "window: preset=eight_bit" \
+        '^step=06_transfer_function view=top .* skin_opacity=0.05 tf=data/tf/eight_bit.tf'
+    check "presets: float's table does not fit CT values: one line naming it" \
+        grep -q "^window: preset float does not fit: data/tf/float.tf:[0-9]*: FROM must be" \
+        "$work/stdout"
+    check "presets: then the next, phantom, renders" after "window: preset=phantom" \
+        '^step=06_transfer_function view=top .* tf=data/tf/classic.tf'
+    check "presets: the script goes on in the new window (Up after the switches)" \
+        after "window: preset=phantom" '^window: skin_opacity=0.14$'
+    check "presets: q quits" grep -qx "window: key=q" "$work/stdout"
+    check "presets: nothing on stderr ($(head -c 300 "$work/stderr"))" test ! -s "$work/stderr"
+else
+    echo "window test: presets SKIPPED ($tf_binary not built)"
+fi
+
 # --- Real X input (optional: needs xdotool) ----------------------------------------------------
 if command -v xdotool > /dev/null 2>&1; then
     xvfb sh "$0" --xdotool "$binary" "$work/real_out" "$work/real.log" > "$work/real.stdout" 2>&1

@@ -237,6 +237,30 @@ void cthead_file(const uint8_t* data, size_t size) {
 void transfer_function(const uint8_t* data, size_t size) {
     const std::string source = "fuzz.tf";
     const std::string text(reinterpret_cast<const char*>(data), size);
+    // The same text for a float volume (a scale map) and a uint16 one (a shift): FROM and TO
+    // in file units may be decimals and clamp to int16; the ranges keep their order and can
+    // only narrow to empty, never reverse. Before the identity's parse, which may refuse a
+    // decimal that a map takes.
+    ctlab::ValueMap scale, shift;
+    scale.scale = 3.5 / 65535;
+    scale.offset = 1.25;
+    shift.offset = 40000;
+    for (const ctlab::ValueMap& map : {scale, shift}) {
+        ctlab::TransferFunction mapped;
+        try {
+            mapped = ctlab::parse_transfer_function(text, source, map);
+        } catch (const ctlab::InputError& error) {
+            check_message(error, source + ":");
+            continue;
+        }
+        for (size_t n = 0; n < mapped.ranges.size(); ++n) {
+            const ctlab::TfRange& range = mapped.ranges[n];
+            require(range.from >= ctlab::lowest_ct_value && range.to <= ctlab::ct_value_end,
+                    "a mapped range outside the int16 values");
+            require(range.from <= range.to, "a reversed mapped range");
+            if (n > 0) require(range.from >= mapped.ranges[n - 1].to, "mapped ranges overlap");
+        }
+    }
     ctlab::TransferFunction tf;
     try {
         tf = ctlab::parse_transfer_function(text, source);
