@@ -511,6 +511,7 @@ int main(int argc, char** argv) {
 
         // --- Render: one ray per pixel ---
         Renderer renderer;
+        renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
         renderer.ray = [&](const View&, int x, int y, Work& work, Trace* trace) {
             return over_background(composite_front_to_back(volume, camera, x, y, lut, params,
