@@ -155,6 +155,7 @@ std::vector<ValueBand> transfer_function_bands(const TransferFunction& tf) {
 RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View& view,
                             std::vector<ValueBand> bands, Rgb pixel, const std::string& title) {
     RayPlot plot;
+    plot.records = records;
     plot.title = title;
     plot.bands = std::move(bands);
     plot.pixel = pixel;
@@ -254,6 +255,17 @@ std::string ray_plot_text(const RayPlot& plot) {
     std::snprintf(line, sizeof line, "pixel %.6f %.6f %.6f\n", plot.pixel.r, plot.pixel.g,
                   plot.pixel.b);
     text += line;
+    for (const TraceRecord& record : plot.records) {
+        text += "record\t" + record.text + "\t";
+        for (size_t n = 0; n < record.fields.size(); ++n) {
+            const TraceField& field = record.fields[n];
+            if (field.is_text) continue;  // words, not numbers: the text has them
+            std::snprintf(line, sizeof line, "%s%s=%.9g", n ? " " : "", field.name.c_str(),
+                          field.number);
+            text += line;
+        }
+        text += "\n";
+    }
     return text;
 }
 

@@ -60,6 +60,7 @@ struct RayPlot {
     double spacing = 0;             // physical units per voxel along the ray (0: camera)
     Rgb pixel;                      // the pixel's value
     bool missed = false;            // part 2: the ray missed the box
+    std::vector<TraceRecord> records;  // the whole trace, every line with its fields
 };
 
 // The plot of a traced ray: its samples and marks from the records' fields.
@@ -80,6 +81,10 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
 //   # sample t n value alpha T L C.r C.g C.b     ("-" where the trace has none)
 //   sample 43 43 10 0.12 0.7744 - 0.2256 0.178224 0.13536
 //   mark hit 48 48
+//   pixel 0.995778 0.896602 0.806871
+// then every trace line, its text and its fields (make check compares these with the
+// reference's, data/reference/traces/):
+//   record<TAB>n= 43 voxel (128, 43, 30) value=   10 ...<TAB>n=43 voxel.i=128 ... value=10 ...
 std::string ray_plot_text(const RayPlot& plot);
 
 // "out/07_compositing_order_front_ray_128_30.png" (.txt for the sidecar).
