@@ -269,6 +269,21 @@ std::string ray_plot_text(const RayPlot& plot) {
     return text;
 }
 
+std::string ray_plot_marks(const RayPlot& plot) {
+    std::string text;
+    char mark[96];
+    for (const RayMark& m : plot.marks) {
+        switch (m.kind) {
+            case RayMark::hit: std::snprintf(mark, sizeof mark, "hit t=%g", m.from); break;
+            case RayMark::terminated: std::snprintf(mark, sizeof mark, "stop t=%g", m.from); break;
+            case RayMark::leapt: std::snprintf(mark, sizeof mark, "leap t=%g..%g", m.from, m.to); break;
+            case RayMark::box: std::snprintf(mark, sizeof mark, "box t=%g..%g", m.from, m.to); break;
+        }
+        text += (text.empty() ? "" : " ") + std::string(mark);
+    }
+    return text;
+}
+
 std::string ray_plot_path(const std::string& out, const std::string& step, const View& view,
                           int x, int y, const std::string& extension) {
     return out + "/" + step + "_" + view.name + "_ray_" + std::to_string(x) + "_" +
@@ -300,8 +315,9 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
     if (any_colour) add_panel("C", strip_height);
     const int plot_bottom = next_top - panel_gap;
     const int plot_height = plot_bottom + axis_height + margin;
-    const int images_height = title_height + 8 + main_image_box + 8 + small_image_box + margin;
-    const int width = plot_left + plot_width + column_gap + image_column;
+    const int images_height =
+        views.empty() ? 0 : title_height + 8 + main_image_box + 8 + small_image_box + margin;
+    const int width = plot_left + plot_width + (views.empty() ? margin : column_gap + image_column);
     Image picture(width, std::max(plot_height, images_height));
     std::fill(picture.pixels.begin(), picture.pixels.end(), white);
 

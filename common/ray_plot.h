@@ -74,7 +74,7 @@ struct RayPlotView {
 };
 
 // The picture: the plot, and beside it the traced view with the pixel marked and the other
-// axis views with the ray drawn across them.
+// axis views with the ray drawn across them (no views: the plot alone, as the window's panel).
 Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, int x, int y);
 
 // The numbers the picture was drawn from, one line per sample (the ray picture's sidecar):
@@ -86,6 +86,9 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
 // reference's, data/reference/traces/):
 //   record<TAB>n= 43 voxel (128, 43, 30) value=   10 ...<TAB>n=43 voxel.i=128 ... value=10 ...
 std::string ray_plot_text(const RayPlot& plot);
+
+// Where the marks are, in one line: "hit t=47.2857 stop t=50" ("" when none).
+std::string ray_plot_marks(const RayPlot& plot);
 
 // "out/07_compositing_order_front_ray_128_30.png" (.txt for the sidecar).
 std::string ray_plot_path(const std::string& out, const std::string& step, const View& view,

@@ -95,6 +95,17 @@ Image ray_picture(const Options&, const Renderer&, const RayPlot& plot, const Vi
     return draw_ray_plot(plot, shown, x, y);
 }
 
+RayPlot traced_plot(const Options& options, const View& view, const Renderer& renderer, int x,
+                    int y) {
+    Work work;
+    Trace trace;
+    const Rgb pixel = renderer.ray(view, x, y, work, &trace);
+    char title[160];
+    std::snprintf(title, sizeof title, "%s %s ray x=%d y=%d", options.step.c_str(),
+                  view.name.c_str(), x, y);
+    return ray_plot_from_trace(trace.records(), view, value_bands(renderer), pixel, title);
+}
+
 RayPlot print_trace(const Options& options, const View& view, const Renderer& renderer, int x,
                     int y) {
     const char* axis_names[] = {"k", "j", "i"};  // the ray axis of top, front, side
@@ -250,6 +261,11 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
     };
     preview.trace = [&](const View& view, int x, int y) {
         print_trace(options, view, renderer, x, y);
+    };
+    preview.ray_panel = [&](const View& view, int x, int y, std::string* marks) {
+        const RayPlot plot = traced_plot(options, view, renderer, x, y);
+        if (marks) *marks = ray_plot_marks(plot);
+        return draw_ray_plot(plot, {}, x, y);
     };
     preview.knob = renderer.knob;
     preview.save_path = [&](const View& view) { return output_path(options, view); };

@@ -57,6 +57,10 @@ Image render_view(const Options& options, const View& view, const Renderer& rend
 RayPlot print_trace(const Options& options, const View& view, const Renderer& renderer, int x,
                  int y);
 
+// The ray of pixel (x, y) as a plot, traced without printing (the window's ray panel).
+RayPlot traced_plot(const Options& options, const View& view, const Renderer& renderer, int x,
+                    int y);
+
 // The value bands of the ray picture: the renderer's transfer function, or its threshold knob.
 std::vector<ValueBand> value_bands(const Renderer& renderer);
 
