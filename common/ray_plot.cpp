@@ -1,9 +1,11 @@
 // ray_plot.cpp: the ray picture of --debug-pixel (see ray_plot.h).
 #include "ray_plot.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+
 #include "plot.h"
 
 namespace ctlab {
@@ -12,7 +14,7 @@ namespace {
 
 // Layout, in picture pixels.
 constexpr int title_height = 16;
-constexpr int plot_left = 76;        // room for the value labels
+constexpr int plot_left = 76;  // room for the value labels
 constexpr int plot_width = 400;
 constexpr int panel_gap = 6;
 constexpr int value_panel_height = 96;
@@ -20,11 +22,11 @@ constexpr int unit_panel_height = 40;  // opacity, light, T: 0..1
 constexpr int strip_height = 14;       // the accumulated colour
 constexpr int axis_height = 34;        // two rows of tick labels
 constexpr int column_gap = 16;
-constexpr int image_column = 208;      // the views, right of the plot
-constexpr int main_image_box = 200;    // the traced view fits in this square
-constexpr int small_image_box = 96;    // each other view
+constexpr int image_column = 208;    // the views, right of the plot
+constexpr int main_image_box = 200;  // the traced view fits in this square
+constexpr int small_image_box = 96;  // each other view
 constexpr int margin = 6;
-constexpr int dots_up_to = 160;        // samples drawn with a dot each when there are few
+constexpr int dots_up_to = 160;  // samples drawn with a dot each when there are few
 
 const Rgb white = {1, 1, 1}, black = {0, 0, 0}, grid = {0.85f, 0.85f, 0.85f};
 const Rgb text_grey = {0.3f, 0.3f, 0.3f}, panel_back = {0.97f, 0.97f, 0.97f};
@@ -78,7 +80,8 @@ Placed place_image(Image& picture, const Image& image, const View& view, int lef
                    int box) {
     Placed placed;
     placed.left = left, placed.top = top;
-    placed.source_width = std::max(1, image.width), placed.source_height = std::max(1, image.height);
+    placed.source_width = std::max(1, image.width),
+    placed.source_height = std::max(1, image.height);
     const bool sizes = view.pixel_width > 0 && view.pixel_height > 0;
     const double wide = image.width * (sizes ? view.pixel_width : 1.0);
     const double tall = image.height * (sizes ? view.pixel_height : 1.0);
@@ -111,7 +114,10 @@ bool ray_across(const View& traced, int x, int y, const View& other, double* x0,
             column(other.axis == ViewAxis::front ? x : y);
             return true;
         case ViewAxis::front:  // i = x, k = y: a column of top (i), a row of side (k)
-            if (other.axis == ViewAxis::top) column(x); else row(y);
+            if (other.axis == ViewAxis::top)
+                column(x);
+            else
+                row(y);
             return true;
         default:  // j = x, k = y: a row of top (j) and of front (k)
             row(other.axis == ViewAxis::top ? x : y);
@@ -206,11 +212,12 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
         if (!record.has("value") || !where(record, &t)) continue;
         RaySample sample;
         sample.t = t;
-        sample.n = view.camera ? -1
+        sample.n = view.camera       ? -1
                    : record.has("n") ? record.number("n", 0)
                                      : t / std::max(plot.spacing, 1e-12);
         sample.value = record.number("value", 0);
-        if (record.has("rgba.a")) sample.has_alpha = true, sample.alpha = record.number("rgba.a", 0);
+        if (record.has("rgba.a"))
+            sample.has_alpha = true, sample.alpha = record.number("rgba.a", 0);
         if (record.has("T")) {
             sample.has_transparency = true, sample.transparency = record.number("T", 1);
         }
@@ -220,6 +227,7 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
             sample.colour = {float(record.number("C.r", 0)), float(record.number("C.g", 0)),
                              float(record.number("C.b", 0))};
         }
+        if (record.has("max")) sample.has_max = true, sample.max = record.number("max", 0);
         sample.hit = says(record, "hit");
         if (sample.hit) plot.marks.push_back({RayMark::hit, t, t});
         plot.samples.push_back(sample);
@@ -229,7 +237,7 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
 }
 
 std::string ray_plot_text(const RayPlot& plot) {
-    std::string text = "# " + plot.title + "\n# sample t n value alpha T L C.r C.g C.b\n";
+    std::string text = "# " + plot.title + "\n# sample t n value alpha T L C.r C.g C.b max\n";
     char line[256];
     auto optional = [](bool has, double value) {
         if (!has) return std::string("-");
@@ -238,13 +246,13 @@ std::string ray_plot_text(const RayPlot& plot) {
         return std::string(number);
     };
     for (const RaySample& s : plot.samples) {
-        std::snprintf(line, sizeof line, "sample %.9g %.9g %.9g %s %s %s %s %s %s\n", s.t, s.n,
-                      s.value, optional(s.has_alpha, s.alpha).c_str(),
-                      optional(s.has_transparency, s.transparency).c_str(),
-                      optional(s.has_light, s.light).c_str(),
-                      optional(s.has_colour, s.colour.r).c_str(),
-                      optional(s.has_colour, s.colour.g).c_str(),
-                      optional(s.has_colour, s.colour.b).c_str());
+        std::snprintf(
+            line, sizeof line, "sample %.9g %.9g %.9g %s %s %s %s %s %s %s\n", s.t, s.n, s.value,
+            optional(s.has_alpha, s.alpha).c_str(),
+            optional(s.has_transparency, s.transparency).c_str(),
+            optional(s.has_light, s.light).c_str(), optional(s.has_colour, s.colour.r).c_str(),
+            optional(s.has_colour, s.colour.g).c_str(), optional(s.has_colour, s.colour.b).c_str(),
+            optional(s.has_max, s.max).c_str());
         text += line;
     }
     const char* kinds[] = {"hit", "terminated", "leapt", "box"};
@@ -276,16 +284,20 @@ std::string ray_plot_marks(const RayPlot& plot) {
         switch (m.kind) {
             case RayMark::hit: std::snprintf(mark, sizeof mark, "hit t=%g", m.from); break;
             case RayMark::terminated: std::snprintf(mark, sizeof mark, "stop t=%g", m.from); break;
-            case RayMark::leapt: std::snprintf(mark, sizeof mark, "leap t=%g..%g", m.from, m.to); break;
-            case RayMark::box: std::snprintf(mark, sizeof mark, "box t=%g..%g", m.from, m.to); break;
+            case RayMark::leapt:
+                std::snprintf(mark, sizeof mark, "leap t=%g..%g", m.from, m.to);
+                break;
+            case RayMark::box:
+                std::snprintf(mark, sizeof mark, "box t=%g..%g", m.from, m.to);
+                break;
         }
         text += (text.empty() ? "" : " ") + std::string(mark);
     }
     return text;
 }
 
-std::string ray_plot_path(const std::string& out, const std::string& step, const View& view,
-                          int x, int y, const std::string& extension) {
+std::string ray_plot_path(const std::string& out, const std::string& step, const View& view, int x,
+                          int y, const std::string& extension) {
     return out + "/" + step + "_" + view.name + "_ray_" + std::to_string(x) + "_" +
            std::to_string(y) + extension;
 }
@@ -365,29 +377,34 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
             }
             if (plot.samples.empty()) low = 0, high = 1;
             for (const ValueBand& band : plot.bands) {  // a threshold just outside still shows
-                if (std::isfinite(band.from) && band.from > high) high = std::min(band.from, high + (high - low));
+                if (std::isfinite(band.from) && band.from > high)
+                    high = std::min(band.from, high + (high - low));
             }
             if (high <= low) high = low + 1;
             const double pad = 0.06 * (high - low);
             low -= pad, high += pad;
             auto py = [&](double v) { return bottom - (v - low) / (high - low) * (bottom - top); };
             for (const ValueBand& band : plot.bands) {
-                const double a = std::clamp(py(std::min(band.to, high)), double(top), double(bottom));
-                const double b = std::clamp(py(std::max(band.from, low)), double(top), double(bottom));
+                const double a =
+                    std::clamp(py(std::min(band.to, high)), double(top), double(bottom));
+                const double b =
+                    std::clamp(py(std::max(band.from, low)), double(top), double(bottom));
                 if (b - a < 1) continue;
                 // White (bone) would vanish on white: every band is darkened a little.
                 const Rgb fill = mix(mix(band.colour, {0.55f, 0.55f, 0.55f}, 0.25f), panel_back,
                                      float(0.75 - 0.45 * std::min(1.0, band.opacity * 2)));
                 plot::fill_rect(picture, plot_left, int(a), plot_width, int(b - a) + 1, fill);
                 const Rgb edge = mix(band.colour, black, 0.45f);
-                if (band.from > low) plot::draw_line(picture, plot_left, b, plot_left + plot_width - 1, b, edge, 1);
-                plot::draw_text(picture, plot_left + plot_width - 2 - plot::text_width(band.label, 1),
+                if (band.from > low)
+                    plot::draw_line(picture, plot_left, b, plot_left + plot_width - 1, b, edge, 1);
+                plot::draw_text(picture,
+                                plot_left + plot_width - 2 - plot::text_width(band.label, 1),
                                 int(a) + 2, band.label, edge);
             }
             for (double v : {high - pad, low + pad}) {
                 const std::string label = number_text(v);
-                plot::draw_text(picture, plot_left - 4 - plot::text_width(label, 1),
-                                int(py(v)) - 3, label, text_grey);
+                plot::draw_text(picture, plot_left - 4 - plot::text_width(label, 1), int(py(v)) - 3,
+                                label, text_grey);
             }
             for (size_t n = 0; n < plot.samples.size(); ++n) {
                 const RaySample& s = plot.samples[n];
@@ -400,15 +417,24 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
                     plot::fill_rect(picture, int(px(s.t)) - 1, int(py(s.value)) - 1, 3, 3,
                                     s.hit ? hit_colour : value_colour);
                 }
+                if (n > 0 && s.has_max && plot.samples[n - 1].has_max) {  // step 01: the MIP
+                    const RaySample& p = plot.samples[n - 1];
+                    plot::draw_line(picture, px(p.t), py(p.max), px(s.t), py(s.max),
+                                    transparency_colour, 1);
+                }
             }
         } else if (panel.name == "C") {
-            // Each column shows C as it was after the last sample at or before it.
-            size_t next = 0;
-            Rgb colour = black;
+            // Each column shows C as the ray had it there: after the last coloured sample at
+            // or before it front to back, at or after it back to front (step 06 walks from
+            // the far end); black before the first.
+            const bool backwards =
+                plot.samples.size() > 1 && plot.samples.front().t > plot.samples.back().t;
             for (int xx = plot_left; xx < plot_left + plot_width; ++xx) {
-                while (next < plot.samples.size() && px(plot.samples[next].t) <= xx + 0.5) {
-                    if (plot.samples[next].has_colour) colour = plot.samples[next].colour;
-                    ++next;
+                Rgb colour = black;
+                for (const RaySample& sample : plot.samples) {
+                    if (!sample.has_colour) continue;
+                    const double at = px(sample.t);
+                    if (backwards ? at >= xx - 0.5 : at <= xx + 0.5) colour = sample.colour;
                 }
                 plot::fill_rect(picture, xx, top, 1, panel.height, clamped(colour));
             }
@@ -422,7 +448,8 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
                 if (panel.name == "opacity" && s.has_alpha) {
                     plot::draw_line(picture, px(s.t), py(0), px(s.t), py(s.alpha), alpha_colour, 2);
                 }
-                const bool has = panel.name == "T" ? s.has_transparency : panel.name == "light L" && s.has_light;
+                const bool has =
+                    panel.name == "T" ? s.has_transparency : panel.name == "light L" && s.has_light;
                 if (!has) continue;
                 const double value = panel.name == "T" ? s.transparency : s.light;
                 const Rgb colour = panel.name == "T" ? transparency_colour : light_colour;
@@ -469,8 +496,8 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
         }
         plot::draw_text(picture, margin, row, name, text_grey);
     };
-    plot::draw_line(picture, plot_left, plot_bottom, plot_left + plot_width - 1, plot_bottom,
-                    black, 1);
+    plot::draw_line(picture, plot_left, plot_bottom, plot_left + plot_width - 1, plot_bottom, black,
+                    1);
     if (plot.missed && plot.samples.empty()) {
         plot::draw_text(picture, plot_left + 8, plot_top + 20, "missed the box", hit_colour);
     } else if (plot.spacing > 0) {
@@ -494,8 +521,8 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
             if (!ray_across(traced.view, x, y, other.view, &x0, &y0, &x1, &y1)) continue;
             const Placed small = place_image(picture, other.image, other.view, left,
                                              main.top + main.height + 8, small_image_box);
-            plot::draw_line(picture, small.x(x0), small.y(y0), small.x(x1), small.y(y1),
-                            hit_colour, 1);
+            plot::draw_line(picture, small.x(x0), small.y(y0), small.x(x1), small.y(y1), hit_colour,
+                            1);
             left += small.width + 8;
         }
     }

@@ -43,6 +43,8 @@ struct RaySample {
     bool has_alpha = false, has_transparency = false, has_light = false, has_colour = false;
     double alpha = 0, transparency = 1, light = 1;
     Rgb colour;           // C accumulated so far
+    bool has_max = false;  // step 01's maximum intensity so far
+    double max = 0;
     bool hit = false;
 };
 
@@ -78,8 +80,8 @@ struct RayPlotView {
 Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, int x, int y);
 
 // The numbers the picture was drawn from, one line per sample (the ray picture's sidecar):
-//   # sample t n value alpha T L C.r C.g C.b     ("-" where the trace has none)
-//   sample 43 43 10 0.12 0.7744 - 0.2256 0.178224 0.13536
+//   # sample t n value alpha T L C.r C.g C.b max     ("-" where the trace has none)
+//   sample 43 43 10 0.12 0.7744 - 0.2256 0.178224 0.13536 -
 //   mark hit 48 48
 //   pixel 0.995778 0.896602 0.806871
 // then every trace line, its text and its fields (make check compares these with the

@@ -219,7 +219,9 @@ void Trace::add(const char* format, ...) {
 
 std::vector<TraceRecord> Trace::last_records() const {
     std::vector<TraceRecord> records;
-    for (size_t n = 0; n < last_.size(); ++n) records.push_back(last_[(last_next_ + n) % last_.size()]);
+    for (size_t n = 0; n < last_.size(); ++n) {
+        records.push_back(last_[(last_next_ + n) % last_.size()]);
+    }
     return records;
 }
 

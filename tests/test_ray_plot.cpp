@@ -4,6 +4,7 @@
 // ones in data/reference/rays/ (make reference writes them, data/reference/probes.txt says
 // which); a run that fails writes no ray picture either.
 #include <doctest/doctest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdarg>
@@ -13,6 +14,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
 #include "compare.h"
 #include "harness.h"
 #include "image.h"
@@ -60,13 +62,15 @@ bool printed(const std::string& line, const std::string& label, int component, d
     for (int c = 0; c < component; ++c) at = line.find(", ", at) + 2;
     while (at < line.size() && line[at] == ' ') ++at;
     size_t end = at;
-    while (end < line.size() && std::string("-+.0123456789eE").find(line[end]) != std::string::npos) ++end;
+    while (end < line.size() && std::string("-+.0123456789eE").find(line[end]) != std::string::npos)
+        ++end;
     const std::string number = line.substr(at, end - at);
     *value = std::stod(number);
     const size_t dot = number.find('.');
     const size_t exponent = number.find_first_of("eE");
-    *decimals = dot == std::string::npos ? 0
-                : int((exponent == std::string::npos ? number.size() : exponent) - dot - 1);
+    *decimals = dot == std::string::npos
+                    ? 0
+                    : int((exponent == std::string::npos ? number.size() : exponent) - dot - 1);
     if (exponent != std::string::npos) *decimals = 300;  // %g with an exponent: relative check
     return true;
 }
@@ -76,42 +80,41 @@ void check_equal_to_text(double plotted, const std::string& line, const std::str
     double shown = 0;
     int decimals = 0;
     REQUIRE_MESSAGE(printed(line, label, component, &shown, &decimals), line, " has no ", label);
-    const double allowed = decimals >= 300 ? std::fabs(shown) * 1e-5
-                                           : 0.5 * std::pow(10.0, -decimals) + 1e-12;
+    const double allowed =
+        decimals >= 300 ? std::fabs(shown) * 1e-5 : 0.5 * std::pow(10.0, -decimals) + 1e-12;
     // %g prints 6 significant digits: T=0.7744 or 0.00422185.
     const double significant = std::fabs(shown) * 5e-6;
-    CHECK_MESSAGE(std::fabs(plotted - shown) <= std::max(allowed, significant),
-                  label, "[", component, "] plotted ", plotted, " but the trace shows ", shown,
-                  " in: ", line);
+    CHECK_MESSAGE(std::fabs(plotted - shown) <= std::max(allowed, significant), label, "[",
+                  component, "] plotted ", plotted, " but the trace shows ", shown, " in: ", line);
 }
 
 }  // namespace
 
 TEST_CASE("trace fields: each printf argument by the label before it, at full precision") {
     const double third = 1.0 / 3.0;
-    const auto fields = fields_of("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, "
-                                  "%.4f) C=(%.6f, %.6f, %.6f) T=%.6g%s",
-                                  43, 128, 43, 30, 10, 1.0, 0.79, 0.6, 0.12, third, 0.5, 0.25,
-                                  0.7744, "  > threshold: hit");
+    const auto fields = fields_of(
+        "n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, "
+        "%.4f) C=(%.6f, %.6f, %.6f) T=%.6g%s",
+        43, 128, 43, 30, 10, 1.0, 0.79, 0.6, 0.12, third, 0.5, 0.25, 0.7744, "  > threshold: hit");
     std::vector<std::string> names;
     for (const TraceField& f : fields) names.push_back(f.name);
-    CHECK(names == std::vector<std::string>{"n", "voxel.i", "voxel.j", "voxel.k", "value",
-                                            "rgba.r", "rgba.g", "rgba.b", "rgba.a", "C.r", "C.g",
-                                            "C.b", "T", "#14"});
+    CHECK(names == std::vector<std::string>{"n", "voxel.i", "voxel.j", "voxel.k", "value", "rgba.r",
+                                            "rgba.g", "rgba.b", "rgba.a", "C.r", "C.g", "C.b", "T",
+                                            "#14"});
     CHECK(fields[9].number == third);  // the argument, not the 6 decimals printed
     CHECK(fields[13].is_text);
     CHECK(fields[13].text == "  > threshold: hit");
 
-    const auto leap = fields_of("t=%7.2f..%.2f empty brick up to voxel %d: %d samples leapt",
-                                8.0, 15.0, 15, 8);
+    const auto leap =
+        fields_of("t=%7.2f..%.2f empty brick up to voxel %d: %d samples leapt", 8.0, 15.0, 15, 8);
     REQUIRE(leap.size() == 4);
     CHECK(leap[0].name == "t");
     CHECK(leap[1].name == "t_end");
     CHECK(leap[1].number == 15.0);
     CHECK(leap[2].name == "#3");
 
-    const auto repeated = fields_of("crossing between n=%d and n=%d: hit at %d + %.6f %lld %zu",
-                                    46, 47, 46, 0.25, 12345678901LL, size_t(7));
+    const auto repeated = fields_of("crossing between n=%d and n=%d: hit at %d + %.6f %lld %zu", 46,
+                                    47, 46, 0.25, 12345678901LL, size_t(7));
     REQUIRE(repeated.size() == 6);
     CHECK(repeated[0].name == "n");
     CHECK(repeated[1].name == "n#2");
@@ -128,14 +131,20 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
         std::string file;  // the picture's stem
     };
     const std::vector<Case> cases = {
-        {"02_threshold", {"--view", "front", "--debug-pixel", "128,30"}, "02_threshold_front_ray_128_30"},
-        {"05_interpolated_hits", {"--view", "front", "--debug-pixel", "128,30"},
+        {"02_threshold",
+         {"--view", "front", "--debug-pixel", "128,30"},
+         "02_threshold_front_ray_128_30"},
+        {"05_interpolated_hits",
+         {"--view", "front", "--debug-pixel", "128,30"},
          "05_interpolated_hits_front_ray_128_30"},
-        {"07_compositing_order", {"--view", "top", "--debug-pixel", "100,128"},
+        {"07_compositing_order",
+         {"--view", "top", "--debug-pixel", "100,128"},
          "07_compositing_order_top_ray_100_128"},
-        {"08_lit_compositing", {"--view", "side", "--debug-pixel", "128,60", "--step", "0.5"},
+        {"08_lit_compositing",
+         {"--view", "side", "--debug-pixel", "128,60", "--step", "0.5"},
          "08_lit_compositing_side_ray_128_60"},
-        {"09_empty_space", {"--view", "front", "--debug-pixel", "128,30"},
+        {"09_empty_space",
+         {"--view", "front", "--debug-pixel", "128,30"},
          "09_empty_space_front_ray_128_30"},
         {"10_free_camera", {"--debug-pixel", "280,300"}, "10_free_camera_camera_ray_280_300"},
     };
@@ -217,13 +226,14 @@ TEST_CASE("step 05 marks the interpolated crossing, step 09 its leaps, step 10 t
     const double at = std::stod(hits[0].substr(9));
     CHECK(at != std::floor(at));  // between two samples, not on one
 
-    REQUIRE(run_step("09_empty_space", flags({"--view", "front", "--debug-pixel", "128,30"}))
-                .status == 0);
-    CHECK(!lines_starting(read_text(out.path("09_empty_space_front_ray_128_30.txt")),
-                          "mark leapt ").empty());
+    REQUIRE(
+        run_step("09_empty_space", flags({"--view", "front", "--debug-pixel", "128,30"})).status ==
+        0);
+    CHECK(!lines_starting(read_text(out.path("09_empty_space_front_ray_128_30.txt")), "mark leapt ")
+               .empty());
     REQUIRE(run_step("10_free_camera", flags({"--debug-pixel", "280,300"})).status == 0);
-    CHECK(lines_starting(read_text(out.path("10_free_camera_camera_ray_280_300.txt")),
-                         "mark box ").size() == 1);
+    CHECK(lines_starting(read_text(out.path("10_free_camera_camera_ray_280_300.txt")), "mark box ")
+              .size() == 1);
 }
 
 TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn again") {
@@ -237,14 +247,13 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
         words >> name >> view >> pixel >> keep;
         if (name.empty() || name[0] == '#' || keep != "picture") continue;
         CAPTURE(line);
-        const std::string stem = name + "_" + view + "_ray_" +
-                                 pixel.substr(0, pixel.find(',')) + "_" +
-                                 pixel.substr(pixel.find(',') + 1);
+        const std::string stem = name + "_" + view + "_ray_" + pixel.substr(0, pixel.find(',')) +
+                                 "_" + pixel.substr(pixel.find(',') + 1);
         const std::string golden = "data/reference/rays/" + stem + ".png";
         REQUIRE(fs::is_regular_file(golden));
         ctlab::TempFolder out("ray_golden");
-        std::vector<std::string> flags = {"--volume", "phantom", "--out", out.path(),
-                                          "--debug-pixel", pixel};
+        std::vector<std::string> flags = {"--volume", "phantom",       "--out",
+                                          out.path(), "--debug-pixel", pixel};
         if (view != "camera") flags.insert(flags.end(), {"--view", view});
         // The pictures with a probe are default runs: the step is the run's name.
         REQUIRE(run_step(name, flags).status == 0);
@@ -262,17 +271,17 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
 
 TEST_CASE("a failed run writes no ray picture (all pictures or none)") {
     ctlab::TempFolder out("ray_none");
-    const RunResult run = run_step("07_compositing_order",
-                                   {"--volume", "phantom", "--out", out.path(), "--view", "top",
-                                    "--debug-pixel", "100,128"},
-                                   120);
+    const RunResult run = run_step(
+        "07_compositing_order",
+        {"--volume", "phantom", "--out", out.path(), "--view", "top", "--debug-pixel", "100,128"},
+        120);
     REQUIRE(run.status == 0);
     // The same run with the third file written failing as if the disk were full: nothing.
     ctlab::TempFolder out2("ray_none2");
     setenv(fail_write_variable, "2", 1);
-    const RunResult failed = run_step("07_compositing_order",
-                                      {"--volume", "phantom", "--out", out2.path(), "--view",
-                                       "top", "--debug-pixel", "100,128"});
+    const RunResult failed = run_step(
+        "07_compositing_order",
+        {"--volume", "phantom", "--out", out2.path(), "--view", "top", "--debug-pixel", "100,128"});
     unsetenv(fail_write_variable);
     CHECK(failed.status == 2);
     CHECK(fs::is_empty(out2.path()));

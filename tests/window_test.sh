@@ -146,8 +146,8 @@ if [ -x "$panel_step" ]; then
     status=$?
     check "the ray panel run exits with status 0 (got $status)" [ "$status" -eq 0 ]
     # "window: ray panel x=128 y=30 view=front WxH hit t=T": once for the click, once per Up.
-    hits=$(sed -n 's/^window: ray panel x=128 y=30 view=front [0-9]*x[0-9]* hit t=\([0-9.]*\).*/\1/p' \
-           "$work/panel.log" | tr '\n' ' ')
+    panel='^window: ray panel x=128 y=30 view=front [0-9]*x[0-9]* hit t=\([0-9.]*\).*'
+    hits=$(sed -n "s/$panel/\\1/p" "$work/panel.log" | tr '\n' ' ')
     set -- $hits
     check "the click and each Up draw the ray panel with its hit (got '$hits')" [ $# -eq 3 ]
     if [ $# -eq 3 ]; then
@@ -160,7 +160,8 @@ if [ -x "$panel_step" ]; then
         expected=$(sed -n 's/^mark hit \([^ ]*\) .*/\1/p' \
                    "$work/panel/05_interpolated_hits_front_ray_128_30.txt")
         check "the panel's hit after two Ups ($3) is --threshold 500's ray's ($expected)" \
-            awk -v a="$3" -v b="$expected" 'BEGIN { d = a - b; exit !(b != "" && d < 1e-3 && d > -1e-3) }'
+            awk -v a="$3" -v b="$expected" \
+                'BEGIN { d = a - b; exit !(b != "" && d < 1e-3 && d > -1e-3) }'
     fi
 fi
 

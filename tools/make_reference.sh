@@ -157,7 +157,8 @@ if [ -f "$probes" ]; then
         rm -rf "$work/out"
         # shellcheck disable=SC2086
         if ! "$build/$step" --volume "$volume" $volume_flags --no-window --out "$work/out" \
-                $arguments $extra $view_flag --debug-pixel "$pixel" > "$work/log" 2>&1 < /dev/null; then
+                $arguments $extra $view_flag --debug-pixel "$pixel" \
+                > "$work/log" 2>&1 < /dev/null; then
             cat "$work/log" >&2
             fail "probe $name $view $pixel failed"
         fi
