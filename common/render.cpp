@@ -1,38 +1,250 @@
 // render.cpp: the per-pixel trace, and the note when render threads are short.
 #include "render.h"
+#include <cctype>
 #include <cstdarg>
+#include <cstring>
 #include <cstdio>
 #include <utility>
 
 namespace ctlab {
 
+namespace {
+
+bool is_name_char(char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+}
+
+// The identifier that ends `text` at position end (exclusive), or "".
+std::string name_before(const std::string& text, size_t end) {
+    size_t begin = end;
+    while (begin > 0 && is_name_char(text[begin - 1])) --begin;
+    return text.substr(begin, end - begin);
+}
+
+// What the literal text before a conversion says its name is. Updates the open tuple.
+struct Namer {
+    std::string tuple;      // the open tuple's base name ("" when unnamed)
+    bool in_tuple = false;
+    int tuple_index = 0;
+    int tuple_id = 0;       // counts tuples, to tell them apart when named alike
+
+    // Returns the name, or "" (unnamed); sets *component to the tuple index or -1.
+    std::string name(const std::string& literal, int* component) {
+        *component = -1;
+        if (in_tuple && literal.find(')') != std::string::npos) in_tuple = false;
+        if (in_tuple) {
+            ++tuple_index;
+            *component = tuple_index;
+            return tuple;
+        }
+        const size_t size = literal.size();
+        if (size >= 1 && literal[size - 1] == '=') return name_before(literal, size - 1);
+        if (size >= 1 && literal[size - 1] == '(') {
+            // "C=(" or "voxel (" name a tuple; "..(" or "(" alone leave it unnamed.
+            size_t end = size - 1;
+            if (end > 0 && (literal[end - 1] == '=' || literal[end - 1] == ' ')) --end;
+            tuple = name_before(literal, end);
+            in_tuple = true;
+            tuple_index = 0;
+            ++tuple_id;
+            *component = 0;
+            return tuple;
+        }
+        if (size >= 2 && literal.compare(size - 2, 2, "..") == 0) {
+            const std::string before = previous_name;
+            return before.empty() ? "" : before + "_end";
+        }
+        return "";
+    }
+    std::string previous_name;  // the last named scalar, for "t=%f..%f"
+};
+
+struct PendingField {
+    TraceField field;
+    std::string base;  // tuple base ("" for a scalar)
+    int component = -1;
+    int tuple_id = 0;
+};
+
+std::string component_name(const std::string& base, int index, int count) {
+    static const char* rgba[] = {"r", "g", "b", "a"};
+    static const char* ijk[] = {"i", "j", "k"};
+    const bool colour = base == "C" || base == "rgb" || base == "colour" || base == "color";
+    if (count == 4) return rgba[index];
+    if (count == 3) return colour ? rgba[index] : ijk[index];
+    return std::to_string(index);
+}
+
+}  // namespace
+
+std::vector<TraceField> trace_fields(const char* format, va_list arguments) {
+    std::vector<PendingField> pending;
+    Namer namer;
+    std::string literal;
+    int conversions = 0;
+    for (const char* c = format; *c; ++c) {
+        if (*c != '%') {
+            literal += *c;
+            continue;
+        }
+        ++c;
+        if (*c == '%') {
+            literal += '%';
+            continue;
+        }
+        while (*c && std::strchr("-+ #0'", *c)) ++c;  // flags
+        if (*c == '*') {
+            (void)va_arg(arguments, int);
+            ++c;
+        }
+        while (std::isdigit(static_cast<unsigned char>(*c))) ++c;  // width
+        if (*c == '.') {
+            ++c;
+            if (*c == '*') {
+                (void)va_arg(arguments, int);
+                ++c;
+            }
+            while (std::isdigit(static_cast<unsigned char>(*c))) ++c;
+        }
+        int longs = 0;
+        bool size_t_length = false, long_double = false;
+        while (*c && std::strchr("hlLzjt", *c)) {
+            if (*c == 'l') ++longs;
+            if (*c == 'z' || *c == 'j' || *c == 't') size_t_length = true;
+            if (*c == 'L') long_double = true;
+            ++c;
+        }
+        if (!*c) break;
+        ++conversions;
+        PendingField entry;
+        int component = -1;
+        std::string name = namer.name(literal, &component);
+        literal.clear();
+        entry.component = component;
+        entry.tuple_id = namer.tuple_id;
+        if (component >= 0) entry.base = name;
+        TraceField& field = entry.field;
+        switch (*c) {
+            case 'd': case 'i':
+                field.number = longs >= 2 ? double(va_arg(arguments, long long))
+                               : longs == 1 || size_t_length ? double(va_arg(arguments, long))
+                                                             : double(va_arg(arguments, int));
+                break;
+            case 'u': case 'o': case 'x': case 'X':
+                field.number =
+                    longs >= 2 ? double(va_arg(arguments, unsigned long long))
+                    : longs == 1 || size_t_length ? double(va_arg(arguments, unsigned long))
+                                                  : double(va_arg(arguments, unsigned));
+                break;
+            case 'c': field.number = va_arg(arguments, int); break;
+            case 'f': case 'F': case 'e': case 'E': case 'g': case 'G': case 'a': case 'A':
+                field.number = long_double ? double(va_arg(arguments, long double))
+                                           : va_arg(arguments, double);
+                break;
+            case 's': {
+                const char* text = va_arg(arguments, const char*);
+                field.text = text ? text : "";
+                field.is_text = true;
+                break;
+            }
+            case 'p': (void)va_arg(arguments, void*); continue;
+            default: continue;  // %n and unknown conversions: nothing read, nothing kept
+        }
+        if (component < 0 && !name.empty()) namer.previous_name = name;
+        field.name = name.empty() && component < 0 ? "#" + std::to_string(conversions) : name;
+        pending.push_back(entry);
+    }
+    // Tuple components get their names once each tuple's size is known.
+    std::vector<TraceField> fields;
+    for (size_t n = 0; n < pending.size(); ++n) {
+        PendingField& entry = pending[n];
+        if (entry.component >= 0) {
+            int count = 0;
+            for (const PendingField& other : pending) {
+                if (other.component >= 0 && other.tuple_id == entry.tuple_id) ++count;
+            }
+            const std::string suffix = component_name(entry.base, entry.component, count);
+            entry.field.name = entry.base.empty() ? "#(" + std::to_string(entry.tuple_id) + ")." +
+                                                        suffix
+                                                  : entry.base + "." + suffix;
+        }
+        // A name already used in this line: "n", then "n#2".
+        int seen = 1;
+        for (const TraceField& earlier : fields) {
+            const std::string& e = earlier.name;
+            if (e == entry.field.name || e.rfind(entry.field.name + "#", 0) == 0) ++seen;
+        }
+        if (seen > 1 && entry.field.name[0] != '#') {
+            entry.field.name += "#" + std::to_string(seen);
+        }
+        fields.push_back(entry.field);
+    }
+    return fields;
+}
+
+const TraceField* TraceRecord::field(const std::string& name) const {
+    for (const TraceField& f : fields) {
+        if (f.name == name) return &f;
+    }
+    return nullptr;
+}
+
+double TraceRecord::number(const std::string& name, double otherwise) const {
+    const TraceField* f = field(name);
+    return f && !f->is_text ? f->number : otherwise;
+}
+
 void Trace::add(const char* format, ...) {
     char line[512];
     va_list arguments;
     va_start(arguments, format);
+    va_list again;
+    va_copy(again, arguments);
     std::vsnprintf(line, sizeof line, format, arguments);
     va_end(arguments);
+    TraceRecord record;
+    record.text = line;
+    record.fields = trace_fields(format, again);
+    va_end(again);
     ++added_;
     if (first_.size() < max_first_lines) {
-        first_.emplace_back(line);
+        first_.push_back(std::move(record));
     } else if (last_.size() < max_last_lines) {
-        last_.emplace_back(line);
+        last_.push_back(std::move(record));
     } else {
-        last_[last_next_] = line;
+        last_[last_next_] = std::move(record);
         last_next_ = (last_next_ + 1) % max_last_lines;
     }
 }
 
+std::vector<TraceRecord> Trace::last_records() const {
+    std::vector<TraceRecord> records;
+    for (size_t n = 0; n < last_.size(); ++n) {
+        records.push_back(last_[(last_next_ + n) % last_.size()]);
+    }
+    return records;
+}
+
+std::vector<TraceRecord> Trace::records() const {
+    std::vector<TraceRecord> records = first_;
+    for (TraceRecord& record : last_records()) records.push_back(std::move(record));
+    return records;
+}
+
+std::vector<std::string> Trace::first_lines() const {
+    std::vector<std::string> lines;
+    for (const TraceRecord& record : first_) lines.push_back(record.text);
+    return lines;
+}
+
 std::vector<std::string> Trace::last_lines() const {
     std::vector<std::string> lines;
-    for (size_t n = 0; n < last_.size(); ++n) {
-        lines.push_back(last_[(last_next_ + n) % last_.size()]);
-    }
+    for (const TraceRecord& record : last_records()) lines.push_back(record.text);
     return lines;
 }
 
 std::vector<std::string> Trace::lines() const {
-    std::vector<std::string> lines = first_;
+    std::vector<std::string> lines = first_lines();
     for (std::string& line : last_lines()) lines.push_back(std::move(line));
     return lines;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdarg>
 #include <cstdint>
 #include <string>
 #include <system_error>
@@ -44,6 +45,32 @@ private:
     std::chrono::steady_clock::time_point start_;
 };
 
+// One number (or string) a trace line printed, named by the label before it in the format:
+// "value=%5d" gives "value"; a tuple "C=(%.6f, %.6f, %.6f)" gives "C.r", "C.g", "C.b" (four
+// components: .r .g .b .a; three: .r .g .b for a colour named C, rgb or colour, else .i .j .k;
+// other counts .0 .1 ...); "t=%7.2f..%.2f" gives "t" and "t_end"; a conversion without a label
+// is "#N" (its place among the line's conversions, from 1). A name repeated in one line gets
+// "#2", "#3" ... appended ("n", "n#2"). The number is the argument itself, at full precision,
+// not the text printed.
+struct TraceField {
+    std::string name;
+    double number = 0;  // numeric conversions (d i u x c f e g ...)
+    std::string text;   // %s conversions (number stays 0)
+    bool is_text = false;
+};
+
+// One line of a trace: its text as printed, and the fields it was printed from. The ray
+// picture (common/ray_plot.h) and the checker's trace comparison read the fields, never the
+// text.
+struct TraceRecord {
+    std::string text;
+    std::vector<TraceField> fields;
+
+    const TraceField* field(const std::string& name) const;  // nullptr when absent
+    bool has(const std::string& name) const { return field(name) != nullptr; }
+    double number(const std::string& name, double otherwise) const;
+};
+
 // What one ray did, sample by sample: filled only when a pixel is being debugged.
 // A long ray (a tall volume, a tiny step) could add millions of lines: the trace keeps the
 // first max_first_lines and the last max_last_lines, and counts the ones in between, so its
@@ -53,19 +80,28 @@ public:
     static constexpr size_t max_first_lines = 1000;
     static constexpr size_t max_last_lines = 20;
 
+    // printf-like; besides the text it keeps each conversion's value as a TraceField.
     void add(const char* format, ...) __attribute__((format(printf, 2, 3)));
     // The lines kept: the first ones, then the last ones (in order) when lines were dropped.
     std::vector<std::string> lines() const;
-    const std::vector<std::string>& first_lines() const { return first_; }
+    std::vector<std::string> first_lines() const;
     std::vector<std::string> last_lines() const;  // empty unless more than max_first_lines
+    // The same lines with their fields.
+    const std::vector<TraceRecord>& first_records() const { return first_; }
+    std::vector<TraceRecord> last_records() const;
+    std::vector<TraceRecord> records() const;  // first, then last
     uint64_t not_shown() const { return added_ - first_.size() - last_.size(); }
 
 private:
-    std::vector<std::string> first_;
-    std::vector<std::string> last_;  // a ring of up to max_last_lines, oldest at last_next_
+    std::vector<TraceRecord> first_;
+    std::vector<TraceRecord> last_;  // a ring of up to max_last_lines, oldest at last_next_
     size_t last_next_ = 0;
     uint64_t added_ = 0;
 };
+
+// The fields of one printf call: `format` and its arguments (the parser behind Trace::add;
+// public for the tests).
+std::vector<TraceField> trace_fields(const char* format, va_list arguments);
 
 // Prints once per process "note: only STARTED of WANTED render threads could be started ...".
 void note_fewer_threads(int started, int wanted);

@@ -4,11 +4,13 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <new>
 #include "error.h"
 #include "output_files.h"
+#include "ray_plot.h"
 #include "warm_up.h"
 #include "window.h"
 
@@ -72,8 +74,40 @@ static void print_summary(const Options& options, const View& view, const Render
     flush_stdout();
 }
 
-void print_trace(const Options& options, const View& view, const Renderer& renderer, int x,
-                 int y) {
+std::vector<ValueBand> value_bands(const Renderer& renderer) {
+    if (renderer.transfer_function) return transfer_function_bands(*renderer.transfer_function);
+    if (renderer.knob.name == "threshold" && renderer.knob.value) {
+        char* end = nullptr;
+        const std::string text = renderer.knob.value();
+        const double threshold = std::strtod(text.c_str(), &end);
+        if (end != text.c_str()) return threshold_bands(threshold);
+    }
+    return {};
+}
+
+Image ray_picture(const Options&, const Renderer&, const RayPlot& plot, const View& view,
+                  const std::vector<RayPlotView>& images, int x, int y) {
+    std::vector<RayPlotView> shown;
+    for (const RayPlotView& image : images) {
+        if (image.view.name == view.name) shown.insert(shown.begin(), image);
+        else if (!view.camera && !image.view.camera) shown.push_back(image);
+    }
+    return draw_ray_plot(plot, shown, x, y);
+}
+
+RayPlot traced_plot(const Options& options, const View& view, const Renderer& renderer, int x,
+                    int y) {
+    Work work;
+    Trace trace;
+    const Rgb pixel = renderer.ray(view, x, y, work, &trace);
+    char title[160];
+    std::snprintf(title, sizeof title, "%s %s ray x=%d y=%d", options.step.c_str(),
+                  view.name.c_str(), x, y);
+    return ray_plot_from_trace(trace.records(), view, value_bands(renderer), pixel, title);
+}
+
+RayPlot print_trace(const Options& options, const View& view, const Renderer& renderer, int x,
+                    int y) {
     const char* axis_names[] = {"k", "j", "i"};  // the ray axis of top, front, side
     const std::string samples = renderer.ray_samples
                                     ? renderer.ray_samples(view)
@@ -100,6 +134,10 @@ void print_trace(const Options& options, const View& view, const Renderer& rende
                 pixel.r, pixel.g, pixel.b, to_byte(pixel.r), to_byte(pixel.g), to_byte(pixel.b),
                 static_cast<unsigned long long>(work.samples));
     flush_stdout();
+    char title[160];
+    std::snprintf(title, sizeof title, "%s %s ray x=%d y=%d", options.step.c_str(),
+                  view.name.c_str(), x, y);
+    return ray_plot_from_trace(trace.records(), view, value_bands(renderer), pixel, title);
 }
 
 // --repeat N: the median time of renders 2..N of a view (the first, cold one is time_ms=).
@@ -154,6 +192,8 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
     // Image memory and threads made ready once, timed on their own (warmup_ms=), so that
     // time_ms= of the first render is the render alone.
     warmup_ms = warm_up(views, options.threads, &volume);
+    std::vector<RayPlotView> rendered;  // for the ray pictures of --debug-pixel
+    std::vector<std::pair<View, RayPlot>> plots;
     for (const View& view : views) {
         Work work;
         const Timer timer;
@@ -169,15 +209,40 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         write_png(image, output_path(options, view));
         if (options.pfm) write_pfm(image, pfm_path(options, view));
         print_summary(options, view, renderer, work, ms, warm_ms);
+        if (options.has_debug_pixel) rendered.push_back({view, image});
         if (options.has_debug_pixel) {
             if (inside(view, options.debug_x, options.debug_y)) {
-                print_trace(options, view, renderer, options.debug_x, options.debug_y);
+                plots.emplace_back(view, print_trace(options, view, renderer, options.debug_x,
+                                                     options.debug_y));
             } else {
                 std::printf("note: debug pixel %d,%d is outside the %s image (%dx%d)\n",
                             options.debug_x, options.debug_y, view.name.c_str(), view.width,
                             view.height);
             }
         }
+    }
+    // The ray pictures, with the other axis views rendered when --view left them out.
+    if (!plots.empty() && renderer.views.empty()) {
+        for (const View& other : views_named(volume, "all")) {
+            bool have = false;
+            for (const RayPlotView& r : rendered) have = have || r.view.name == other.name;
+            if (have) continue;
+            Work work;
+            rendered.push_back({other, render_view(options, other, renderer, work)});
+        }
+    }
+    for (const auto& [view, plot] : plots) {
+        write_png(ray_picture(options, renderer, plot, view, rendered, options.debug_x,
+                              options.debug_y),
+                  ray_plot_path(options.out, options.step, view, options.debug_x,
+                                options.debug_y, ".png"));
+        const std::string text = ray_plot_text(plot);
+        write_output_file(ray_plot_path(options.out, options.step, view, options.debug_x,
+                                        options.debug_y, ".txt"),
+                          [&](std::FILE* file) {
+                              return std::fwrite(text.data(), 1, text.size(), file) ==
+                                     text.size();
+                          });
     }
     check_stdout();
     outputs->commit();
@@ -196,6 +261,11 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
     };
     preview.trace = [&](const View& view, int x, int y) {
         print_trace(options, view, renderer, x, y);
+    };
+    preview.ray_panel = [&](const View& view, int x, int y, std::string* marks) {
+        const RayPlot plot = traced_plot(options, view, renderer, x, y);
+        if (marks) *marks = ray_plot_marks(plot);
+        return draw_ray_plot(plot, {}, x, y);
     };
     preview.knob = renderer.knob;
     preview.orbit = renderer.orbit;

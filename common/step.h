@@ -6,7 +6,9 @@
 #include <vector>
 #include "args.h"
 #include "image.h"
+#include "ray_plot.h"
 #include "render.h"
+#include "transfer_function.h"
 #include "view.h"
 #include "volume.h"
 
@@ -43,6 +45,9 @@ struct Renderer {
     // Part 2: the views to render instead of --view's axis views (a camera's image); empty:
     // the axis views, as part 1.
     std::vector<View> views;
+    // The ray picture's value bands (common/ray_plot.h): this transfer function's ranges when
+    // set (it may change with the knob), else the threshold when the knob is "threshold".
+    const TransferFunction* transfer_function = nullptr;
     Orbit orbit;                              // part 2: the window turns the camera
 };
 
@@ -57,8 +62,21 @@ Image render_view(const Options& options, const View& view, const Renderer& rend
                   Work& work);
 
 // Prints the trace of pixel (x, y): a header, one line per sample, the final pixel value.
-void print_trace(const Options& options, const View& view, const Renderer& renderer, int x,
+// Returns the same ray as a plot (common/ray_plot.h), drawn from the trace's fields.
+RayPlot print_trace(const Options& options, const View& view, const Renderer& renderer, int x,
                  int y);
+
+// The ray of pixel (x, y) as a plot, traced without printing (the window's ray panel).
+RayPlot traced_plot(const Options& options, const View& view, const Renderer& renderer, int x,
+                    int y);
+
+// The value bands of the ray picture: the renderer's transfer function, or its threshold knob.
+std::vector<ValueBand> value_bands(const Renderer& renderer);
+
+// Draws the ray picture of pixel (x, y) of `view`: its plot beside the rendered views
+// (`images`: the view's own first, then the other axis views; missing ones are rendered).
+Image ray_picture(const Options& options, const Renderer& renderer, const RayPlot& plot,
+                  const View& view, const std::vector<RayPlotView>& images, int x, int y);
 
 // "out/03_depth_shading_front.png"
 std::string output_path(const Options& options, const View& view);

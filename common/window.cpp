@@ -318,11 +318,13 @@ struct Session {
     SDL_Window* window = nullptr;
     SDL_Renderer* renderer = nullptr;
     SDL_Texture* texture = nullptr;
+    SDL_Texture* ray_texture = nullptr;  // the ray panel, once a click opened it
     int texture_width = 0, texture_height = 0;
     int max_texture_width = max_window_width, max_texture_height = max_window_height;  // pixels
 
     ~Session() {
         if (texture) SDL_DestroyTexture(texture);
+        if (ray_texture) SDL_DestroyTexture(ray_texture);
         if (renderer) SDL_DestroyRenderer(renderer);
         if (window) SDL_DestroyWindow(window);
         SDL_Quit();
@@ -354,6 +356,7 @@ public:
 
         SDL_SetWindowTitle(session_.window, title(ms).c_str());
         upload();
+        if (has_ray_) show_ray(ray_x_, ray_y_);  // follows the knob and the view
         draw();
     }
 
@@ -387,7 +390,43 @@ public:
         layout_ = fit_view(shown);
         int width = 0, height = 0;
         window_size_for(shown, layout_, &width, &height);
+        if (has_ray_) width += ray_.width, height = std::max(height, ray_.height);
         SDL_SetWindowSize(session_.window, width, height);
+    }
+
+    // The ray panel for pixel (x, y) of the current view: drawn anew (after a click, a knob
+    // change or a view switch), the window widened to hold it. A pixel outside the view
+    // closes it.
+    void show_ray(int x, int y) {
+        if (!preview_.ray_panel) return;
+        if (x >= view().width || y >= view().height) {
+            has_ray_ = false;
+            std::printf("window: ray panel closed (pixel %d,%d is outside the %s view)\n", x, y,
+                        view().name.c_str());
+            return;
+        }
+        std::string marks;
+        ray_ = preview_.ray_panel(view(), x, y, &marks);
+        const bool opening = !has_ray_;
+        has_ray_ = true, ray_x_ = x, ray_y_ = y;
+        if (session_.ray_texture) SDL_DestroyTexture(session_.ray_texture);
+        session_.ray_texture = SDL_CreateTexture(session_.renderer, SDL_PIXELFORMAT_RGB24,
+                                                 SDL_TEXTUREACCESS_STATIC, ray_.width,
+                                                 ray_.height);
+        if (!session_.ray_texture) {
+            throw std::runtime_error(std::string("SDL_CreateTexture: ") + SDL_GetError());
+        }
+        std::vector<unsigned char> bytes(ray_.pixels.size() * 3);
+        for (size_t n = 0; n < ray_.pixels.size(); ++n) {
+            bytes[3 * n + 0] = to_byte(ray_.pixels[n].r);
+            bytes[3 * n + 1] = to_byte(ray_.pixels[n].g);
+            bytes[3 * n + 2] = to_byte(ray_.pixels[n].b);
+        }
+        SDL_UpdateTexture(session_.ray_texture, nullptr, bytes.data(), ray_.width * 3);
+        if (opening) fit_window();
+        std::printf("window: ray panel x=%d y=%d view=%s %dx%d%s%s\n", x, y, view().name.c_str(),
+                    ray_.width, ray_.height, marks.empty() ? "" : " ", marks.c_str());
+        std::fflush(stdout);
     }
 
     void change_knob(int steps) {
@@ -527,6 +566,8 @@ public:
         std::printf("window: click x=%d y=%d\n", x, y);
         std::fflush(stdout);
         if (preview_.trace) preview_.trace(view(), x, y);
+        show_ray(x, y);
+        draw();
     }
 
     // Window position of the centre of image pixel (x, y): where an injected click lands.
@@ -539,7 +580,8 @@ public:
     void draw() {
         int window_width = 0, window_height = 0;
         SDL_GetWindowSize(session_.window, &window_width, &window_height);
-        layout_.left = std::max(0, (window_width - layout_.drawn_width(shown_)) / 2);
+        const int panel_width = has_ray_ ? ray_.width : 0;  // the ray panel, right
+        layout_.left = std::max(0, (window_width - panel_width - layout_.drawn_width(shown_)) / 2);
         layout_.top = std::max(0, (window_height - layout_.drawn_height(shown_)) / 2);
 
         const Uint8 margin_grey = 40;  // dark surround, so the image's own black edge shows
@@ -548,6 +590,20 @@ public:
         const SDL_Rect target = {layout_.left, layout_.top, layout_.drawn_width(shown_),
                                  layout_.drawn_height(shown_)};
         SDL_RenderCopy(session_.renderer, session_.texture, nullptr, &target);
+        if (has_ray_ && session_.ray_texture) {
+            const SDL_Rect panel = {window_width - ray_.width,
+                                    std::max(0, (window_height - ray_.height) / 2), ray_.width,
+                                    ray_.height};
+            SDL_RenderCopy(session_.renderer, session_.ray_texture, nullptr, &panel);
+            int wx = 0, wy = 0;  // the traced pixel, marked on the image
+            window_position(ray_x_, ray_y_, &wx, &wy);
+            constexpr int arm = 6;
+            SDL_SetRenderDrawColor(session_.renderer, 230, 0, 0, 255);
+            SDL_RenderDrawLine(session_.renderer, wx - arm, wy, wx - 2, wy);
+            SDL_RenderDrawLine(session_.renderer, wx + 2, wy, wx + arm, wy);
+            SDL_RenderDrawLine(session_.renderer, wx, wy - arm, wx, wy - 2);
+            SDL_RenderDrawLine(session_.renderer, wx, wy + 2, wx, wy + arm);
+        }
         SDL_RenderPresent(session_.renderer);
     }
 
@@ -626,6 +682,9 @@ private:
     Image image_;                         // the view as rendered (and saved by S)
     Image shown_;                         // what the texture holds: image_ shrunk
     int shrink_x_ = 1, shrink_y_ = 1;     // image pixels per shown pixel, across and down
+    bool has_ray_ = false;                // a click opened the ray panel
+    int ray_x_ = 0, ray_y_ = 0;           // its pixel
+    Image ray_;                           // its picture
     double full_ms_ = 0;                  // the last full render's time
     // The orbit's mouse: the press, the drag, and what it asks of the camera not yet applied.
     bool pressed_ = false, dragging_ = false, moved_ = false;

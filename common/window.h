@@ -1,8 +1,9 @@
 // window.h: the SDL2 preview window. It is a layer on top: every step works without it.
 //
 // Keys: 1/2/3 top/front/side; Up/Down or +/- change the step's knob and re-render (render
-// time in the title); left click prints that pixel's trace; S saves a PNG; P runs the step
-// again with the next preset (data/presets, in name order); Esc/Q quits.
+// time in the title); left click prints that pixel's trace and opens (or updates) its ray
+// picture in a panel right of the image, redrawn when the knob turns; S saves a PNG; P runs
+// the step again with the next preset (data/presets, in name order); Esc/Q quits.
 // Part 2 (Preview::orbit set): drag with the left button to turn the camera, the wheel to
 // zoom; while it moves the window shows coarse previews (1 in 2x2 pixels or fewer, to stay
 // near 25 frames a second) and renders at full size when the mouse stops or is released.
@@ -24,6 +25,10 @@ struct Preview {
     std::function<void(const View&, int x, int y)> trace;  // print one pixel's trace
     Knob knob;                                          // Up/Down; name empty: none
     std::function<std::string(const View&)> save_path;  // where S writes
+    // The ray picture of pixel (x, y) (common/ray_plot.h) for the panel beside the image a
+    // click opens; *marks says where the ray hit, stopped or leapt ("hit t=47.29"). It is
+    // drawn again when the knob turns. Empty: no panel.
+    std::function<Image(const View&, int x, int y, std::string* marks)> ray_panel;
     Orbit orbit;                                        // drag and wheel; empty: none
     // The orbit's coarse previews: a render without the summary line (empty: render).
     std::function<Image(const View&, Work&)> render_preview;

@@ -220,6 +220,7 @@ int main(int argc, char** argv) {
 
         // --- Render: one ray per pixel ---
         Renderer renderer;
+        renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             if (params.order == "b2f") {
                 return composite_back_to_front(volume, view, x, y, lut, work, trace);

@@ -294,6 +294,7 @@ int main(int argc, char** argv) {
 
         // --- Render: one ray per pixel ---
         Renderer renderer;
+        renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             return over_background(composite_front_to_back(volume, view, x, y, lut, params, work,
                                                            trace));

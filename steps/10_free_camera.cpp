@@ -694,6 +694,7 @@ int main(int argc, char** argv) {
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
+        renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
 
         // --- Render: one ray per pixel ---

@@ -166,6 +166,33 @@ else
     echo "window test: presets SKIPPED ($tf_binary not built)"
 fi
 
+# --- The ray panel: a click opens the ray picture beside the image, the knob moves its hit ---
+panel_step=$build/05_interpolated_hits
+if [ -x "$panel_step" ]; then
+    xvfb "$panel_step" --volume phantom --view front --out "$work/panel" \
+        --window-script "click:128:30,key:Up,key:Up,quit" > "$work/panel.log" 2>&1
+    status=$?
+    check "the ray panel run exits with status 0 (got $status)" [ "$status" -eq 0 ]
+    # "window: ray panel x=128 y=30 view=front WxH hit t=T": once for the click, once per Up.
+    panel='^window: ray panel x=128 y=30 view=front [0-9]*x[0-9]* hit t=\([0-9.]*\).*'
+    hits=$(sed -n "s/$panel/\\1/p" "$work/panel.log" | tr '\n' ' ')
+    set -- $hits
+    check "the click and each Up draw the ray panel with its hit (got '$hits')" [ $# -eq 3 ]
+    if [ $# -eq 3 ]; then
+        check "turning the threshold up moves the hit deeper ($1 < $2 < $3)" \
+            awk -v a="$1" -v b="$2" -v c="$3" 'BEGIN { exit !(a < b && b < c) }'
+        # The same ray at the threshold the two Ups reach (400 + 2 * 50), traced headless: the
+        # panel's hit is the ray picture's.
+        "$panel_step" --volume phantom --view front --no-window --out "$work/panel" \
+            --threshold 500 --debug-pixel 128,30 > /dev/null 2>&1
+        expected=$(sed -n 's/^mark hit \([^ ]*\) .*/\1/p' \
+                   "$work/panel/05_interpolated_hits_front_ray_128_30.txt")
+        check "the panel's hit after two Ups ($3) is --threshold 500's ray's ($expected)" \
+            awk -v a="$3" -v b="$expected" \
+                'BEGIN { d = a - b; exit !(b != "" && d < 1e-3 && d > -1e-3) }'
+    fi
+fi
+
 # --- Real X input (optional: needs xdotool) ----------------------------------------------------
 if command -v xdotool > /dev/null 2>&1; then
     xvfb sh "$0" --xdotool "$binary" "$work/real_out" "$work/real.log" > "$work/real.stdout" 2>&1

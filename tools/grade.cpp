@@ -505,6 +505,122 @@ std::string join(const std::vector<std::string>& words) {
     return text;
 }
 
+
+// --- Probe rays: where a student's ray leaves the reference's ---------------------------------
+// REFERENCE/probes.txt names probe pixels per run and view; REFERENCE/traces/ holds their
+// reference traces, the sidecars --debug-pixel writes (common/ray_plot.h): each trace line as
+// "record<TAB>text<TAB>name=value ...". A failing run's probes are run again with
+// --debug-pixel and compared line by line, field by field.
+
+constexpr size_t max_trace_bytes = 8 << 20;
+constexpr double trace_absolute_tolerance = 1e-6;  // printed values are rounded to 6 decimals
+constexpr double trace_relative_tolerance = 1e-5;  // float against double sums: 1e-7
+
+struct Probe {
+    std::string view;
+    int x = 0, y = 0;
+};
+
+struct TraceLine {
+    std::string text;
+    std::vector<std::pair<std::string, double>> fields;
+    const double* field(const std::string& name) const {
+        for (const auto& f : fields) {
+            if (f.first == name) return &f.second;
+        }
+        return nullptr;
+    }
+};
+
+std::vector<TraceLine> read_trace(const fs::path& path) {
+    std::vector<TraceLine> lines;
+    std::istringstream in(read_bounded(path, max_trace_bytes));
+    for (std::string line; std::getline(in, line);) {
+        if (line.rfind("record\t", 0) != 0) continue;
+        const size_t tab = line.find('\t', 7);
+        TraceLine record;
+        record.text = line.substr(7, tab == std::string::npos ? std::string::npos : tab - 7);
+        if (tab != std::string::npos) {
+            for (const std::string& word : split_words(line.substr(tab + 1))) {
+                const size_t equals = word.rfind('=');
+                if (equals == std::string::npos || equals == 0) continue;
+                char* end = nullptr;
+                const double value = std::strtod(word.c_str() + equals + 1, &end);
+                if (end == word.c_str() + equals + 1) continue;
+                record.fields.emplace_back(word.substr(0, equals), value);
+            }
+        }
+        lines.push_back(record);
+    }
+    return lines;
+}
+
+std::string field_value(double value) {
+    char text[64];
+    if (value == std::floor(value) && std::fabs(value) < 1e15) {
+        std::snprintf(text, sizeof text, "%.0f", value);
+    } else if (std::fabs(value) < 1e6) {
+        std::snprintf(text, sizeof text, "%.6f", value);
+    } else {
+        std::snprintf(text, sizeof text, "%.6g", value);
+    }
+    return text;
+}
+
+// "n=43" or "t=14.00": where along the ray a line is (else the last such place before it).
+std::string place_of(const std::vector<TraceLine>& lines, size_t index) {
+    for (size_t n = index + 1; n-- > 0;) {
+        if (n >= lines.size()) continue;
+        for (const char* name : {"n", "t"}) {
+            if (const double* value = lines[n].field(name)) {
+                const std::string place = std::string(name) + "=" +
+                    (std::string(name) == "t" ? field_value(std::round(*value * 1e4) / 1e4)
+                                              : field_value(*value));
+                return n == index ? place : "the line after " + place;
+            }
+        }
+    }
+    return "line " + std::to_string(index + 1);
+}
+
+// The first difference of two traces, or "" when they agree.
+std::string first_difference(const std::vector<TraceLine>& yours,
+                             const std::vector<TraceLine>& reference) {
+    const size_t count = std::max(yours.size(), reference.size());
+    for (size_t n = 0; n < count; ++n) {
+        if (n >= yours.size()) {
+            return place_of(reference, n) + ": your trace ends there (" +
+                   std::to_string(yours.size()) + " lines), the reference's goes on (" +
+                   std::to_string(reference.size()) + " lines)" +
+                   "\n        reference: " + reference[n].text;
+        }
+        if (n >= reference.size()) {
+            return place_of(yours, n) + ": your trace goes on (" + std::to_string(yours.size()) +
+                   " lines), the reference's ended (" + std::to_string(reference.size()) +
+                   " lines)" + "\n        yours:     " + yours[n].text;
+        }
+        for (const auto& [name, expected] : reference[n].fields) {
+            const double* got = yours[n].field(name);
+            const bool same = got && (std::fabs(*got - expected) <=
+                                      trace_absolute_tolerance +
+                                          trace_relative_tolerance *
+                                              std::max(std::fabs(*got), std::fabs(expected)));
+            if (same) continue;
+            const std::string what =
+                got ? "your " + name + " is " + field_value(*got) + ", the reference's " +
+                          field_value(expected)
+                    : "your line has no " + name + "=, the reference's " + name + " is " +
+                          field_value(expected);
+            std::string text = place_of(reference, n) + ": " + what;
+            if (n > 0) text += "\n        both:      " + reference[n - 1].text;
+            text += "\n        yours:     " + yours[n].text +
+                    "\n        reference: " + reference[n].text;
+            return text;
+        }
+    }
+    return "";
+}
+
 class Grader {
 public:
     explicit Grader(Settings settings) : settings_(std::move(settings)) {}
@@ -518,6 +634,8 @@ private:
                        const fs::path& folder, StepResult& result);
     void grade_counters(const Run& run, const std::string& view, const Summary& student,
                         StepResult& result);
+    void probe_rays(const Step& step, const Run& run, const std::string& view,
+                    const fs::path& folder, StepResult& result);
     std::string command_for(const Step& step, const Run& run, const std::string& view,
                             const std::string& more = "") const;
     fs::path reference_picture(const Step& step, const Run& run, const std::string& view) const {
@@ -670,6 +788,73 @@ void Grader::grade_picture(const Step& step, const Run& run, const std::string& 
     problem(text);
 }
 
+void Grader::probe_rays(const Step& step, const Run& run, const std::string& view,
+                        const fs::path& folder, StepResult& result) {
+    const fs::path probes_path = settings_.reference / "probes.txt";
+    std::error_code error;
+    if (!fs::is_regular_file(fs::symlink_status(probes_path, error))) return;
+    std::vector<Probe> probes;
+    std::istringstream lines(read_bounded(probes_path, max_manifest_bytes));
+    for (std::string line; std::getline(lines, line);) {
+        const std::vector<std::string> words = split_words(line.substr(0, line.find('#')));
+        if (words.size() < 3 || words[0] != run.name || words[1] != view) continue;
+        Probe probe;
+        probe.view = view;
+        if (std::sscanf(words[2].c_str(), "%d,%d", &probe.x, &probe.y) == 2) {
+            probes.push_back(probe);
+        }
+    }
+    std::vector<std::string> agreed;
+    for (const Probe& probe : probes) {
+        const std::string xy = std::to_string(probe.x) + "_" + std::to_string(probe.y);
+        const fs::path reference_trace =
+            settings_.reference / "traces" / (run.name + "_" + view + "_ray_" + xy + ".txt");
+        if (!fs::is_regular_file(fs::symlink_status(reference_trace, error))) continue;
+        const fs::path probe_folder = folder / ("probe_" + view + "_" + xy);
+        fs::remove_all(probe_folder, error);
+        make_folder(probe_folder.string());
+        std::vector<std::string> arguments = {"--volume", settings_.volume, "--no-window",
+                                              "--out", fs::absolute(probe_folder).string()};
+        arguments.insert(arguments.end(), settings_.volume_args.begin(),
+                         settings_.volume_args.end());
+        arguments.insert(arguments.end(), run.arguments.begin(), run.arguments.end());
+        arguments.insert(arguments.end(), settings_.extra_args.begin(),
+                         settings_.extra_args.end());
+        if (view != "camera") arguments.insert(arguments.end(), {"--view", view});
+        const std::string pixel = std::to_string(probe.x) + "," + std::to_string(probe.y);
+        arguments.insert(arguments.end(), {"--debug-pixel", pixel});
+        const Outcome outcome = run_process(fs::absolute(settings_.bin / step.name), arguments,
+                                            settings_.tree, probe_folder, settings_.timeout_s);
+        const fs::path yours_path =
+            probe_folder / (step.name + "_" + view + "_ray_" + xy + ".txt");
+        const std::string command = command_for(step, run, view, " --debug-pixel " + pixel);
+        std::string text = run.name + " " + view + ": the probe ray " + pixel + " ";
+        if (outcome.timed_out || outcome.signal != 0 || outcome.exit_status != 0 ||
+            !fs::is_regular_file(fs::symlink_status(yours_path, error))) {
+            text += "could not be traced: " + command;
+        } else {
+            const std::string difference =
+                first_difference(read_trace(yours_path), read_trace(reference_trace));
+            if (difference.empty()) {
+                agreed.push_back(pixel);
+                continue;
+            }
+            text += "leaves the reference's at " + difference +
+                    "\n        both traces: " + relative_to(yours_path, cwd_) + " | " +
+                    relative_to(reference_trace, cwd_) + "; the ray drawn: " +
+                    relative_to(probe_folder / (step.name + "_" + view + "_ray_" + xy + ".png"),
+                                cwd_);
+        }
+        result.problems.push_back(text);
+        result.look_at.push_back(text);
+        return;  // the first probe that differs is enough to look at
+    }
+    if (!agreed.empty()) {
+        result.problems.push_back(run.name + " " + view + ": the probe rays " + join(agreed) +
+                                  " agree with the reference's traces");
+    }
+}
+
 void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
     const fs::path folder = settings_.out / run.name;
     std::error_code error;
@@ -775,6 +960,7 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
     }
     const size_t problems_before = result.problems.size();
     for (const std::string& view : graded_views) {
+        const size_t problems_of_view = result.problems.size();
         grade_picture(step, run, view, folder, result);
         const auto summary = summaries.find(view);
         if (summary == summaries.end()) {
@@ -785,6 +971,7 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
         } else {
             grade_counters(run, view, summary->second, result);
         }
+        if (result.problems.size() > problems_of_view) probe_rays(step, run, view, folder, result);
     }
     if (result.problems.size() > problems_before && result.status == Status::passing) {
         result.status = Status::failing;

@@ -139,6 +139,53 @@ while read -r name arguments; do
     runs=$((runs + 1))
 done < "$work/runs"
 
+# The probe pixels' traces (data/reference/probes.txt): what make check compares a failing
+# run's rays with. Each probe is its run again with --view VIEW --debug-pixel X,Y.
+probes=data/reference/probes.txt
+mkdir -p "$work/traces" "$work/rays" || fail "cannot create a temporary folder"
+probe_count=0
+if [ -f "$probes" ]; then
+    while read -r name view pixel keep rest; do
+        case "$name" in '' | '#'*) continue ;; esac
+        run=$(grep -E "^$name( |$)" "$work/runs" | head -n 1)
+        [ -n "$run" ] || fail "$probes: '$name' is not a run of $manifest"
+        arguments=${run#"$name"}
+        number=$(echo "$name" | sed -n 's/^\([0-9][0-9]\)_.*/\1/p')
+        step=$(basename "$(ls steps/"$number"_*.cpp | head -n 1)" .cpp)
+        view_flag="--view $view"
+        [ "$view" != camera ] || view_flag=
+        rm -rf "$work/out"
+        # shellcheck disable=SC2086
+        if ! "$build/$step" --volume "$volume" $volume_flags --no-window --out "$work/out" \
+                $arguments $extra $view_flag --debug-pixel "$pixel" \
+                > "$work/log" 2>&1 < /dev/null; then
+            # The probes are chosen on the phantom: a smaller volume may not have the pixel.
+            if grep -q -- "--debug-pixel $pixel is outside" "$work/log"; then
+                echo "make reference: probe $name $view $pixel skipped: outside this volume's image"
+                continue
+            fi
+            cat "$work/log" >&2
+            fail "probe $name $view $pixel failed"
+        fi
+        stem=${step}_${view}_ray_$(echo "$pixel" | tr , _)
+        target=${name}_${view}_ray_$(echo "$pixel" | tr , _)
+        mv "$work/out/$stem.txt" "$work/traces/$target.txt" || fail "probe $name: no $stem.txt"
+        if [ "$keep" = picture ]; then
+            mv "$work/out/$stem.png" "$work/rays/$target.png" || fail "probe $name: no $stem.png"
+        fi
+        probe_count=$((probe_count + 1))
+    done < "$probes"
+fi
+rm -rf "$reference/traces" "$reference/rays"
+mkdir -p "$reference/traces" "$reference/rays" || fail "cannot create $reference/traces"
+for file in "$work/traces"/*.txt; do
+    [ -f "$file" ] && { mv "$file" "$reference/traces/" || fail "cannot write $reference/traces"; }
+done
+for file in "$work/rays"/*.png; do
+    [ -f "$file" ] && { mv "$file" "$reference/rays/" || fail "cannot write $reference/rays"; }
+done
+echo "make reference: $probe_count probe traces into $reference/traces/"
+
 for image in "$work/images"/*.png; do
     mv "$image" "$reference/" || fail "cannot write $reference/$(basename "$image")"
 done

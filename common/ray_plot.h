@@ -1,0 +1,99 @@
+// ray_plot.h: one ray, drawn. --debug-pixel X,Y writes OUT/NN_name_<view>_ray_X_Y.png beside
+// the text trace: along the ray (t across, in samples and physical units) the sample value over
+// the threshold or the transfer function's ranges as coloured bands, the opacity, the
+// transparency T, the light L, the accumulated colour C as a strip, and marks where the ray
+// hit, was terminated early or leapt; beside it the rendered image with the pixel marked and
+// its ray drawn in the other views. OUT/NN_name_<view>_ray_X_Y.txt holds the numbers it was
+// drawn from.
+//
+// Nothing here knows a step: the picture is made from the Trace records' fields (render.h),
+// by their names, so a step that prints "t=" or "n=", "value=", "rgba=(...)", "L=", "C=(...)",
+// "T=" gets the panels for what it prints:
+//   a sample   a line with "value" and "t" (physical units) or "n" (sample index, one per voxel)
+//   hit        a sample line whose text says "hit"; "crossing ... hit at N + F" marks N + F
+//   terminated a line saying "termination" at its "t" or "n"
+//   leapt      a line saying "leapt": from "t" to "t_end"
+//   the box    part 2: a line with "entry t=... exit t=..." marks where the ray is in the box
+#pragma once
+#include <string>
+#include <vector>
+#include "image.h"
+#include "render.h"
+#include "transfer_function.h"
+#include "view.h"
+
+namespace ctlab {
+
+// A range of sample values drawn as a coloured band behind the value curve.
+struct ValueBand {
+    double from = 0, to = 0;  // value range [from, to)
+    Rgb colour;
+    double opacity = 0;       // how strongly it is shaded (the range's alpha, or 1)
+    std::string label;
+};
+
+std::vector<ValueBand> threshold_bands(double threshold);  // "> threshold", to +infinity
+std::vector<ValueBand> transfer_function_bands(const TransferFunction& tf);
+
+struct RaySample {
+    double t = 0;         // physical units along the ray (from its first voxel; part 2: from
+                          // the camera)
+    double n = -1;        // sample position in voxels along the ray axis (-1: camera ray)
+    double value = 0;
+    bool has_alpha = false, has_transparency = false, has_light = false, has_colour = false;
+    double alpha = 0, transparency = 1, light = 1;
+    Rgb colour;           // C accumulated so far
+    bool has_max = false;  // step 01's maximum intensity so far
+    double max = 0;
+    bool hit = false;
+};
+
+struct RayMark {
+    enum Kind { hit, terminated, leapt, box } kind = hit;
+    double from = 0, to = 0;  // t; from == to for a point
+};
+
+struct RayPlot {
+    std::string title;              // "07_compositing_order front ray x=128 y=30"
+    std::vector<RaySample> samples;
+    std::vector<RayMark> marks;
+    std::vector<ValueBand> bands;
+    double t_end = 0;               // where the ray ends (physical units)
+    double spacing = 0;             // physical units per voxel along the ray (0: camera)
+    Rgb pixel;                      // the pixel's value
+    bool missed = false;            // part 2: the ray missed the box
+    std::vector<TraceRecord> records;  // the whole trace, every line with its fields
+};
+
+// The plot of a traced ray: its samples and marks from the records' fields.
+RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View& view,
+                            std::vector<ValueBand> bands, Rgb pixel, const std::string& title);
+
+// The rendered views for the picture's right-hand side: the traced one first.
+struct RayPlotView {
+    View view;
+    Image image;
+};
+
+// The picture: the plot, and beside it the traced view with the pixel marked and the other
+// axis views with the ray drawn across them (no views: the plot alone, as the window's panel).
+Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, int x, int y);
+
+// The numbers the picture was drawn from, one line per sample (the ray picture's sidecar):
+//   # sample t n value alpha T L C.r C.g C.b max     ("-" where the trace has none)
+//   sample 43 43 10 0.12 0.7744 - 0.2256 0.178224 0.13536 -
+//   mark hit 48 48
+//   pixel 0.995778 0.896602 0.806871
+// then every trace line, its text and its fields (make check compares these with the
+// reference's, data/reference/traces/):
+//   record<TAB>n= 43 voxel (128, 43, 30) value=   10 ...<TAB>n=43 voxel.i=128 ... value=10 ...
+std::string ray_plot_text(const RayPlot& plot);
+
+// Where the marks are, in one line: "hit t=47.2857 stop t=50" ("" when none).
+std::string ray_plot_marks(const RayPlot& plot);
+
+// "out/07_compositing_order_front_ray_128_30.png" (.txt for the sidecar).
+std::string ray_plot_path(const std::string& out, const std::string& step, const View& view,
+                          int x, int y, const std::string& extension);
+
+}  // namespace ctlab

@@ -1,0 +1,288 @@
+// test_ray_plot.cpp: the ray picture of --debug-pixel (common/ray_plot.h). The trace's fields
+// are the printf arguments by name; the plotted numbers (the .txt sidecar the picture is drawn
+// from) equal the numbers of the text trace; the pictures of the probe rays equal the golden
+// ones in data/reference/rays/ (make reference writes them, data/reference/probes.txt says
+// which); a run that fails writes no ray picture either.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdarg>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "compare.h"
+#include "harness.h"
+#include "image.h"
+#include "output_files.h"
+#include "ray_plot.h"
+#include "render.h"
+
+using namespace ctlab;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::vector<TraceField> fields_of(const char* format, ...) {
+    va_list arguments;
+    va_start(arguments, format);
+    std::vector<TraceField> fields = trace_fields(format, arguments);
+    va_end(arguments);
+    return fields;
+}
+
+std::string read_text(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+std::vector<std::string> lines_starting(const std::string& text, const std::string& start) {
+    std::vector<std::string> lines;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+        if (line.rfind(start, 0) == 0) lines.push_back(line);
+    }
+    return lines;
+}
+
+// The number printed after "NAME=" in a trace line ("C=(" : the first of the tuple, etc.).
+// Returns false when the line has no such label; *decimals is how many the text shows.
+bool printed(const std::string& line, const std::string& label, int component, double* value,
+             int* decimals) {
+    const std::regex pattern("(^|[ (])" + label + "=\\(?");
+    std::smatch match;
+    if (!std::regex_search(line, match, pattern)) return false;
+    size_t at = match.position(0) + match.length(0);
+    for (int c = 0; c < component; ++c) at = line.find(", ", at) + 2;
+    while (at < line.size() && line[at] == ' ') ++at;
+    size_t end = at;
+    while (end < line.size() && std::string("-+.0123456789eE").find(line[end]) != std::string::npos)
+        ++end;
+    const std::string number = line.substr(at, end - at);
+    *value = std::stod(number);
+    const size_t dot = number.find('.');
+    const size_t exponent = number.find_first_of("eE");
+    *decimals = dot == std::string::npos
+                    ? 0
+                    : int((exponent == std::string::npos ? number.size() : exponent) - dot - 1);
+    if (exponent != std::string::npos) *decimals = 300;  // %g with an exponent: relative check
+    return true;
+}
+
+void check_equal_to_text(double plotted, const std::string& line, const std::string& label,
+                         int component) {
+    double shown = 0;
+    int decimals = 0;
+    REQUIRE_MESSAGE(printed(line, label, component, &shown, &decimals), line, " has no ", label);
+    const double allowed =
+        decimals >= 300 ? std::fabs(shown) * 1e-5 : 0.5 * std::pow(10.0, -decimals) + 1e-12;
+    // %g prints 6 significant digits: T=0.7744 or 0.00422185.
+    const double significant = std::fabs(shown) * 5e-6;
+    CHECK_MESSAGE(std::fabs(plotted - shown) <= std::max(allowed, significant), label, "[",
+                  component, "] plotted ", plotted, " but the trace shows ", shown, " in: ", line);
+}
+
+}  // namespace
+
+TEST_CASE("trace fields: each printf argument by the label before it, at full precision") {
+    const double third = 1.0 / 3.0;
+    const auto fields = fields_of(
+        "n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, "
+        "%.4f) C=(%.6f, %.6f, %.6f) T=%.6g%s",
+        43, 128, 43, 30, 10, 1.0, 0.79, 0.6, 0.12, third, 0.5, 0.25, 0.7744, "  > threshold: hit");
+    std::vector<std::string> names;
+    for (const TraceField& f : fields) names.push_back(f.name);
+    CHECK(names == std::vector<std::string>{"n", "voxel.i", "voxel.j", "voxel.k", "value", "rgba.r",
+                                            "rgba.g", "rgba.b", "rgba.a", "C.r", "C.g", "C.b", "T",
+                                            "#14"});
+    CHECK(fields[9].number == third);  // the argument, not the 6 decimals printed
+    CHECK(fields[13].is_text);
+    CHECK(fields[13].text == "  > threshold: hit");
+
+    const auto leap =
+        fields_of("t=%7.2f..%.2f empty brick up to voxel %d: %d samples leapt", 8.0, 15.0, 15, 8);
+    REQUIRE(leap.size() == 4);
+    CHECK(leap[0].name == "t");
+    CHECK(leap[1].name == "t_end");
+    CHECK(leap[1].number == 15.0);
+    CHECK(leap[2].name == "#3");
+
+    const auto repeated = fields_of("crossing between n=%d and n=%d: hit at %d + %.6f %lld %zu", 46,
+                                    47, 46, 0.25, 12345678901LL, size_t(7));
+    REQUIRE(repeated.size() == 6);
+    CHECK(repeated[0].name == "n");
+    CHECK(repeated[1].name == "n#2");
+    CHECK(repeated[3].number == 0.25);
+    CHECK(repeated[4].number == 12345678901.0);
+    CHECK(repeated[5].number == 7.0);
+    CHECK(fields_of("100%% sure x=%d", 3)[0].name == "x");
+}
+
+TEST_CASE("the ray picture's numbers are the text trace's, for every kind of step") {
+    struct Case {
+        std::string step;
+        std::vector<std::string> flags;
+        std::string file;  // the picture's stem
+    };
+    const std::vector<Case> cases = {
+        {"02_threshold",
+         {"--view", "front", "--debug-pixel", "128,30"},
+         "02_threshold_front_ray_128_30"},
+        {"05_interpolated_hits",
+         {"--view", "front", "--debug-pixel", "128,30"},
+         "05_interpolated_hits_front_ray_128_30"},
+        {"07_compositing_order",
+         {"--view", "top", "--debug-pixel", "100,128"},
+         "07_compositing_order_top_ray_100_128"},
+        {"08_lit_compositing",
+         {"--view", "side", "--debug-pixel", "128,60", "--step", "0.5"},
+         "08_lit_compositing_side_ray_128_60"},
+        {"09_empty_space",
+         {"--view", "front", "--debug-pixel", "128,30"},
+         "09_empty_space_front_ray_128_30"},
+        {"10_free_camera", {"--debug-pixel", "280,300"}, "10_free_camera_camera_ray_280_300"},
+    };
+    for (const Case& c : cases) {
+        CAPTURE(c.step);
+        ctlab::TempFolder out("ray_plot");
+        std::vector<std::string> flags = {"--volume", "phantom", "--out", out.path()};
+        flags.insert(flags.end(), c.flags.begin(), c.flags.end());
+        const RunResult run = run_step(c.step, flags);
+        REQUIRE(run.status == 0);
+        REQUIRE(run.traces.size() == 1);
+        const PixelTrace& trace = run.traces[0];
+        REQUIRE(fs::is_regular_file(out.path(c.file + ".png")));
+        const std::string sidecar = read_text(out.path(c.file + ".txt"));
+
+        // Every trace line, in order, with the fields the plot is made of.
+        std::vector<std::string> record_texts;
+        for (const std::string& line : lines_starting(sidecar, "record\t")) {
+            record_texts.push_back(line.substr(7, line.find('\t', 7) - 7));
+        }
+        CHECK(record_texts == trace.lines);
+
+        // Each plotted sample is a sample line of the text, with the same numbers.
+        std::vector<std::string> sample_lines;
+        for (const std::string& line : trace.lines) {
+            if (line.find("value=") != std::string::npos) sample_lines.push_back(line);
+        }
+        const std::vector<std::string> samples = lines_starting(sidecar, "sample ");
+        REQUIRE(samples.size() == sample_lines.size());
+        REQUIRE(samples.size() > 10);
+        int with_colour = 0;
+        for (size_t n = 0; n < samples.size(); ++n) {
+            std::istringstream row(samples[n].substr(7));
+            std::string t, index, value, alpha, transparency, light, r, g, b;
+            row >> t >> index >> value >> alpha >> transparency >> light >> r >> g >> b;
+            const std::string& line = sample_lines[n];
+            check_equal_to_text(std::stod(value), line, "value", 0);
+            if (line.find(" t=") != std::string::npos || line.rfind("t=", 0) == 0) {
+                check_equal_to_text(std::stod(t), line, "t", 0);
+            } else {
+                check_equal_to_text(std::stod(index), line, "n", 0);
+            }
+            if (alpha != "-") check_equal_to_text(std::stod(alpha), line, "rgba", 3);
+            if (transparency != "-") check_equal_to_text(std::stod(transparency), line, "T", 0);
+            if (light != "-") check_equal_to_text(std::stod(light), line, "L", 0);
+            if (r != "-") {
+                ++with_colour;
+                check_equal_to_text(std::stod(r), line, "C", 0);
+                check_equal_to_text(std::stod(g), line, "C", 1);
+                check_equal_to_text(std::stod(b), line, "C", 2);
+            }
+            CHECK((alpha == "-") == (line.find("rgba=") == std::string::npos));
+        }
+        if (c.step >= "06") CHECK(with_colour > 0);
+        // The marks: a hit in the threshold steps, early termination where the text says so.
+        const bool says_hit = std::any_of(trace.lines.begin(), trace.lines.end(), [](auto& l) {
+            return l.find("hit") != std::string::npos;
+        });
+        const bool says_stop = std::any_of(trace.lines.begin(), trace.lines.end(), [](auto& l) {
+            return l.find("termination") != std::string::npos;
+        });
+        CHECK(says_hit == !lines_starting(sidecar, "mark hit ").empty());
+        CHECK(says_stop == !lines_starting(sidecar, "mark terminated ").empty());
+    }
+}
+
+TEST_CASE("step 05 marks the interpolated crossing, step 09 its leaps, step 10 the box") {
+    ctlab::TempFolder out("ray_plot_marks");
+    const auto flags = [&](std::vector<std::string> more) {
+        std::vector<std::string> all = {"--volume", "phantom", "--out", out.path()};
+        all.insert(all.end(), more.begin(), more.end());
+        return all;
+    };
+    REQUIRE(run_step("05_interpolated_hits", flags({"--view", "front", "--debug-pixel", "128,30"}))
+                .status == 0);
+    const std::string crossing = read_text(out.path("05_interpolated_hits_front_ray_128_30.txt"));
+    const auto hits = lines_starting(crossing, "mark hit ");
+    REQUIRE(hits.size() == 1);
+    const double at = std::stod(hits[0].substr(9));
+    CHECK(at != std::floor(at));  // between two samples, not on one
+
+    REQUIRE(
+        run_step("09_empty_space", flags({"--view", "front", "--debug-pixel", "128,30"})).status ==
+        0);
+    CHECK(!lines_starting(read_text(out.path("09_empty_space_front_ray_128_30.txt")), "mark leapt ")
+               .empty());
+    REQUIRE(run_step("10_free_camera", flags({"--debug-pixel", "280,300"})).status == 0);
+    CHECK(lines_starting(read_text(out.path("10_free_camera_camera_ray_280_300.txt")), "mark box ")
+              .size() == 1);
+}
+
+TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn again") {
+    const std::string probes = read_text("data/reference/probes.txt");
+    REQUIRE(!probes.empty());
+    int compared = 0;
+    std::istringstream lines(probes);
+    for (std::string line; std::getline(lines, line);) {
+        std::istringstream words(line);
+        std::string name, view, pixel, keep;
+        words >> name >> view >> pixel >> keep;
+        if (name.empty() || name[0] == '#' || keep != "picture") continue;
+        CAPTURE(line);
+        const std::string stem = name + "_" + view + "_ray_" + pixel.substr(0, pixel.find(',')) +
+                                 "_" + pixel.substr(pixel.find(',') + 1);
+        const std::string golden = "data/reference/rays/" + stem + ".png";
+        REQUIRE(fs::is_regular_file(golden));
+        ctlab::TempFolder out("ray_golden");
+        std::vector<std::string> flags = {"--volume", "phantom",       "--out",
+                                          out.path(), "--debug-pixel", pixel};
+        if (view != "camera") flags.insert(flags.end(), {"--view", view});
+        // The pictures with a probe are default runs: the step is the run's name.
+        REQUIRE(run_step(name, flags).status == 0);
+        const Image drawn = read_image(out.path(stem + ".png"));
+        const Image reference = read_image(golden);
+        REQUIRE(drawn.width == reference.width);
+        REQUIRE(drawn.height == reference.height);
+        const Comparison comparison = compare_images(drawn, reference, 2);
+        CHECK_MESSAGE(comparison.over_tol_pct < 0.5, stem, ": ", comparison.over_tol_pct,
+                      "% of the pixels differ (new golden pictures: make reference)");
+        ++compared;
+    }
+    CHECK(compared >= 8);
+}
+
+TEST_CASE("a failed run writes no ray picture (all pictures or none)") {
+    ctlab::TempFolder out("ray_none");
+    const RunResult run = run_step(
+        "07_compositing_order",
+        {"--volume", "phantom", "--out", out.path(), "--view", "top", "--debug-pixel", "100,128"},
+        120);
+    REQUIRE(run.status == 0);
+    // The same run with the third file written failing as if the disk were full: nothing.
+    ctlab::TempFolder out2("ray_none2");
+    setenv(fail_write_variable, "2", 1);
+    const RunResult failed = run_step(
+        "07_compositing_order",
+        {"--volume", "phantom", "--out", out2.path(), "--view", "top", "--debug-pixel", "100,128"});
+    unsetenv(fail_write_variable);
+    CHECK(failed.status == 2);
+    CHECK(fs::is_empty(out2.path()));
+}
