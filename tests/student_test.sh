@@ -1,12 +1,12 @@
 #!/bin/sh
 # student_test.sh: the student skeleton (make student). Generated into a temporary folder, it
 # differs from the lab only inside the lesson regions; no file in it holds a lesson body of the
-# solution (tools/find_answers); it has its start-here README, builds every target on its own,
-# and still builds after a lesson function's signature changes; `make carry` takes a function
-# the student wrote into the later steps that use it unchanged, never over the student's work;
-# `make diff` shows the steps as handed out; two of its steps build, run, print their TODO line
-# once per function and fail the checker, while the lab's own steps pass; regenerating refuses
-# to overwrite a student's edit.
+# solution (tools/find_answers), and make_student refuses to write a kit that would; it has its
+# start-here README, builds every target on its own, and still builds after a lesson function's
+# signature changes; `make carry` takes a function the student wrote into the later steps that
+# use it unchanged, never over the student's work; `make diff` shows the steps as handed out;
+# two of its steps build, run, print their TODO line once per function and fail the checker,
+# while the lab's own steps pass; regenerating refuses to overwrite a student's edit.
 #
 #   sh tests/student_test.sh BUILD      (from the repository root; make test runs it)
 set -u
@@ -133,6 +133,22 @@ expect "find_answers finds one solution line quoted in a sentence" \
 expect "the student tree holds no lesson body of the solution (find_answers exit 0)" \
     [ $? -eq 0 ]
 grep "^$student" "$work/answers.txt" | sed "s|^$student/|  student/|" | head -n 40
+
+# make_student refuses to hand out answers: a lab whose handout quotes one solution line gets
+# no kit (exit 1, the file named, nothing written), and an earlier kit stays as it was.
+leaky=$work/leaky
+mkdir -p "$leaky/tools" "$leaky/handouts" &&
+    cp -R Makefile steps common "$leaky/" && cp tools/student_README.md "$leaky/tools/" &&
+    cp "$work/planted/handouts/line.md" "$leaky/handouts/" || bad "cannot make $leaky"
+"$build/make_student" --from "$leaky" --to "$work/leaky_kit" > /dev/null 2> "$work/leaky.txt"
+expect "make_student refuses a kit holding a solution line (exit 1)" [ $? -eq 1 ]
+expect "make_student names the handout that holds it" \
+    grep -q "^  handouts/line.md:1: [0-9][0-9]_[a-z_0-9]* [a-z_0-9]*()\$" "$work/leaky.txt"
+expect "make_student writes nothing when it refuses" [ ! -e "$work/leaky_kit" ]
+record_before=$(cat "$student/.ctlab-student")
+"$build/make_student" --from "$leaky" --to "$student" --force > /dev/null 2>&1
+expect "make_student --force over an earlier kit refuses too (exit 1)" [ $? -eq 1 ]
+expect "the earlier kit is left as it was" [ "$record_before" = "$(cat "$student/.ctlab-student")" ]
 
 # --- The student tree builds every target on its own -------------------------------------
 # common/ and tests/ are copied unchanged: reuse the lab's compiled objects for them (not for a

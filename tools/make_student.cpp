@@ -22,6 +22,10 @@
 //                      student's own version forward into the later step's stub.
 // DIR/.ctlab-student lists every generated file with its hash: regenerating refuses to
 // overwrite a file changed since (a student's work) unless --force is given.
+// The whole tree is made in memory first. When any file of it would hold a lesson body of the
+// solution, or one of its distinctive lines (tools/find_answers.cpp's search), make_student
+// names where and exits 1, writing nothing (an earlier tree in DIR is left as it was); exit 2
+// for bad input.
 #include <algorithm>
 #include <cctype>
 #include <cstdint>
@@ -33,6 +37,7 @@
 #include <string>
 #include <vector>
 #include "error.h"
+#include "tools/kit_tool.h"
 #include "tools/lesson_markers.h"
 
 using ctlab::InputError;
@@ -52,7 +57,8 @@ const char* const readme_template = "tools/student_README.md";
 const char* const readme_steps = "{{steps}}";    // where the template wants the table
 const char* const pristine_folder = ".ctlab/pristine/";
 const char* const carry_record = ".ctlab/carry.txt";
-constexpr int shown_answers = 10;  // answers found in the kit, named in the warning
+constexpr int shown_answers = 10;  // answers found in the kit, named in the error
+constexpr int exit_answers_found = 1;  // the kit would hand out answers: nothing written
 constexpr size_t stub_width = 96;  // columns: stub calls wrap before this
 const char* const usage_text =
     "usage: make_student [--from DIR] [--to DIR] [--force]\n"
@@ -67,27 +73,10 @@ struct Settings {
 
 Settings parse_arguments(int argc, char** argv) {
     Settings settings;
-    for (int a = 1; a < argc; ++a) {
-        const std::string arg = argv[a];
-        auto value = [&]() -> std::string {
-            if (a + 1 >= argc || std::string(argv[a + 1]).empty()) {
-                throw InputError(arg + ": expected a folder after it");
-            }
-            return argv[++a];
-        };
-        if (arg == "--from") {
-            settings.from = value();
-        } else if (arg == "--to") {
-            settings.to = value();
-        } else if (arg == "--force") {
-            settings.force = true;
-        } else if (arg == "--help" || arg == "-h") {
-            std::printf("%s", usage_text);
-            std::exit(0);
-        } else {
-            throw InputError("unknown argument '" + arg + "' (see make_student --help)");
-        }
-    }
+    kit_tool::parse(argc, argv, "make_student", usage_text,
+                    {kit_tool::value_flag("--from", &settings.from),
+                     kit_tool::value_flag("--to", &settings.to),
+                     kit_tool::switch_flag("--force", &settings.force)});
     return settings;
 }
 
@@ -159,15 +148,13 @@ std::string stub_step(const std::string& source, const std::string& path,
     // Which stubbed functions are now never named outside their own definition?
     const std::string stubbed_masked = lesson::mask_code(result);
     std::vector<size_t> unused_at;
-    for (const lesson::Region& region : lesson::find_regions(result, path)) {
-        for (const auto& function : lesson::find_functions(result, stubbed_masked, region, path)) {
-            if (!function.is_static || function.is_template) continue;
-            int uses = 0;
-            for (const std::string& word : lesson::tokens(stubbed_masked)) {
-                uses += word == function.name;
-            }
-            if (uses == 1) unused_at.push_back(function.header);
+    for (const auto& function : lesson::lesson_functions(result, stubbed_masked, path)) {
+        if (!function.is_static || function.is_template) continue;
+        int uses = 0;
+        for (const std::string& word : lesson::tokens(stubbed_masked)) {
+            uses += word == function.name;
         }
+        if (uses == 1) unused_at.push_back(function.header);
     }
     std::sort(unused_at.rbegin(), unused_at.rend());
     for (size_t at : unused_at) result.insert(at, "[[maybe_unused]] ");
@@ -186,12 +173,9 @@ std::map<std::string, std::string> function_texts(const std::string& source,
                                                   const std::string& path,
                                                   std::vector<std::string>* names = nullptr) {
     std::map<std::string, std::string> texts;
-    const std::string masked = lesson::mask_code(source);
-    for (const lesson::Region& region : lesson::find_regions(source, path)) {
-        for (const auto& function : lesson::find_functions(source, masked, region, path)) {
-            texts[function.name] = lesson::function_text(source, function);
-            if (names) names->push_back(function.name);
-        }
+    for (const auto& function : lesson::lesson_functions(source, lesson::mask_code(source), path)) {
+        texts[function.name] = lesson::function_text(source, function);
+        if (names) names->push_back(function.name);
     }
     return texts;
 }
@@ -289,8 +273,9 @@ std::vector<std::string> files_to_copy(const fs::path& from) {
 }
 
 // The kit must hold no lesson body of the solution (tools/find_answers.cpp checks a written
-// tree; tests/student_test.sh fails on any). Says on stderr where the generated tree has one.
-void warn_of_answers(const fs::path& from, const std::map<std::string, std::string>& tree) {
+// tree; tests/student_test.sh fails on any). Says on stderr where the generated tree would have
+// one, and returns how many pieces it found: make_student then writes nothing.
+int report_answers(const fs::path& from, const std::map<std::string, std::string>& tree) {
     const std::vector<lesson::Answer> answers = lesson::solution_answers(from);
     std::string where;
     int found = 0;
@@ -302,14 +287,15 @@ void warn_of_answers(const fs::path& from, const std::map<std::string, std::stri
             }
         }
     }
-    if (found == 0) return;
+    if (found == 0) return 0;
     std::fprintf(stderr,
-                 "make_student: warning: the kit holds %d piece(s) of lesson bodies of the "
-                 "solution:%s%s\nmake_student: a tool or test that calls or copies a lesson "
-                 "function hands out its answer (all of them: build/find_answers --solution %s "
-                 "--in DIR)\n",
+                 "make_student: error: the kit would hold %d piece(s) of lesson bodies of the "
+                 "solution:%s%s\nmake_student: nothing written. A tool, test or handout that "
+                 "calls or quotes a lesson function hands out its answer (all of them: "
+                 "build/find_answers --solution %s --in DIR)\n",
                  found, where.c_str(), found > shown_answers ? "\n  ..." : "",
                  from.string().c_str());
+    return found;
 }
 
 // Refuses to replace a folder that was not generated, or generated files changed since.
@@ -370,10 +356,7 @@ int generate(const Settings& settings) {
     std::map<std::string, std::string> tree;  // relative path -> content
     std::vector<fs::path> step_paths;
     for (const auto& item : fs::directory_iterator(from / "steps")) {
-        const std::string name = item.path().filename().string();
-        const auto digit = [](char c) { return std::isdigit(static_cast<unsigned char>(c)); };
-        if (!item.is_regular_file() || name.size() < 7 || !digit(name[0]) || !digit(name[1]) ||
-            name[2] != '_' || item.path().extension() != ".cpp") {
+        if (!item.is_regular_file() || !lesson::is_step(item.path())) {
             continue;  // only steps/NN_name.cpp
         }
         step_paths.push_back(item.path());
@@ -411,7 +394,7 @@ int generate(const Settings& settings) {
         });
     }
 
-    warn_of_answers(from, tree);
+    if (report_answers(from, tree) > 0) return exit_answers_found;  // nothing written
     check_destination(to, settings.force);
     if (fs::exists(to / record_name)) fs::remove_all(to);  // only a tree we generated
     std::string record =
@@ -436,10 +419,5 @@ int generate(const Settings& settings) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    try {
-        return generate(parse_arguments(argc, argv));
-    } catch (const std::exception& error) {  // InputError, or a filesystem error
-        std::fprintf(stderr, "make_student: error: %s\n", error.what());
-        return ctlab::exit_bad_input;
-    }
+    return kit_tool::run_main("make_student", [&] { return generate(parse_arguments(argc, argv)); });
 }
