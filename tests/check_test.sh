@@ -194,13 +194,17 @@ for picture in "$ref"/0*.png; do
         $((40 * (1 + 64 * 3)))
 done
 printf 'ann\nben\n' > "$class/roster.txt"  # a file, not a student
-before=$(snapshot "$class" "$ref")
-"$checker" --class "$class" --reference "$ref" --report "$work/class_report" \
-    > "$work/class.out" 2> "$work/class.err"
-status=$?
-after=$(snapshot "$class" "$ref")
-[ $status -eq 1 ] && [ ! -s "$work/class.err" ] && [ "$before" = "$after" ]
-check $? "class: status $status (expected 1), stderr: $(cat "$work/class.err")"
+# grade_class CHECKER CLASS REFERENCE REPORT WHAT: the class graded into REPORT: status 1 (some
+# student fails), nothing on stderr, the class and reference folders unchanged.
+grade_class() {
+    before=$(snapshot "$2" "$3")
+    "$1" --class "$2" --reference "$3" --report "$4" > "$4.out" 2> "$4.err"
+    status=$?
+    after=$(snapshot "$2" "$3")
+    [ $status -eq 1 ] && [ ! -s "$4.err" ] && [ "$before" = "$after" ]
+    check $? "$5: status $status (expected 1), stderr: $(cat "$4.err")"
+}
+grade_class "$checker" "$class" "$ref" "$work/class_report" "class"
 classcsv="$work/class_report/class.csv"
 [ "$(head -n 1 "$classcsv")" = "student,result,score_pct,source,02_threshold,03_depth_shading,note" ] &&
     [ "$(wc -l < "$classcsv")" -eq 6 ]
@@ -251,13 +255,7 @@ cp "$build/02_threshold" "$gclass/ann/build/"
 case "$build" in /*) lab_program=$build/02_threshold ;; *) lab_program=$(pwd)/$build/02_threshold ;; esac
 printf '#!/bin/sh\nexec "%s" "$@" --threshold 1000\n' "$lab_program" > "$gclass/ben/build/02_threshold"
 chmod +x "$gclass/ben/build/02_threshold"
-before=$(snapshot "$gclass" "$gref")
-"$gbin/check" --class "$gclass" --reference "$gref" --report "$work/gclass_report" \
-    > "$work/gclass.out" 2> "$work/gclass.err"
-status=$?
-after=$(snapshot "$gclass" "$gref")
-[ $status -eq 1 ] && [ ! -s "$work/gclass.err" ] && [ "$before" = "$after" ]
-check $? "class of trees: status $status (expected 1), stderr: $(cat "$work/gclass.err")"
+grade_class "$gbin/check" "$gclass" "$gref" "$work/gclass_report" "class of trees"
 gcsv="$work/gclass_report/class.csv"
 grep -qx 'ann,pass,100.0,program (build/grade),1.00,' "$gcsv" &&
     grep -qx 'ben,fail,0.0,program (build/grade),0.00,' "$gcsv"
