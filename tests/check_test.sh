@@ -233,7 +233,7 @@ check $? "side-by-side pictures: $(ls -R "$work/class_report/students" | tr '\n'
 [ $? -eq 2 ] && [ ! -e "$class/reports" ]
 check $? "--report inside the class folder was not refused"
 
-# --- A class of student trees, graded by running their programs --------------------------------
+# --- A class of student trees, graded by running their programs ----------------------------
 # With build/grade beside the checker, a student tree is graded as `make check` grades it: its
 # build/ programs are run on the phantom (never its out/ pictures). Two trees with step 02:
 # ann's program is the lab's own, ben's runs it with the threshold 1000 instead of the step's.
@@ -252,8 +252,12 @@ for student in ann ben; do
     cp steps/02_threshold.cpp "$gclass/$student/steps/"
 done
 cp "$build/02_threshold" "$gclass/ann/build/"
-case "$build" in /*) lab_program=$build/02_threshold ;; *) lab_program=$(pwd)/$build/02_threshold ;; esac
-printf '#!/bin/sh\nexec "%s" "$@" --threshold 1000\n' "$lab_program" > "$gclass/ben/build/02_threshold"
+case "$build" in
+    /*) lab_program=$build/02_threshold ;;
+    *) lab_program=$(pwd)/$build/02_threshold ;;
+esac
+printf '#!/bin/sh\nexec "%s" "$@" --threshold 1000\n' "$lab_program" \
+    > "$gclass/ben/build/02_threshold"
 chmod +x "$gclass/ben/build/02_threshold"
 grade_class "$gbin/check" "$gclass" "$gref" "$work/gclass_report" "class of trees"
 gcsv="$work/gclass_report/class.csv"
@@ -263,14 +267,17 @@ check $? "class of trees: class.csv: $(cat "$gcsv")"
 ben=$work/gclass_report/students/ben
 grep -q '^02_threshold: failing, pictures 0/3, counters 0/3$' "$ben/report.txt" &&
     grep -q -- '--view top --debug-pixel [0-9]*,[0-9]*$' "$ben/report.txt" &&
-    grep -q '^  counter samples=5583119 where the reference run has samples=' "$ben/report.txt" &&
+    grep -q '^  counter samples=5583119 where the reference run has samples=' \
+        "$ben/report.txt" &&
     [ "$(png_width "$ben/side_by_side/02_threshold_top.png")" -eq $((3 * 256 + 2 * 4)) ] &&
     grep -q '^02_threshold: passing, pictures 3/3, counters 3/3$' \
         "$work/gclass_report/students/ann/report.txt"
-check $? "class of trees: the students' grade reports: $(cat "$work/gclass_report"/students/*/report.txt)"
+check $? "class of trees: the students' grade reports: $(cat \
+    "$work/gclass_report"/students/*/report.txt)"
 grep -q "^| 02_threshold (the program) | fail: see the student's report.txt | 1 | ben |\$" \
     "$work/gclass_report/summary.md"
-check $? "class of trees: summary.md: $(sed -n '/Commonest/,/Identical/p' "$work/gclass_report/summary.md")"
+check $? "class of trees: summary.md: $(sed -n '/Commonest/,/Identical/p' \
+    "$work/gclass_report/summary.md")"
 
 # --- make reference for a raw volume of another size ----------------------------------------
 python3 - "$work/sphere.raw" <<'EOF'

@@ -99,6 +99,11 @@ done
 expect "the lab's README.md is $student/LAB.md" cmp -s README.md "$student/LAB.md"
 expect "$student/.ctlab/carry.txt carries first_hit from 02 into 03" \
     grep -q "^03_[a-z_]* first_hit 02_[a-z_]* [0-9a-f]*\$" "$student/.ctlab/carry.txt"
+# The same code under other comments is carried too: step 10's "step 08's, unchanged".
+if [ -f steps/10_free_camera.cpp ]; then
+    expect "$student/.ctlab/carry.txt carries corrected_opacity from 09 into 10" \
+        grep -q "^10_[a-z_]* corrected_opacity 09_[a-z_]* [0-9a-f]*\$" "$student/.ctlab/carry.txt"
+fi
 
 # --- No answers in the student tree -------------------------------------------------------
 # Every file (steps, tools, tests, handouts, data, README) is searched for every lesson body of
@@ -148,7 +153,8 @@ expect "make_student writes nothing when it refuses" [ ! -e "$work/leaky_kit" ]
 record_before=$(cat "$student/.ctlab-student")
 "$build/make_student" --from "$leaky" --to "$student" --force > /dev/null 2>&1
 expect "make_student --force over an earlier kit refuses too (exit 1)" [ $? -eq 1 ]
-expect "the earlier kit is left as it was" [ "$record_before" = "$(cat "$student/.ctlab-student")" ]
+expect "the earlier kit is left as it was" \
+    [ "$record_before" = "$(cat "$student/.ctlab-student")" ]
 
 # --- The student tree builds every target on its own -------------------------------------
 # common/ and tests/ are copied unchanged: reuse the lab's compiled objects for them (not for a

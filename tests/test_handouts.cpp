@@ -221,7 +221,8 @@ TEST_CASE("each step's handout says what the student writes: every lesson functi
             FAIL_CHECK("no \"## What you write\" section");
             continue;
         }
-        const std::string section = markdown.substr(start, markdown.find("\n## ", start + 1) - start);
+        const size_t end = markdown.find("\n## ", start + 1);
+        const std::string section = markdown.substr(start, end - start);
         const std::string source = lesson::read_text("steps/" + step.stem + ".cpp");
         const auto functions = lesson::lesson_functions(source, lesson::mask_code(source),
                                                         "steps/" + step.stem + ".cpp");

@@ -19,7 +19,9 @@ struct Flag {
     bool* on = nullptr;
 };
 
-inline Flag value_flag(const std::string& name, std::string* value) { return {name, value, nullptr}; }
+inline Flag value_flag(const std::string& name, std::string* value) {
+    return {name, value, nullptr};
+}
 inline Flag switch_flag(const std::string& name, bool* on) { return {name, nullptr, on}; }
 
 // Reads argv into the flags. --help (or -h) prints `usage` and exits 0. A value flag needs a

@@ -420,7 +420,8 @@ inline std::vector<Function> find_functions(const std::string& source, const Reg
 
 // Every lesson function of a step source: the functions of all its regions, in order. `masked`
 // is mask_code(source).
-inline std::vector<Function> lesson_functions(const std::string& source, const std::string& masked,
+inline std::vector<Function> lesson_functions(const std::string& source,
+                                              const std::string& masked,
                                               const std::string& path) {
     std::vector<Function> functions;
     for (const Region& region : find_regions(source, path)) {
@@ -564,6 +565,17 @@ inline std::string code_of_line(const std::string& line, const std::string& mask
         }
     }
     return line;
+}
+
+// Code without its // comments, whitespace-normalised: two functions that differ only in their
+// comments or layout give the same text.
+inline std::string code_only(const std::string& text) {
+    std::istringstream lines(text), masked_lines(mask_code(text));
+    std::string line, masked_line, code;
+    while (std::getline(lines, line) && std::getline(masked_lines, masked_line)) {
+        code += code_of_line(line, masked_line) + "\n";
+    }
+    return collapse_spaces(code);
 }
 
 struct Answer {

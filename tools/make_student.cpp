@@ -18,7 +18,7 @@
 //   .ctlab/pristine/   the stubbed steps as generated: `make diff` in the kit compares these,
 //                      so that it shows what a step teaches, not the student's own code;
 //   .ctlab/carry.txt   which lesson functions a step takes unchanged from an earlier one (the
-//                      same text in the solution): `make carry` (tools/carry.cpp) copies the
+//                      same code in the solution): `make carry` (tools/carry.cpp) copies the
 //                      student's own version forward into the later step's stub.
 // DIR/.ctlab-student lists every generated file with its hash: regenerating refuses to
 // overwrite a file changed since (a student's work) unless --force is given.
@@ -161,19 +161,20 @@ std::string stub_step(const std::string& source, const std::string& path,
     return result;
 }
 
-// One step's lesson functions: the solution's text of each (comments, signature, body) and
-// the stub's, by name.
+// One step's lesson functions: the solution's text of each (comments, signature, body), its
+// code alone (lesson::code_only) and the stub's text, by name.
 struct StepFunctions {
     std::string step, title;  // "02_threshold", "where does the ray first meet bone?"
     std::vector<std::string> names;
-    std::map<std::string, std::string> solution, stub;
+    std::map<std::string, std::string> solution, code, stub;
 };
 
 std::map<std::string, std::string> function_texts(const std::string& source,
                                                   const std::string& path,
                                                   std::vector<std::string>* names = nullptr) {
     std::map<std::string, std::string> texts;
-    for (const auto& function : lesson::lesson_functions(source, lesson::mask_code(source), path)) {
+    const std::string masked = lesson::mask_code(source);
+    for (const auto& function : lesson::lesson_functions(source, masked, path)) {
         texts[function.name] = lesson::function_text(source, function);
         if (names) names->push_back(function.name);
     }
@@ -185,6 +186,9 @@ StepFunctions step_functions(const std::string& step, const std::string& solutio
     StepFunctions functions;
     functions.step = step;
     functions.solution = function_texts(solution, path, &functions.names);
+    for (const auto& [name, text] : functions.solution) {
+        functions.code[name] = lesson::code_only(text);
+    }
     functions.stub = function_texts(stubbed, path);
     // The title: what follows "NN_name.cpp: " on the first line.
     const std::string first_line = solution.substr(0, solution.find('\n'));
@@ -193,16 +197,20 @@ StepFunctions step_functions(const std::string& step, const std::string& solutio
     return functions;
 }
 
-// The step before `n` that defines `name` last, or -1.
-int defined_before(const std::vector<StepFunctions>& steps, size_t n, const std::string& name) {
+// The step before `n` that defines `name` last, when its code there is the same as in step `n`
+// (comments aside: a later step may say "step 08's, unchanged" instead); else -1. Step n
+// takes that function unchanged: `make carry` brings the student's version.
+int carried_from(const std::vector<StepFunctions>& steps, size_t n, const std::string& name) {
     for (size_t m = n; m-- > 0;) {
-        if (steps[m].solution.count(name)) return int(m);
+        if (steps[m].code.count(name)) {
+            return steps[m].code.at(name) == steps[n].code.at(name) ? int(m) : -1;
+        }
     }
     return -1;
 }
 
 // .ctlab/carry.txt: "TO_STEP FUNCTION FROM_STEP STUB_HASH" for every lesson function whose
-// solution text equals that of the last earlier step defining it. STUB_HASH is the hash of
+// code equals that of the last earlier step defining it. STUB_HASH is the hash of
 // the function's stub as generated in TO_STEP: `make carry` replaces only a function that is
 // still that stub, never one the student wrote.
 std::string carry_text(const std::vector<StepFunctions>& steps) {
@@ -213,10 +221,8 @@ std::string carry_text(const std::vector<StepFunctions>& steps) {
         "# TO_STEP FUNCTION FROM_STEP STUB_HASH\n";
     for (size_t n = 0; n < steps.size(); ++n) {
         for (const std::string& name : steps[n].names) {
-            const int before = defined_before(steps, n, name);
-            if (before < 0 || steps[before].solution.at(name) != steps[n].solution.at(name)) {
-                continue;
-            }
+            const int before = carried_from(steps, n, name);
+            if (before < 0) continue;
             text += steps[n].step + " " + name + " " + steps[before].step + " " +
                     lesson::content_hash(steps[n].stub.at(name)) + "\n";
         }
@@ -232,9 +238,8 @@ std::string student_readme(const fs::path& from, const std::vector<StepFunctions
     for (size_t n = 0; n < steps.size(); ++n) {
         std::string write, carried;
         for (const std::string& name : steps[n].names) {
-            const int before = defined_before(steps, n, name);
-            const bool same = before >= 0 &&
-                              steps[before].solution.at(name) == steps[n].solution.at(name);
+            const int before = carried_from(steps, n, name);
+            const bool same = before >= 0;
             std::string& list = same ? carried : write;
             list += std::string(list.empty() ? "" : ", ") + "`" + name + "`" +
                     (same ? " (" + steps[before].step.substr(0, 2) + ")" : "");
@@ -419,5 +424,6 @@ int generate(const Settings& settings) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    return kit_tool::run_main("make_student", [&] { return generate(parse_arguments(argc, argv)); });
+    return kit_tool::run_main("make_student",
+                              [&] { return generate(parse_arguments(argc, argv)); });
 }
