@@ -3,10 +3,12 @@
 # differs from the lab only inside the lesson regions; no file in it holds a lesson body of the
 # solution (tools/find_answers), and make_student refuses to write a kit that would; it has its
 # start-here README, builds every target on its own, and still builds after a lesson function's
-# signature changes; `make carry` takes a function the student wrote into the later steps that
-# use it unchanged, never over the student's work; `make diff` shows the steps as handed out;
-# two of its steps build, run, print their TODO line once per function and fail the checker,
-# while the lab's own steps pass; regenerating refuses to overwrite a student's edit.
+# signature changes; `make check` in it shows every step not started, then only step 02
+# passing once it is written; `make carry` takes a function the student wrote into the later
+# steps that use it unchanged, never over the student's work; `make diff` shows the steps as
+# handed out; two of its steps build, run, print their TODO line once per function and fail
+# the checker, while the lab's own steps pass; regenerating refuses to overwrite a student's
+# edit.
 #
 #   sh tests/student_test.sh BUILD      (from the repository root; make test runs it)
 set -u
@@ -188,6 +190,21 @@ if student_make all "$build/ctlab_tests"; then ok; else
     tail -n 30 "$work/build.log"
 fi
 
+# progress_is PASSING_STEP WHAT: `make check` in the kit prints the progress table with
+# PASSING_STEP (a stem, or none) passing and every other step not started.
+progress_is() {
+    student_make check
+    cp "$work/build.log" "$work/progress.log"
+    for source in steps/[0-9][0-9]_*.cpp; do
+        step=$(basename "$source" .cpp)
+        status="not started"
+        [ "$step" = "$1" ] && status=passing
+        expect "$2: make check in the kit says $step is $status" \
+            grep -q "^$step  *$status " "$work/progress.log"
+    done
+}
+progress_is none "a fresh kit"
+
 # --- make carry: a function written once serves the later steps -------------------------
 # Inside the test only: step 02's first_hit filled in from the solution.
 step02=$(ls steps/02_*.cpp 2>/dev/null)
@@ -271,6 +288,10 @@ if [ -n "$step02" ] && grep -q '^0[3-9]_[a-z_]* first_hit 02_' "$student/.ctlab/
 else
     bad "no step 02 with a first_hit carried to later steps: the carry test did not run"
 fi
+
+# The student has written step 02 (and make carry brought its first_hit into 03 and 04):
+# only 02 passes; 03 and 04 still have stubs of their own, and are not started.
+[ -n "$step02" ] && progress_is "$(basename "$step02" .cpp)" "step 02 written"
 
 # --- A lesson function's signature changes: every target still builds ---------------------
 # Step 01's mip_top (nothing outside step 01 names it), then step 02's first_hit (tests,
