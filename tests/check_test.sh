@@ -14,6 +14,8 @@
 # - A class of five students (one passing, two with byte-identical wrong pictures, one with
 #   its pictures in a subfolder named in capitals, one student tree rendered from another
 #   volume) into one class.csv and one summary.md.
+# - A class of two student trees graded by build/grade beside the checker (their programs run:
+#   one right, one with a wrong threshold): verdicts, worst pixel, counter, side-by-side.
 # - make reference VOLUME=f.raw DIMS=64,80,40 REFERENCE=dir, then a render checked against it.
 #
 # Prints one line per failure and a last line "check test: N passed, M failed".
@@ -192,13 +194,17 @@ for picture in "$ref"/0*.png; do
         $((40 * (1 + 64 * 3)))
 done
 printf 'ann\nben\n' > "$class/roster.txt"  # a file, not a student
-before=$(snapshot "$class" "$ref")
-"$checker" --class "$class" --reference "$ref" --report "$work/class_report" \
-    > "$work/class.out" 2> "$work/class.err"
-status=$?
-after=$(snapshot "$class" "$ref")
-[ $status -eq 1 ] && [ ! -s "$work/class.err" ] && [ "$before" = "$after" ]
-check $? "class: status $status (expected 1), stderr: $(cat "$work/class.err")"
+# grade_class CHECKER CLASS REFERENCE REPORT WHAT: the class graded into REPORT: status 1 (some
+# student fails), nothing on stderr, the class and reference folders unchanged.
+grade_class() {
+    before=$(snapshot "$2" "$3")
+    "$1" --class "$2" --reference "$3" --report "$4" > "$4.out" 2> "$4.err"
+    status=$?
+    after=$(snapshot "$2" "$3")
+    [ $status -eq 1 ] && [ ! -s "$4.err" ] && [ "$before" = "$after" ]
+    check $? "$5: status $status (expected 1), stderr: $(cat "$4.err")"
+}
+grade_class "$checker" "$class" "$ref" "$work/class_report" "class"
 classcsv="$work/class_report/class.csv"
 [ "$(head -n 1 "$classcsv")" = "student,result,score_pct,source,02_threshold,03_depth_shading,note" ] &&
     [ "$(wc -l < "$classcsv")" -eq 6 ]
@@ -226,6 +232,52 @@ check $? "side-by-side pictures: $(ls -R "$work/class_report/students" | tr '\n'
 "$checker" --class "$class" --reference "$ref" --report "$class/reports" > /dev/null 2>&1
 [ $? -eq 2 ] && [ ! -e "$class/reports" ]
 check $? "--report inside the class folder was not refused"
+
+# --- A class of student trees, graded by running their programs ----------------------------
+# With build/grade beside the checker, a student tree is graded as `make check` grades it: its
+# build/ programs are run on the phantom (never its out/ pictures). Two trees with step 02:
+# ann's program is the lab's own, ben's runs it with the threshold 1000 instead of the step's.
+gbin=$work/gbin
+gref=$work/gref
+gclass=$work/gclass
+mkdir -p "$gbin" "$gref"
+cp "$build/check" "$build/grade" "$gbin/" || exit 2
+cp data/reference/02_threshold_top.png data/reference/02_threshold_front.png \
+    data/reference/02_threshold_side.png "$gref/"
+echo "02_threshold:" > "$gref/manifest.txt"  # the default run alone: one run per student
+grep '^02_threshold: ' data/reference/counters.txt > "$gref/counters.txt"
+for student in ann ben; do
+    mkdir -p "$gclass/$student/steps" "$gclass/$student/build"
+    : > "$gclass/$student/.ctlab-student"
+    cp steps/02_threshold.cpp "$gclass/$student/steps/"
+done
+cp "$build/02_threshold" "$gclass/ann/build/"
+case "$build" in
+    /*) lab_program=$build/02_threshold ;;
+    *) lab_program=$(pwd)/$build/02_threshold ;;
+esac
+printf '#!/bin/sh\nexec "%s" "$@" --threshold 1000\n' "$lab_program" \
+    > "$gclass/ben/build/02_threshold"
+chmod +x "$gclass/ben/build/02_threshold"
+grade_class "$gbin/check" "$gclass" "$gref" "$work/gclass_report" "class of trees"
+gcsv="$work/gclass_report/class.csv"
+grep -qx 'ann,pass,100.0,program (build/grade),1.00,' "$gcsv" &&
+    grep -qx 'ben,fail,0.0,program (build/grade),0.00,' "$gcsv"
+check $? "class of trees: class.csv: $(cat "$gcsv")"
+ben=$work/gclass_report/students/ben
+grep -q '^02_threshold: failing, pictures 0/3, counters 0/3$' "$ben/report.txt" &&
+    grep -q -- '--view top --debug-pixel [0-9]*,[0-9]*$' "$ben/report.txt" &&
+    grep -q '^  counter samples=5583119 where the reference run has samples=' \
+        "$ben/report.txt" &&
+    [ "$(png_width "$ben/side_by_side/02_threshold_top.png")" -eq $((3 * 256 + 2 * 4)) ] &&
+    grep -q '^02_threshold: passing, pictures 3/3, counters 3/3$' \
+        "$work/gclass_report/students/ann/report.txt"
+check $? "class of trees: the students' grade reports: $(cat \
+    "$work/gclass_report"/students/*/report.txt)"
+grep -q "^| 02_threshold (the program) | fail: see the student's report.txt | 1 | ben |\$" \
+    "$work/gclass_report/summary.md"
+check $? "class of trees: summary.md: $(sed -n '/Commonest/,/Identical/p' \
+    "$work/gclass_report/summary.md")"
 
 # --- make reference for a raw volume of another size ----------------------------------------
 python3 - "$work/sphere.raw" <<'EOF'

@@ -1,12 +1,14 @@
 #!/bin/sh
 # student_test.sh: the student skeleton (make student). Generated into a temporary folder, it
 # differs from the lab only inside the lesson regions; no file in it holds a lesson body of the
-# solution (tools/find_answers); it has its start-here README, builds every target on its own,
-# and still builds after a lesson function's signature changes; `make carry` takes a function
-# the student wrote into the later steps that use it unchanged, never over the student's work;
-# `make diff` shows the steps as handed out; two of its steps build, run, print their TODO line
-# once per function and fail the checker, while the lab's own steps pass; regenerating refuses
-# to overwrite a student's edit.
+# solution (tools/find_answers), and make_student refuses to write a kit that would; it has its
+# start-here README, builds every target on its own, and still builds after a lesson function's
+# signature changes; `make check` in it shows every step not started, then only step 02
+# passing once it is written; `make carry` takes a function the student wrote into the later
+# steps that use it unchanged, never over the student's work; `make diff` shows the steps as
+# handed out; two of its steps build, run, print their TODO line once per function and fail
+# the checker, while the lab's own steps pass; regenerating refuses to overwrite a student's
+# edit.
 #
 #   sh tests/student_test.sh BUILD      (from the repository root; make test runs it)
 set -u
@@ -99,6 +101,11 @@ done
 expect "the lab's README.md is $student/LAB.md" cmp -s README.md "$student/LAB.md"
 expect "$student/.ctlab/carry.txt carries first_hit from 02 into 03" \
     grep -q "^03_[a-z_]* first_hit 02_[a-z_]* [0-9a-f]*\$" "$student/.ctlab/carry.txt"
+# The same code under other comments is carried too: step 10's "step 08's, unchanged".
+if [ -f steps/10_free_camera.cpp ]; then
+    expect "$student/.ctlab/carry.txt carries corrected_opacity from 09 into 10" \
+        grep -q "^10_[a-z_]* corrected_opacity 09_[a-z_]* [0-9a-f]*\$" "$student/.ctlab/carry.txt"
+fi
 
 # --- No answers in the student tree -------------------------------------------------------
 # Every file (steps, tools, tests, handouts, data, README) is searched for every lesson body of
@@ -134,6 +141,23 @@ expect "the student tree holds no lesson body of the solution (find_answers exit
     [ $? -eq 0 ]
 grep "^$student" "$work/answers.txt" | sed "s|^$student/|  student/|" | head -n 40
 
+# make_student refuses to hand out answers: a lab whose handout quotes one solution line gets
+# no kit (exit 1, the file named, nothing written), and an earlier kit stays as it was.
+leaky=$work/leaky
+mkdir -p "$leaky/tools" "$leaky/handouts" &&
+    cp -R Makefile steps common "$leaky/" && cp tools/student_README.md "$leaky/tools/" &&
+    cp "$work/planted/handouts/line.md" "$leaky/handouts/" || bad "cannot make $leaky"
+"$build/make_student" --from "$leaky" --to "$work/leaky_kit" > /dev/null 2> "$work/leaky.txt"
+expect "make_student refuses a kit holding a solution line (exit 1)" [ $? -eq 1 ]
+expect "make_student names the handout that holds it" \
+    grep -q "^  handouts/line.md:1: [0-9][0-9]_[a-z_0-9]* [a-z_0-9]*()\$" "$work/leaky.txt"
+expect "make_student writes nothing when it refuses" [ ! -e "$work/leaky_kit" ]
+record_before=$(cat "$student/.ctlab-student")
+"$build/make_student" --from "$leaky" --to "$student" --force > /dev/null 2>&1
+expect "make_student --force over an earlier kit refuses too (exit 1)" [ $? -eq 1 ]
+expect "the earlier kit is left as it was" \
+    [ "$record_before" = "$(cat "$student/.ctlab-student")" ]
+
 # --- The student tree builds every target on its own -------------------------------------
 # common/ and tests/ are copied unchanged: reuse the lab's compiled objects for them (not for a
 # file that includes a step: the student's steps are stubs), and compile the rest without
@@ -165,6 +189,21 @@ if student_make all "$build/ctlab_tests"; then ok; else
     bad "the student tree builds every target: make -C $student all $build/ctlab_tests"
     tail -n 30 "$work/build.log"
 fi
+
+# progress_is PASSING_STEP WHAT: `make check` in the kit prints the progress table with
+# PASSING_STEP (a stem, or none) passing and every other step not started.
+progress_is() {
+    student_make check
+    cp "$work/build.log" "$work/progress.log"
+    for source in steps/[0-9][0-9]_*.cpp; do
+        step=$(basename "$source" .cpp)
+        status="not started"
+        [ "$step" = "$1" ] && status=passing
+        expect "$2: make check in the kit says $step is $status" \
+            grep -q "^$step  *$status " "$work/progress.log"
+    done
+}
+progress_is none "a fresh kit"
 
 # --- make carry: a function written once serves the later steps -------------------------
 # Inside the test only: step 02's first_hit filled in from the solution.
@@ -249,6 +288,10 @@ if [ -n "$step02" ] && grep -q '^0[3-9]_[a-z_]* first_hit 02_' "$student/.ctlab/
 else
     bad "no step 02 with a first_hit carried to later steps: the carry test did not run"
 fi
+
+# The student has written step 02 (and make carry brought its first_hit into 03 and 04):
+# only 02 passes; 03 and 04 still have stubs of their own, and are not started.
+[ -n "$step02" ] && progress_is "$(basename "$step02" .cpp)" "step 02 written"
 
 # --- A lesson function's signature changes: every target still builds ---------------------
 # Step 01's mip_top (nothing outside step 01 names it), then step 02's first_hit (tests,

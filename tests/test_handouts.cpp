@@ -1,7 +1,8 @@
 // test_handouts.cpp: the handouts cannot drift from the code. Every step has a handout listed
-// in handouts/README.md; every listing is the exact text between its markers; every file,
-// image, link and `function()` a handout names exists; every quoted --debug-pixel trace is
-// what the step prints today. Paths are relative to the repository root, where tests run.
+// in handouts/README.md; every listing is the exact text between its markers; its "What you
+// write" section names every lesson function the student kit stubs; every file, image, link
+// and `function()` a handout names exists; every quoted --debug-pixel trace is what the step
+// prints today. Paths are relative to the repository root, where tests run.
 #include <doctest/doctest.h>
 #include "tools/run_step.h"
 #include <unistd.h>
@@ -202,6 +203,33 @@ TEST_CASE("each step's handout quotes its own step and shows what is new with ma
         if (step.number != "00") {
             CHECK_MESSAGE(markdown.find("make diff STEP=" + step.number) != std::string::npos,
                           "does not mention make diff STEP=" << step.number);
+        }
+    }
+}
+
+TEST_CASE("each step's handout says what the student writes: every lesson function, by name") {
+    // The student kit stubs every lesson function (tools/make_student.cpp), so the handout's
+    // "What you write" section names each one, `name(...)` or `name()`: with its formula, or
+    // saying where the student's earlier version comes from.
+    for (const Step& step : steps()) {
+        const std::string path = "handouts/" + step.stem + ".md";
+        if (!fs::exists(path)) continue;  // reported by the first test
+        INFO(path);
+        const std::string markdown = lesson::read_text(path);
+        const size_t start = markdown.find("\n## What you write\n");
+        if (start == std::string::npos) {
+            FAIL_CHECK("no \"## What you write\" section");
+            continue;
+        }
+        const size_t end = markdown.find("\n## ", start + 1);
+        const std::string section = markdown.substr(start, end - start);
+        const std::string source = lesson::read_text("steps/" + step.stem + ".cpp");
+        const auto functions = lesson::lesson_functions(source, lesson::mask_code(source),
+                                                        "steps/" + step.stem + ".cpp");
+        CHECK(!functions.empty());
+        for (const lesson::Function& function : functions) {
+            CHECK_MESSAGE(section.find("`" + function.name + "(") != std::string::npos,
+                          "\"What you write\" does not name " << function.name << "()");
         }
     }
 }

@@ -165,3 +165,18 @@ TEST_CASE("answers: a lesson body is found whole or by a distinctive line, white
                                "    return {};\n}\n" + step.substr(step.find("int main")),
                                answers).empty());
 }
+
+TEST_CASE("code_only: the same code under other comments and layout is the same, strings count") {
+    const std::string commented = "// The sum of a and b.\n"
+                                  "static int add(int a, int b) {\n"
+                                  "    return a + b;  // never overflows here\n"
+                                  "}\n";
+    const std::string bare = "static int add(int a, int b) { return a +  b; }\n";
+    CHECK(lesson::code_only(commented) == lesson::code_only(bare));
+    CHECK(lesson::code_only(bare) == "static int add(int a, int b) { return a + b; }");
+    // What a string says is code: a trace line that changed is a changed function.
+    CHECK(lesson::code_only("f(\"a // b\");  // c\n") == "f(\"a // b\");");
+    CHECK(lesson::code_only("f(\"x\");\n") != lesson::code_only("f(\"y\");\n"));
+    CHECK(lesson::code_only(bare) !=
+          lesson::code_only("static int add(int a, int b) { return b; }"));
+}

@@ -13,6 +13,7 @@
 //     FROM_STEP's, and the rest of the file is untouched.
 // Prints one line per function it looked at. Exit 0, or 2 for bad input (no record, a step
 // that does not parse).
+#include <algorithm>
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
@@ -21,6 +22,7 @@
 #include <string>
 #include <vector>
 #include "error.h"
+#include "tools/kit_tool.h"
 #include "tools/lesson_markers.h"
 
 using ctlab::InputError;
@@ -42,30 +44,17 @@ struct Settings {
 
 Settings parse_arguments(int argc, char** argv) {
     Settings settings;
-    for (int a = 1; a < argc; ++a) {
-        const std::string arg = argv[a];
-        auto value = [&]() -> std::string {
-            if (a + 1 >= argc || std::string(argv[a + 1]).empty()) {
-                throw InputError(arg + ": expected a value after it");
-            }
-            return argv[++a];
-        };
-        if (arg == "--step") {
-            settings.step = value();
-            if (settings.step.size() == 1) settings.step = "0" + settings.step;
-            if (settings.step.size() != 2 || !std::isdigit((unsigned char)settings.step[0]) ||
-                !std::isdigit((unsigned char)settings.step[1])) {
-                throw InputError("--step: expected a step number like 03, got '" +
-                                 settings.step + "'");
-            }
-        } else if (arg == "--tree") {
-            settings.tree = value();
-        } else if (arg == "--help" || arg == "-h") {
-            std::printf("%s", usage_text);
-            std::exit(0);
-        } else {
-            throw InputError("unknown argument '" + arg + "' (see carry --help)");
-        }
+    kit_tool::parse(argc, argv, "carry", usage_text,
+                    {kit_tool::value_flag("--step", &settings.step),
+                     kit_tool::value_flag("--tree", &settings.tree)});
+    std::string& step = settings.step;
+    const auto digit = [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; };
+    if (!step.empty() && !std::all_of(step.begin(), step.end(), digit)) {
+        throw InputError("--step: expected a step number like 03, got '" + step + "'");
+    }
+    if (step.size() == 1) step = "0" + step;
+    if (step.size() > 2) {
+        throw InputError("--step: expected a step number like 03, got '" + step + "'");
     }
     return settings;
 }
@@ -98,13 +87,11 @@ std::vector<Line> read_record(const fs::path& tree) {
 // The function `name` of a step source, or false when the step has none.
 bool find_function(const std::string& source, const std::string& path, const std::string& name,
                    lesson::Function& found) {
-    const std::string masked = lesson::mask_code(source);
-    for (const lesson::Region& region : lesson::find_regions(source, path)) {
-        for (const auto& function : lesson::find_functions(source, masked, region, path)) {
-            if (function.name == name) {
-                found = function;
-                return true;
-            }
+    for (const lesson::Function& function :
+         lesson::lesson_functions(source, lesson::mask_code(source), path)) {
+        if (function.name == name) {
+            found = function;
+            return true;
         }
     }
     return false;
@@ -183,10 +170,5 @@ int run(const Settings& settings) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    try {
-        return run(parse_arguments(argc, argv));
-    } catch (const std::exception& error) {  // InputError, or a filesystem error
-        std::fprintf(stderr, "carry: error: %s\n", error.what());
-        return ctlab::exit_bad_input;
-    }
+    return kit_tool::run_main("carry", [&] { return run(parse_arguments(argc, argv)); });
 }

@@ -1014,7 +1014,9 @@ int check_class(const Settings& settings) {
     md += "- students: " + std::to_string(students.size()) + ", all steps pass: " +
           std::to_string(passing) + "\n";
     md += "- per student: `students/NAME/report.md`, failing pictures side by side (student | "
-          "reference | heat map) in `students/NAME/pictures/`; one row each in `class.csv`\n\n";
+          "reference | heat map) in `students/NAME/pictures/`; for a student tree whose "
+          "programs were run (build/grade), `students/NAME/report.txt` and "
+          "`students/NAME/side_by_side/`; one row each in `class.csv`\n\n";
     md += "## Steps\n\n| step | students passing it | students graded |\n|---|--:|--:|\n";
     for (const std::string& step : steps) {
         int pass = 0, graded = 0;
@@ -1038,6 +1040,13 @@ int check_class(const Settings& settings) {
         if (student.rows.empty() && student.result == "error") {
             failures[{"(whole submission)", "error"}].push_back(student.name);
         }
+        if (student.rows.empty() && student.result == "fail") {  // a tree graded by build/grade
+            for (const auto& [step, counts] : student.steps) {
+                if (counts.first == counts.second) continue;
+                failures[{step + " (the program)", "fail: see the student's report.txt"}]
+                    .push_back(student.name);
+            }
+        }
     }
     std::vector<std::pair<std::pair<std::string, std::string>, std::vector<std::string>>> sorted(
         failures.begin(), failures.end());
@@ -1045,7 +1054,7 @@ int check_class(const Settings& settings) {
         return a.second.size() > b.second.size();
     });
     md += "\n## Commonest failures\n\n";
-    if (sorted.empty()) md += "None: every graded picture passes.\n";
+    if (sorted.empty()) md += "None: every graded picture and program passes.\n";
     constexpr size_t shown_failures = 15;
     if (!sorted.empty()) md += "| picture | verdict | students | who |\n|---|---|--:|---|\n";
     for (size_t n = 0; n < sorted.size() && n < shown_failures; ++n) {

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 #include "error.h"
+#include "tools/kit_tool.h"
 #include "tools/lesson_markers.h"
 
 using ctlab::InputError;
@@ -39,27 +40,10 @@ struct Settings {
 
 Settings parse_arguments(int argc, char** argv) {
     Settings settings;
-    for (int a = 1; a < argc; ++a) {
-        const std::string arg = argv[a];
-        auto value = [&]() -> std::string {
-            if (a + 1 >= argc || std::string(argv[a + 1]).empty()) {
-                throw InputError(arg + ": expected a folder after it");
-            }
-            return argv[++a];
-        };
-        if (arg == "--solution") {
-            settings.solution = value();
-        } else if (arg == "--in") {
-            settings.in = value();
-        } else if (arg == "--list") {
-            settings.list = true;
-        } else if (arg == "--help" || arg == "-h") {
-            std::printf("%s", usage_text);
-            std::exit(0);
-        } else {
-            throw InputError("unknown argument '" + arg + "' (see find_answers --help)");
-        }
-    }
+    kit_tool::parse(argc, argv, "find_answers", usage_text,
+                    {kit_tool::value_flag("--solution", &settings.solution),
+                     kit_tool::value_flag("--in", &settings.in),
+                     kit_tool::switch_flag("--list", &settings.list)});
     if (settings.solution.empty() || settings.in.empty()) {
         throw InputError("expected --solution DIR and --in DIR (see find_answers --help)");
     }
@@ -105,10 +89,5 @@ int run(const Settings& settings) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    try {
-        return run(parse_arguments(argc, argv));
-    } catch (const std::exception& error) {  // InputError, or a filesystem error
-        std::fprintf(stderr, "find_answers: error: %s\n", error.what());
-        return ctlab::exit_bad_input;
-    }
+    return kit_tool::run_main("find_answers", [&] { return run(parse_arguments(argc, argv)); });
 }

@@ -1,6 +1,7 @@
 // lesson_markers.h: the lesson regions of the step sources and the listings that quote them.
-// Shared by tools/make_student.cpp (stubs), tools/handout_listings.cpp (refreshes listings)
-// and tests/test_handouts.cpp (checks them). Header-only: each tool is a single .cpp file.
+// Shared by tools/make_student.cpp (stubs), tools/carry.cpp and tools/find_answers.cpp (the
+// student kit), tools/handout_listings.cpp (refreshes listings) and tests/test_handouts.cpp
+// (checks them). Header-only: each tool is a single .cpp file.
 //
 // In a step, a region is a run of whole lines between two marker lines:
 //     //> lesson: first_hit
@@ -417,6 +418,20 @@ inline std::vector<Function> find_functions(const std::string& source, const Reg
     return find_functions(source, mask_code(source), region, path);
 }
 
+// Every lesson function of a step source: the functions of all its regions, in order. `masked`
+// is mask_code(source).
+inline std::vector<Function> lesson_functions(const std::string& source,
+                                              const std::string& masked,
+                                              const std::string& path) {
+    std::vector<Function> functions;
+    for (const Region& region : find_regions(source, path)) {
+        for (const Function& function : find_functions(source, masked, region, path)) {
+            functions.push_back(function);
+        }
+    }
+    return functions;
+}
+
 // The text a listing quotes: the whole region, or one function with its comment lines.
 inline std::string region_text(const std::string& source, const Region& region) {
     return source.substr(region.begin, region.end - region.begin);
@@ -552,6 +567,17 @@ inline std::string code_of_line(const std::string& line, const std::string& mask
     return line;
 }
 
+// Code without its // comments, whitespace-normalised: two functions that differ only in their
+// comments or layout give the same text.
+inline std::string code_only(const std::string& text) {
+    std::istringstream lines(text), masked_lines(mask_code(text));
+    std::string line, masked_line, code;
+    while (std::getline(lines, line) && std::getline(masked_lines, masked_line)) {
+        code += code_of_line(line, masked_line) + "\n";
+    }
+    return collapse_spaces(code);
+}
+
 struct Answer {
     std::string step, function;  // "02_threshold", "first_hit"
     std::string text;            // whitespace-normalised: a whole body, or one code line
@@ -568,20 +594,18 @@ inline std::vector<Answer> lesson_bodies(const std::string& source, const std::s
     std::vector<Answer> answers;
     const std::string masked = mask_code(source);
     std::vector<std::pair<size_t, size_t>> bodies;  // [open, close] offsets
-    for (const Region& region : find_regions(source, path)) {
-        for (const Function& function : find_functions(source, masked, region, path)) {
-            bodies.push_back({function.body_open, function.body_close});
-            const std::string body =
-                source.substr(function.body_open + 1, function.body_close - function.body_open - 1);
-            answers.push_back({step, function.name, collapse_spaces(body), true});
-            const std::string masked_body =
-                masked.substr(function.body_open + 1, function.body_close - function.body_open - 1);
-            std::istringstream lines(body), masked_lines(masked_body);
-            std::string line, masked_line;
-            while (std::getline(lines, line) && std::getline(masked_lines, masked_line)) {
-                const std::string code = collapse_spaces(code_of_line(line, masked_line));
-                if (!code.empty()) answers.push_back({step, function.name, code, false});
-            }
+    for (const Function& function : lesson_functions(source, masked, path)) {
+        bodies.push_back({function.body_open, function.body_close});
+        const std::string body =
+            source.substr(function.body_open + 1, function.body_close - function.body_open - 1);
+        answers.push_back({step, function.name, collapse_spaces(body), true});
+        const std::string masked_body =
+            masked.substr(function.body_open + 1, function.body_close - function.body_open - 1);
+        std::istringstream lines(body), masked_lines(masked_body);
+        std::string line, masked_line;
+        while (std::getline(lines, line) && std::getline(masked_lines, masked_line)) {
+            const std::string code = collapse_spaces(code_of_line(line, masked_line));
+            if (!code.empty()) answers.push_back({step, function.name, code, false});
         }
     }
     // The rest of the source, line by line.

@@ -18,10 +18,14 @@
 //   .ctlab/pristine/   the stubbed steps as generated: `make diff` in the kit compares these,
 //                      so that it shows what a step teaches, not the student's own code;
 //   .ctlab/carry.txt   which lesson functions a step takes unchanged from an earlier one (the
-//                      same text in the solution): `make carry` (tools/carry.cpp) copies the
+//                      same code in the solution): `make carry` (tools/carry.cpp) copies the
 //                      student's own version forward into the later step's stub.
 // DIR/.ctlab-student lists every generated file with its hash: regenerating refuses to
 // overwrite a file changed since (a student's work) unless --force is given.
+// The whole tree is made in memory first. When any file of it would hold a lesson body of the
+// solution, or one of its distinctive lines (tools/find_answers.cpp's search), make_student
+// names where and exits 1, writing nothing (an earlier tree in DIR is left as it was); exit 2
+// for bad input.
 #include <algorithm>
 #include <cctype>
 #include <cstdint>
@@ -33,6 +37,7 @@
 #include <string>
 #include <vector>
 #include "error.h"
+#include "tools/kit_tool.h"
 #include "tools/lesson_markers.h"
 
 using ctlab::InputError;
@@ -52,7 +57,8 @@ const char* const readme_template = "tools/student_README.md";
 const char* const readme_steps = "{{steps}}";    // where the template wants the table
 const char* const pristine_folder = ".ctlab/pristine/";
 const char* const carry_record = ".ctlab/carry.txt";
-constexpr int shown_answers = 10;  // answers found in the kit, named in the warning
+constexpr int shown_answers = 10;  // answers found in the kit, named in the error
+constexpr int exit_answers_found = 1;  // the kit would hand out answers: nothing written
 constexpr size_t stub_width = 96;  // columns: stub calls wrap before this
 const char* const usage_text =
     "usage: make_student [--from DIR] [--to DIR] [--force]\n"
@@ -67,27 +73,10 @@ struct Settings {
 
 Settings parse_arguments(int argc, char** argv) {
     Settings settings;
-    for (int a = 1; a < argc; ++a) {
-        const std::string arg = argv[a];
-        auto value = [&]() -> std::string {
-            if (a + 1 >= argc || std::string(argv[a + 1]).empty()) {
-                throw InputError(arg + ": expected a folder after it");
-            }
-            return argv[++a];
-        };
-        if (arg == "--from") {
-            settings.from = value();
-        } else if (arg == "--to") {
-            settings.to = value();
-        } else if (arg == "--force") {
-            settings.force = true;
-        } else if (arg == "--help" || arg == "-h") {
-            std::printf("%s", usage_text);
-            std::exit(0);
-        } else {
-            throw InputError("unknown argument '" + arg + "' (see make_student --help)");
-        }
-    }
+    kit_tool::parse(argc, argv, "make_student", usage_text,
+                    {kit_tool::value_flag("--from", &settings.from),
+                     kit_tool::value_flag("--to", &settings.to),
+                     kit_tool::switch_flag("--force", &settings.force)});
     return settings;
 }
 
@@ -159,27 +148,25 @@ std::string stub_step(const std::string& source, const std::string& path,
     // Which stubbed functions are now never named outside their own definition?
     const std::string stubbed_masked = lesson::mask_code(result);
     std::vector<size_t> unused_at;
-    for (const lesson::Region& region : lesson::find_regions(result, path)) {
-        for (const auto& function : lesson::find_functions(result, stubbed_masked, region, path)) {
-            if (!function.is_static || function.is_template) continue;
-            int uses = 0;
-            for (const std::string& word : lesson::tokens(stubbed_masked)) {
-                uses += word == function.name;
-            }
-            if (uses == 1) unused_at.push_back(function.header);
+    for (const auto& function : lesson::lesson_functions(result, stubbed_masked, path)) {
+        if (!function.is_static || function.is_template) continue;
+        int uses = 0;
+        for (const std::string& word : lesson::tokens(stubbed_masked)) {
+            uses += word == function.name;
         }
+        if (uses == 1) unused_at.push_back(function.header);
     }
     std::sort(unused_at.rbegin(), unused_at.rend());
     for (size_t at : unused_at) result.insert(at, "[[maybe_unused]] ");
     return result;
 }
 
-// One step's lesson functions: the solution's text of each (comments, signature, body) and
-// the stub's, by name.
+// One step's lesson functions: the solution's text of each (comments, signature, body), its
+// code alone (lesson::code_only) and the stub's text, by name.
 struct StepFunctions {
     std::string step, title;  // "02_threshold", "where does the ray first meet bone?"
     std::vector<std::string> names;
-    std::map<std::string, std::string> solution, stub;
+    std::map<std::string, std::string> solution, code, stub;
 };
 
 std::map<std::string, std::string> function_texts(const std::string& source,
@@ -187,11 +174,9 @@ std::map<std::string, std::string> function_texts(const std::string& source,
                                                   std::vector<std::string>* names = nullptr) {
     std::map<std::string, std::string> texts;
     const std::string masked = lesson::mask_code(source);
-    for (const lesson::Region& region : lesson::find_regions(source, path)) {
-        for (const auto& function : lesson::find_functions(source, masked, region, path)) {
-            texts[function.name] = lesson::function_text(source, function);
-            if (names) names->push_back(function.name);
-        }
+    for (const auto& function : lesson::lesson_functions(source, masked, path)) {
+        texts[function.name] = lesson::function_text(source, function);
+        if (names) names->push_back(function.name);
     }
     return texts;
 }
@@ -201,6 +186,9 @@ StepFunctions step_functions(const std::string& step, const std::string& solutio
     StepFunctions functions;
     functions.step = step;
     functions.solution = function_texts(solution, path, &functions.names);
+    for (const auto& [name, text] : functions.solution) {
+        functions.code[name] = lesson::code_only(text);
+    }
     functions.stub = function_texts(stubbed, path);
     // The title: what follows "NN_name.cpp: " on the first line.
     const std::string first_line = solution.substr(0, solution.find('\n'));
@@ -209,16 +197,20 @@ StepFunctions step_functions(const std::string& step, const std::string& solutio
     return functions;
 }
 
-// The step before `n` that defines `name` last, or -1.
-int defined_before(const std::vector<StepFunctions>& steps, size_t n, const std::string& name) {
+// The step before `n` that defines `name` last, when its code there is the same as in step `n`
+// (comments aside: a later step may say "step 08's, unchanged" instead); else -1. Step n
+// takes that function unchanged: `make carry` brings the student's version.
+int carried_from(const std::vector<StepFunctions>& steps, size_t n, const std::string& name) {
     for (size_t m = n; m-- > 0;) {
-        if (steps[m].solution.count(name)) return int(m);
+        if (steps[m].code.count(name)) {
+            return steps[m].code.at(name) == steps[n].code.at(name) ? int(m) : -1;
+        }
     }
     return -1;
 }
 
 // .ctlab/carry.txt: "TO_STEP FUNCTION FROM_STEP STUB_HASH" for every lesson function whose
-// solution text equals that of the last earlier step defining it. STUB_HASH is the hash of
+// code equals that of the last earlier step defining it. STUB_HASH is the hash of
 // the function's stub as generated in TO_STEP: `make carry` replaces only a function that is
 // still that stub, never one the student wrote.
 std::string carry_text(const std::vector<StepFunctions>& steps) {
@@ -229,10 +221,8 @@ std::string carry_text(const std::vector<StepFunctions>& steps) {
         "# TO_STEP FUNCTION FROM_STEP STUB_HASH\n";
     for (size_t n = 0; n < steps.size(); ++n) {
         for (const std::string& name : steps[n].names) {
-            const int before = defined_before(steps, n, name);
-            if (before < 0 || steps[before].solution.at(name) != steps[n].solution.at(name)) {
-                continue;
-            }
+            const int before = carried_from(steps, n, name);
+            if (before < 0) continue;
             text += steps[n].step + " " + name + " " + steps[before].step + " " +
                     lesson::content_hash(steps[n].stub.at(name)) + "\n";
         }
@@ -248,9 +238,8 @@ std::string student_readme(const fs::path& from, const std::vector<StepFunctions
     for (size_t n = 0; n < steps.size(); ++n) {
         std::string write, carried;
         for (const std::string& name : steps[n].names) {
-            const int before = defined_before(steps, n, name);
-            const bool same = before >= 0 &&
-                              steps[before].solution.at(name) == steps[n].solution.at(name);
+            const int before = carried_from(steps, n, name);
+            const bool same = before >= 0;
             std::string& list = same ? carried : write;
             list += std::string(list.empty() ? "" : ", ") + "`" + name + "`" +
                     (same ? " (" + steps[before].step.substr(0, 2) + ")" : "");
@@ -289,8 +278,9 @@ std::vector<std::string> files_to_copy(const fs::path& from) {
 }
 
 // The kit must hold no lesson body of the solution (tools/find_answers.cpp checks a written
-// tree; tests/student_test.sh fails on any). Says on stderr where the generated tree has one.
-void warn_of_answers(const fs::path& from, const std::map<std::string, std::string>& tree) {
+// tree; tests/student_test.sh fails on any). Says on stderr where the generated tree would have
+// one, and returns how many pieces it found: make_student then writes nothing.
+int report_answers(const fs::path& from, const std::map<std::string, std::string>& tree) {
     const std::vector<lesson::Answer> answers = lesson::solution_answers(from);
     std::string where;
     int found = 0;
@@ -302,14 +292,15 @@ void warn_of_answers(const fs::path& from, const std::map<std::string, std::stri
             }
         }
     }
-    if (found == 0) return;
+    if (found == 0) return 0;
     std::fprintf(stderr,
-                 "make_student: warning: the kit holds %d piece(s) of lesson bodies of the "
-                 "solution:%s%s\nmake_student: a tool or test that calls or copies a lesson "
-                 "function hands out its answer (all of them: build/find_answers --solution %s "
-                 "--in DIR)\n",
+                 "make_student: error: the kit would hold %d piece(s) of lesson bodies of the "
+                 "solution:%s%s\nmake_student: nothing written. A tool, test or handout that "
+                 "calls or quotes a lesson function hands out its answer (all of them: "
+                 "build/find_answers --solution %s --in DIR)\n",
                  found, where.c_str(), found > shown_answers ? "\n  ..." : "",
                  from.string().c_str());
+    return found;
 }
 
 // Refuses to replace a folder that was not generated, or generated files changed since.
@@ -370,10 +361,7 @@ int generate(const Settings& settings) {
     std::map<std::string, std::string> tree;  // relative path -> content
     std::vector<fs::path> step_paths;
     for (const auto& item : fs::directory_iterator(from / "steps")) {
-        const std::string name = item.path().filename().string();
-        const auto digit = [](char c) { return std::isdigit(static_cast<unsigned char>(c)); };
-        if (!item.is_regular_file() || name.size() < 7 || !digit(name[0]) || !digit(name[1]) ||
-            name[2] != '_' || item.path().extension() != ".cpp") {
+        if (!item.is_regular_file() || !lesson::is_step(item.path())) {
             continue;  // only steps/NN_name.cpp
         }
         step_paths.push_back(item.path());
@@ -411,7 +399,7 @@ int generate(const Settings& settings) {
         });
     }
 
-    warn_of_answers(from, tree);
+    if (report_answers(from, tree) > 0) return exit_answers_found;  // nothing written
     check_destination(to, settings.force);
     if (fs::exists(to / record_name)) fs::remove_all(to);  // only a tree we generated
     std::string record =
@@ -436,10 +424,6 @@ int generate(const Settings& settings) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    try {
-        return generate(parse_arguments(argc, argv));
-    } catch (const std::exception& error) {  // InputError, or a filesystem error
-        std::fprintf(stderr, "make_student: error: %s\n", error.what());
-        return ctlab::exit_bad_input;
-    }
+    return kit_tool::run_main("make_student",
+                              [&] { return generate(parse_arguments(argc, argv)); });
 }
