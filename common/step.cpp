@@ -198,6 +198,7 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         print_trace(options, view, renderer, x, y);
     };
     preview.knob = renderer.knob;
+    preview.orbit = renderer.orbit;
     preview.save_path = [&](const View& view) { return output_path(options, view); };
     show_preview(options, preview);
     return 0;

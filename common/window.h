@@ -20,6 +20,7 @@ struct Preview {
     std::function<void(const View&, int x, int y)> trace;  // print one pixel's trace
     Knob knob;                                          // Up/Down; name empty: none
     std::function<std::string(const View&)> save_path;  // where S writes
+    Orbit orbit;                                        // drag and wheel; empty: none
 };
 
 // Checks --window-script (throws InputError on a bad event), so that run_views can refuse it

@@ -5,6 +5,7 @@
 //             mean (average, a simulated X-ray), shown as grey with part 1's mapping (the
 //             volume's min..max to black..white). --slab W keeps only the samples within W/2
 //             of the plane through the box's centre, facing the camera (a thin-slab projection).
+//             Step 10's table, light, compositing and leaping (which needs the table) go.
 // Builds on:  10_free_camera (the orbit camera, the slab method, trilinear samples).
 // Handout:    handouts/12_projection_modes.md
 // Run:        make run STEP=12 ARGS="--mode minip --slab 20"
@@ -23,6 +24,7 @@ constexpr double degrees = 3.14159265358979323846 / 180;
 constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
 constexpr double default_elevation = 20;  // degrees above the i-j plane
 constexpr double default_fov = 30;        // degrees, the perspective image's height
+constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
 constexpr const char* default_size = "512x512";  // pixels, columns x rows
 constexpr int max_image_side = 8192;             // pixels, --size limit per side
 constexpr double max_slab = 1e5;                 // physical units, --slab limit
@@ -98,7 +100,7 @@ static double cos_degrees(double angle) { return sin_degrees(angle + 90); }
 // and `elevation` degrees above the i-j plane. Up is -k (k runs from the crown down). Azimuth
 // 0, elevation 0 stands in front of the face (small j) looking along +j; azimuth 90 looks along
 // +i. right = forward x up makes it a proper camera (part 1's front view is its mirror).
-static Camera make_camera(const Volume& volume, const Params& params, int width, int height) {
+static Camera make_camera(const Volume& volume, const Params& params, const View& view) {
     const double sin_a = sin_degrees(params.azimuth), cos_a = cos_degrees(params.azimuth);
     const double sin_e = sin_degrees(params.elevation), cos_e = cos_degrees(params.elevation);
     const Vec3d high = box_high(volume);
@@ -109,16 +111,18 @@ static Camera make_camera(const Volume& volume, const Params& params, int width,
     camera.up = {sin_a * sin_e, cos_a * sin_e, -cos_e};  // at right angles to forward
     camera.right = cross(camera.forward, camera.up);
     camera.perspective = params.projection == "perspective";
-    camera.width = width;
-    camera.height = height;
+    camera.width = view.width;
+    camera.height = view.height;
     // Ortho: zoom 1 is one pixel per voxel (the smallest spacing), as in part 1's views; the
     // rays start on a plane outside the box's sphere. Perspective: at zoom 1 the eye is just
     // far enough for the fov to hold the whole sphere; zoom > 1 walks it in, into the box.
+    // A view of coarser pixels (the window's preview while it turns: view.pixel_width 2 or 4)
+    // covers the same field with fewer rays.
     const double smallest_spacing = std::min({volume.sx, volume.sy, volume.sz});
-    camera.pixel_size = smallest_spacing / params.zoom;
+    camera.pixel_size = smallest_spacing / params.zoom * view.pixel_width;
     camera.distance = radius;
     const double half_fov = params.fov / 2;
-    camera.pixel_angle = std::tan(half_fov * degrees) / (height / 2.0);
+    camera.pixel_angle = std::tan(half_fov * degrees) / (view.height / 2.0);
     const double eye_distance = radius / std::sin(half_fov * degrees) / params.zoom;
     camera.eye = camera.centre - eye_distance * camera.forward;
     return camera;
@@ -192,20 +196,61 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
 //< lesson: slab
 
 
-// The eight voxels around a point: along one axis, the voxel at or below it, the next one
-// (the same one at the last voxel) and how far the point is between them, 0..1.
+// A ray's samples in voxel units, worked out once per ray: sample n is at first + n * per_step
+// (voxel coordinates: physical / spacing), for n = 0 .. count - 1.
+struct Walk {
+    Vec3d first, per_step;
+    long long count = 0;
+
+    Vec3d at(long long n) const {
+        const double s = double(n);
+        return {first.i + s * per_step.i, first.j + s * per_step.j, first.k + s * per_step.k};
+    }
+};
+
+// The eight voxels around a point: the voxel at or below it (the low corner), how far the
+// point is past it along each axis (0..1), and the steps in memory from it to the next voxel
+// along i, j and k (0 at the last voxel of an axis: that voxel again).
 struct Cell {
-    int low, high;
-    float fraction;
+    int i = 0, j = 0, k = 0;           // the low corner
+    float fi = 0, fj = 0, fk = 0;      // the point's fractions past it
+    size_t index = 0;                  // the low corner's place in volume.data
+    size_t di = 0, dj = 0, dk = 0;     // memory steps to the next voxel along i, j, k, or 0
 };
 
 //> lesson: trilinear
-// Along one axis: u is the point's coordinate in voxels (physical / spacing), kept within
-// 0 .. count - 1. At a voxel centre the fraction is exactly 0, so that voxel comes back as it is.
-static Cell cell_along(double u, int count) {
+// The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
+// the divisions by the spacing are done here, once per ray, not at every sample.
+static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span, double step) {
+    const Vec3d entry = entry_point(ray, span, box_high(volume));
+    Walk walk;
+    walk.first = {entry.i / volume.sx, entry.j / volume.sy, entry.k / volume.sz};
+    walk.per_step = {step * ray.direction.i / volume.sx, step * ray.direction.j / volume.sy,
+                     step * ray.direction.k / volume.sz};
+    walk.count = (long long)(std::floor((span.t_exit - span.t_entry) / step +
+                                        sample_count_slack)) + 1;
+    return walk;
+}
+
+// Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
+// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
+static void low_corner(double u, int count, int* low, float* fraction) {
     u = std::clamp(u, 0.0, double(count - 1));
-    const int low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
-    return {low, std::min(low + 1, count - 1), float(u - low)};
+    *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
+    *fraction = float(u - *low);
+}
+
+static Cell cell_at(const Volume& volume, const Vec3d& point) {
+    Cell cell;
+    low_corner(point.i, volume.nx, &cell.i, &cell.fi);
+    low_corner(point.j, volume.ny, &cell.j, &cell.fj);
+    low_corner(point.k, volume.nz, &cell.k, &cell.fk);
+    const size_t row = size_t(volume.nx), slice = row * size_t(volume.ny);
+    cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
+    cell.di = cell.i + 1 < volume.nx ? 1 : 0;
+    cell.dj = cell.j + 1 < volume.ny ? row : 0;
+    cell.dk = cell.k + 1 < volume.nz ? slice : 0;
+    return cell;
 }
 
 // A value fraction f of the way from a to b: a itself when f = 0.
@@ -213,22 +258,16 @@ static float lerp(float a, float b, float f) { return a + f * (b - a); }
 
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
-static float trilinear(const Volume& volume, const Vec3d& point) {
-    const Cell ci = cell_along(point.i / volume.sx, volume.nx);
-    const Cell cj = cell_along(point.j / volume.sy, volume.ny);
-    const Cell ck = cell_along(point.k / volume.sz, volume.nz);
-    auto v = [&](int i, int j, int k) { return float(volume.at(i, j, k)); };
-    const float low_low = lerp(v(ci.low, cj.low, ck.low), v(ci.high, cj.low, ck.low), ci.fraction);
-    const float high_low = lerp(v(ci.low, cj.high, ck.low), v(ci.high, cj.high, ck.low),
-                                ci.fraction);
-    const float low_high = lerp(v(ci.low, cj.low, ck.high), v(ci.high, cj.low, ck.high),
-                                ci.fraction);
-    const float high_high = lerp(v(ci.low, cj.high, ck.high), v(ci.high, cj.high, ck.high),
-                                 ci.fraction);
-    return lerp(lerp(low_low, high_low, cj.fraction), lerp(low_high, high_high, cj.fraction),
-                ck.fraction);
+static float trilinear(const Volume& volume, const Cell& c) {
+    const int16_t* v = volume.data.data() + c.index;
+    const float low_low = lerp(v[0], v[c.di], c.fi);
+    const float high_low = lerp(v[c.dj], v[c.dj + c.di], c.fi);
+    const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
+    const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
+    return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
 }
 //< lesson: trilinear
+
 
 
 // CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in part 1 (step
@@ -292,14 +331,10 @@ static Projection project_ray(const Volume& volume, const Camera& camera, int x,
     if (params.slab > 0 && span.hit) span = within_slab(ray, span, camera, params.slab, trace);
     Projection projection;
     if (!span.hit) return projection;
-    const Vec3d entry = entry_point(ray, span, high);
-    const double length_inside = span.t_exit - span.t_entry;
-    const long long sample_count =
-        (long long)(std::floor(length_inside / params.step + sample_count_slack)) + 1;
-    for (long long n = 0; n < sample_count; ++n) {
-        const double along = n * params.step;  // physical units past the entry
-        const Vec3d point = entry + along * ray.direction;
-        const float value = trilinear(volume, point);
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const float value = trilinear(volume, cell_at(volume, q));
         ++work.samples;
         if (projection.count == 0) projection.highest = projection.lowest = value;
         projection.highest = std::max(projection.highest, value);
@@ -307,8 +342,9 @@ static Projection project_ray(const Volume& volume, const Camera& camera, int x,
         projection.sum += value;
         ++projection.count;
         if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f max=%9.4f min=%9.4f "
-                              "mean=%9.4f", span.t_entry + along, point.i, point.j, point.k,
-                              value, projection.highest, projection.lowest,
+                              "mean=%9.4f", span.t_entry + n * params.step,
+                              q.i * volume.sx, q.j * volume.sy, q.k * volume.sz, value,
+                              projection.highest, projection.lowest,
                               projection.sum / projection.count);
     }
     return projection;
@@ -371,7 +407,7 @@ int main(int argc, char** argv) {
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
                         "degrees above the i-j plane; 90 looks down from the crown");
-        args.add_double("--zoom", &params.zoom, 0.01, 100,
+        args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
                         "ortho: pixels per voxel; perspective: walks the eye in (>1)");
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
@@ -391,15 +427,24 @@ int main(int argc, char** argv) {
         const std::string refused = too_many_samples(volume, params.step);
         if (!refused.empty()) throw InputError(refused);
 
-        // --- View: the camera ---
-        const Camera camera = make_camera(volume, params, width, height);
-
-        // --- Render: one ray per pixel ---
+        // --- View: the camera's image (its camera is made for each render: the window turns
+        // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
         renderer.views = {make_camera_view(width, height)};
-        renderer.ray = [&](const View&, int x, int y, Work& work, Trace* trace) {
+
+        // --- Render: one ray per pixel ---
+        auto pixel = [&](const Camera& camera, int x, int y, Work& work, Trace* trace) {
             return projection_grey(volume, project_ray(volume, camera, x, y, params, work, trace),
                                    params.mode);
+        };
+        renderer.image = [&](const View& view, Work& work) {
+            const Camera camera = make_camera(volume, params, view);
+            return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
+                return pixel(camera, x, y, ray_work, nullptr);
+            });
+        };
+        renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
+            return pixel(make_camera(volume, params, view), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
             return "samples " + number(params.step) + " physical units apart";
@@ -413,6 +458,17 @@ int main(int argc, char** argv) {
                              params.step = step;
                          },
                          [&] { return number(params.step); }};
+        renderer.orbit.turn = [&](double azimuth, double elevation) {
+            params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
+            params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
+        };
+        renderer.orbit.zoom = [&](double factor) {
+            params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
+        };
+        renderer.orbit.value = [&] {
+            return "azimuth=" + number(params.azimuth) + " elevation=" +
+                   number(params.elevation) + " zoom=" + number(params.zoom);
+        };
         renderer.settings = [&] {
             return "mode=" + params.mode + " slab=" + number(params.slab) +
                    " projection=" + params.projection + " azimuth=" + number(params.azimuth) +

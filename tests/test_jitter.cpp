@@ -164,7 +164,7 @@ TEST_CASE("jitter: --jitter none draws step 10's picture bit for bit, with the s
             if (p.r != q.r || p.g != q.g || p.b != q.b) ++differing;
         }
         CHECK(differing == 0);
-        for (const char* counter : {"samples", "skipped", "gradients", "terminated"}) {
+        for (const char* counter : {"samples", "skipped", "leapt", "gradients", "terminated"}) {
             CAPTURE(counter);
             CHECK(ten.summary("camera").at(counter) == eleven.summary("camera").at(counter));
         }
