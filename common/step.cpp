@@ -199,6 +199,9 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
     };
     preview.knob = renderer.knob;
     preview.orbit = renderer.orbit;
+    preview.render_preview = [&](const View& view, Work& work) {
+        return render_view(options, view, renderer, work);
+    };
     preview.save_path = [&](const View& view) { return output_path(options, view); };
     show_preview(options, preview);
     return 0;
