@@ -277,6 +277,12 @@ struct Cell {
     size_t di = 0, dj = 0, dk = 0;     // memory steps to the next voxel along i, j, k, or 0
 };
 
+// Eight numbers, one at each corner of a cell: corner n is n & 1 along i, n & 2 along j and
+// n & 4 along k.
+struct Corners {
+    float at[8];
+};
+
 //> lesson: trilinear
 // The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
 // the divisions by the spacing are done here, once per ray, not at every sample.
@@ -437,12 +443,11 @@ static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
 
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
-// Eight numbers at the cell's corners (corner n: n & 1 along i, n & 2 along j, n & 4 along
-// k) blended trilinearly, in trilinear()'s order.
-static float blend(const float (&corner)[8], const Cell& c) {
-    return lerp(lerp(lerp(corner[0], corner[1], c.fi), lerp(corner[2], corner[3], c.fi), c.fj),
-                lerp(lerp(corner[4], corner[5], c.fi), lerp(corner[6], corner[7], c.fi), c.fj),
-                c.fk);
+// Eight numbers at the cell's corners blended trilinearly, in trilinear()'s order.
+static float blend(const Corners& corners, const Cell& c) {
+    const float* v = corners.at;
+    return lerp(lerp(lerp(v[0], v[1], c.fi), lerp(v[2], v[3], c.fi), c.fj),
+                lerp(lerp(v[4], v[5], c.fi), lerp(v[6], v[7], c.fi), c.fj), c.fk);
 }
 
 // The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
@@ -468,12 +473,12 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
     }
     const ptrdiff_t row = volume.nx, slice = ptrdiff_t(volume.nx) * volume.ny;
     const int16_t* low = volume.data.data() + c.index;
-    float along_i[8], along_j[8], along_k[8];  // differences at the corners, in CT units
+    Corners along_i, along_j, along_k;  // differences at the corners, in CT units
     auto differences = [&](int n, ptrdiff_t offset) {
         const int16_t* v = low + offset;
-        along_i[n] = float(v[1] - v[-1]);
-        along_j[n] = float(v[row] - v[-row]);
-        along_k[n] = float(v[slice] - v[-slice]);
+        along_i.at[n] = float(v[1] - v[-1]);
+        along_j.at[n] = float(v[row] - v[-row]);
+        along_k.at[n] = float(v[slice] - v[-slice]);
     };
     differences(0, 0);
     differences(1, 1);
