@@ -9,6 +9,9 @@
 //              8-bit units (RMSE and max over every channel of every pixel)
 //   ert        early ray termination thresholds 0 .. 0.1 (steps 07 and 08, top view):
 //              time saved against error added
+//   jitter     step 11 (the free camera) at step 4 .. 1/2 with jitter none, hash and blue
+//              noise, against step 1/4 without jitter: RMSE, and RMSE after a 5x5 blur
+//              (the rings and bands that survive it; noise does not)
 //   precision  the cost of subnormal arithmetic on this machine, and of a float ray
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
 //              error measured here (handouts/numerics.md quotes them)
@@ -555,6 +558,68 @@ void ert_study() {
     const ImageError error = image_error(b2f.image(), full07);
     record({"ert", "step 07 back to front", "-", b2f.ms(), error.rmse, error.max,
             "8-bit (against front to back, T* = 0)", b2f.count("samples")});
+}
+
+// --- Jitter: step size x jitter on the free camera (step 11) -----------------------------
+
+// The difference image - reference (every channel), blurred by a box of (2 * radius + 1)^2
+// pixels: what is left is the low-frequency error the eye sees as bands and rings; fine noise
+// averages away.
+ImageError low_pass_error(const Image& image, const Image& reference, int radius) {
+    double sum = 0, largest = 0;
+    long long count = 0;
+    for (int y = radius; y + radius < image.height; ++y) {
+        for (int x = radius; x + radius < image.width; ++x) {
+            double d[3] = {0, 0, 0};
+            for (int dy = -radius; dy <= radius; ++dy) {
+                for (int dx = -radius; dx <= radius; ++dx) {
+                    const Rgb& a = image.at(x + dx, y + dy);
+                    const Rgb& b = reference.at(x + dx, y + dy);
+                    d[0] += double(a.r) - b.r;
+                    d[1] += double(a.g) - b.g;
+                    d[2] += double(a.b) - b.b;
+                }
+            }
+            const double box = (2 * radius + 1) * (2 * radius + 1);
+            for (const double channel : d) {
+                sum += (channel / box) * (channel / box);
+                largest = std::max(largest, std::abs(channel / box));
+            }
+            count += 3;
+        }
+    }
+    if (count == 0) return {};
+    return {std::sqrt(sum / count) * byte_units, largest * byte_units};
+}
+
+constexpr const char* jitter_step = "11_jitter";
+constexpr int jitter_blur_radius = 2;  // pixels: the low-pass box is 5 x 5
+
+void jitter_study() {
+    std::printf("jitter: step 11 on the phantom, the default camera at 256x256, no early "
+                "termination, steps 4 .. 1/2 x jitter none/hash/blue, against step 1/4 without "
+                "jitter\n");
+    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+    const std::vector<std::string> camera =
+        phantom_volume().flags +
+        std::vector<std::string>{"--size", quick ? "64x64" : "256x256", "--zoom",
+                                 quick ? "1" : "0.5", "--ert", "0"};
+    const Run reference = run(jitter_step, camera + std::vector<std::string>{
+                                  "--step", "0.25", "--jitter", "none", "--threads",
+                                  std::to_string(cores)});
+    for (const double step : {4.0, 2.0, 1.0, 0.5}) {
+        for (const char* jitter : {"none", "hash", "blue"}) {
+            const Run image = run(jitter_step, camera + std::vector<std::string>{
+                                      "--step", format("%g", step), "--jitter", jitter}, true);
+            const ImageError error = image_error(image.image(), reference.image());
+            record({"jitter", jitter, step_text(step), image.ms(), error.rmse, error.max,
+                    "8-bit (RMSE, max) vs step 1/4", image.count("samples")});
+            const ImageError low = low_pass_error(image.image(), reference.image(),
+                                                  jitter_blur_radius);
+            record({"jitter-lowpass", jitter, step_text(step), image.ms(), low.rmse, low.max,
+                    "8-bit, 5x5 box-blurred difference", image.count("samples")});
+        }
+    }
 }
 
 // --- 4. Subnormal arithmetic --------------------------------------------------------------
@@ -1192,6 +1257,7 @@ int run(int argc, char** argv) {
     depth_study();
     step_study();
     ert_study();
+    jitter_study();
     std::printf("precision: subnormal arithmetic\n");
     const SubnormalCost cost = subnormal_cost();
     std::vector<FloatRay> rays = {
@@ -1236,6 +1302,15 @@ int run(int argc, char** argv) {
        << "\n";
     md << "## Early ray termination (top view; error added against T* = 0, 8-bit units)\n\n"
        << section("study:ert", written_by + "\n" + markdown_table("ert", "T*")) << "\n";
+    md << "## Jitter (step 11, the default camera at 256x256, T* = 0; error in 8-bit units "
+       << "against step 1/4 without jitter; the same step takes the same time)\n\n"
+       << section("study:jitter",
+                  written_by + "\nRMSE and max of the difference:\n\n" +
+                      markdown_table("jitter", "step") +
+                      "\nThe same after a 5x5 box blur of the difference (the bands and rings "
+                      "the eye sees; fine noise averages away):\n\n" +
+                      markdown_table("jitter-lowpass", "step"))
+       << "\n";
     std::ofstream(out + "/error_vs_time.md") << md.str();
     std::ofstream(out + "/numerics.md")
         << "# The stiff cases, measured\n\n"
