@@ -1,12 +1,12 @@
 #!/bin/sh
-# bad_input_test.sh: issue 6's list of bad input, one table row per case, run on the real
+# bad_input_test.sh: the lab's list of bad input, one table row per case, run on the real
 # binaries. Each must exit with status 2 and print exactly one line on stderr,
 # "BINARY: error: ...", containing the row's text (which names the flag or file and what was
 # expected); it must leave no file behind (no PNG, no temporary file) and end within a
 # minute. tests/cli_test.sh runs the cases every step shares (missing file, a folder, an empty
 # file, one byte short, dims over the limit, unknown flag and --view, --threads 0, --debug-pixel
 # outside, --threshold abc, unwritable --out) on every step; this table adds the rest, and a
-# check that huge dims are refused before anything is allocated. Round 2 (issue 12) checks exit
+# check that huge dims are refused before anything is allocated. Round 2 (hard cases) checks exit
 # statuses and exact first lines: numbers out of a double's range, escaped control characters,
 # stdout on a full disk, a full disk on the third view (simulated, and a real full tmpfs when
 # run as root), SIGINT mid-render, threads refused by ulimit -u, a long ray's trace, hostile
@@ -296,7 +296,7 @@ else
 fi
 
 
-# --- Round 2 (issue 12): no hang, no abort, bounded output, all pictures or none -----------------
+# --- Round 2: no hang, no abort, bounded output, all pictures or none ---------------------------
 # Each case checks the exit status and the exact first line on stderr (an error is one line, and
 # no ESC byte reaches the terminal). A folder "as before" is compared by names and checksums.
 abs_build=$(cd "$build" && pwd)

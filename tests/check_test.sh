@@ -1,6 +1,6 @@
 #!/bin/sh
 # check_test.sh: the checker (build/check) against hostile and careless submissions, a class
-# graded in one command, and `make reference` for a raw volume of another size (issue 11).
+# graded in one command, and `make reference` for a raw volume of another size.
 #
 #   sh tests/check_test.sh BUILD      (make test runs it with BUILD = build)
 #

@@ -1,7 +1,7 @@
-// test_robust.cpp: the pieces behind issue 12's messages and guarantees, one by one: escaped
-// echoes, numbers out of a double's range, transfer-function files an editor spoils, the
-// bounded trace, and the all-or-none output set. (tests/bad_input_test.sh runs the same cases
-// through the step binaries.)
+// test_robust.cpp: the pieces behind the error messages and the no-crash guarantees, one by
+// one: escaped echoes, numbers out of a double's range, transfer-function files an editor
+// spoils, the bounded trace, and the all-or-none output set. (tests/bad_input_test.sh runs the
+// same cases through the step binaries.)
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <filesystem>
