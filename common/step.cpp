@@ -198,6 +198,10 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         print_trace(options, view, renderer, x, y);
     };
     preview.knob = renderer.knob;
+    preview.orbit = renderer.orbit;
+    preview.render_preview = [&](const View& view, Work& work) {
+        return render_view(options, view, renderer, work);
+    };
     preview.save_path = [&](const View& view) { return output_path(options, view); };
     show_preview(options, preview);
     return 0;

@@ -24,6 +24,14 @@ struct Knob {
     std::function<std::string()> value;       // current value, for the title and summary
 };
 
+// Part 2: what the preview window's mouse does to a camera: a drag turns it, the wheel zooms.
+// Empty functions (part 1): the mouse only clicks.
+struct Orbit {
+    std::function<void(double azimuth, double elevation)> turn;  // degrees to add to each
+    std::function<void(double factor)> zoom;                     // multiplies the zoom
+    std::function<std::string()> value;  // "azimuth=30 elevation=20 zoom=1", for the log
+};
+
 struct Renderer {
     RayFunction ray;
     ImageFunction image;                      // empty: render_image() over `ray`
@@ -35,6 +43,7 @@ struct Renderer {
     // Part 2: the views to render instead of --view's axis views (a camera's image); empty:
     // the axis views, as part 1.
     std::vector<View> views;
+    Orbit orbit;                              // part 2: the window turns the camera
 };
 
 // Renders every selected view: PNG to OUT/STEP_VIEW.png (--pfm: the float image to

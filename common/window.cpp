@@ -35,6 +35,13 @@ constexpr int min_window_width = 240;   // window pixels: tiny images sit centre
 constexpr int min_window_height = 120;
 constexpr int max_zoom = 64;            // a 1 x 1 volume should not ask for a 800 x 800 block
 constexpr int display_probe_ms = 2000;  // an X server that has not answered by then never will
+// Part 2's orbit (Preview::orbit): a drag turns the camera, the wheel zooms it.
+constexpr int drag_start_pixels = 3;      // window pixels a press must move to become a drag
+constexpr double degrees_per_pixel = 0.5;  // of azimuth or elevation per window pixel dragged
+constexpr double zoom_per_notch = 1.1;     // the wheel's zoom factor per notch
+constexpr double preview_frame_ms = 40;    // while turning, aim at 25 frames a second
+constexpr int max_preview_factor = 8;      // a preview has at least 1 in 8 x 8 of the pixels
+constexpr Uint32 refine_after_ms = 150;    // the mouse still this long: render at full size
 
 // Where the image sits in the window: pixel (x, y) covers window pixels
 // [left + x*scale_x, left + (x+1)*scale_x) by [top + y*scale_y, top + (y+1)*scale_y).
@@ -190,6 +197,10 @@ struct ScriptEvent {
     SDL_Keycode key = SDLK_UNKNOWN;
     SDL_Scancode scancode = SDL_SCANCODE_UNKNOWN;
     int x = 0, y = 0;     // click: image column and row
+    // The orbit's mouse (part 2): "press", "move", "release" at image pixel x, y; "wheel"
+    // by amount notches (up: closer); "wait" amount ms before the next event. "": none.
+    std::string mouse;
+    int amount = 0;
 };
 
 struct KeyName {
@@ -212,7 +223,7 @@ std::vector<ScriptEvent> parse_script(const std::string& script) {
     if (script.empty()) return events;
     const std::string expected =
         "--window-script: expected comma-separated key:1|2|3|Up|Down|plus|minus|s|q|Escape, "
-        "click:X:Y, save or quit, got '";
+        "click:X:Y, press:X:Y, move:X:Y, release:X:Y, wheel:N, wait:MS, save or quit, got '";
     size_t start = 0;
     while (start <= script.size()) {
         size_t comma = script.find(',', start);
@@ -226,7 +237,25 @@ std::vector<ScriptEvent> parse_script(const std::string& script) {
         else if (event.text == "quit") key_name = "q";
         else if (event.text.rfind("key:", 0) == 0) key_name = event.text.substr(4);
 
-        if (event.text.rfind("click:", 0) == 0) {
+        const size_t verb_end = event.text.find(':');
+        const std::string verb = event.text.substr(0, verb_end);
+        if (verb_end != std::string::npos &&
+            (verb == "press" || verb == "move" || verb == "release")) {
+            const std::string place = event.text.substr(verb_end + 1);
+            const size_t second = place.find(':');
+            if (second == std::string::npos) throw InputError(expected + event.text + "'");
+            const int limit = 1 << 20;  // pixels: far beyond any image
+            event.mouse = verb;
+            event.x = parse_int("--window-script " + verb + " X", place.substr(0, second), 0,
+                                limit);
+            event.y = parse_int("--window-script " + verb + " Y", place.substr(second + 1), 0,
+                                limit);
+        } else if (verb_end != std::string::npos && (verb == "wheel" || verb == "wait")) {
+            const int limit = verb == "wheel" ? 100 : 10000;  // notches; ms
+            event.mouse = verb;
+            event.amount = parse_int("--window-script " + verb, event.text.substr(verb_end + 1),
+                                     verb == "wheel" ? -limit : 0, limit);
+        } else if (event.text.rfind("click:", 0) == 0) {
             const std::string place = event.text.substr(6);
             const size_t colon = place.find(':');
             if (colon == std::string::npos) throw InputError(expected + event.text + "'");
@@ -318,6 +347,7 @@ public:
         Work work;
         image_ = preview_.render(view(), work);
         const double ms = timer.ms();
+        full_ms_ = ms;
 
         SDL_SetWindowTitle(session_.window, title(ms).c_str());
         upload();
@@ -364,6 +394,106 @@ public:
                     preview_.knob.value ? preview_.knob.value().c_str() : "?");
         std::fflush(stdout);
         render();
+    }
+
+    // --- The orbit (part 2): drag to turn, wheel to zoom, a coarse preview while it moves ---
+    bool orbits() const { return preview_.orbit.turn && preview_.orbit.zoom; }
+
+    // The left button down: without an orbit, a click at once. With one, the start of a drag,
+    // or a click when the button comes up before the mouse has moved drag_start_pixels.
+    void press(int wx, int wy) {
+        if (!orbits()) {
+            click(wx, wy);
+            return;
+        }
+        refine();  // a click traces the picture as it is now, at full size
+        pressed_ = true;
+        dragging_ = false;
+        press_x_ = last_x_ = wx;
+        press_y_ = last_y_ = wy;
+    }
+
+    // Dragging right turns the head to the right (the camera to its left: azimuth down);
+    // dragging down shows more of the crown (elevation up). Applied by preview().
+    void move(int wx, int wy) {
+        if (!pressed_) return;
+        if (!dragging_ && std::abs(wx - press_x_) + std::abs(wy - press_y_) < drag_start_pixels) {
+            return;
+        }
+        dragging_ = true;
+        turn_azimuth_ -= (wx - last_x_) * degrees_per_pixel;
+        turn_elevation_ += (wy - last_y_) * degrees_per_pixel;
+        last_x_ = wx;
+        last_y_ = wy;
+        moved_ = true;
+    }
+
+    void release() {
+        if (!pressed_) return;
+        pressed_ = false;
+        if (dragging_) {
+            dragging_ = false;
+            refine();
+        } else {
+            click(press_x_, press_y_);
+        }
+    }
+
+    void wheel(int notches) {
+        if (!orbits() || notches == 0) return;
+        zoom_factor_ *= std::pow(zoom_per_notch, notches);
+        moved_ = true;
+    }
+
+    // What the mouse did since the last frame, applied to the camera, and a coarse preview
+    // of it: 1 in factor x factor pixels, the texture stretched over the full picture.
+    void preview() {
+        if (!moved_) return;
+        apply_orbit();
+        const int factor = preview_factor();
+        View coarse = view();
+        coarse.width = (coarse.width + factor - 1) / factor;
+        coarse.height = (coarse.height + factor - 1) / factor;
+        coarse.pixel_width *= factor;  // the same field, in fewer and larger pixels
+        coarse.pixel_height *= factor;
+        Timer timer;
+        Work work;
+        const Image image = preview_.render_preview ? preview_.render_preview(coarse, work)
+                                                    : preview_.render(coarse, work);
+        const double ms = timer.ms();
+        ++previews_;
+        preview_width_ = image.width;
+        preview_height_ = image.height;
+        char text[96];
+        std::snprintf(text, sizeof text, " | preview %dx%d | %.1f ms", image.width, image.height,
+                      ms);
+        const std::string title = preview_.step + " | " + view().name + " | " +
+                                  preview_.orbit.value() + text;
+        SDL_SetWindowTitle(session_.window, title.c_str());
+        upload_texture(image);
+        draw();
+        refine_due_ = true;
+        refine_at_ = SDL_GetTicks() + refine_after_ms;
+    }
+
+    // After previews: the camera as it is now, at full size (prints its summary line).
+    void refine() {
+        if (moved_) apply_orbit();
+        if (!refine_due_) return;
+        refine_due_ = false;
+        std::printf("window: orbit %s (%d previews at %dx%d)\n", preview_.orbit.value().c_str(),
+                    previews_, preview_width_, preview_height_);
+        std::fflush(stdout);
+        previews_ = 0;
+        render();
+    }
+
+    // Milliseconds until refine() is due, the mouse still since the last preview for
+    // refine_after_ms (button held or not; a release refines at once); -1: nothing to refine.
+    int ms_until_refine() const {
+        if (!refine_due_) return -1;
+        const Uint32 now = SDL_GetTicks();
+        return SDL_TICKS_PASSED(now, refine_at_) ? 0 : int(refine_at_ - now);
     }
 
     void save() {
@@ -415,9 +545,29 @@ public:
     }
 
 private:
+    // Hands the mouse's turn and zoom since the last frame to the step's camera.
+    void apply_orbit() {
+        preview_.orbit.turn(turn_azimuth_, turn_elevation_);
+        if (zoom_factor_ != 1) preview_.orbit.zoom(zoom_factor_);
+        turn_azimuth_ = turn_elevation_ = 0;
+        zoom_factor_ = 1;
+        moved_ = false;
+    }
+
+    // The smallest power of two (at least 2) at which 1 in factor x factor pixels would have
+    // rendered within preview_frame_ms, by the last full render's time.
+    int preview_factor() const {
+        int factor = 2;
+        while (factor < max_preview_factor && full_ms_ / (factor * factor) > preview_frame_ms) {
+            factor *= 2;
+        }
+        return factor;
+    }
+
     // "05_interpolated_hits | front | threshold=400 | 12.3 ms"
     std::string title(double ms) const {
         std::string text = preview_.step + " | " + view().name;
+        if (orbits() && preview_.orbit.value) text += " | " + preview_.orbit.value();
         if (!preview_.knob.name.empty() && preview_.knob.value) {
             text += " | " + preview_.knob.name + "=" + preview_.knob.value();
         }
@@ -436,25 +586,31 @@ private:
                 shown_.at(x, y) = image_.at(x * shrink_x_, y * shrink_y_);
             }
         }
-        if (!session_.texture || session_.texture_width != shown_.width ||
-            session_.texture_height != shown_.height) {
+        upload_texture(shown_);
+    }
+
+    // Puts `image` into the RGB24 texture (made anew when the size changes). draw() stretches
+    // it over the shown picture's place: a coarse preview fills the same rectangle.
+    void upload_texture(const Image& image) {
+        if (!session_.texture || session_.texture_width != image.width ||
+            session_.texture_height != image.height) {
             if (session_.texture) SDL_DestroyTexture(session_.texture);
             session_.texture = SDL_CreateTexture(session_.renderer, SDL_PIXELFORMAT_RGB24,
-                                                 SDL_TEXTUREACCESS_STATIC, shown_.width,
-                                                 shown_.height);
+                                                 SDL_TEXTUREACCESS_STATIC, image.width,
+                                                 image.height);
             if (!session_.texture) {
                 throw std::runtime_error(std::string("SDL_CreateTexture: ") + SDL_GetError());
             }
-            session_.texture_width = shown_.width;
-            session_.texture_height = shown_.height;
+            session_.texture_width = image.width;
+            session_.texture_height = image.height;
         }
-        std::vector<unsigned char> bytes(shown_.pixels.size() * 3);
-        for (size_t n = 0; n < shown_.pixels.size(); ++n) {
-            bytes[3 * n + 0] = to_byte(shown_.pixels[n].r);
-            bytes[3 * n + 1] = to_byte(shown_.pixels[n].g);
-            bytes[3 * n + 2] = to_byte(shown_.pixels[n].b);
+        std::vector<unsigned char> bytes(image.pixels.size() * 3);
+        for (size_t n = 0; n < image.pixels.size(); ++n) {
+            bytes[3 * n + 0] = to_byte(image.pixels[n].r);
+            bytes[3 * n + 1] = to_byte(image.pixels[n].g);
+            bytes[3 * n + 2] = to_byte(image.pixels[n].b);
         }
-        SDL_UpdateTexture(session_.texture, nullptr, bytes.data(), shown_.width * 3);
+        SDL_UpdateTexture(session_.texture, nullptr, bytes.data(), image.width * 3);
     }
 
     Preview& preview_;
@@ -463,6 +619,14 @@ private:
     Image image_;                         // the view as rendered (and saved by S)
     Image shown_;                         // what the texture holds: image_ shrunk
     int shrink_x_ = 1, shrink_y_ = 1;     // image pixels per shown pixel, across and down
+    double full_ms_ = 0;                  // the last full render's time
+    // The orbit's mouse: the press, the drag, and what it asks of the camera not yet applied.
+    bool pressed_ = false, dragging_ = false, moved_ = false;
+    int press_x_ = 0, press_y_ = 0, last_x_ = 0, last_y_ = 0;  // window pixels
+    double turn_azimuth_ = 0, turn_elevation_ = 0, zoom_factor_ = 1;
+    bool refine_due_ = false;             // a preview is showing: render at full size soon
+    Uint32 refine_at_ = 0;                // SDL ticks when (unless the button is held)
+    int previews_ = 0, preview_width_ = 0, preview_height_ = 0;  // since the last full render
 };
 
 // Pushes script event `event` as the SDL event a user would cause, followed by `next_marker`:
@@ -472,13 +636,24 @@ void push_script_event(const ScriptEvent& script, const PreviewWindow& preview,
                        Uint32 window_id, Uint32 next_marker) {
     SDL_Event event;
     SDL_zero(event);
-    if (script.is_click) {
-        event.type = SDL_MOUSEBUTTONDOWN;
+    if (script.is_click || script.mouse == "press" || script.mouse == "release") {
+        const bool down = script.mouse != "release";
+        event.type = down ? SDL_MOUSEBUTTONDOWN : SDL_MOUSEBUTTONUP;
         event.button.windowID = window_id;
         event.button.button = SDL_BUTTON_LEFT;
-        event.button.state = SDL_PRESSED;
+        event.button.state = down ? SDL_PRESSED : SDL_RELEASED;
         event.button.clicks = 1;
         preview.window_position(script.x, script.y, &event.button.x, &event.button.y);
+    } else if (script.mouse == "move") {
+        event.type = SDL_MOUSEMOTION;
+        event.motion.windowID = window_id;
+        event.motion.state = SDL_BUTTON_LMASK;
+        preview.window_position(script.x, script.y, &event.motion.x, &event.motion.y);
+    } else if (script.mouse == "wheel") {
+        event.type = SDL_MOUSEWHEEL;
+        event.wheel.windowID = window_id;
+        event.wheel.y = script.amount;
+        event.wheel.direction = SDL_MOUSEWHEEL_NORMAL;
     } else {
         event.type = SDL_KEYDOWN;
         event.key.windowID = window_id;
@@ -488,6 +663,11 @@ void push_script_event(const ScriptEvent& script, const PreviewWindow& preview,
     }
     event.common.timestamp = SDL_GetTicks();
     SDL_PushEvent(&event);
+    if (script.is_click) {  // and up again: a window that orbits traces on the release
+        event.type = SDL_MOUSEBUTTONUP;
+        event.button.state = SDL_RELEASED;
+        SDL_PushEvent(&event);
+    }
 
     SDL_Event marker;
     SDL_zero(marker);
@@ -568,15 +748,43 @@ bool show_preview(const Options& options, Preview& preview) {
     const Uint32 window_id = SDL_GetWindowID(session.window);
     const Uint32 next_marker = SDL_RegisterEvents(1);  // "push the next script event"
     size_t next_script = 0;
-    if (!script.empty() && next_marker != static_cast<Uint32>(-1)) {
-        push_script_event(script[next_script++], window, window_id, next_marker);
-    }
+    bool script_waits = false;  // a wait:MS event holds the script until script_resumes
+    Uint32 script_resumes = 0;
+    auto push_marker = [&] {
+        SDL_Event marker;
+        SDL_zero(marker);
+        marker.type = next_marker;
+        SDL_PushEvent(&marker);
+    };
+    if (!script.empty() && next_marker != static_cast<Uint32>(-1)) push_marker();
 
     SDL_Event event;
-    while (SDL_WaitEvent(&event)) {
+    for (;;) {
+        // Wait for an event, or until a preview is due for its full render or a scripted
+        // wait is over, whichever comes first.
+        int wait_ms = window.ms_until_refine();
+        if (script_waits) {
+            const Uint32 now = SDL_GetTicks();
+            const int script_ms = SDL_TICKS_PASSED(now, script_resumes)
+                                      ? 0 : int(script_resumes - now);
+            wait_ms = wait_ms < 0 ? script_ms : std::min(wait_ms, script_ms);
+        }
+        if (wait_ms < 0) {
+            if (!SDL_WaitEvent(&event)) break;
+        } else if (!SDL_WaitEventTimeout(&event, std::max(wait_ms, 1))) {
+            if (window.ms_until_refine() == 0) window.refine();
+            if (script_waits && SDL_TICKS_PASSED(SDL_GetTicks(), script_resumes)) {
+                script_waits = false;
+                push_marker();
+            }
+            continue;
+        }
         if (event.type == SDL_QUIT) break;
         if (event.type == next_marker) {
-            if (next_script < script.size()) {
+            if (next_script < script.size() && script[next_script].mouse == "wait") {
+                script_waits = true;
+                script_resumes = SDL_GetTicks() + Uint32(script[next_script++].amount);
+            } else if (next_script < script.size()) {
                 push_script_event(script[next_script++], window, window_id, next_marker);
             }
         } else if (event.type == SDL_WINDOWEVENT) {
@@ -586,7 +794,15 @@ bool show_preview(const Options& options, Preview& preview) {
                 window.draw();
             }
         } else if (event.type == SDL_MOUSEBUTTONDOWN && event.button.button == SDL_BUTTON_LEFT) {
-            window.click(event.button.x, event.button.y);
+            window.press(event.button.x, event.button.y);
+        } else if (event.type == SDL_MOUSEBUTTONUP && event.button.button == SDL_BUTTON_LEFT) {
+            window.release();
+        } else if (event.type == SDL_MOUSEMOTION) {
+            window.move(event.motion.x, event.motion.y);
+        } else if (event.type == SDL_MOUSEWHEEL) {
+            const int notches = event.wheel.direction == SDL_MOUSEWHEEL_FLIPPED ? -event.wheel.y
+                                                                                : event.wheel.y;
+            window.wheel(notches);
         } else if (event.type == SDL_KEYDOWN) {
             const Action action = action_of(event.key.keysym.sym);
             const bool repeatable = action == Action::knob_up || action == Action::knob_down;
@@ -603,6 +819,11 @@ bool show_preview(const Options& options, Preview& preview) {
                 case Action::quit: return true;
                 case Action::none: break;
             }
+        }
+        // The mouse's moves are gathered while a frame renders; one preview for all of them,
+        // once none is left in the queue (SDL_MOUSEMOTION .. SDL_MOUSEWHEEL: buttons too).
+        if (SDL_PeepEvents(nullptr, 0, SDL_PEEKEVENT, SDL_MOUSEMOTION, SDL_MOUSEWHEEL) <= 0) {
+            window.preview();
         }
         std::fflush(stdout);
     }

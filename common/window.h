@@ -2,6 +2,9 @@
 //
 // Keys: 1/2/3 top/front/side; Up/Down or +/- change the step's knob and re-render (render
 // time in the title); left click prints that pixel's trace; S saves a PNG; Esc/Q quits.
+// Part 2 (Preview::orbit set): drag with the left button to turn the camera, the wheel to
+// zoom; while it moves the window shows coarse previews (1 in 2x2 pixels or fewer, to stay
+// near 25 frames a second) and renders at full size when the mouse stops or is released.
 #pragma once
 #include <functional>
 #include <string>
@@ -20,6 +23,9 @@ struct Preview {
     std::function<void(const View&, int x, int y)> trace;  // print one pixel's trace
     Knob knob;                                          // Up/Down; name empty: none
     std::function<std::string(const View&)> save_path;  // where S writes
+    Orbit orbit;                                        // drag and wheel; empty: none
+    // The orbit's coarse previews: a render without the summary line (empty: render).
+    std::function<Image(const View&, Work&)> render_preview;
 };
 
 // Checks --window-script (throws InputError on a bad event), so that run_views can refuse it
@@ -35,7 +41,8 @@ bool window_wanted(const Options& options);
 // program at once; an X server that goes away ends it with one line and exit status 1. A view
 // larger than the window (or the GPU's texture limit) is shown shrunk by whole factors.
 // options.window_script (tests): comma-separated events injected after the first frame,
-// e.g. "key:2,key:Up,click:40:30,save,quit".
+// e.g. "key:2,key:Up,click:40:30,save,quit"; the orbit's mouse: "press:X:Y", "move:X:Y",
+// "release:X:Y" (image pixels), "wheel:N" (notches, up: closer) and "wait:MS".
 bool show_preview(const Options& options, Preview& preview);
 
 }  // namespace ctlab

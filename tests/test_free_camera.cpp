@@ -175,9 +175,11 @@ TEST_CASE("free camera: the slab method's stiff cases give an entry and exit or 
         // Looking straight down k: direction (0, -0, 1). Pixel (0, 0) starts on the planes
         // i = 0 and j = 0 and runs along the box's edge from corner (0, 0, 0) to (0, 0, 224);
         // pixel (255, 255) along the opposite edge, on the planes i = 255 and j = 255.
+        // --no-leaping: the edge is air, and the trace should show every sample read.
         const RunResult run = render(free_camera, phantom,
                                      {"--azimuth", "180", "--elevation", "90", "--size",
-                                      "256x256", "--step", "2", "--debug-pixel", "0,0"},
+                                      "256x256", "--step", "2", "--debug-pixel", "0,0",
+                                      "--no-leaping"},
                                      folder);
         CHECK(non_finite_pixels(pfm_of(folder, free_camera, "camera")) == 0);
         REQUIRE(run.traces.size() == 1);
@@ -383,5 +385,44 @@ TEST_CASE("free camera: the picture and the work counts do not depend on the thr
     for (const char* counter : {"samples", "skipped", "gradients", "terminated"}) {
         CAPTURE(counter);
         CHECK(summaries[0].at(counter) == summaries[1].at(counter));
+    }
+}
+
+TEST_CASE("free camera: leaping over empty bricks never changes the picture") {
+    // Leaping leaves out only samples that would have been transparent: the picture is the
+    // same bit for bit, and every sample leapt is one --no-leaping visits and skips.
+    const TempFolder folder("free_camera_leaping");
+    const std::vector<std::vector<std::string>> cameras = {
+        {"--size", "128x128", "--zoom", "0.25"},                        // the default oblique
+        {"--azimuth", "-47", "--elevation", "63", "--size", "96x80", "--zoom", "0.4",
+         "--step", "0.7"},                                              // oblique, odd step
+        {"--azimuth", "200", "--elevation", "-35", "--projection", "perspective", "--size",
+         "96x96", "--zoom", "1.5", "--fov", "50"},                      // perspective
+        {"--azimuth", "75", "--elevation", "10", "--projection", "perspective", "--size",
+         "64x64", "--zoom", "6", "--fov", "90", "--unlit", "--ert", "0"},  // eye inside
+        {"--azimuth", "180", "--elevation", "90", "--size", "128x128", "--zoom", "0.5",
+         "--skin-opacity", "0"},                                        // along k, bone only
+    };
+    for (const std::vector<std::string>& camera : cameras) {
+        CAPTURE(camera.size());
+        CAPTURE(camera[1]);
+        std::vector<std::string> no_leaping = camera;
+        no_leaping.push_back("--no-leaping");
+        const RunResult plain = render(free_camera, {"--volume", "phantom"}, no_leaping, folder);
+        const Image every_sample = pfm_of(folder, free_camera, "camera");
+        const RunResult leaping = render(free_camera, {"--volume", "phantom"}, camera, folder);
+        const Image leapt = pfm_of(folder, free_camera, "camera");
+        CHECK(differing_pixels(leapt, every_sample, false) == 0);
+        const Summary with = leaping.summary("camera"), without = plain.summary("camera");
+        CHECK(summary_count(without, "leapt") == 0);
+        CHECK(summary_count(with, "leapt") > 0);
+        CHECK(summary_count(with, "samples") + summary_count(with, "leapt") ==
+              summary_count(without, "samples"));
+        CHECK(summary_count(with, "skipped") + summary_count(with, "leapt") ==
+              summary_count(without, "skipped"));
+        for (const char* counter : {"gradients", "terminated"}) {
+            CAPTURE(counter);
+            CHECK(with.at(counter) == without.at(counter));
+        }
     }
 }

@@ -152,6 +152,61 @@ else
     echo "window test: real X input SKIPPED (package xdotool not installed)"
 fi
 
+# --- The orbit (part 2): drag to turn, wheel to zoom, coarse previews, full size after -------
+# Each "window: orbit azimuth=A elevation=E zoom=Z (N previews at WxH)" line is followed by the
+# full-size render's summary line, which must show the same camera.
+camera_step=$build/10_free_camera
+if [ -x "$camera_step" ]; then
+    xvfb "$camera_step" --volume phantom --size 128x128 --zoom 0.5 --out "$work/orbit_out" \
+        --window-script "press:64:64,move:70:64,move:80:64,release:80:64,wheel:2,wait:500,\
+press:64:64,move:64:70,move:64:90,wait:500,move:64:100,release:64:100,click:64:64,quit" \
+        > "$work/orbit.stdout" 2> "$work/orbit.stderr"
+    status=$?
+    check "orbit: the step exits with status 0 (got $status; stderr: \
+$(head -c 300 "$work/orbit.stderr"))" [ "$status" -eq 0 ]
+    # field NAME LINE: the value of NAME= in LINE
+    field() { echo "$2" | tr ' ' '\n' | sed -n "s/^$1=//p" | head -n 1; }
+    orbit_lines=$(grep -c '^window: orbit ' "$work/orbit.stdout")
+    # Release after the drag, wheel then still, still while held, release: four full renders.
+    check "orbit: four full-size renders after previews (got $orbit_lines)" \
+        [ "$orbit_lines" -eq 4 ]
+    first=$(grep -m 1 '^window: orbit ' "$work/orbit.stdout")
+    second=$(grep '^window: orbit ' "$work/orbit.stdout" | sed -n 2p)
+    last=$(grep '^window: orbit ' "$work/orbit.stdout" | tail -n 1)
+    # A drag to the right turns the camera to its left: azimuth down from 30, elevation kept.
+    check "orbit: dragging right lowers the azimuth ($first)" \
+        awk -v a="$(field azimuth "$first")" 'BEGIN { exit !(a < 30) }'
+    check "orbit: dragging right keeps the elevation ($first)" \
+        [ "$(field elevation "$first")" = 20 ]
+    check "orbit: the drag was previewed ($first)" \
+        sh -c "echo '$first' | grep -q ' ([1-9][0-9]* previews at [0-9]*x[0-9]*)\$'"
+    preview_size=$(echo "$first" | sed -n 's/.* previews at \([0-9]*\)x[0-9]*)$/\1/p')
+    check "orbit: the preview has fewer columns than the picture ($preview_size < 128)" \
+        [ "${preview_size:-999}" -lt 128 ]
+    check "orbit: the wheel up zooms in ($second)" \
+        awk -v z="$(field zoom "$second")" 'BEGIN { exit !(z > 0.5) }'
+    check "orbit: dragging down raises the elevation ($last)" \
+        awk -v e="$(field elevation "$last")" 'BEGIN { exit !(e > 20) }'
+    # The summary line after each orbit line renders that camera, at full size.
+    mismatched=$(awk '/^window: orbit / { want = $3 " " $4 " " $5; next }
+                      want != "" && /^step=/ { line = $0; got = ""
+                          n = split(line, f, " ")
+                          for (i = 1; i <= n; i++)
+                              if (f[i] ~ /^(azimuth|elevation|zoom)=/) got = got (got ? " " : "") f[i]
+                          if (got != want || line !~ / size=128x128 /) print want " / " got
+                          want = "" }' "$work/orbit.stdout")
+    check "orbit: each full render shows the camera the orbit line names ($mismatched)" \
+        [ -z "$mismatched" ]
+    check "orbit: a click without a drag still traces its pixel" \
+        grep -q '^debug pixel x=64 y=64 view=camera ' "$work/orbit.stdout"
+    if [ "$failed" -ne 0 ]; then
+        echo "window test: stdout of the orbit run:"
+        cut -c 1-160 "$work/orbit.stdout" | grep -v '^  t=' | sed 's/^/    /'
+    fi
+else
+    echo "window test: orbit SKIPPED ($camera_step not built)"
+fi
+
 if [ "$failed" -ne 0 ]; then
     echo "window test: stdout of the scripted run:"
     cut -c 1-160 "$work/stdout" | grep -v '^  t=' | sed 's/^/    /'
