@@ -1,0 +1,224 @@
+// test_shadows.cpp: step 14 (shadow rays towards the light, ambient occlusion) run as a program
+// (tools/run_step.h) on volumes and transfer functions written here: a homogeneous slab between
+// the light and a surface (Beer-Lambert), a lone voxel in empty space (nothing blocks its light,
+// nothing is around it), a uniform block (ambient occlusion of a known medium), and the phantom
+// with shadows and occlusion off (step 10's picture, bit for bit).
+#include <doctest/doctest.h>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+#include "image.h"
+#include "tools/run_step.h"
+#include "volume.h"
+
+using namespace ctlab;
+
+namespace {
+
+const std::string shadows_step = "14_shadows";
+
+RunResult run_shadows(const std::vector<std::string>& volume_flags,
+                      std::vector<std::string> flags, const TempFolder& folder) {
+    flags.insert(flags.begin(), volume_flags.begin(), volume_flags.end());
+    flags.insert(flags.end(), {"--out", folder.path(), "--pfm", "--threads", "2"});
+    RunResult run = run_step(shadows_step, flags);
+    INFO(run.command() << "\n" << run.err);
+    REQUIRE(run.status == 0);
+    return run;
+}
+
+Volume filled_volume(int nx, int ny, int nz, const std::function<int(int, int, int)>& value) {
+    Volume volume;
+    volume.nx = nx;
+    volume.ny = ny;
+    volume.nz = nz;
+    volume.data.resize(volume.voxel_count());
+    for (int k = 0; k < nz; ++k)
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i) volume.data[(size_t(k) * ny + j) * nx + i] =
+                int16_t(value(i, j, k));
+    return volume;
+}
+
+// A transfer function file in `folder`: the --tf flag naming it.
+std::vector<std::string> tf_flags(const TempFolder& folder, const std::string& ranges) {
+    const std::string path = folder.path("shadows.tf");
+    std::ofstream(path) << ranges;
+    return {"--tf", path};
+}
+
+// A composited sample of the trace: "t=T p=(I, J, K) value=V rgba=(...) light_T=X ao=Y (N shadow
+// samples) ...".
+struct LitSample {
+    double t = 0, i = 0, j = 0, k = 0, value = 0, light_t = -1, occlusion = -1;
+    int shadow_samples = -1;
+};
+std::vector<LitSample> lit_samples(const PixelTrace& trace) {
+    std::vector<LitSample> samples;
+    for (const std::string& line : trace.lines) {
+        const size_t light = line.find("light_T=");
+        if (light == std::string::npos) continue;
+        LitSample s;
+        if (std::sscanf(line.c_str(), "t=%lf p=(%lf, %lf, %lf) value=%lf", &s.t, &s.i, &s.j, &s.k,
+                        &s.value) == 5 &&
+            std::sscanf(line.c_str() + light, "light_T=%lf ao=%lf (%d shadow samples)",
+                        &s.light_t, &s.occlusion, &s.shadow_samples) == 3) {
+            samples.push_back(s);
+        }
+    }
+    return samples;
+}
+
+}  // namespace
+
+TEST_CASE("shadows: a homogeneous slab between the light and a surface lets exp(-sigma d) "
+          "through (Beer-Lambert)") {
+    // 24 x 32 x 40 voxels at spacing 1. Air 2000 (transparent), a slab of 3000 for
+    // 10 <= k <= 20 (the table's boundary 2500 falls half-way between voxels: the slab is
+    // 11 units thick, 9.5 <= k <= 20.5), a surface of 1000 from k = 36 on (seen from
+    // k = 35.5, where the value falls below 1500). Opacity 0.05 per unit in the slab:
+    // sigma = -ln(0.95); the surface's 1e-4 hardly blocks its own light.
+    // The camera looks down +k (azimuth 180, elevation 90; right = +i, image y = +j); the
+    // light (--light-angle 0) comes from 20 degrees above the viewer:
+    // L = (0, -sin 20, -cos 20), so the shadow ray crosses the slab over d = 11 / cos 20.
+    const Volume volume = filled_volume(24, 32, 40, [](int, int, int k) {
+        return k >= 10 && k <= 20 ? 3000 : k >= 36 ? 1000 : 2000;
+    });
+    const TempFolder folder("shadows_slab");
+    const std::vector<std::string> raw = write_raw_volume(volume, folder.path("slab.raw"));
+    const std::vector<std::string> tf = tf_flags(folder,
+                                                 "0 1500 constant 1 1 1 0.0001\n"
+                                                 "2500 3500 constant 1 1 1 0.05\n");
+    const double sigma = -std::log(0.95);
+    const double d = 11 / std::cos(20 * 3.14159265358979323846 / 180);
+    const double step = 0.25;
+    std::vector<std::string> flags = tf;
+    flags.insert(flags.end(), {"--azimuth", "180", "--elevation", "90", "--size", "24x32",
+                               "--light-angle", "0", "--step", "0.25", "--ert", "0", "--ao",
+                               "off", "--debug-pixel", "12,24"});
+    const RunResult run = run_shadows(raw, flags, folder);
+    REQUIRE(run.traces.size() == 1);
+    const std::vector<LitSample> samples = lit_samples(run.traces[0]);
+    // The first surface sample, k = 35.75: its shadow ray goes up through the slab.
+    const auto surface = std::find_if(samples.begin(), samples.end(),
+                                      [](const LitSample& s) { return s.value < 1500; });
+    REQUIRE(surface != samples.end());
+    CHECK(surface->k == doctest::Approx(35.75));
+    CAPTURE(surface->light_t);
+    // Samples 0.25 apart count the slab to within one sample: |ln T + sigma d| <= sigma h.
+    // The surface's own 1e-4 adds at most 1e-4 * 0.5 / cos 20 to -ln T.
+    CHECK(std::fabs(std::log(surface->light_t) + sigma * d) <= sigma * step + 1e-4);
+    CHECK(surface->light_t == doctest::Approx(std::exp(-sigma * d)).epsilon(0.01));
+    // The slab's own samples: the light has crossed part of the slab only; the first one, at
+    // its top (k = 9.5), nothing but air.
+    const auto top = std::find_if(samples.begin(), samples.end(),
+                                  [](const LitSample& s) { return s.value >= 2500; });
+    REQUIRE(top != samples.end());
+    CHECK(top->k == doctest::Approx(9.5));
+    CHECK(top->light_t == 1.0);
+    // Without shadow rays nothing blocks it: T_light = 1 everywhere.
+    flags.insert(flags.end(), {"--shadows", "none"});
+    const RunResult open = run_shadows(raw, flags, folder);
+    REQUIRE(open.traces.size() == 1);
+    for (const LitSample& s : lit_samples(open.traces[0])) CHECK(s.light_t == 1.0);
+}
+
+TEST_CASE("shadows: a lone voxel in empty space gets all the light, T_light = 1 and AO = 1") {
+    // One voxel of 1000 (opacity 0.5) at (12, 16, 20) in air (2000, transparent). The ray of
+    // pixel (12, 16) from above reads it at its centre: every occlusion probe (1 to 4 units
+    // along each axis) lands on a voxel centre of air, every shadow-ray sample within 1 unit
+    // of it reads at most 1960 (the voxel's trilinear weight there is under 0.04): nothing is
+    // in the way, exactly.
+    const Volume volume = filled_volume(24, 32, 40, [](int i, int j, int k) {
+        return i == 12 && j == 16 && k == 20 ? 1000 : 2000;
+    });
+    const TempFolder folder("shadows_lone");
+    const std::vector<std::string> raw = write_raw_volume(volume, folder.path("lone.raw"));
+    std::vector<std::string> flags = tf_flags(folder, "500 1500 constant 1 1 1 0.5\n");
+    flags.insert(flags.end(), {"--azimuth", "180", "--elevation", "90", "--size", "24x32",
+                               "--light-angle", "0", "--debug-pixel", "12,16"});
+    const RunResult run = run_shadows(raw, flags, folder);
+    REQUIRE(run.traces.size() == 1);
+    const std::vector<LitSample> samples = lit_samples(run.traces[0]);
+    REQUIRE(samples.size() == 1);
+    CHECK(samples[0].k == 20);
+    CHECK(samples[0].light_t == 1.0);
+    CHECK(samples[0].occlusion == 1.0);
+    CHECK(samples[0].shadow_samples > 20);  // the probes and the shadow ray did read
+}
+
+TEST_CASE("shadows: ambient occlusion inside a uniform medium is (1 - alpha)^(radius / unit) "
+          "in every direction") {
+    // A uniform block of 1000 (opacity 0.1 per unit), 24 x 32 x 40: a sample at least 4 units
+    // from every face sees the medium over the whole occlusion radius (4 units, samples 1
+    // apart) in all six directions: AO = 0.9^4 = 0.6561.
+    const Volume volume = filled_volume(24, 32, 40, [](int, int, int) { return 1000; });
+    const TempFolder folder("shadows_uniform");
+    const std::vector<std::string> raw = write_raw_volume(volume, folder.path("block.raw"));
+    std::vector<std::string> flags = tf_flags(folder, "500 1500 constant 1 1 1 0.1\n");
+    flags.insert(flags.end(), {"--azimuth", "180", "--elevation", "90", "--size", "24x32",
+                               "--light-angle", "0", "--ert", "0", "--debug-pixel", "12,16"});
+    const RunResult run = run_shadows(raw, flags, folder);
+    REQUIRE(run.traces.size() == 1);
+    int inside = 0;
+    for (const LitSample& s : lit_samples(run.traces[0])) {
+        if (s.k < 4 || s.k > 35) continue;
+        ++inside;
+        CHECK(s.occlusion == doctest::Approx(0.6561).epsilon(1e-6));
+        // The shadow ray crosses the medium to the top face: (0.9)^(distance), distance = k
+        // / cos 20 (light 20 degrees above the viewer) to within one step.
+        const double distance = s.k / std::cos(20 * 3.14159265358979323846 / 180);
+        CHECK(std::fabs(std::log(s.light_t) - distance * std::log(0.9)) <=
+              -std::log(0.9) * 1.0 + 1e-9);
+    }
+    CHECK(inside >= 30);
+}
+
+TEST_CASE("shadows: with shadows and occlusion off it is step 10's picture, bit for bit") {
+    const TempFolder ten("shadows_step10"), fourteen("shadows_off");
+    const std::vector<std::string> flags = {"--volume", "phantom", "--size", "128x96", "--zoom",
+                                            "0.4", "--azimuth", "-50", "--threads", "2", "--pfm"};
+    std::vector<std::string> a = flags, b = flags;
+    a.insert(a.end(), {"--out", ten.path()});
+    b.insert(b.end(), {"--out", fourteen.path(), "--shadows", "none", "--ao", "off"});
+    REQUIRE(run_step("10_free_camera", a).status == 0);
+    REQUIRE(run_step(shadows_step, b).status == 0);
+    const Image p = read_pfm(step_output(ten.path(), "10_free_camera", "camera", "pfm"));
+    const Image q = read_pfm(step_output(fourteen.path(), shadows_step, "camera", "pfm"));
+    REQUIRE(p.pixels.size() == q.pixels.size());
+    int differing = 0;
+    for (size_t n = 0; n < p.pixels.size(); ++n) {
+        differing += p.pixels[n].r != q.pixels[n].r || p.pixels[n].g != q.pixels[n].g ||
+                     p.pixels[n].b != q.pixels[n].b;
+    }
+    CHECK(differing == 0);
+    // With them on the picture only darkens: blocked light is never more light.
+    REQUIRE(run_step(shadows_step, {"--volume", "phantom", "--size", "128x96", "--zoom", "0.4",
+                                    "--azimuth", "-50", "--threads", "2", "--pfm", "--out",
+                                    fourteen.path()})
+                .status == 0);
+    const Image r = read_pfm(step_output(fourteen.path(), shadows_step, "camera", "pfm"));
+    int darker = 0, lighter = 0;
+    for (size_t n = 0; n < p.pixels.size(); ++n) {
+        darker += r.pixels[n].r < p.pixels[n].r;
+        lighter += r.pixels[n].r > p.pixels[n].r + 1e-6f;
+    }
+    CHECK(lighter == 0);
+    CHECK(darker > 500);
+}
+
+TEST_CASE("shadows: bad flags are refused with status 2, naming the flag") {
+    for (const std::vector<std::string>& flags :
+         std::vector<std::vector<std::string>>{{"--shadows", "volume"}, {"--ao", "yes"}}) {
+        std::vector<std::string> args = {"--volume", "phantom", "--no-window"};
+        args.insert(args.end(), flags.begin(), flags.end());
+        const RunResult run = run_step(shadows_step, args);
+        CAPTURE(run.command());
+        CHECK(run.status == 2);
+        CHECK(run.err.find("error: " + flags[0]) != std::string::npos);
+    }
+}
