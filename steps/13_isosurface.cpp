@@ -788,17 +788,17 @@ int main(int argc, char** argv) {
         parse_size(params.size, &width, &height);
         if (!params.clip_text.empty()) params.clip = parse_clip(params.clip_text);
 
-        // --- Transfer function: the file, then its lookup table for this step size ---
-        TransferFunction tf = load_transfer_function(params.tf_path);
-        if (params.skin_opacity >= 0) {
-            set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
-        }
-        Lut lut = build_lut(tf, opacity_ratio(params));
-
         // --- Volume ---
         const Volume volume = load_volume(options);
         const std::string refused = too_many_samples(volume, params.step);
         if (!refused.empty()) throw InputError(refused);
+
+        // --- Transfer function: the file (in the file's units), its table for this step size ---
+        TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
+        if (params.skin_opacity >= 0) {
+            set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
+        }
+        Lut lut = build_lut(tf, opacity_ratio(params));
 
         const bool iso_mode = params.mode == "iso";
         EmptySpace space;
@@ -815,6 +815,7 @@ int main(int argc, char** argv) {
 
         // --- Render: one ray per pixel ---
         Renderer renderer;
+        renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
         renderer.ray = [&](const View&, int x, int y, Work& work, Trace* trace) {
             if (iso_mode) {

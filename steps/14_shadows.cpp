@@ -566,24 +566,25 @@ int main(int argc, char** argv) {
         int width = 0, height = 0;
         parse_size(params.size, &width, &height);
 
-        // --- Transfer function: the file, then its lookup table for this step size ---
-        TransferFunction tf = load_transfer_function(params.tf_path);
+        // --- Volume ---
+        const Volume volume = load_volume(options);
+        const std::string refused = too_many_samples(volume, params.step);
+        if (!refused.empty()) throw InputError(refused);
+
+        // --- Transfer function: the file (in the file's units), its table for this step size ---
+        TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
         const Lut occlusion_lut = build_lut(tf, occlusion_step / unit_length);
 
-        // --- Volume ---
-        const Volume volume = load_volume(options);
-        const std::string refused = too_many_samples(volume, params.step);
-        if (!refused.empty()) throw InputError(refused);
-
         // --- View: the camera ---
         const Camera camera = make_camera(volume, params, width, height);
 
         // --- Render: one ray per pixel ---
         Renderer renderer;
+        renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
         renderer.ray = [&](const View&, int x, int y, Work& work, Trace* trace) {
             return over_background(composite_front_to_back(volume, camera, x, y, lut,
