@@ -347,7 +347,13 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
         }
         if (t1 <= t0) t1 = t0 + 1;
     }
-    auto px = [&](double t) { return plot_left + (t - t0) / (t1 - t0) * (plot_width - 1); };
+    // Kept within a million pixels of the plot (NaN: at its left edge): a degenerate t range
+    // (a 1-voxel volume) or an infinite leap end must not overflow an int further on.
+    constexpr double px_limit = 1e6;
+    auto px = [&](double t) {
+        const double x = plot_left + (t - t0) / (t1 - t0) * (plot_width - 1);
+        return std::isnan(x) ? double(plot_left) : std::clamp(x, -px_limit, px_limit);
+    };
     const int plot_top = panels.front().top;
 
     // Behind everything: the leaps (light blue) across all panels.
