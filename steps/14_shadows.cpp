@@ -387,13 +387,13 @@ static double ambient_occlusion(const Volume& volume, const Lut& occlusion_lut,
 
 // Step 10's light, blocked: the diffuse part only as far as T_light lets it through, the
 // ambient part as far as the surroundings are open.
-static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_transmittance,
+static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching,
                            double occlusion) {
     const float size = length(gradient);
     const float open = float(occlusion) * ambient;
     if (size == 0.0f) return open;
     const Vec3 normal = (-1.0f / size) * gradient;
-    return open + (1.0f - ambient) * float(light_transmittance) *
+    return open + (1.0f - ambient) * float(light_reaching) *
                       std::max(0.0f, dot(normal, to_light));
 }
 //< lesson: shadow
