@@ -1,5 +1,5 @@
 // test_warm_up.cpp: after warm_up(), a render's image lands in memory already mapped: making
-// and filling it takes no page fault (the cause of a slow first render, issue #13).
+// and filling it takes no page fault (the cause of a slow first render).
 #include <doctest/doctest.h>
 #include <sys/resource.h>
 #include <vector>
@@ -36,5 +36,12 @@ TEST_CASE("warm_up: the first image after it takes no page fault") {
         CHECK(image.at(999, 999).g == 0.5f);
     }
     // A fault or two from elsewhere is allowed (the test runner); 12 MB fresh would be ~2900.
+#if defined(__SANITIZE_ADDRESS__)
+    // AddressSanitizer keeps freed memory in quarantine, so the warm-up's block is never
+    // handed out again: the promise is about the allocator of a normal build only.
+    MESSAGE("AddressSanitizer build: page faults not checked (" << minor_faults() - before
+                                                                 << " counted)");
+#else
     CHECK(minor_faults() - before < 16);
+#endif
 }
