@@ -27,6 +27,9 @@ constexpr int main_image_box = 200;  // the traced view fits in this square
 constexpr int small_image_box = 96;  // each other view
 constexpr int margin = 6;
 constexpr int dots_up_to = 160;  // samples drawn with a dot each when there are few
+constexpr int orders_panel_height = 48;  // both orders' C, 0..1
+constexpr int small_gap = 8;             // between the small views
+constexpr int label_height = 12;         // a small view's name under it
 
 const Rgb white = {1, 1, 1}, black = {0, 0, 0}, grid = {0.85f, 0.85f, 0.85f};
 const Rgb text_grey = {0.3f, 0.3f, 0.3f}, panel_back = {0.97f, 0.97f, 0.97f};
@@ -34,6 +37,8 @@ const Rgb value_colour = {0.1f, 0.1f, 0.1f}, alpha_colour = {0.85f, 0.45f, 0.0f}
 const Rgb transparency_colour = {0.1f, 0.3f, 0.85f}, light_colour = {0.1f, 0.6f, 0.2f};
 const Rgb hit_colour = {0.9f, 0.0f, 0.0f}, terminated_colour = {0.7f, 0.0f, 0.7f};
 const Rgb leapt_colour = {0.82f, 0.9f, 1.0f}, outside_colour = {0.88f, 0.88f, 0.88f};
+const Rgb first_order_colour = {0.85f, 0.2f, 0.1f}, second_order_colour = {0.0f, 0.5f, 0.55f};
+const Rgb entry_colour = {0.0f, 0.75f, 0.2f}, stop_colour = {1.0f, 0.85f, 0.0f};
 
 bool says(const TraceRecord& record, const char* word) {
     return record.text.find(word) != std::string::npos;
@@ -76,18 +81,24 @@ struct Placed {
     double y(double source_y) const { return top + (source_y + 0.5) * height / source_height; }
 };
 
-Placed place_image(Image& picture, const Image& image, const View& view, int left, int top,
-                   int box) {
+// Where `image` would sit in a box x box square at (left, top), without drawing it.
+Placed fitted(const Image& image, const View& view, int box, int left = 0, int top = 0) {
     Placed placed;
     placed.left = left, placed.top = top;
     placed.source_width = std::max(1, image.width),
     placed.source_height = std::max(1, image.height);
     const bool sizes = view.pixel_width > 0 && view.pixel_height > 0;
-    const double wide = image.width * (sizes ? view.pixel_width : 1.0);
-    const double tall = image.height * (sizes ? view.pixel_height : 1.0);
+    const double wide = placed.source_width * (sizes ? view.pixel_width : 1.0);
+    const double tall = placed.source_height * (sizes ? view.pixel_height : 1.0);
     const double scale = box / std::max(wide, tall);
     placed.width = std::max(1, int(std::lround(wide * scale)));
     placed.height = std::max(1, int(std::lround(tall * scale)));
+    return placed;
+}
+
+Placed place_image(Image& picture, const Image& image, const View& view, int left, int top,
+                   int box) {
+    const Placed placed = fitted(image, view, box, left, top);
     if (image.width <= 0 || image.height <= 0) return placed;
     for (int y = 0; y < placed.height; ++y) {
         const int source_y = std::min(image.height - 1, y * image.height / placed.height);
@@ -102,27 +113,64 @@ Placed place_image(Image& picture, const Image& image, const View& view, int lef
     return placed;
 }
 
-// The traced ray as a segment across another axis view, in its pixel coordinates.
-bool ray_across(const View& traced, int x, int y, const View& other, double* x0, double* y0,
-                double* x1, double* y1) {
-    if (traced.camera || other.camera || traced.axis == other.axis) return false;
-    const double right = other.width - 1, bottom = other.height - 1;
-    auto column = [&](double c) { *x0 = *x1 = c, *y0 = 0, *y1 = bottom; };
-    auto row = [&](double r) { *y0 = *y1 = r, *x0 = 0, *x1 = right; };
-    switch (traced.axis) {
-        case ViewAxis::top:  // i = x, j = y: a column of front (i) and of side (j)
-            column(other.axis == ViewAxis::front ? x : y);
-            return true;
-        case ViewAxis::front:  // i = x, k = y: a column of top (i), a row of side (k)
-            if (other.axis == ViewAxis::top)
-                column(x);
-            else
-                row(y);
-            return true;
-        default:  // j = x, k = y: a row of top (j) and of front (k)
-            row(other.axis == ViewAxis::top ? x : y);
-            return true;
+// Does the traced ray show in another axis view? Part 1: a ray along another axis; part 2:
+// the camera ray, when the trace gave it.
+bool crosses(const RayPlot& plot, const View& traced, const View& other) {
+    if (other.camera) return false;
+    return traced.camera ? plot.has_ray : traced.axis != other.axis;
+}
+
+// The point at t along the traced ray (pixel x, y), in the pixel coordinates of another axis
+// view (column, row; fractions between pixel centres). Part 1: voxel n = t / spacing along
+// the traced view's axis; part 2: p = origin + t * direction, in physical units, over the
+// other view's pixel sizes (its voxel spacing across and down).
+void project(const RayPlot& plot, const View& traced, int x, int y, const View& other, double t,
+             double* ox, double* oy) {
+    double i = 0, j = 0, k = 0;  // voxel units
+    if (traced.camera) {
+        const Vec3d p = plot.origin + t * plot.direction;
+        const double across = other.pixel_width > 0 ? other.pixel_width : 1;
+        const double down = other.pixel_height > 0 ? other.pixel_height : 1;
+        switch (other.axis) {
+            case ViewAxis::top: *ox = p.i / across, *oy = p.j / down; return;
+            case ViewAxis::front: *ox = p.i / across, *oy = p.k / down; return;
+            default: *ox = p.j / across, *oy = p.k / down; return;
+        }
     }
+    const double n = t / std::max(traced.ray_spacing, 1e-12);
+    switch (traced.axis) {
+        case ViewAxis::top: i = x, j = y, k = n; break;
+        case ViewAxis::front: i = x, j = n, k = y; break;
+        default: i = n, j = x, k = y; break;
+    }
+    switch (other.axis) {
+        case ViewAxis::top: *ox = i, *oy = j; return;
+        case ViewAxis::front: *ox = i, *oy = k; return;
+        default: *ox = j, *oy = k; return;
+    }
+}
+
+// Clips the segment (x0, y0)-(x1, y1) to the pixels of a width x height view (their edges at
+// -0.5 and width - 0.5); false when nothing of it is inside (Liang-Barsky).
+bool clip(double* x0, double* y0, double* x1, double* y1, int width, int height) {
+    double a = 0, b = 1;
+    const double dx = *x1 - *x0, dy = *y1 - *y0;
+    const double p[] = {-dx, dx, -dy, dy};
+    const double q[] = {*x0 + 0.5, width - 0.5 - *x0, *y0 + 0.5, height - 0.5 - *y0};
+    for (int e = 0; e < 4; ++e) {
+        if (p[e] == 0) {
+            if (q[e] < 0) return false;
+            continue;
+        }
+        const double r = q[e] / p[e];
+        if (p[e] < 0) a = std::max(a, r);
+        else b = std::min(b, r);
+    }
+    if (!(a <= b)) return false;  // NaN too
+    const double sx = *x0, sy = *y0;
+    *x0 = sx + a * dx, *y0 = sy + a * dy;
+    *x1 = sx + b * dx, *y1 = sy + b * dy;
+    return true;
 }
 
 void draw_marker(Image& picture, double cx, double cy) {
@@ -173,8 +221,31 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
         if (record.has("n") && !view.camera) return *t = record.number("n", 0) * plot.spacing, true;
         return false;
     };
+    bool second_order = false;  // after "the same ray": the samples go to plot.second
     for (const TraceRecord& record : records) {
         double t = 0;
+        if (says(record, "the same ray")) {
+            second_order = true;
+            const bool back_to_front = says(record, "back to front");
+            plot.first_name = back_to_front ? "C F2B" : "C 1ST";
+            plot.second_name = back_to_front ? "C B2F" : "C 2ND";
+            continue;
+        }
+        if (record.has("origin.i") && record.has("direction.k")) {
+            plot.has_ray = true;
+            plot.origin = {record.number("origin.i", 0), record.number("origin.j", 0),
+                           record.number("origin.k", 0)};
+            plot.direction = {record.number("direction.i", 0), record.number("direction.j", 0),
+                              record.number("direction.k", 0)};
+            continue;
+        }
+        if (second_order && !record.has("value")) continue;  // its marks are the first's
+        if (record.text.rfind("hit t=", 0) == 0 && record.has("t") && !record.has("value")) {
+            // part 2's surface hit (step 13): "hit t=... p=(...) normal=(...)"
+            t = record.number("t", 0);
+            plot.marks.push_back({RayMark::hit, t, t});
+            continue;
+        }
         if (says(record, "missed")) plot.missed = true;
         if (says(record, "entry") && record.has("t") && record.has("t#2")) {
             RayMark box;
@@ -228,6 +299,10 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
                              float(record.number("C.b", 0))};
         }
         if (record.has("max")) sample.has_max = true, sample.max = record.number("max", 0);
+        if (second_order) {
+            plot.second.push_back(sample);
+            continue;
+        }
         sample.hit = says(record, "hit");
         if (sample.hit) plot.marks.push_back({RayMark::hit, t, t});
         plot.samples.push_back(sample);
@@ -245,14 +320,22 @@ std::string ray_plot_text(const RayPlot& plot) {
         std::snprintf(number, sizeof number, "%.9g", value);
         return std::string(number);
     };
-    for (const RaySample& s : plot.samples) {
+    auto sample_line = [&](const char* kind, const RaySample& s) {
         std::snprintf(
-            line, sizeof line, "sample %.9g %.9g %.9g %s %s %s %s %s %s %s\n", s.t, s.n, s.value,
+            line, sizeof line, "%s %.9g %.9g %.9g %s %s %s %s %s %s %s\n", kind, s.t, s.n, s.value,
             optional(s.has_alpha, s.alpha).c_str(),
             optional(s.has_transparency, s.transparency).c_str(),
             optional(s.has_light, s.light).c_str(), optional(s.has_colour, s.colour.r).c_str(),
             optional(s.has_colour, s.colour.g).c_str(), optional(s.has_colour, s.colour.b).c_str(),
             optional(s.has_max, s.max).c_str());
+        text += line;
+    };
+    for (const RaySample& s : plot.samples) sample_line("sample", s);
+    for (const RaySample& s : plot.second) sample_line("second", s);
+    if (plot.has_ray) {
+        std::snprintf(line, sizeof line, "ray %.9g %.9g %.9g %.9g %.9g %.9g\n", plot.origin.i,
+                      plot.origin.j, plot.origin.k, plot.direction.i, plot.direction.j,
+                      plot.direction.k);
         text += line;
     }
     const char* kinds[] = {"hit", "terminated", "leapt", "box"};
@@ -296,6 +379,26 @@ std::string ray_plot_marks(const RayPlot& plot) {
     return text;
 }
 
+std::vector<RayPlotView> mip_views(const Volume& volume) {
+    std::vector<RayPlotView> views;
+    const double low = volume.min_value;
+    const double range = std::max(1.0, double(volume.max_value) - low);
+    for (const View& view : views_named(volume, "all")) {
+        Image image(view.width, view.height);
+        for (int y = 0; y < view.height; ++y) {
+            for (int x = 0; x < view.width; ++x) {
+                const RayVoxels ray = ray_voxels(volume, view, x, y);
+                int highest = volume.min_value;
+                for (int n = 0; n < view.ray_length; ++n) highest = std::max<int>(highest, ray[n]);
+                const float grey = float((highest - low) / range);
+                image.at(x, y) = {grey, grey, grey};
+            }
+        }
+        views.push_back({view, image});
+    }
+    return views;
+}
+
 std::string ray_plot_path(const std::string& out, const std::string& step, const View& view, int x,
                           int y, const std::string& extension) {
     return out + "/" + step + "_" + view.name + "_ray_" + std::to_string(x) + "_" +
@@ -309,6 +412,21 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
         any_transparency = any_transparency || s.has_transparency;
         any_light = any_light || s.has_light;
         any_colour = any_colour || s.has_colour;
+    }
+    bool second_colour = false;  // a second order with colour: both C drawn, meeting
+    for (const RaySample& s : plot.second) second_colour = second_colour || s.has_colour;
+    // The colour channel the two orders' curves show: the pixel's smallest that is not near 0
+    // (the largest often saturates at 1 on the way), else its largest.
+    int channel = 0;
+    {
+        const float parts[] = {plot.pixel.r, plot.pixel.g, plot.pixel.b};
+        constexpr float visible = 0.05f;
+        for (int c = 1; c < 3; ++c) {
+            if (parts[channel] < visible ? parts[c] > parts[channel]
+                                         : parts[c] >= visible && parts[c] < parts[channel]) {
+                channel = c;
+            }
+        }
     }
     struct Panel {
         int top, height;
@@ -324,12 +442,28 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
     if (any_alpha) add_panel("opacity", unit_panel_height);
     if (any_light) add_panel("light L", unit_panel_height);
     if (any_transparency) add_panel("T", unit_panel_height);
-    if (any_colour) add_panel("C", strip_height);
+    if (second_colour) add_panel(std::string("C.") + "RGB"[channel], orders_panel_height);
+    if (any_colour) add_panel(second_colour ? plot.first_name : "C", strip_height);
+    if (second_colour) add_panel(plot.second_name, strip_height);
     const int plot_bottom = next_top - panel_gap;
     const int plot_height = plot_bottom + axis_height + margin;
+
+    // The views beside the plot: the traced one, and below it the others the ray crosses.
+    std::vector<const RayPlotView*> others;
+    for (size_t n = 1; n < views.size(); ++n) {
+        if (crosses(plot, views.front().view, views[n].view)) others.push_back(&views[n]);
+    }
+    int others_width = 0;
+    for (const RayPlotView* other : others) {
+        others_width += (others_width ? small_gap : 0) +
+                        fitted(other->image, other->view, small_image_box).width;
+    }
+    const int column = std::max(image_column, others_width);
     const int images_height =
-        views.empty() ? 0 : title_height + 8 + main_image_box + 8 + small_image_box + margin;
-    const int width = plot_left + plot_width + (views.empty() ? margin : column_gap + image_column);
+        views.empty() ? 0
+                      : title_height + 8 + main_image_box + 8 + small_image_box + label_height +
+                            margin;
+    const int width = plot_left + plot_width + (views.empty() ? margin : column_gap + column);
     Image picture(width, std::max(plot_height, images_height));
     std::fill(picture.pixels.begin(), picture.pixels.end(), white);
 
@@ -355,6 +489,19 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
         return std::isnan(x) ? double(plot_left) : std::clamp(x, -px_limit, px_limit);
     };
     const int plot_top = panels.front().top;
+    // C as the ray had it at column xx: after the last coloured sample at or before it front
+    // to back, at or after it back to front (step 06 walks from the far end); black (C = 0,
+    // or the background) before the first.
+    auto colour_at = [&](const std::vector<RaySample>& samples, int xx) {
+        const bool backwards = samples.size() > 1 && samples.front().t > samples.back().t;
+        Rgb colour = black;
+        for (const RaySample& sample : samples) {
+            if (!sample.has_colour) continue;
+            const double at = px(sample.t);
+            if (backwards ? at >= xx - 0.5 : at <= xx + 0.5) colour = sample.colour;
+        }
+        return colour;
+    };
 
     // Behind everything: the leaps (light blue) across all panels.
     for (const RayMark& m : plot.marks) {
@@ -366,7 +513,9 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
 
     for (const Panel& panel : panels) {
         const int top = panel.top, bottom = panel.top + panel.height - 1;
-        if (panel.name != "C") {
+        const bool is_strip = panel.name == "C" || panel.name == plot.first_name ||
+                              panel.name == plot.second_name;
+        if (!is_strip) {
             for (int yy = top; yy <= bottom; ++yy) {
                 for (int xx = plot_left; xx < plot_left + plot_width; ++xx) {
                     if (picture.at(xx, yy).r == white.r && picture.at(xx, yy).b == white.b) {
@@ -378,8 +527,10 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
         plot::draw_text(picture, margin, top + 1, panel.name, text_grey);
         if (panel.name == "value") {
             double low = 1e300, high = -1e300;
-            for (const RaySample& s : plot.samples) {
-                low = std::min(low, s.value), high = std::max(high, s.value);
+            for (const auto* samples : {&plot.samples, &plot.second}) {
+                for (const RaySample& s : *samples) {
+                    low = std::min(low, s.value), high = std::max(high, s.value);
+                }
             }
             if (plot.samples.empty()) low = 0, high = 1;
             for (const ValueBand& band : plot.bands) {  // a threshold just outside still shows
@@ -412,6 +563,13 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
                 plot::draw_text(picture, plot_left - 4 - plot::text_width(label, 1), int(py(v)) - 3,
                                 label, text_grey);
             }
+            // The other order's samples (all of the ray, back to front), thin, under the first.
+            for (size_t n = 1; n < plot.second.size(); ++n) {
+                const RaySample& p = plot.second[n - 1];
+                const RaySample& s = plot.second[n];
+                plot::draw_line(picture, px(p.t), py(p.value), px(s.t), py(s.value),
+                                second_order_colour, 1);
+            }
             for (size_t n = 0; n < plot.samples.size(); ++n) {
                 const RaySample& s = plot.samples[n];
                 if (n > 0) {
@@ -429,21 +587,41 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
                                     transparency_colour, 1);
                 }
             }
-        } else if (panel.name == "C") {
-            // Each column shows C as the ray had it there: after the last coloured sample at
-            // or before it front to back, at or after it back to front (step 06 walks from
-            // the far end); black before the first.
-            const bool backwards =
-                plot.samples.size() > 1 && plot.samples.front().t > plot.samples.back().t;
+        } else if (is_strip) {
+            const auto& samples = panel.name == plot.second_name ? plot.second : plot.samples;
             for (int xx = plot_left; xx < plot_left + plot_width; ++xx) {
-                Rgb colour = black;
-                for (const RaySample& sample : plot.samples) {
-                    if (!sample.has_colour) continue;
-                    const double at = px(sample.t);
-                    if (backwards ? at >= xx - 0.5 : at <= xx + 0.5) colour = sample.colour;
-                }
-                plot::fill_rect(picture, xx, top, 1, panel.height, clamped(colour));
+                plot::fill_rect(picture, xx, top, 1, panel.height,
+                                clamped(colour_at(samples, xx)));
             }
+        } else if (panel.name.rfind("C.", 0) == 0) {
+            // Both orders' C (one channel) column by column, each meeting the pixel's value
+            // (dashed) where its walk ends: front to back at the stop, back to front at n = 0.
+            auto py = [&](double v) { return bottom - std::clamp(v, 0.0, 1.0) * (bottom - top); };
+            auto part = [&](Rgb c) { return channel == 0 ? c.r : channel == 1 ? c.g : c.b; };
+            plot::draw_text(picture, plot_left - 10, top, "1", text_grey);
+            plot::draw_text(picture, plot_left - 10, bottom - 6, "0", text_grey);
+            const double final_value = part(plot.pixel);
+            for (int xx = plot_left; xx < plot_left + plot_width; xx += 4) {
+                plot::draw_line(picture, xx, py(final_value), xx + 1, py(final_value),
+                                text_grey, 1);
+            }
+            const std::vector<RaySample>* orders[] = {&plot.samples, &plot.second};
+            const Rgb colours[] = {first_order_colour, second_order_colour};
+            for (int o = 0; o < 2; ++o) {
+                double previous = 0;
+                for (int xx = plot_left; xx < plot_left + plot_width; ++xx) {
+                    const double value = part(colour_at(*orders[o], xx));
+                    if (xx > plot_left) {
+                        plot::draw_line(picture, xx - 1, py(previous), xx, py(value), colours[o],
+                                        o == 0 ? 2 : 1);
+                    }
+                    previous = value;
+                }
+            }
+            plot::draw_text(picture, margin, top + 12, plot.first_name.substr(2),
+                            first_order_colour);
+            plot::draw_text(picture, margin, top + 22, plot.second_name.substr(2),
+                            second_order_colour);
         } else {
             auto py = [&](double v) { return bottom - std::clamp(v, 0.0, 1.0) * (bottom - top); };
             plot::draw_text(picture, plot_left - 10, top, "1", text_grey);
@@ -514,6 +692,21 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
     }
 
     // --- The views: the traced one with the pixel marked, the others with its ray ---
+    // Part 1 the ray runs from the first voxel (t = 0) to the last, part 2 from the box entry to
+    // its exit (a ray that missed: along its whole length, dotted). Thick from its start to
+    // where it was last sampled (the hit or the stop, a yellow square), thin beyond.
+    double ray_from = 0, ray_to = plot.t_end, walked_to = plot.t_end;
+    bool inside_box = !views.empty() && !views.front().view.camera;
+    for (const RayMark& m : plot.marks) {
+        if (m.kind == RayMark::box) ray_from = m.from, ray_to = m.to, inside_box = true;
+    }
+    walked_to = ray_to;
+    bool has_stop = false;
+    for (const RayMark& m : plot.marks) {
+        if ((m.kind == RayMark::hit || m.kind == RayMark::terminated) && !has_stop) {
+            walked_to = m.from, has_stop = true;
+        }
+    }
     const int images_left = plot_left + plot_width + column_gap;
     if (!views.empty()) {
         const RayPlotView& traced = views.front();
@@ -521,15 +714,60 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
                                         title_height + 8, main_image_box);
         draw_marker(picture, main.x(x), main.y(y));
         int left = images_left;
-        for (size_t n = 1; n < views.size(); ++n) {
-            const RayPlotView& other = views[n];
-            double x0, y0, x1, y1;
-            if (!ray_across(traced.view, x, y, other.view, &x0, &y0, &x1, &y1)) continue;
-            const Placed small = place_image(picture, other.image, other.view, left,
-                                             main.top + main.height + 8, small_image_box);
-            plot::draw_line(picture, small.x(x0), small.y(y0), small.x(x1), small.y(y1), hit_colour,
-                            1);
-            left += small.width + 8;
+        const int small_top = main.top + main.height + 8;
+        for (const RayPlotView* other : others) {
+            const Placed small = place_image(picture, other->image, other->view, left,
+                                             small_top, small_image_box);
+            const int w = other->image.width, h = other->image.height;
+            // A piece of the ray from t = a to t = b, clipped to the view.
+            auto piece = [&](double a, double b, Rgb colour, int thickness, bool dotted) {
+                double x0, y0, x1, y1;
+                project(plot, traced.view, x, y, other->view, a, &x0, &y0);
+                project(plot, traced.view, x, y, other->view, b, &x1, &y1);
+                if (!clip(&x0, &y0, &x1, &y1, w, h)) return;
+                if (!dotted) {
+                    plot::draw_line(picture, small.x(x0), small.y(y0), small.x(x1), small.y(y1),
+                                    colour, thickness);
+                    return;
+                }
+                const double length = std::hypot(small.x(x1) - small.x(x0),
+                                                 small.y(y1) - small.y(y0));
+                for (double d = 0; d < length; d += 4) {
+                    const double f = d / std::max(length, 1e-9);
+                    plot::put(picture, int(std::lround(small.x(x0) + f * (small.x(x1) - small.x(x0)))),
+                              int(std::lround(small.y(y0) + f * (small.y(y1) - small.y(y0)))),
+                              colour);
+                }
+            };
+            if (traced.view.camera && !inside_box) {
+                constexpr double far = 1e5;  // physical units: beyond any volume
+                piece(-far, far, hit_colour, 1, true);
+            } else {
+                if (traced.view.camera) {  // from the camera to the box, dotted
+                    piece(std::min(0.0, ray_from), ray_from, hit_colour, 1, true);
+                }
+                piece(ray_from, ray_to, hit_colour, 1, false);
+                piece(ray_from, walked_to, hit_colour, 2, false);
+                double sx, sy;
+                if (traced.view.camera) {
+                    project(plot, traced.view, x, y, other->view, ray_from, &sx, &sy);
+                    if (sx > -0.5 && sy > -0.5 && sx < w - 0.5 && sy < h - 0.5) {
+                        plot::fill_rect(picture, int(small.x(sx)) - 1, int(small.y(sy)) - 1, 3,
+                                        3, entry_colour);
+                    }
+                }
+                project(plot, traced.view, x, y, other->view, walked_to, &sx, &sy);
+                if (has_stop && sx > -0.5 && sy > -0.5 && sx < w - 0.5 && sy < h - 0.5) {
+                    const int cx = int(small.x(sx)), cy = int(small.y(sy));
+                    plot::draw_line(picture, cx - 2, cy - 2, cx + 2, cy - 2, stop_colour, 1);
+                    plot::draw_line(picture, cx - 2, cy + 2, cx + 2, cy + 2, stop_colour, 1);
+                    plot::draw_line(picture, cx - 2, cy - 2, cx - 2, cy + 2, stop_colour, 1);
+                    plot::draw_line(picture, cx + 2, cy - 2, cx + 2, cy + 2, stop_colour, 1);
+                }
+            }
+            plot::draw_text(picture, left, small.top + small.height + 3, other->view.name,
+                            text_grey);
+            left += small.width + small_gap;
         }
     }
     return picture;

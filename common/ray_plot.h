@@ -14,12 +14,18 @@
 //   terminated a line saying "termination" at its "t" or "n"
 //   leapt      a line saying "leapt": from "t" to "t_end"
 //   the box    part 2: a line with "entry t=... exit t=..." marks where the ray is in the box
+//   the ray    part 2: "origin=(...) direction=(...)" (physical units): the camera ray, drawn
+//              through the box in the axis views beside the plot (views of the volume: mip_views)
+//   2nd order  a line saying "the same ray": the samples after it are the same ray composited
+//              the other way (step 07's --order both: back to front), drawn beside the first
+//              (C of both orders, meeting at the pixel)
 #pragma once
 #include <string>
 #include <vector>
 #include "image.h"
 #include "render.h"
 #include "transfer_function.h"
+#include "vec3.h"
 #include "view.h"
 
 namespace ctlab {
@@ -62,6 +68,10 @@ struct RayPlot {
     double spacing = 0;             // physical units per voxel along the ray (0: camera)
     Rgb pixel;                      // the pixel's value
     bool missed = false;            // part 2: the ray missed the box
+    bool has_ray = false;           // part 2: the trace gave the camera ray
+    Vec3d origin, direction;        // ... p = origin + t * direction, physical units
+    std::vector<RaySample> second;  // the same ray in the other order ("the same ray")
+    std::string first_name = "C", second_name;  // "C F2B", "C B2F" when there are two
     std::vector<TraceRecord> records;  // the whole trace, every line with its fields
 };
 
@@ -76,14 +86,23 @@ struct RayPlotView {
 };
 
 // The picture: the plot, and beside it the traced view with the pixel marked and the other
-// axis views with the ray drawn across them (no views: the plot alone, as the window's panel).
+// axis views with the ray drawn across them: thin where it runs, thick where it was sampled
+// (up to the hit or the stop, marked with a cross); part 2: the camera ray from where it
+// enters the box to where it leaves it, in each axis view (no views: the plot alone, as the
+// window's panel).
 Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, int x, int y);
+
+// The axis views of the volume itself, for a camera ray's picture (part 2 renders no axis
+// views): each the maximum value along its rays, grey from the volume's minimum to maximum.
+std::vector<RayPlotView> mip_views(const Volume& volume);
 
 // The numbers the picture was drawn from, one line per sample (the ray picture's sidecar):
 //   # sample t n value alpha T L C.r C.g C.b max     ("-" where the trace has none)
 //   sample 43 43 10 0.12 0.7744 - 0.2256 0.178224 0.13536 -
 //   mark hit 48 48
 //   pixel 0.995778 0.896602 0.806871
+// (a second order's samples as "second ..." lines, like the sample lines; part 2's ray as
+// "ray origin.i origin.j origin.k direction.i direction.j direction.k")
 // then every trace line, its text and its fields (make check compares these with the
 // reference's, data/reference/traces/):
 //   record<TAB>n= 43 voxel (128, 43, 30) value=   10 ...<TAB>n=43 voxel.i=128 ... value=10 ...

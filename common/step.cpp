@@ -90,7 +90,7 @@ Image ray_picture(const Options&, const Renderer&, const RayPlot& plot, const Vi
     std::vector<RayPlotView> shown;
     for (const RayPlotView& image : images) {
         if (image.view.name == view.name) shown.insert(shown.begin(), image);
-        else if (!view.camera && !image.view.camera) shown.push_back(image);
+        else if (!image.view.camera) shown.push_back(image);  // part 2: the volume's views
     }
     return draw_ray_plot(plot, shown, x, y);
 }
@@ -221,7 +221,11 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
             }
         }
     }
-    // The ray pictures, with the other axis views rendered when --view left them out.
+    // The ray pictures, with the other axis views rendered when --view left them out; a
+    // camera ray (part 2) is drawn through the volume's own axis views (mip_views).
+    if (!plots.empty() && !renderer.views.empty()) {
+        for (RayPlotView& axis_view : mip_views(volume)) rendered.push_back(std::move(axis_view));
+    }
     if (!plots.empty() && renderer.views.empty()) {
         for (const View& other : views_named(volume, "all")) {
             bool have = false;

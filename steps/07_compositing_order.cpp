@@ -185,6 +185,22 @@ static Image compare_orders(const Options& options, const Volume& volume, const 
     return f2b;
 }
 
+// --order both, the pixel being debugged: after its front-to-back trace, the same ray back to
+// front, and how far apart the two pixels are (the ray picture draws both orders' C meeting
+// at the pixel). Its samples are not counted in the summary's work.
+static void trace_both_orders(const Volume& volume, const View& view, int x, int y,
+                              const Lut& lut, const Rgb& f2b, Trace* trace) {
+    trace->add("the same ray back to front (--order both), from the background at n=%d to the "
+               "viewer:", view.ray_length - 1);
+    Work b2f_work;
+    const Rgb b2f = composite_back_to_front(volume, view, x, y, lut, b2f_work, trace);
+    const double difference = std::max({std::abs(double(f2b.r) - b2f.r),
+                                        std::abs(double(f2b.g) - b2f.g),
+                                        std::abs(double(f2b.b) - b2f.b)});
+    trace->add("both orders: f2b rgb=(%.6f, %.6f, %.6f) b2f rgb=(%.6f, %.6f, %.6f), apart by %.3g",
+               f2b.r, f2b.g, f2b.b, b2f.r, b2f.g, b2f.b, difference);
+}
+
 // A number as the summary line shows it: "0.12", "1e-05".
 static std::string number(double value) {
     char text[32];
@@ -225,8 +241,12 @@ int main(int argc, char** argv) {
             if (params.order == "b2f") {
                 return composite_back_to_front(volume, view, x, y, lut, work, trace);
             }
-            return over_background(composite_front_to_back(volume, view, x, y, lut, params, work,
-                                                           trace));
+            const Rgb pixel = over_background(composite_front_to_back(volume, view, x, y, lut,
+                                                                      params, work, trace));
+            if (trace && params.order == "both") {
+                trace_both_orders(volume, view, x, y, lut, pixel, trace);
+            }
+            return pixel;
         };
         OrderComparison comparison;  // filled by each --order both render
         if (params.order == "both") {
