@@ -198,7 +198,8 @@ struct ScriptEvent {
     SDL_Scancode scancode = SDL_SCANCODE_UNKNOWN;
     int x = 0, y = 0;     // click: image column and row
     // The orbit's mouse (part 2): "press", "move", "release" at image pixel x, y; "wheel"
-    // by amount notches (up: closer); "wait" amount ms before the next event. "": none.
+    // by amount notches (up: closer); "wait" amount ms before the next event; "shot": the
+    // window's pixels to a PNG (tests). "": none.
     std::string mouse;
     int amount = 0;
 };
@@ -224,7 +225,7 @@ std::vector<ScriptEvent> parse_script(const std::string& script) {
     if (script.empty()) return events;
     const std::string expected =
         "--window-script: expected comma-separated key:1|2|3|Up|Down|plus|minus|s|q|Escape|p, "
-        "click:X:Y, press:X:Y, move:X:Y, release:X:Y, wheel:N, wait:MS, save or quit, got '";
+        "click:X:Y, press:X:Y, move:X:Y, release:X:Y, wheel:N, wait:MS, save, shot or quit, got '";
     size_t start = 0;
     while (start <= script.size()) {
         size_t comma = script.find(',', start);
@@ -234,6 +235,11 @@ std::vector<ScriptEvent> parse_script(const std::string& script) {
         start = comma + 1;
 
         std::string key_name;
+        if (event.text == "shot") {
+            event.mouse = "shot";  // handled by the loop, like wait: no SDL event
+            events.push_back(event);
+            continue;
+        }
         if (event.text == "save") key_name = "s";
         else if (event.text == "quit") key_name = "q";
         else if (event.text.rfind("key:", 0) == 0) key_name = event.text.substr(4);
@@ -578,6 +584,57 @@ public:
 
     // Repaints the last image, centred in the window as it is now (after a resize, too).
     void draw() {
+        paint();
+        SDL_RenderPresent(session_.renderer);
+    }
+
+    // --window-script's shot (tests): the window's pixels as drawn, to the view's PNG path
+    // with _window_N before .png (N = 1, 2, ...), and one line saying where the ray panel
+    // sits in it: "window: shot PATH WxH panel=X,Y,W,H" (panel=none when closed).
+    void shot() {
+        paint();  // read before presenting: the frame just drawn, whatever the driver keeps
+        int width = 0, height = 0;
+        SDL_GetRendererOutputSize(session_.renderer, &width, &height);
+        std::vector<unsigned char> bytes(size_t(width) * height * 3);
+        const bool read = SDL_RenderReadPixels(session_.renderer, nullptr, SDL_PIXELFORMAT_RGB24,
+                                               bytes.data(), width * 3) == 0;
+        SDL_RenderPresent(session_.renderer);
+        if (!read) {
+            std::fprintf(stderr, "note: no shot: %s\n", printable(SDL_GetError()).c_str());
+            return;
+        }
+        Image picture(width, height);
+        for (size_t n = 0; n < picture.pixels.size(); ++n) {
+            picture.pixels[n] = {bytes[3 * n] / 255.0f, bytes[3 * n + 1] / 255.0f,
+                                 bytes[3 * n + 2] / 255.0f};
+        }
+        std::string path = preview_.save_path(view());
+        const std::string png = ".png";
+        if (path.size() > png.size() && path.compare(path.size() - png.size(), png.size(), png) == 0) {
+            path.erase(path.size() - png.size());
+        }
+        path += "_window_" + std::to_string(++shots_) + png;
+        try {
+            write_png(picture, path);
+        } catch (const std::exception& error) {
+            std::fprintf(stderr, "note: no shot: %s\n", error.what());
+            return;
+        }
+        std::printf("window: shot %s %dx%d panel=", path.c_str(), width, height);
+        if (has_ray_) {
+            std::printf("%d,%d,%d,%d\n", panel_left(width), panel_top(height), ray_.width,
+                        ray_.height);
+        } else {
+            std::printf("none\n");
+        }
+        std::fflush(stdout);
+    }
+
+    int panel_left(int window_width) const { return window_width - ray_.width; }
+    int panel_top(int window_height) const { return std::max(0, (window_height - ray_.height) / 2); }
+
+    // draw() without presenting the frame.
+    void paint() {
         int window_width = 0, window_height = 0;
         SDL_GetWindowSize(session_.window, &window_width, &window_height);
         const int panel_width = has_ray_ ? ray_.width : 0;  // the ray panel, right
@@ -591,9 +648,8 @@ public:
                                  layout_.drawn_height(shown_)};
         SDL_RenderCopy(session_.renderer, session_.texture, nullptr, &target);
         if (has_ray_ && session_.ray_texture) {
-            const SDL_Rect panel = {window_width - ray_.width,
-                                    std::max(0, (window_height - ray_.height) / 2), ray_.width,
-                                    ray_.height};
+            const SDL_Rect panel = {panel_left(window_width), panel_top(window_height),
+                                    ray_.width, ray_.height};
             SDL_RenderCopy(session_.renderer, session_.ray_texture, nullptr, &panel);
             int wx = 0, wy = 0;  // the traced pixel, marked on the image
             window_position(ray_x_, ray_y_, &wx, &wy);
@@ -604,7 +660,6 @@ public:
             SDL_RenderDrawLine(session_.renderer, wx, wy - arm, wx, wy - 2);
             SDL_RenderDrawLine(session_.renderer, wx, wy + 2, wx, wy + arm);
         }
-        SDL_RenderPresent(session_.renderer);
     }
 
 private:
@@ -693,6 +748,7 @@ private:
     bool refine_due_ = false;             // a preview is showing: render at full size soon
     Uint32 refine_at_ = 0;                // SDL ticks when (unless the button is held)
     int previews_ = 0, preview_width_ = 0, preview_height_ = 0;  // since the last full render
+    int shots_ = 0;                       // --window-script shots written
 };
 
 // Pushes script event `event` as the SDL event a user would cause, followed by `next_marker`:
@@ -849,7 +905,11 @@ bool show_preview(const Options& options, Preview& preview) {
         }
         if (event.type == SDL_QUIT) break;
         if (event.type == next_marker) {
-            if (next_script < script.size() && script[next_script].mouse == "wait") {
+            if (next_script < script.size() && script[next_script].mouse == "shot") {
+                ++next_script;
+                window.shot();
+                push_marker();
+            } else if (next_script < script.size() && script[next_script].mouse == "wait") {
                 script_waits = true;
                 script_resumes = SDL_GetTicks() + Uint32(script[next_script++].amount);
             } else if (next_script < script.size()) {

@@ -48,7 +48,8 @@ bool window_wanted(const Options& options);
 // larger than the window (or the GPU's texture limit) is shown shrunk by whole factors.
 // options.window_script (tests): comma-separated events injected after the first frame,
 // e.g. "key:2,key:Up,click:40:30,save,quit"; the orbit's mouse: "press:X:Y", "move:X:Y",
-// "release:X:Y" (image pixels), "wheel:N" (notches, up: closer) and "wait:MS".
+// "release:X:Y" (image pixels), "wheel:N" (notches, up: closer) and "wait:MS"; "shot" writes
+// the window's pixels to OUT/STEP_VIEW_window_N.png and prints where the ray panel is in it.
 bool show_preview(const Options& options, Preview& preview);
 
 }  // namespace ctlab

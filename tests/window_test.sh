@@ -170,7 +170,7 @@ fi
 panel_step=$build/05_interpolated_hits
 if [ -x "$panel_step" ]; then
     xvfb "$panel_step" --volume phantom --view front --out "$work/panel" \
-        --window-script "click:128:30,key:Up,key:Up,quit" > "$work/panel.log" 2>&1
+        --window-script "click:128:30,shot,key:Up,key:Up,shot,quit" > "$work/panel.log" 2>&1
     status=$?
     check "the ray panel run exits with status 0 (got $status)" [ "$status" -eq 0 ]
     # "window: ray panel x=128 y=30 view=front WxH hit t=T": once for the click, once per Up.
@@ -190,6 +190,36 @@ if [ -x "$panel_step" ]; then
         check "the panel's hit after two Ups ($3) is --threshold 500's ray's ($expected)" \
             awk -v a="$3" -v b="$expected" \
                 'BEGIN { d = a - b; exit !(b != "" && d < 1e-3 && d > -1e-3) }'
+    fi
+    # The panel's pixels on screen (shots before and after the Ups: "window: shot PATH WxH
+    # panel=X,Y,W,H") are the ray pictures' plots at the same threshold, and those two differ
+    # (the band's edge and label, the hit): the window draws what --debug-pixel draws, and
+    # follows the knob.
+    if command -v python3 > /dev/null 2>&1; then
+        shots=$(sed -n 's/^window: shot \([^ ]*\) [0-9]*x[0-9]* panel=\([0-9,]*\)$/\1 \2/p' \
+                "$work/panel.log")
+        set -- $shots
+        check "two shots of the window with the panel open (got '$shots')" [ $# -eq 4 ]
+        if [ $# -eq 4 ]; then
+            for threshold in 400 500; do
+                "$panel_step" --volume phantom --view front --no-window \
+                    --out "$work/panel_$threshold" --threshold "$threshold" \
+                    --debug-pixel 128,30 > /dev/null 2>&1
+            done
+            picture=05_interpolated_hits_front_ray_128_30.png
+            compare="python3 $(dirname "$0")/panel_pixels.py"
+            before=$($compare "$1" "$2" "$work/panel_400/$picture" 2>&1)
+            check "the panel on screen before Up is the threshold 400 ray picture's plot: $before" \
+                [ "$before" = same ]
+            after_ups=$($compare "$3" "$4" "$work/panel_500/$picture" 2>&1)
+            check "the panel on screen after two Ups is the threshold 500 picture's plot: \
+$after_ups" [ "$after_ups" = same ]
+            moved=$($compare "$3" "$4" "$work/panel_400/$picture" 2>&1)
+            check "the panel after two Ups differs from the threshold 400 picture's ($moved)" \
+                sh -c "echo '$moved' | grep -q '^[1-9][0-9]* of [0-9]* pixels differ'"
+        fi
+    else
+        echo "window test: the panel's pixels SKIPPED (python3 not installed)"
     fi
 fi
 
