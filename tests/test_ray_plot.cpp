@@ -236,6 +236,155 @@ TEST_CASE("step 05 marks the interpolated crossing, step 09 its leaps, step 10 t
               .size() == 1);
 }
 
+TEST_CASE("step 07 --order both: the same ray back to front, plotted beside front to back") {
+    ctlab::TempFolder out("ray_plot_orders");
+    const std::string stem = "07_compositing_order_front_ray_128_30";
+    const RunResult both =
+        run_step("07_compositing_order", {"--volume", "phantom", "--out", out.path(), "--view",
+                                          "front", "--order", "both", "--debug-pixel", "128,30"});
+    REQUIRE(both.status == 0);
+    REQUIRE(both.traces.size() == 1);
+    const std::vector<std::string>& lines = both.traces[0].lines;
+    const auto second_start =
+        std::find_if(lines.begin(), lines.end(),
+                     [](const std::string& l) { return l.find("the same ray") == 0; });
+    REQUIRE(second_start != lines.end());
+    const std::string sidecar = read_text(out.path(stem + ".txt"));
+    const Image both_picture = read_image(out.path(stem + ".png"));
+
+    // The first order's samples are the lines before, the second's those after, in order, with
+    // the text's numbers; back to front walks the whole ray (256 voxels) from n = 255 down.
+    std::vector<std::string> first_lines, second_lines;
+    for (auto line = lines.begin(); line != lines.end(); ++line) {
+        if (line->find("value=") == std::string::npos) continue;
+        (line < second_start ? first_lines : second_lines).push_back(*line);
+    }
+    const auto samples = lines_starting(sidecar, "sample ");
+    const auto second = lines_starting(sidecar, "second ");
+    REQUIRE(samples.size() == first_lines.size());
+    REQUIRE(second.size() == second_lines.size());
+    REQUIRE(second.size() == 256);
+    for (size_t n = 0; n < second.size(); ++n) {
+        std::istringstream row(second[n].substr(7));
+        std::string t, index, value, alpha, transparency, light, r, g, b;
+        row >> t >> index >> value >> alpha >> transparency >> light >> r >> g >> b;
+        CHECK(std::stod(index) == 255 - double(n));
+        check_equal_to_text(std::stod(value), second_lines[n], "value", 0);
+        check_equal_to_text(std::stod(index), second_lines[n], "n", 0);
+        if (r != "-") check_equal_to_text(std::stod(r), second_lines[n], "C", 0);
+        CHECK(transparency == "-");  // back to front keeps no T
+    }
+    // Both orders end at the pixel: front to back at its stop, back to front at its last
+    // coloured sample (n = 42, the skin in front), within the early termination's 0.01.
+    auto last_colour = [](const std::vector<std::string>& rows) {
+        std::vector<std::string> words(10);
+        for (auto row = rows.rbegin(); row != rows.rend(); ++row) {
+            std::istringstream in(row->substr(row->find(' ') + 1));
+            for (auto& word : words) in >> word;
+            if (words[6] != "-") break;
+        }
+        return Rgb{float(std::stod(words[6])), float(std::stod(words[7])),
+                   float(std::stod(words[8]))};
+    };
+    const Rgb pixel = both.traces[0].rgb;
+    const Rgb front_to_back = last_colour(samples), back_to_front = last_colour(second);
+    CHECK(front_to_back.r == doctest::Approx(pixel.r).epsilon(1e-5));
+    CHECK(front_to_back.b == doctest::Approx(pixel.b).epsilon(1e-5));
+    CHECK(std::fabs(back_to_front.r - pixel.r) <= 0.01);
+    CHECK(std::fabs(back_to_front.b - pixel.b) <= 0.01);
+    CHECK(back_to_front.b != pixel.b);  // 0.0042 apart: what early termination left out
+
+    // The second order's colour (teal) in the plot: with --order both only.
+    auto second_order_pixels = [](const Image& picture) {
+        int count = 0;
+        constexpr int plot_right = 76 + 400;
+        for (int y = 0; y < picture.height; ++y) {
+            for (int x = 0; x < std::min(plot_right, picture.width); ++x) {
+                const Rgb c = picture.at(x, y);
+                count += to_byte(c.r) == 0 && to_byte(c.g) == 128 && to_byte(c.b) == 140;
+            }
+        }
+        return count;
+    };
+    CHECK(second_order_pixels(both_picture) > 400);  // two curves across the plot
+    const RunResult one = run_step("07_compositing_order",
+                                   {"--volume", "phantom", "--out", out.path(), "--view", "front",
+                                    "--debug-pixel", "128,30"});
+    REQUIRE(one.status == 0);
+    CHECK(lines_starting(read_text(out.path(stem + ".txt")), "second ").empty());
+    CHECK(second_order_pixels(read_image(out.path(stem + ".png"))) == 0);
+}
+
+TEST_CASE("a camera ray is drawn through the box in the volume's axis views") {
+    // A 64 x 48 x 32 volume, spacing 1, 1, 2 (physical box 63 x 47 x 62). Rays parallel to an
+    // axis, from outside the box: along i at j = 20, k = 30 (voxel 15); along k at i = 10,
+    // j = 40. Each is a straight line across two of the three views and a point in the third:
+    // the line is found as a run of the ray's red pixels in one row or one column.
+    Volume volume;
+    volume.nx = 64, volume.ny = 48, volume.nz = 32;
+    volume.sx = 1, volume.sy = 1, volume.sz = 2;
+    std::vector<RayPlotView> views = {{make_camera_view(64, 64), Image(64, 64)}};
+    for (const View& view : views_named(volume, "all")) {
+        views.push_back({view, Image(view.width, view.height)});
+    }
+    const Rgb red = {0.9f, 0.0f, 0.0f};  // the ray's colour (ray_plot.cpp's hit_colour)
+    // How many rows, and how many columns, right of the plot hold a run of at least 60 red
+    // pixels (a line across a 96-pixel view: two each, the sampled part is 2 pixels thick).
+    auto long_runs = [&](const Image& picture, int* rows, int* columns) {
+        constexpr int right_of_plot = 76 + 400, long_run = 60;
+        *rows = *columns = 0;
+        auto is_red = [&](int x, int y) {
+            const Rgb c = picture.at(x, y);
+            return c.r == red.r && c.g == red.g && c.b == red.b;
+        };
+        for (int y = 0; y < picture.height; ++y) {
+            int run = 0, longest = 0;
+            for (int x = right_of_plot; x < picture.width; ++x) {
+                run = is_red(x, y) ? run + 1 : 0;
+                longest = std::max(longest, run);
+            }
+            *rows += longest >= long_run;
+        }
+        for (int x = right_of_plot; x < picture.width; ++x) {
+            int run = 0, longest = 0;
+            for (int y = 0; y < picture.height; ++y) {
+                run = is_red(x, y) ? run + 1 : 0;
+                longest = std::max(longest, run);
+            }
+            *columns += longest >= long_run;
+        }
+    };
+    auto field = [](const char* name, double number) {
+        TraceField f;
+        f.name = name, f.number = number;
+        return f;
+    };
+    auto picture_of = [&](Vec3d origin, Vec3d direction, double entry, double exit) {
+        TraceRecord ray, box;
+        ray.text = "ray origin=(...) direction=(...)";
+        ray.fields = {field("origin.i", origin.i),       field("origin.j", origin.j),
+                      field("origin.k", origin.k),       field("direction.i", direction.i),
+                      field("direction.j", direction.j), field("direction.k", direction.k)};
+        box.text = "box (0, 0, 0)..(63, 47, 62): entry t=... exit t=...";
+        box.fields = {field("t", entry), field("t#2", exit)};
+        const RayPlot plot =
+            ray_plot_from_trace({ray, box}, views[0].view, {}, Rgb{}, "camera ray");
+        REQUIRE(plot.has_ray);
+        CHECK(plot.origin.i == origin.i);
+        CHECK(plot.direction.k == direction.k);
+        return draw_ray_plot(plot, views, 32, 32);
+    };
+    int rows = 0, columns = 0;
+    // Along i: a row across top (i, j) and one across front (i, k); a point in side.
+    long_runs(picture_of({-10, 20, 30}, {1, 0, 0}, 10, 73), &rows, &columns);
+    CHECK(rows >= 3);
+    CHECK(columns == 0);
+    // Along k: a column down front (i, k) and one down side (j, k); a point in top.
+    long_runs(picture_of({10, 40, -5}, {0, 0, 1}, 5, 67), &rows, &columns);
+    CHECK(columns >= 3);
+    CHECK(rows == 0);
+}
+
 TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn again") {
     const std::string probes = read_text("data/reference/probes.txt");
     REQUIRE(!probes.empty());
@@ -254,10 +403,32 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
         ctlab::TempFolder out("ray_golden");
         std::vector<std::string> flags = {"--volume", "phantom",       "--out",
                                           out.path(), "--debug-pixel", pixel};
+        // A default run's step is the run's name; a variant's (NN_name_VARIANT) is the step
+        // whose name starts it, with the manifest line's arguments.
+        std::string step = name, drawn_stem = stem;
+        if (!fs::exists("steps/" + name + ".cpp")) {
+            for (const auto& entry : fs::directory_iterator("steps")) {
+                const std::string file = entry.path().stem().string();
+                if (name.rfind(file + "_", 0) == 0) step = file;
+            }
+            REQUIRE(step != name);
+            drawn_stem = step + stem.substr(name.size());
+            std::istringstream manifest(read_text("data/reference/manifest.txt"));
+            bool listed = false;
+            for (std::string entry; std::getline(manifest, entry);) {
+                if (entry.rfind(name + ":", 0) != 0) continue;
+                listed = true;
+                std::istringstream words_of(entry.substr(name.size() + 1));
+                for (std::string word; words_of >> word;) {
+                    if (word.rfind("tol=", 0) == 0 || word.rfind("counters=", 0) == 0) continue;
+                    flags.push_back(word);
+                }
+            }
+            REQUIRE_MESSAGE(listed, name, " is not a run of data/reference/manifest.txt");
+        }
         if (view != "camera") flags.insert(flags.end(), {"--view", view});
-        // The pictures with a probe are default runs: the step is the run's name.
-        REQUIRE(run_step(name, flags).status == 0);
-        const Image drawn = read_image(out.path(stem + ".png"));
+        REQUIRE(run_step(step, flags).status == 0);
+        const Image drawn = read_image(out.path(drawn_stem + ".png"));
         const Image reference = read_image(golden);
         REQUIRE(drawn.width == reference.width);
         REQUIRE(drawn.height == reference.height);
