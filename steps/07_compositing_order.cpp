@@ -2,7 +2,8 @@
 //
 // New here:   front-to-back compositing with the accumulated transparency T; early ray
 //             termination once T is below a threshold; the background blended in at the end;
-//             --order both renders the two orders and measures how far apart they are.
+//             --order both renders the two orders and measures how far apart they are (and
+//             traces the debugged ray both ways: its ray picture draws both).
 // Builds on:  06_transfer_function.
 // Handout:    handouts/07_compositing_order.md
 // Run:        make run STEP=07 ARGS="--order both --ert 0.01 --view top"
