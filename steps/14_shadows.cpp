@@ -737,18 +737,18 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             continue;
         }
         double light = 1.0;  // unlit
-        double light_reaching = 1, occlusion = 1;  // nothing blocks the light, nothing around
+        double light_t = 1, occlusion = 1;  // nothing blocks the light, nothing around
         const uint64_t samples_before = work.samples, leapt_before = work.leapt;
         if (!params.unlit) {
             if (shadow_rays) {
-                light_reaching = light_transmittance(volume, lut, space, point(), towards,
+                light_t = light_transmittance(volume, lut, space, point(), towards,
                                                      params.step, work);
             } else if (light_volume) {
-                light_reaching = light_from_volume(blocking.light, cell);
+                light_t = light_from_volume(blocking.light, cell);
             }
             if (occlusion_on) occlusion = ambient_occlusion(volume, blocking.occlusion_lut, q, work);
             light = shade_blocked(gradient_trilinear(volume, cell, work), to_light,
-                                  light_reaching, occlusion);
+                                  light_t, occlusion);
         }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
@@ -760,7 +760,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
                               "%.3f, %.4f) light_T=%.6f ao=%.6f (%llu shadow samples, %llu "
                               "leapt) L=%.4f C=(%.6f, %.6f, %.6f) T=%.6g", t(), point().i,
                               point().j, point().k, value, sample.r, sample.g, sample.b,
-                              sample.a, light_reaching, occlusion,
+                              sample.a, light_t, occlusion,
                               (unsigned long long)(work.samples - samples_before),
                               (unsigned long long)(work.leapt - leapt_before), light, pixel.r,
                               pixel.g, pixel.b, pixel.transparency);
