@@ -692,7 +692,8 @@ static double bisect(const Volume& volume, const Walk& walk, double below, doubl
                      double iso, double tolerance, double t_entry, double step, Trace* trace) {
     for (int iteration = 1; above - below > tolerance; ++iteration) {
         const double middle = 0.5 * (below + above);
-        const float value = trilinear(volume, cell_at(volume, walk.first + middle * walk.per_step));
+        const Vec3d point = walk.first + middle * walk.per_step;  // voxel units
+        const float value = trilinear(volume, cell_at(volume, point));
         const bool is_above = value > iso;
         if (is_above) {
             above = middle;
