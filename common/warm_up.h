@@ -1,5 +1,5 @@
 // warm_up.h: what a process does once, before its first timed render, so that render costs
-// what every later one costs (issue #13).
+// what every later one costs.
 //
 // Why the first render in a fresh process was slow (measured on the lab's 2-core VM, step 07
 // top view, with per-render fault counts and times from --repeat):

@@ -272,8 +272,7 @@ static float trilinear(const Volume& volume, const Cell& c) {
 
 // CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in part 1 (step
 // 00); trilinear values lie between voxel values, so within 0..1 too.
-// [[maybe_unused]]: in the student kit its only caller is a stub until the student writes it.
-[[maybe_unused]] static float display_grey(const Volume& volume, double value) {
+static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
 }

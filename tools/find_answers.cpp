@@ -1,5 +1,5 @@
 // find_answers.cpp: looks for the solution's lesson bodies in a folder, e.g. a generated
-// student tree, which must hold none (issue #10; tests/student_test.sh runs it).
+// student tree, which must hold none (tests/student_test.sh runs it).
 //
 //   build/find_answers --solution DIR --in DIR [--list]
 //

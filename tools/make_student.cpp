@@ -118,7 +118,8 @@ std::string stub_body(const std::string& step, const lesson::Function& function,
 }
 
 // A step with every lesson function stubbed. Static functions that nothing calls any more
-// (their callers are stubs too) get [[maybe_unused]], so that the build stays quiet.
+// (lesson functions or helpers whose callers are stubs now) get [[maybe_unused]], so that the
+// kit's build stays quiet under -Werror.
 std::string stub_step(const std::string& source, const std::string& path,
                       const std::string& step, int& stubbed) {
     std::string result = source;
@@ -145,16 +146,26 @@ std::string stub_step(const std::string& source, const std::string& path,
             ++stubbed;
         }
     }
-    // Which stubbed functions are now never named outside their own definition?
+    // Which static functions (lesson or not) does nothing call any more? A call is the name
+    // followed by "(" and not after "." or "->" (a member of that name is another function);
+    // a parameter or variable of the same name is no call. Marking a function that is still
+    // used through a pointer does no harm; missing one stops the kit's -Werror build.
     const std::string stubbed_masked = lesson::mask_code(result);
+    const std::vector<std::string> stubbed_words = lesson::tokens(stubbed_masked);
+    lesson::Region whole;
+    whole.name = "(the whole file)";
+    whole.end = result.size();
     std::vector<size_t> unused_at;
-    for (const auto& function : lesson::lesson_functions(result, stubbed_masked, path)) {
+    for (const auto& function : lesson::find_functions(result, stubbed_masked, whole, path)) {
         if (!function.is_static || function.is_template) continue;
-        int uses = 0;
-        for (const std::string& word : lesson::tokens(stubbed_masked)) {
-            uses += word == function.name;
+        int calls = 0;
+        for (size_t n = 0; n + 1 < stubbed_words.size(); ++n) {
+            const bool member = n > 0 && (stubbed_words[n - 1] == "." ||
+                                          stubbed_words[n - 1] == "->");
+            calls += stubbed_words[n] == function.name && stubbed_words[n + 1] == "(" && !member;
         }
-        if (uses == 1) unused_at.push_back(function.header);
+        const bool marked = result.compare(function.header, 17, "[[maybe_unused]] ") == 0;
+        if (calls <= 1 && !marked) unused_at.push_back(function.header);  // 1: its definition
     }
     std::sort(unused_at.rbegin(), unused_at.rend());
     for (size_t at : unused_at) result.insert(at, "[[maybe_unused]] ");
