@@ -63,7 +63,7 @@ constexpr double per_sample_growth_target = 1.5;  // large / 256^2: time per vis
 constexpr double memory_target = 1.2;             // peak memory / the volume's int16 bytes
 constexpr double parallel_target = 1.7;  // target: speed-up of the parallel loop, 2 threads
 constexpr int thread_counts[2] = {1, 2};
-// Part 2 (#15): each camera step's default run is the oblique view (azimuth 30, elevation 20,
+// Part 2: each camera step's default run is the oblique view (azimuth 30, elevation 20,
 // orthographic, 512x512, the classic table); VTK's CPU ray caster needs about 30 ms for it.
 constexpr double camera_budget_ms = 10;     // target: step 10 (composite), 2 threads
 constexpr double isosurface_budget_ms = 15;  // target: step 13 (the isosurface), 2 threads
