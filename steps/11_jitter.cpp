@@ -818,17 +818,19 @@ int main(int argc, char** argv) {
         int width = 0, height = 0;
         parse_size(params.size, &width, &height);
 
-        // --- Transfer function: the file, then its lookup table for this step size ---
-        TransferFunction tf = load_transfer_function(params.tf_path);
+        // --- Volume ---
+        const Volume volume = load_volume(options);
+        const std::string refused = too_many_samples(volume, params.step);
+        if (!refused.empty()) throw InputError(refused);
+
+        // --- Transfer function: the file (in the file's units), its table for this step size ---
+        TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
-        // --- Volume, and the bricks the table leaves empty ---
-        const Volume volume = load_volume(options);
-        const std::string refused = too_many_samples(volume, params.step);
-        if (!refused.empty()) throw InputError(refused);
+        // --- The bricks the table leaves empty ---
         EmptySpace space;
         if (!params.no_leaping) space.bricks = make_bricks(volume);
         auto update_empty_space = [&] {
@@ -841,6 +843,7 @@ int main(int argc, char** argv) {
         // it, and previews at coarser pixels while it does), and each pixel's jitter (the
         // blue-noise tile made once) ---
         Renderer renderer;
+        renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
         Jitter jitter;
         jitter.mode = params.jitter;
