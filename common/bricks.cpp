@@ -2,6 +2,7 @@
 #include "bricks.h"
 #include <algorithm>
 #include <limits>
+#include <stdexcept>
 
 namespace ctlab {
 
@@ -13,9 +14,9 @@ struct BrickSpan {
     int first, last;
 };
 
-BrickSpan bricks_of(int n) {
-    const int own = n / brick_size;
-    return {n % brick_size == 0 && own > 0 ? own - 1 : own, own};
+BrickSpan bricks_of(int n, int size) {
+    const int own = n / size;
+    return {n % size == 0 && own > 0 ? own - 1 : own, own};
 }
 
 void widen(ValueRange& range, ValueRange by) {
@@ -25,11 +26,17 @@ void widen(ValueRange& range, ValueRange by) {
 
 }  // namespace
 
-Bricks make_bricks(const Volume& volume) {
+Bricks make_bricks(const Volume& volume, int size) {
+    if (size < 1 || size > max_brick_size || (size & (size - 1)) != 0) {
+        throw std::invalid_argument("make_bricks: the brick size must be a power of two");
+    }
     Bricks bricks;
-    bricks.bx = (volume.nx + brick_size - 1) / brick_size;
-    bricks.by = (volume.ny + brick_size - 1) / brick_size;
-    bricks.bz = (volume.nz + brick_size - 1) / brick_size;
+    bricks.size = size;
+    bricks.shift = 0;
+    while ((1 << bricks.shift) < size) ++bricks.shift;
+    bricks.bx = (volume.nx + size - 1) / size;
+    bricks.by = (volume.ny + size - 1) / size;
+    bricks.bz = (volume.nz + size - 1) / size;
     const ValueRange nothing_yet = {std::numeric_limits<int16_t>::max(),
                                     std::numeric_limits<int16_t>::min()};
     bricks.ranges.assign(size_t(bricks.bx) * bricks.by * bricks.bz, nothing_yet);
@@ -40,13 +47,13 @@ Bricks make_bricks(const Volume& volume) {
         for (int j = 0; j < volume.ny; ++j) {
             const int16_t* row = &volume.data[(size_t(k) * volume.ny + j) * volume.nx];
             for (int a = 0; a < bricks.bx; ++a) {
-                const int from = a * brick_size;
-                const int to = std::min(from + brick_size, volume.nx - 1);  // included
+                const int from = a * size;
+                const int to = std::min(from + size, volume.nx - 1);  // included
                 ValueRange piece = {row[from], row[from]};
                 for (int i = from + 1; i <= to; ++i) widen(piece, {row[i], row[i]});
                 pieces[a] = piece;
             }
-            const BrickSpan along_j = bricks_of(j), along_k = bricks_of(k);
+            const BrickSpan along_j = bricks_of(j, size), along_k = bricks_of(k, size);
             for (int c = along_k.first; c <= along_k.last; ++c) {
                 for (int b = along_j.first; b <= along_j.last; ++b) {
                     ValueRange* brick_row = &bricks.ranges[(size_t(c) * bricks.by + b) * bricks.bx];
@@ -56,6 +63,22 @@ Bricks make_bricks(const Volume& volume) {
         }
     }
     return bricks;
+}
+
+std::vector<uint8_t> empty_runs(const Bricks& bricks, const std::vector<uint8_t>& empty,
+                                int axis) {
+    const size_t strides[3] = {1, size_t(bricks.bx), size_t(bricks.bx) * size_t(bricks.by)};
+    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
+    const size_t stride = strides[axis];
+    std::vector<uint8_t> runs(empty.size(), 0);
+    // From the far end back: a brick's run is one more than the next brick's.
+    for (size_t b = empty.size(); b-- > 0;) {
+        if (!empty[b]) continue;
+        const bool last = int(b / stride % size_t(counts[axis])) + 1 == counts[axis];
+        const int after = last ? 0 : runs[b + stride];
+        runs[b] = uint8_t(std::min(255, after + 1));
+    }
+    return runs;
 }
 
 }  // namespace ctlab

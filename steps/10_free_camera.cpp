@@ -327,8 +327,9 @@ static float trilinear(const Volume& volume, const Cell& c) {
 }
 //< lesson: trilinear
 
-// Empty space: step 09's bricks (common/bricks.h) and, for the current table, how far the
-// empty space around each brick reaches (see empty_reach); no reach: leap over nothing.
+// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
+// the current table, how far the empty space around each brick reaches (see empty_reach); no
+// reach: leap over nothing.
 struct EmptySpace {
     Bricks bricks;
     std::vector<uint8_t> reach;  // per brick, 0: the table sees something in it
@@ -374,10 +375,11 @@ static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> em
     return empty;
 }
 
-// Along a free ray, step 09's leap over one brick (8 voxels) would take ~40 leaps to cross
-// the air around a head. So each brick gets its reach r: the cube of bricks r - 1 around it
-// is all empty (r = 0: the brick itself is not). A ray in that brick leaps to where it leaves
-// the cube. Reach r + 1 is reach r shrunk by a brick on every side.
+// Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
+// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
+// reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
+// A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
+// brick on every side.
 static std::vector<uint8_t> empty_reach(const Bricks& bricks, const std::vector<uint8_t>& empty) {
     std::vector<uint8_t> reach = empty, cube = empty;  // 1 for an empty brick, 0 else
     for (int r = 2; r <= max_reach; ++r) {

@@ -333,8 +333,9 @@ static float trilinear(const Volume& volume, const Cell& c) {
 }
 //< lesson: trilinear
 
-// Empty space: step 09's bricks (common/bricks.h) and, for the current table, how far the
-// empty space around each brick reaches (see empty_reach); no reach: leap over nothing.
+// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
+// the current table, how far the empty space around each brick reaches (see empty_reach); no
+// reach: leap over nothing.
 struct EmptySpace {
     Bricks bricks;
     std::vector<uint8_t> reach;  // per brick, 0: the table sees something in it
@@ -380,10 +381,11 @@ static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> em
     return empty;
 }
 
-// Along a free ray, step 09's leap over one brick (8 voxels) would take ~40 leaps to cross
-// the air around a head. So each brick gets its reach r: the cube of bricks r - 1 around it
-// is all empty (r = 0: the brick itself is not). A ray in that brick leaps to where it leaves
-// the cube. Reach r + 1 is reach r shrunk by a brick on every side.
+// Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
+// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
+// reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
+// A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
+// brick on every side.
 static std::vector<uint8_t> empty_reach(const Bricks& bricks, const std::vector<uint8_t>& empty) {
     std::vector<uint8_t> reach = empty, cube = empty;  // 1 for an empty brick, 0 else
     for (int r = 2; r <= max_reach; ++r) {
@@ -816,17 +818,19 @@ int main(int argc, char** argv) {
         int width = 0, height = 0;
         parse_size(params.size, &width, &height);
 
-        // --- Transfer function: the file, then its lookup table for this step size ---
-        TransferFunction tf = load_transfer_function(params.tf_path);
+        // --- Volume ---
+        const Volume volume = load_volume(options);
+        const std::string refused = too_many_samples(volume, params.step);
+        if (!refused.empty()) throw InputError(refused);
+
+        // --- Transfer function: the file (in the file's units), its table for this step size ---
+        TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
-        // --- Volume, and the bricks the table leaves empty ---
-        const Volume volume = load_volume(options);
-        const std::string refused = too_many_samples(volume, params.step);
-        if (!refused.empty()) throw InputError(refused);
+        // --- The bricks the table leaves empty ---
         EmptySpace space;
         if (!params.no_leaping) space.bricks = make_bricks(volume);
         auto update_empty_space = [&] {
@@ -839,6 +843,7 @@ int main(int argc, char** argv) {
         // it, and previews at coarser pixels while it does), and each pixel's jitter (the
         // blue-noise tile made once) ---
         Renderer renderer;
+        renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
         Jitter jitter;
         jitter.mode = params.jitter;

@@ -4,10 +4,11 @@
 // New here:   along the camera's ray, the first sample above --iso and the one before it
 //             bracket the crossing; bisection on the trilinear field narrows it to 1e-4 voxel;
 //             the surface there is lit with Phong (ambient, diffuse, specular, --shininess)
-//             from the trilinear central-difference gradient. Second, smaller idea: --clip
-//             nx,ny,nz,d keeps the half-space n.p <= d and cuts the rest away, in the iso
-//             render and in step 10's composite render (--mode composite) alike.
-// Builds on:  10_free_camera (the orbit camera, the slab method, trilinear samples).
+//             from the trilinear central-difference gradient. Step 10's leaping serves the
+//             iso test too: a brick wholly at or below iso cannot hold a crossing. Second,
+//             smaller idea: --clip nx,ny,nz,d keeps the half-space n.p <= d and cuts the rest
+//             away, in the iso render and in step 10's composite render (--mode composite).
+// Builds on:  10_free_camera (the orbit camera, the slab method, trilinear samples, leaping).
 // Handout:    handouts/13_isosurface.md
 // Run:        make run STEP=13 ARGS="--clip 0,-1,0,-100 --shininess 40"
 // Reference:  data/reference/13_isosurface_camera.png: the default run (iso 400, azimuth 30,
@@ -33,6 +34,7 @@ constexpr double degrees = 3.14159265358979323846 / 180;
 constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
 constexpr double default_elevation = 20;  // degrees above the i-j plane
 constexpr double default_fov = 30;        // degrees, the perspective image's height
+constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
 constexpr const char* default_size = "512x512";  // pixels, columns x rows
 constexpr int max_image_side = 8192;             // pixels, --size limit per side
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
@@ -65,6 +67,7 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
+    bool no_leaping = false;     // read every sample, even in bricks known to be empty
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
@@ -76,9 +79,7 @@ struct Params {
     double shininess = default_shininess;  // Phong exponent
     std::string clip_text;                 // "nx,ny,nz,d" as given; "": no clipping plane
     ClipPlane clip;                        // clip_text, read by parse_clip
-    bool no_leaping = false;               // iso: read every sample, even in empty bricks
 };
-
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
 struct Accumulated {
@@ -135,7 +136,7 @@ static double cos_degrees(double angle) { return sin_degrees(angle + 90); }
 // and `elevation` degrees above the i-j plane. Up is -k (k runs from the crown down). Azimuth
 // 0, elevation 0 stands in front of the face (small j) looking along +j; azimuth 90 looks along
 // +i. right = forward x up makes it a proper camera (part 1's front view is its mirror).
-static Camera make_camera(const Volume& volume, const Params& params, int width, int height) {
+static Camera make_camera(const Volume& volume, const Params& params, const View& view) {
     const double sin_a = sin_degrees(params.azimuth), cos_a = cos_degrees(params.azimuth);
     const double sin_e = sin_degrees(params.elevation), cos_e = cos_degrees(params.elevation);
     const Vec3d high = box_high(volume);
@@ -146,16 +147,18 @@ static Camera make_camera(const Volume& volume, const Params& params, int width,
     camera.up = {sin_a * sin_e, cos_a * sin_e, -cos_e};  // at right angles to forward
     camera.right = cross(camera.forward, camera.up);
     camera.perspective = params.projection == "perspective";
-    camera.width = width;
-    camera.height = height;
+    camera.width = view.width;
+    camera.height = view.height;
     // Ortho: zoom 1 is one pixel per voxel (the smallest spacing), as in part 1's views; the
     // rays start on a plane outside the box's sphere. Perspective: at zoom 1 the eye is just
     // far enough for the fov to hold the whole sphere; zoom > 1 walks it in, into the box.
+    // A view of coarser pixels (the window's preview while it turns: view.pixel_width 2 or 4)
+    // covers the same field with fewer rays.
     const double smallest_spacing = std::min({volume.sx, volume.sy, volume.sz});
-    camera.pixel_size = smallest_spacing / params.zoom;
+    camera.pixel_size = smallest_spacing / params.zoom * view.pixel_width;
     camera.distance = radius;
     const double half_fov = params.fov / 2;
-    camera.pixel_angle = std::tan(half_fov * degrees) / (height / 2.0);
+    camera.pixel_angle = std::tan(half_fov * degrees) / (view.height / 2.0);
     const double eye_distance = radius / std::sin(half_fov * degrees) / params.zoom;
     camera.eye = camera.centre - eye_distance * camera.forward;
     return camera;
@@ -303,20 +306,67 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 }
 //< lesson: lookup_table
 
-// The eight voxels around a point: along one axis, the voxel at or below it, the next one
-// (the same one at the last voxel) and how far the point is between them, 0..1.
+// A ray's samples in voxel units, worked out once per ray: sample n is at first + n * per_step
+// (voxel coordinates: physical / spacing), for n = 0 .. count - 1.
+struct Walk {
+    Vec3d first, per_step;
+    long long count = 0;
+
+    Vec3d at(long long n) const {
+        const double s = double(n);
+        return {first.i + s * per_step.i, first.j + s * per_step.j, first.k + s * per_step.k};
+    }
+};
+
+// The eight voxels around a point: the voxel at or below it (the low corner), how far the
+// point is past it along each axis (0..1), and the steps in memory from it to the next voxel
+// along i, j and k (0 at the last voxel of an axis: that voxel again).
 struct Cell {
-    int low, high;
-    float fraction;
+    int i = 0, j = 0, k = 0;           // the low corner
+    float fi = 0, fj = 0, fk = 0;      // the point's fractions past it
+    size_t index = 0;                  // the low corner's place in volume.data
+    size_t di = 0, dj = 0, dk = 0;     // memory steps to the next voxel along i, j, k, or 0
+};
+
+// Eight numbers, one at each corner of a cell: corner n is n & 1 along i, n & 2 along j and
+// n & 4 along k.
+struct Corners {
+    float at[8];
 };
 
 //> lesson: trilinear
-// Along one axis: u is the point's coordinate in voxels (physical / spacing), kept within
-// 0 .. count - 1. At a voxel centre the fraction is exactly 0, so that voxel comes back as it is.
-static Cell cell_along(double u, int count) {
+// The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
+// the divisions by the spacing are done here, once per ray, not at every sample.
+static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span, double step) {
+    const Vec3d entry = entry_point(ray, span, box_high(volume));
+    Walk walk;
+    walk.first = {entry.i / volume.sx, entry.j / volume.sy, entry.k / volume.sz};
+    walk.per_step = {step * ray.direction.i / volume.sx, step * ray.direction.j / volume.sy,
+                     step * ray.direction.k / volume.sz};
+    walk.count = (long long)(std::floor((span.t_exit - span.t_entry) / step +
+                                        sample_count_slack)) + 1;
+    return walk;
+}
+
+// Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
+// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
+static void low_corner(double u, int count, int* low, float* fraction) {
     u = std::clamp(u, 0.0, double(count - 1));
-    const int low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
-    return {low, std::min(low + 1, count - 1), float(u - low)};
+    *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
+    *fraction = float(u - *low);
+}
+
+static Cell cell_at(const Volume& volume, const Vec3d& point) {
+    Cell cell;
+    low_corner(point.i, volume.nx, &cell.i, &cell.fi);
+    low_corner(point.j, volume.ny, &cell.j, &cell.fj);
+    low_corner(point.k, volume.nz, &cell.k, &cell.fk);
+    const size_t row = size_t(volume.nx), slice = row * size_t(volume.ny);
+    cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
+    cell.di = cell.i + 1 < volume.nx ? 1 : 0;
+    cell.dj = cell.j + 1 < volume.ny ? row : 0;
+    cell.dk = cell.k + 1 < volume.nz ? slice : 0;
+    return cell;
 }
 
 // A value fraction f of the way from a to b: a itself when f = 0.
@@ -324,22 +374,118 @@ static float lerp(float a, float b, float f) { return a + f * (b - a); }
 
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
-static float trilinear(const Volume& volume, const Vec3d& point) {
-    const Cell ci = cell_along(point.i / volume.sx, volume.nx);
-    const Cell cj = cell_along(point.j / volume.sy, volume.ny);
-    const Cell ck = cell_along(point.k / volume.sz, volume.nz);
-    auto v = [&](int i, int j, int k) { return float(volume.at(i, j, k)); };
-    const float low_low = lerp(v(ci.low, cj.low, ck.low), v(ci.high, cj.low, ck.low), ci.fraction);
-    const float high_low = lerp(v(ci.low, cj.high, ck.low), v(ci.high, cj.high, ck.low),
-                                ci.fraction);
-    const float low_high = lerp(v(ci.low, cj.low, ck.high), v(ci.high, cj.low, ck.high),
-                                ci.fraction);
-    const float high_high = lerp(v(ci.low, cj.high, ck.high), v(ci.high, cj.high, ck.high),
-                                 ci.fraction);
-    return lerp(lerp(low_low, high_low, cj.fraction), lerp(low_high, high_high, cj.fraction),
-                ck.fraction);
+static float trilinear(const Volume& volume, const Cell& c) {
+    const int16_t* v = volume.data.data() + c.index;
+    const float low_low = lerp(v[0], v[c.di], c.fi);
+    const float high_low = lerp(v[c.dj], v[c.dj + c.di], c.fi);
+    const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
+    const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
+    return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
 }
 //< lesson: trilinear
+
+// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
+// the current table, how far the empty space around each brick reaches (see empty_reach); no
+// reach: leap over nothing.
+struct EmptySpace {
+    Bricks bricks;
+    std::vector<uint8_t> reach;  // per brick, 0: the table sees something in it
+
+    int reach_at(const Cell& cell) const {
+        return reach.empty() ? 0 : reach[bricks.index(cell.i, cell.j, cell.k)];
+    }
+};
+constexpr int max_reach = 32;           // bricks: a leap crosses at most 2 * 32 - 1 of them
+constexpr double leap_margin = 1e-6;    // voxels: a leap stops this far before a brick's face
+
+//> lesson: empty_space
+// Step 09's bricks that the table leaves wholly transparent, unchanged.
+static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
+    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
+    for (size_t n = 0; n < lut.entries.size(); ++n) {
+        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
+    }
+    std::vector<uint8_t> empty(bricks.count());
+    for (size_t b = 0; b < bricks.count(); ++b) {
+        const int low = bricks.ranges[b].min - lowest_ct_value;
+        const int high = bricks.ranges[b].max - lowest_ct_value;
+        empty[b] = opaque_before[high + 1] == opaque_before[low];
+    }
+    return empty;
+}
+
+// The bricks whose neighbours (26, at most) are all empty too: `empty` shrunk by one brick
+// on every side, one axis at a time. Past the volume's edge counts as empty (no ray samples
+// there).
+static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> empty) {
+    const size_t strides[3] = {1, size_t(bricks.bx), size_t(bricks.bx) * size_t(bricks.by)};
+    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
+    for (int axis = 0; axis < 3; ++axis) {
+        const std::vector<uint8_t> before = empty;
+        const size_t stride = strides[axis];
+        for (size_t b = 0; b < empty.size(); ++b) {
+            const int at = int(b / stride % size_t(counts[axis]));  // along this axis
+            if (at > 0) empty[b] &= before[b - stride];
+            if (at + 1 < counts[axis]) empty[b] &= before[b + stride];
+        }
+    }
+    return empty;
+}
+
+// Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
+// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
+// reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
+// A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
+// brick on every side.
+static std::vector<uint8_t> empty_reach(const Bricks& bricks, const std::vector<uint8_t>& empty) {
+    std::vector<uint8_t> reach = empty, cube = empty;  // 1 for an empty brick, 0 else
+    for (int r = 2; r <= max_reach; ++r) {
+        cube = shrink(bricks, cube);
+        bool any = false;
+        for (size_t b = 0; b < cube.size(); ++b) {
+            if (cube[b]) reach[b] = uint8_t(r);
+            any = any || cube[b];
+        }
+        if (!any) break;
+    }
+    return reach;
+}
+
+// The sample to go on from when sample n lies in a brick of reach r: the first one past the
+// faces of the cube of bricks r - 1 around it (the slab method again, in sample units: face
+// = first + t * per_step). Every sample before it is inside the cube, even after rounding:
+// the faces are taken leap_margin voxels inside. A cube that reaches the volume's edge has
+// no face there. At least n + 1, at most the ray's sample count.
+static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& cell, int reach,
+                           long long n) {
+    const int corner[3] = {cell.i, cell.j, cell.k};
+    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
+    double leave = std::numeric_limits<double>::infinity();  // in samples
+    for (int axis = 0; axis < 3; ++axis) {
+        const double d = walk.per_step[axis];
+        if (d == 0) continue;  // parallel to these faces: never leaves through them
+        const int brick = corner[axis] / brick_size;
+        const int face_brick = d > 0 ? brick + reach : brick - reach + 1;  // its first voxel
+        if (face_brick <= 0 || face_brick >= counts[axis]) continue;       // the volume's edge
+        const double face = face_brick * brick_size + (d > 0 ? -leap_margin : leap_margin);
+        leave = std::min(leave, (face - walk.first[axis]) / d);
+    }
+    if (!(leave < double(walk.count))) return walk.count;
+    return std::max(n + 1, (long long)std::ceil(leave));
+}
+//< lesson: empty_space
+
+//> lesson: leap
+// Step 10's leaping, for the iso test: a brick is empty when its largest value (which covers
+// every sample in its cells, the voxel past it included) is at or below iso: no sample there
+// can be above iso. empty_reach() and leap_past() then work as for the table. Run again
+// whenever iso changes.
+static std::vector<uint8_t> find_bricks_below(const Bricks& bricks, int iso) {
+    std::vector<uint8_t> below(bricks.count());
+    for (size_t b = 0; b < bricks.count(); ++b) below[b] = bricks.ranges[b].max <= iso;
+    return below;
+}
+//< lesson: leap
 
 //> lesson: gradient
 // Step 08's derivative and gradient at a voxel, unchanged.
@@ -351,8 +497,7 @@ static float derivative(Sample sample, int n, int count, double spacing) {
     return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
 }
 
-static Vec3 gradient_at(const Volume& volume, int i, int j, int k, Work& work) {
-    ++work.gradients;
+static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
     auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
     auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
     auto along_k = [&](int m) { return double(volume.at(i, j, m)); };
@@ -363,23 +508,53 @@ static Vec3 gradient_at(const Volume& volume, int i, int j, int k, Work& work) {
 
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
-// The gradient at a point: the voxels' gradients interpolated trilinearly, as the values are.
-// At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
-static Vec3 gradient_trilinear(const Volume& volume, const Vec3d& point, Work& work) {
-    const Cell ci = cell_along(point.i / volume.sx, volume.nx);
-    const Cell cj = cell_along(point.j / volume.sy, volume.ny);
-    const Cell ck = cell_along(point.k / volume.sz, volume.nz);
-    auto g = [&](int i, int j, int k) { return gradient_at(volume, i, j, k, work); };
-    auto along_i = [&](int j, int k) {
-        return ci.fraction == 0.0f ? g(ci.low, j, k)
-                                   : lerp_vector(g(ci.low, j, k), g(ci.high, j, k), ci.fraction);
+// Eight numbers at the cell's corners blended trilinearly, in trilinear()'s order.
+static float blend(const Corners& corners, const Cell& c) {
+    const float* v = corners.at;
+    return lerp(lerp(lerp(v[0], v[1], c.fi), lerp(v[2], v[3], c.fi), c.fj),
+                lerp(lerp(v[4], v[5], c.fi), lerp(v[6], v[7], c.fi), c.fj), c.fk);
+}
+
+// The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
+// values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
+// Off the volume's border (the usual case) the corners' central differences are read through
+// memory steps, and the division by 2 * spacing is one product after the blend (the same bits
+// when the spacing is a power of two, as CThead's 1, 1, 2).
+static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
+    work.gradients += 8;
+    const bool inside = c.i > 0 && c.i + 2 < volume.nx && c.j > 0 && c.j + 2 < volume.ny &&
+                        c.k > 0 && c.k + 2 < volume.nz;  // every corner has both neighbours
+    if (!inside) {
+        auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
+            return gradient_at(volume, c.i + (a && c.di ? 1 : 0), c.j + (b && c.dj ? 1 : 0),
+                               c.k + (d && c.dk ? 1 : 0));
+        };
+        const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
+        const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
+        const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
+        const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
+        return lerp_vector(lerp_vector(low_low, high_low, c.fj),
+                           lerp_vector(low_high, high_high, c.fj), c.fk);
+    }
+    const ptrdiff_t row = volume.nx, slice = ptrdiff_t(volume.nx) * volume.ny;
+    const int16_t* low = volume.data.data() + c.index;
+    Corners along_i, along_j, along_k;  // differences at the corners, in CT units
+    auto differences = [&](int n, ptrdiff_t offset) {
+        const int16_t* v = low + offset;
+        along_i.at[n] = float(v[1] - v[-1]);
+        along_j.at[n] = float(v[row] - v[-row]);
+        along_k.at[n] = float(v[slice] - v[-slice]);
     };
-    auto along_ij = [&](int k) {
-        return cj.fraction == 0.0f ? along_i(cj.low, k)
-                                   : lerp_vector(along_i(cj.low, k), along_i(cj.high, k), cj.fraction);
-    };
-    return ck.fraction == 0.0f ? along_ij(ck.low)
-                               : lerp_vector(along_ij(ck.low), along_ij(ck.high), ck.fraction);
+    differences(0, 0);
+    differences(1, 1);
+    differences(2, row);
+    differences(3, row + 1);
+    differences(4, slice);
+    differences(5, slice + 1);
+    differences(6, slice + row);
+    differences(7, slice + row + 1);
+    return {blend(along_i, c) * float(0.5 / volume.sx), blend(along_j, c) * float(0.5 / volume.sy),
+            blend(along_k, c) * float(0.5 / volume.sz)};
 }
 //< lesson: gradient
 
@@ -427,10 +602,13 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 07.
+// transparent, composited front to back; early ray termination as in step 07. Step 09's
+// leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
+// (leap_past), and every sample leapt over would have been transparent. The span is the
+// clipped one (clip_span).
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, const Params& params,
-                                           Work& work, Trace* trace) {
+                                           int y, const Lut& lut, const EmptySpace& space,
+                                           const Params& params, Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
@@ -439,26 +617,34 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     const Span span = clip_span(ray, box, params.clip, trace);
     Accumulated pixel;
     if (!span.hit) return pixel;
-    const Vec3d entry = entry_point(ray, span, high);
-    const double length_inside = span.t_exit - span.t_entry;
-    const long long sample_count =
-        (long long)(std::floor(length_inside / params.step + sample_count_slack)) + 1;
+    const Walk walk = walk_through(volume, ray, span, params.step);
     const Vec3 to_light = params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
-    for (long long n = 0; n < sample_count; ++n) {
-        const double along = n * params.step;  // physical units past the entry
-        const Vec3d point = entry + along * ray.direction;
-        const float value = trilinear(volume, point);
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const Cell cell = cell_at(volume, q);
+        auto t = [&] { return span.t_entry + n * params.step; };  // for traces
+        const int reach = space.reach_at(cell);
+        if (reach > 0) {
+            const long long next = leap_past(walk, space.bricks, cell, reach, n);
+            work.leapt += next - n;
+            if (trace) trace->add("t=%9.4f..%.4f empty bricks (reach %d): %lld samples leapt "
+                                  "over", t(), span.t_entry + (next - 1) * params.step, reach,
+                                  next - n);
+            n = next - 1;
+            continue;
+        }
+        const float value = trilinear(volume, cell);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
-        const double t = span.t_entry + along;
+        auto point = [&] { return Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz}; };
         if (sample.a == 0.0f) {
             ++work.skipped;
             if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f transparent: "
-                                  "skipped", t, point.i, point.j, point.k, value);
+                                  "skipped", t(), point().i, point().j, point().k, value);
             continue;
         }
         double light = 1.0;  // unlit
-        if (!params.unlit) light = shade(gradient_trilinear(volume, point, work), to_light);
+        if (!params.unlit) light = shade(gradient_trilinear(volume, cell, work), to_light);
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
         pixel.r += weight * sample.r;
@@ -466,14 +652,15 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         pixel.b += weight * sample.b;
         pixel.transparency *= 1 - alpha;
         if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f rgba=(%.3f, %.3f, "
-                              "%.3f, %.4f) L=%.4f C=(%.6f, %.6f, %.6f) T=%.6g", t, point.i,
-                              point.j, point.k, value, sample.r, sample.g, sample.b, sample.a,
-                              light, pixel.r, pixel.g, pixel.b, pixel.transparency);
-        if (pixel.transparency < stop_below && n + 1 < sample_count) {
+                              "%.3f, %.4f) L=%.4f C=(%.6f, %.6f, %.6f) T=%.6g", t(),
+                              point().i, point().j, point().k, value, sample.r, sample.g,
+                              sample.b, sample.a, light, pixel.r, pixel.g, pixel.b,
+                              pixel.transparency);
+        if (pixel.transparency < stop_below && n + 1 < walk.count) {
             ++work.terminated;
             if (trace) trace->add("T=%.3g < %.3g: early ray termination at t=%.4f, %lld samples "
-                                  "not visited", pixel.transparency, stop_below, t,
-                                  sample_count - 1 - n);
+                                  "not visited", pixel.transparency, stop_below, t(),
+                                  walk.count - 1 - n);
             break;
         }
     }
@@ -487,49 +674,8 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: front_to_back
 
-// Empty space for the iso render: the volume's bricks (common/bricks.h: the smallest and
-// largest value of each 8x8x8 block, plus the voxel past it) and, for the current iso value,
-// the ones wholly at or below it: no sample inside them can be above iso.
-struct EmptySpace {
-    Bricks bricks;
-    std::vector<uint8_t> below;  // one flag per brick, 1: max <= iso; none: leap over nothing
-};
-
-//> lesson: leap
-// Step 09's leap, for a free ray and the iso test: a brick is empty when its largest value is
-// at or below iso. Run again whenever iso changes.
-static std::vector<uint8_t> find_bricks_below(const Bricks& bricks, int iso) {
-    std::vector<uint8_t> below(bricks.count());
-    for (size_t b = 0; b < bricks.count(); ++b) below[b] = bricks.ranges[b].max <= iso;
-    return below;
-}
-
-// A sample at voxel coordinates u (physical / spacing) reads the cell from floor(u) to
-// floor(u) + 1: when floor(u)'s brick is below iso, so is the whole cell, and so is every
-// sample up to where the ray leaves that brick's box of cells (voxels 8b .. 8b + 8 along each
-// axis), which the slab method finds. Returns how many samples, this one included, it may
-// leap over unread; 0: none, read this one.
-static long long samples_to_leap(const Volume& volume, const EmptySpace& space, const Ray& ray,
-                                 const Vec3d& point, double step) {
-    if (space.below.empty()) return 0;
-    const int i = std::min(int(point.i / volume.sx), volume.nx - 1);
-    const int j = std::min(int(point.j / volume.sy), volume.ny - 1);
-    const int k = std::min(int(point.k / volume.sz), volume.nz - 1);
-    if (!space.below[space.bricks.index(std::max(i, 0), std::max(j, 0), std::max(k, 0))]) {
-        return 0;
-    }
-    const Vec3d low = {(i / brick_size) * brick_size * volume.sx,
-                       (j / brick_size) * brick_size * volume.sy,
-                       (k / brick_size) * brick_size * volume.sz};
-    const Vec3d size = {brick_size * volume.sx, brick_size * volume.sy, brick_size * volume.sz};
-    const Ray from_sample = {point, ray.direction};
-    const Span inside = intersect_box(from_sample, low, low + size);
-    if (!inside.hit) return 0;  // rounding put the sample a hair outside: read it
-    return (long long)(std::floor(inside.t_exit / step)) + 1;  // t from this sample
-}
-//< lesson: leap
-
-// Where the ray meets the surface: `along` physical units past the entry point.
+// Where the ray meets the surface: `along` physical units past the entry, at `point` (voxel
+// units, as the walk's samples).
 struct SurfaceHit {
     bool hit = false;
     double along = 0;
@@ -537,18 +683,19 @@ struct SurfaceHit {
 };
 
 //> lesson: bisection
-// The crossing between two samples `below` (value <= iso) and `above` (value > iso), both in
-// physical units past the entry: the midpoint of the bracket is read by trilinear
-// interpolation and replaces the end on its side, so the bracket always straddles iso and
-// halves each time. It stops when the bracket is shorter than `tolerance`, and the crossing
-// is its midpoint, at most tolerance / 2 from the true one: 14 halvings from a step of 1 to
-// 1e-4. (The secant step would usually need fewer reads, but can creep in from one end.)
-static double bisect(const Volume& volume, const Vec3d& entry, const Vec3d& direction,
-                     double below, double above, double iso, double tolerance,
-                     double t_entry, Trace* trace) {
+// The crossing between two points of the walk `below` (value <= iso) and `above` (value >
+// iso), in samples (2.5: halfway between samples 2 and 3): the midpoint of the bracket is read
+// by trilinear interpolation and replaces the end on its side, so the bracket always straddles
+// iso and halves each time. It stops when the bracket is shorter than `tolerance` (samples),
+// and the crossing is its midpoint, at most tolerance / 2 from the true one: 14 halvings from
+// a step of 1 to 1e-4. (The secant step would usually need fewer reads, but can creep in from
+// one end.) t_entry and step only turn samples into t for the trace.
+static double bisect(const Volume& volume, const Walk& walk, double below, double above,
+                     double iso, double tolerance, double t_entry, double step, Trace* trace) {
     for (int iteration = 1; above - below > tolerance; ++iteration) {
         const double middle = 0.5 * (below + above);
-        const float value = trilinear(volume, entry + middle * direction);
+        const Vec3d point = walk.first + middle * walk.per_step;  // voxel units
+        const float value = trilinear(volume, cell_at(volume, point));
         const bool is_above = value > iso;
         if (is_above) {
             above = middle;
@@ -556,8 +703,9 @@ static double bisect(const Volume& volume, const Vec3d& entry, const Vec3d& dire
             below = middle;
         }
         if (trace) trace->add("  bisection %2d: t=%.7f value=%9.4f %s iso: bracket t=%.7f.."
-                              "%.7f", iteration, t_entry + middle, value, is_above ? "> " : "<=",
-                              t_entry + below, t_entry + above);
+                              "%.7f", iteration, t_entry + middle * step, value,
+                              is_above ? "> " : "<=", t_entry + below * step,
+                              t_entry + above * step);
     }
     return 0.5 * (below + above);
 }
@@ -592,52 +740,51 @@ static Rgb lit_colour(const PhongTerms& terms) {
 //< lesson: phong
 
 //> lesson: isosurface
-// March the ray as step 10 does, but instead of compositing, stop at the first sample above
-// iso: the crossing lies between it and the sample before, and bisection finds it. A ray whose
+// Walk the ray as step 10 does, leaping over bricks at or below iso, but instead of
+// compositing, stop at the first sample above iso: the crossing lies between it and the sample
+// before (read or leapt over, it is at or below iso), and bisection finds it. A ray whose
 // first sample is already above iso starts inside the surface: it hits at its entry (on the
 // clip plane that is the cut face).
 static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, const Ray& ray,
                                  const Span& span, const Params& params, Work& work,
                                  Trace* trace) {
     SurfaceHit hit;
-    const Vec3d entry = entry_point(ray, span, box_high(volume));
-    const long long sample_count = (long long)(std::floor((span.t_exit - span.t_entry) /
-                                                          params.step + sample_count_slack)) + 1;
+    const Walk walk = walk_through(volume, ray, span, params.step);
     const double smallest_spacing = std::min({volume.sx, volume.sy, volume.sz});
-    for (long long n = 0; n < sample_count; ++n) {
-        const double along = n * params.step;
-        const Vec3d point = entry + along * ray.direction;
-        const long long leap = std::min(samples_to_leap(volume, space, ray, point, params.step),
-                                        sample_count - n);
-        if (leap > 0) {  // samples n .. n + leap - 1 are all <= iso: go on from n + leap
-            work.leapt += leap;
-            if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) brick at or below iso: %lld "
-                                  "samples leapt over", span.t_entry + along, point.i, point.j,
-                                  point.k, leap);
-            n += leap - 1;
+    auto t = [&](double n) { return span.t_entry + n * params.step; };  // for traces
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const Cell cell = cell_at(volume, q);
+        const int reach = space.reach_at(cell);
+        if (reach > 0) {  // samples n .. next - 1 are all at or below iso
+            const long long next = leap_past(walk, space.bricks, cell, reach, n);
+            work.leapt += next - n;
+            if (trace) trace->add("t=%9.4f..%.4f bricks at or below iso (reach %d): %lld "
+                                  "samples leapt over", t(n), t(next - 1), reach, next - n);
+            n = next - 1;
             continue;
         }
-        const float value = trilinear(volume, point);
+        const float value = trilinear(volume, cell);
         ++work.samples;
-        if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f %s", span.t_entry + along,
-                              point.i, point.j, point.k, value,
+        if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f %s", t(n),
+                              q.i * volume.sx, q.j * volume.sy, q.k * volume.sz, value,
                               value > params.iso ? "> iso" : "<= iso");
         if (value <= params.iso) continue;
         hit.hit = true;
-        hit.along = along;
+        double at = n;  // in samples
         if (n > 0) {
             if (trace) trace->add("crossing between t=%.4f and t=%.4f: bisection to %g voxel",
-                                  span.t_entry + along - params.step, span.t_entry + along,
-                                  hit_tolerance);
-            hit.along = bisect(volume, entry, ray.direction, along - params.step, along,
-                               params.iso, hit_tolerance * smallest_spacing, span.t_entry,
-                               trace);
+                                  t(n - 1), t(n), hit_tolerance);
+            at = bisect(volume, walk, n - 1, n, params.iso,
+                        hit_tolerance * smallest_spacing / params.step, span.t_entry,
+                        params.step, trace);
         } else if (trace) {
             trace->add("the first sample is above iso: the ray starts inside, hit at its entry");
         }
-        hit.point = entry + hit.along * ray.direction;
+        hit.along = at * params.step;
+        hit.point = walk.first + at * walk.per_step;
         ++work.hits;
-        if (n + 1 < sample_count) ++work.terminated;
+        if (n + 1 < walk.count) ++work.terminated;
         return hit;
     }
     if (trace) trace->add("no crossing of iso %d: the pixel shows the background", params.iso);
@@ -647,8 +794,7 @@ static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, 
 // One pixel of the iso render: the first crossing, its normal (the clip plane's on the cut
 // face, else -gradient / |gradient|) and Phong. A zero gradient has no normal: ambient only.
 static Rgb isosurface_ray(const Volume& volume, const EmptySpace& space, const Camera& camera,
-                          int x, int y, const Params& params, Vec3 to_light, Work& work,
-                          Trace* trace) {
+                          int x, int y, const Params& params, Work& work, Trace* trace) {
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
     const Span box = intersect_box(ray, Vec3d{}, high);
@@ -663,11 +809,12 @@ static Rgb isosurface_ray(const Volume& volume, const EmptySpace& space, const C
     if (span.clipped && hit.along == 0) {
         normal = to_float(params.clip.normal);  // outward: the cut-away side is +normal
     } else {
-        const Vec3 gradient = gradient_trilinear(volume, hit.point, work);
+        const Vec3 gradient = gradient_trilinear(volume, cell_at(volume, hit.point), work);
         const float size = length(gradient);
         if (size > 0.0f) normal = (-1.0f / size) * gradient;
         source = size > 0.0f ? "-gradient" : "none (zero gradient)";
     }
+    const Vec3 to_light = light_direction(camera, params.light_angle);
     const Vec3 to_viewer = -1.0f * to_float(ray.direction);
     PhongTerms terms;
     terms.ambient = ambient_weight;
@@ -675,8 +822,8 @@ static Rgb isosurface_ray(const Volume& volume, const EmptySpace& space, const C
     const Rgb colour = lit_colour(terms);
     if (trace) {
         trace->add("hit t=%.7f p=(%.6f, %.6f, %.6f) normal=(%.6f, %.6f, %.6f) from %s",
-                   span.t_entry + hit.along, hit.point.i, hit.point.j, hit.point.k, normal.i,
-                   normal.j, normal.k, source);
+                   span.t_entry + hit.along, hit.point.i * volume.sx, hit.point.j * volume.sy,
+                   hit.point.k * volume.sz, normal.i, normal.j, normal.k, source);
         trace->add("phong L=(%.6f, %.6f, %.6f) V=(%.6f, %.6f, %.6f) ambient=%.6f diffuse=%.6f "
                    "specular=%.6f shininess=%g", to_light.i, to_light.j, to_light.k,
                    to_viewer.i, to_viewer.j, to_viewer.k, terms.ambient, terms.diffuse,
@@ -758,11 +905,14 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
+        args.add_switch("--no-leaping", &params.no_leaping,
+                        "read every sample, even in bricks the table leaves transparent "
+                        "(composite) or wholly at or below iso (iso)");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
                         "degrees above the i-j plane; 90 looks down from the crown");
-        args.add_double("--zoom", &params.zoom, 0.01, 100,
+        args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
                         "ortho: pixels per voxel; perspective: walks the eye in (>1)");
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
@@ -777,8 +927,6 @@ int main(int argc, char** argv) {
                         "Phong exponent: larger gives a smaller, sharper highlight");
         args.add_string("--clip", &params.clip_text,
                         "clipping plane NX,NY,NZ,D: keeps n.p <= D (physical units)");
-        args.add_switch("--no-leaping", &params.no_leaping,
-                        "iso: read every sample, even in bricks wholly at or below iso");
         const Options options = args.parse(argc, argv);
         if (options.view != "all") {
             throw InputError("--view: step 13 renders the camera's view; turn it with "
@@ -800,31 +948,40 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
+        // --- The bricks the table leaves empty (composite) or wholly at or below iso (iso) ---
         const bool iso_mode = params.mode == "iso";
         EmptySpace space;
-        if (iso_mode && !params.no_leaping) space.bricks = make_bricks(volume);
+        if (!params.no_leaping) space.bricks = make_bricks(volume);
         auto update_empty_space = [&] {
-            if (iso_mode && !params.no_leaping) {
-                space.below = find_bricks_below(space.bricks, params.iso);
-            }
+            if (params.no_leaping) return;
+            space.reach = empty_reach(space.bricks,
+                                      iso_mode ? find_bricks_below(space.bricks, params.iso)
+                                               : find_empty_bricks(space.bricks, lut));
         };
         update_empty_space();
 
-        // --- View: the camera ---
-        const Camera camera = make_camera(volume, params, width, height);
-
-        // --- Render: one ray per pixel ---
+        // --- View: the camera's image (its camera is made for each render: the window turns
+        // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
-        renderer.ray = [&](const View&, int x, int y, Work& work, Trace* trace) {
+
+        // --- Render: one ray per pixel ---
+        auto pixel = [&](const Camera& camera, int x, int y, Work& work, Trace* trace) {
             if (iso_mode) {
-                const Vec3 to_light = light_direction(camera, params.light_angle);
-                return isosurface_ray(volume, space, camera, x, y, params, to_light, work,
-                                      trace);
+                return isosurface_ray(volume, space, camera, x, y, params, work, trace);
             }
-            return over_background(composite_front_to_back(volume, camera, x, y, lut, params,
-                                                           work, trace));
+            return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
+                                                           params, work, trace));
+        };
+        renderer.image = [&](const View& view, Work& work) {
+            const Camera camera = make_camera(volume, params, view);
+            return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
+                return pixel(camera, x, y, ray_work, nullptr);
+            });
+        };
+        renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
+            return pixel(make_camera(volume, params, view), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
             return "samples " + number(params.step) + " physical units apart";
@@ -837,6 +994,7 @@ int main(int argc, char** argv) {
                              if (!too_many_samples(volume, step).empty()) return;  // keep it
                              params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
+                             update_empty_space();
                          },
                          [&] { return number(params.step); }};
         if (iso_mode) {  // Up/Down move the iso value instead of the step
@@ -848,6 +1006,17 @@ int main(int argc, char** argv) {
                              },
                              [&] { return std::to_string(params.iso); }};
         }
+        renderer.orbit.turn = [&](double azimuth, double elevation) {
+            params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
+            params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
+        };
+        renderer.orbit.zoom = [&](double factor) {
+            params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
+        };
+        renderer.orbit.value = [&] {
+            return "azimuth=" + number(params.azimuth) + " elevation=" +
+                   number(params.elevation) + " zoom=" + number(params.zoom);
+        };
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "tf=" + tf.source +
@@ -856,13 +1025,13 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
+                   " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + number(params.azimuth) +
                    " elevation=" + number(params.elevation) + " zoom=" + number(params.zoom) +
                    " fov=" + number(params.fov) + " mode=" + params.mode +
                    (iso_mode ? " step=" + number(params.step)  // the knob's is printed
                              : " iso=" + std::to_string(params.iso)) +
                    " shininess=" + number(params.shininess) +
-                   " leaping=" + (iso_mode && !params.no_leaping ? "on" : "off") +
                    " clip=" + (params.clip.on ? params.clip_text : std::string("none"));
         };
 

@@ -1,13 +1,16 @@
 // 14_shadows.cpp: light that is blocked: shadows towards the light, and ambient occlusion.
 //
-// New here:   for every lit sample of step 10's composite, a shadow ray towards the light
-//             (--shadows ray): the transmittance of the volume between the sample and the
-//             light, T_light = product of (1 - alpha) of its samples (Beer-Lambert, with the
-//             opacity-corrected table), darkens the diffuse light; ambient occlusion (--ao on):
-//             the mean transmittance over a short distance in six directions darkens the
-//             ambient light. --shadows none --ao off is step 10's picture.
+// New here:   every lit sample of step 10's composite asks how much of the light reaches it
+//             through the volume, T_light = product of (1 - alpha) towards the light
+//             (Beer-Lambert, with the opacity-corrected table), which darkens the diffuse
+//             light: --shadows ray marches a shadow ray from the sample (leaping over empty
+//             bricks: they let all the light through); --shadows volume reads T_light
+//             trilinearly from a light-transmittance volume swept once per render, slice by
+//             slice from the light's side. Ambient occlusion (--ao on): the mean transmittance
+//             over a short distance in six directions darkens the ambient light.
+//             --shadows none --ao off is step 10's picture.
 // Builds on:  10_free_camera (the orbit camera, the slab method, trilinear samples, lit front
-//             to back).
+//             to back, leaping over empty bricks).
 // Handout:    handouts/14_shadows.md
 // Run:        make run STEP=14 ARGS="--light-angle 70 --ao off"
 // Reference:  data/reference/14_shadows_camera.png: the default run (shadow rays and ambient
@@ -33,6 +36,7 @@ constexpr double degrees = 3.14159265358979323846 / 180;
 constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
 constexpr double default_elevation = 20;  // degrees above the i-j plane
 constexpr double default_fov = 30;        // degrees, the perspective image's height
+constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
 constexpr const char* default_size = "512x512";  // pixels, columns x rows
 constexpr int max_image_side = 8192;             // pixels, --size limit per side
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
@@ -50,14 +54,16 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
+    bool no_leaping = false;     // read every sample, even in bricks known to be empty
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
     std::string projection = "ortho";      // "ortho" or "perspective"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
-    std::string shadows = "ray";           // "ray": a shadow ray per lit sample; "none"
-    std::string ao = "on";                 // "on": ambient occlusion; "off"
+    std::string shadows = "ray";  // "ray": a shadow ray per lit sample; "volume": read from a
+                                  // light-transmittance volume; "none"
+    std::string ao = "on";        // "on": ambient occlusion; "off"
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -114,7 +120,7 @@ static double cos_degrees(double angle) { return sin_degrees(angle + 90); }
 // and `elevation` degrees above the i-j plane. Up is -k (k runs from the crown down). Azimuth
 // 0, elevation 0 stands in front of the face (small j) looking along +j; azimuth 90 looks along
 // +i. right = forward x up makes it a proper camera (part 1's front view is its mirror).
-static Camera make_camera(const Volume& volume, const Params& params, int width, int height) {
+static Camera make_camera(const Volume& volume, const Params& params, const View& view) {
     const double sin_a = sin_degrees(params.azimuth), cos_a = cos_degrees(params.azimuth);
     const double sin_e = sin_degrees(params.elevation), cos_e = cos_degrees(params.elevation);
     const Vec3d high = box_high(volume);
@@ -125,16 +131,18 @@ static Camera make_camera(const Volume& volume, const Params& params, int width,
     camera.up = {sin_a * sin_e, cos_a * sin_e, -cos_e};  // at right angles to forward
     camera.right = cross(camera.forward, camera.up);
     camera.perspective = params.projection == "perspective";
-    camera.width = width;
-    camera.height = height;
+    camera.width = view.width;
+    camera.height = view.height;
     // Ortho: zoom 1 is one pixel per voxel (the smallest spacing), as in part 1's views; the
     // rays start on a plane outside the box's sphere. Perspective: at zoom 1 the eye is just
     // far enough for the fov to hold the whole sphere; zoom > 1 walks it in, into the box.
+    // A view of coarser pixels (the window's preview while it turns: view.pixel_width 2 or 4)
+    // covers the same field with fewer rays.
     const double smallest_spacing = std::min({volume.sx, volume.sy, volume.sz});
-    camera.pixel_size = smallest_spacing / params.zoom;
+    camera.pixel_size = smallest_spacing / params.zoom * view.pixel_width;
     camera.distance = radius;
     const double half_fov = params.fov / 2;
-    camera.pixel_angle = std::tan(half_fov * degrees) / (height / 2.0);
+    camera.pixel_angle = std::tan(half_fov * degrees) / (view.height / 2.0);
     const double eye_distance = radius / std::sin(half_fov * degrees) / params.zoom;
     camera.eye = camera.centre - eye_distance * camera.forward;
     return camera;
@@ -246,20 +254,67 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 }
 //< lesson: lookup_table
 
-// The eight voxels around a point: along one axis, the voxel at or below it, the next one
-// (the same one at the last voxel) and how far the point is between them, 0..1.
+// A ray's samples in voxel units, worked out once per ray: sample n is at first + n * per_step
+// (voxel coordinates: physical / spacing), for n = 0 .. count - 1.
+struct Walk {
+    Vec3d first, per_step;
+    long long count = 0;
+
+    Vec3d at(long long n) const {
+        const double s = double(n);
+        return {first.i + s * per_step.i, first.j + s * per_step.j, first.k + s * per_step.k};
+    }
+};
+
+// The eight voxels around a point: the voxel at or below it (the low corner), how far the
+// point is past it along each axis (0..1), and the steps in memory from it to the next voxel
+// along i, j and k (0 at the last voxel of an axis: that voxel again).
 struct Cell {
-    int low, high;
-    float fraction;
+    int i = 0, j = 0, k = 0;           // the low corner
+    float fi = 0, fj = 0, fk = 0;      // the point's fractions past it
+    size_t index = 0;                  // the low corner's place in volume.data
+    size_t di = 0, dj = 0, dk = 0;     // memory steps to the next voxel along i, j, k, or 0
+};
+
+// Eight numbers, one at each corner of a cell: corner n is n & 1 along i, n & 2 along j and
+// n & 4 along k.
+struct Corners {
+    float at[8];
 };
 
 //> lesson: trilinear
-// Along one axis: u is the point's coordinate in voxels (physical / spacing), kept within
-// 0 .. count - 1. At a voxel centre the fraction is exactly 0, so that voxel comes back as it is.
-static Cell cell_along(double u, int count) {
+// The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
+// the divisions by the spacing are done here, once per ray, not at every sample.
+static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span, double step) {
+    const Vec3d entry = entry_point(ray, span, box_high(volume));
+    Walk walk;
+    walk.first = {entry.i / volume.sx, entry.j / volume.sy, entry.k / volume.sz};
+    walk.per_step = {step * ray.direction.i / volume.sx, step * ray.direction.j / volume.sy,
+                     step * ray.direction.k / volume.sz};
+    walk.count = (long long)(std::floor((span.t_exit - span.t_entry) / step +
+                                        sample_count_slack)) + 1;
+    return walk;
+}
+
+// Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
+// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
+static void low_corner(double u, int count, int* low, float* fraction) {
     u = std::clamp(u, 0.0, double(count - 1));
-    const int low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
-    return {low, std::min(low + 1, count - 1), float(u - low)};
+    *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
+    *fraction = float(u - *low);
+}
+
+static Cell cell_at(const Volume& volume, const Vec3d& point) {
+    Cell cell;
+    low_corner(point.i, volume.nx, &cell.i, &cell.fi);
+    low_corner(point.j, volume.ny, &cell.j, &cell.fj);
+    low_corner(point.k, volume.nz, &cell.k, &cell.fk);
+    const size_t row = size_t(volume.nx), slice = row * size_t(volume.ny);
+    cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
+    cell.di = cell.i + 1 < volume.nx ? 1 : 0;
+    cell.dj = cell.j + 1 < volume.ny ? row : 0;
+    cell.dk = cell.k + 1 < volume.nz ? slice : 0;
+    return cell;
 }
 
 // A value fraction f of the way from a to b: a itself when f = 0.
@@ -267,22 +322,106 @@ static float lerp(float a, float b, float f) { return a + f * (b - a); }
 
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
-static float trilinear(const Volume& volume, const Vec3d& point) {
-    const Cell ci = cell_along(point.i / volume.sx, volume.nx);
-    const Cell cj = cell_along(point.j / volume.sy, volume.ny);
-    const Cell ck = cell_along(point.k / volume.sz, volume.nz);
-    auto v = [&](int i, int j, int k) { return float(volume.at(i, j, k)); };
-    const float low_low = lerp(v(ci.low, cj.low, ck.low), v(ci.high, cj.low, ck.low), ci.fraction);
-    const float high_low = lerp(v(ci.low, cj.high, ck.low), v(ci.high, cj.high, ck.low),
-                                ci.fraction);
-    const float low_high = lerp(v(ci.low, cj.low, ck.high), v(ci.high, cj.low, ck.high),
-                                ci.fraction);
-    const float high_high = lerp(v(ci.low, cj.high, ck.high), v(ci.high, cj.high, ck.high),
-                                 ci.fraction);
-    return lerp(lerp(low_low, high_low, cj.fraction), lerp(low_high, high_high, cj.fraction),
-                ck.fraction);
+static float trilinear(const Volume& volume, const Cell& c) {
+    const int16_t* v = volume.data.data() + c.index;
+    const float low_low = lerp(v[0], v[c.di], c.fi);
+    const float high_low = lerp(v[c.dj], v[c.dj + c.di], c.fi);
+    const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
+    const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
+    return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
 }
 //< lesson: trilinear
+
+// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
+// the current table, how far the empty space around each brick reaches (see empty_reach); no
+// reach: leap over nothing.
+struct EmptySpace {
+    Bricks bricks;
+    std::vector<uint8_t> reach;  // per brick, 0: the table sees something in it
+
+    int reach_at(const Cell& cell) const {
+        return reach.empty() ? 0 : reach[bricks.index(cell.i, cell.j, cell.k)];
+    }
+};
+constexpr int max_reach = 32;           // bricks: a leap crosses at most 2 * 32 - 1 of them
+constexpr double leap_margin = 1e-6;    // voxels: a leap stops this far before a brick's face
+
+//> lesson: empty_space
+// Step 09's bricks that the table leaves wholly transparent, unchanged.
+static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
+    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
+    for (size_t n = 0; n < lut.entries.size(); ++n) {
+        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
+    }
+    std::vector<uint8_t> empty(bricks.count());
+    for (size_t b = 0; b < bricks.count(); ++b) {
+        const int low = bricks.ranges[b].min - lowest_ct_value;
+        const int high = bricks.ranges[b].max - lowest_ct_value;
+        empty[b] = opaque_before[high + 1] == opaque_before[low];
+    }
+    return empty;
+}
+
+// The bricks whose neighbours (26, at most) are all empty too: `empty` shrunk by one brick
+// on every side, one axis at a time. Past the volume's edge counts as empty (no ray samples
+// there).
+static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> empty) {
+    const size_t strides[3] = {1, size_t(bricks.bx), size_t(bricks.bx) * size_t(bricks.by)};
+    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
+    for (int axis = 0; axis < 3; ++axis) {
+        const std::vector<uint8_t> before = empty;
+        const size_t stride = strides[axis];
+        for (size_t b = 0; b < empty.size(); ++b) {
+            const int at = int(b / stride % size_t(counts[axis]));  // along this axis
+            if (at > 0) empty[b] &= before[b - stride];
+            if (at + 1 < counts[axis]) empty[b] &= before[b + stride];
+        }
+    }
+    return empty;
+}
+
+// Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
+// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
+// reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
+// A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
+// brick on every side.
+static std::vector<uint8_t> empty_reach(const Bricks& bricks, const std::vector<uint8_t>& empty) {
+    std::vector<uint8_t> reach = empty, cube = empty;  // 1 for an empty brick, 0 else
+    for (int r = 2; r <= max_reach; ++r) {
+        cube = shrink(bricks, cube);
+        bool any = false;
+        for (size_t b = 0; b < cube.size(); ++b) {
+            if (cube[b]) reach[b] = uint8_t(r);
+            any = any || cube[b];
+        }
+        if (!any) break;
+    }
+    return reach;
+}
+
+// The sample to go on from when sample n lies in a brick of reach r: the first one past the
+// faces of the cube of bricks r - 1 around it (the slab method again, in sample units: face
+// = first + t * per_step). Every sample before it is inside the cube, even after rounding:
+// the faces are taken leap_margin voxels inside. A cube that reaches the volume's edge has
+// no face there. At least n + 1, at most the ray's sample count.
+static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& cell, int reach,
+                           long long n) {
+    const int corner[3] = {cell.i, cell.j, cell.k};
+    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
+    double leave = std::numeric_limits<double>::infinity();  // in samples
+    for (int axis = 0; axis < 3; ++axis) {
+        const double d = walk.per_step[axis];
+        if (d == 0) continue;  // parallel to these faces: never leaves through them
+        const int brick = corner[axis] / brick_size;
+        const int face_brick = d > 0 ? brick + reach : brick - reach + 1;  // its first voxel
+        if (face_brick <= 0 || face_brick >= counts[axis]) continue;       // the volume's edge
+        const double face = face_brick * brick_size + (d > 0 ? -leap_margin : leap_margin);
+        leave = std::min(leave, (face - walk.first[axis]) / d);
+    }
+    if (!(leave < double(walk.count))) return walk.count;
+    return std::max(n + 1, (long long)std::ceil(leave));
+}
+//< lesson: empty_space
 
 //> lesson: gradient
 // Step 08's derivative and gradient at a voxel, unchanged.
@@ -294,8 +433,7 @@ static float derivative(Sample sample, int n, int count, double spacing) {
     return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
 }
 
-static Vec3 gradient_at(const Volume& volume, int i, int j, int k, Work& work) {
-    ++work.gradients;
+static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
     auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
     auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
     auto along_k = [&](int m) { return double(volume.at(i, j, m)); };
@@ -306,23 +444,53 @@ static Vec3 gradient_at(const Volume& volume, int i, int j, int k, Work& work) {
 
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
-// The gradient at a point: the voxels' gradients interpolated trilinearly, as the values are.
-// At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
-static Vec3 gradient_trilinear(const Volume& volume, const Vec3d& point, Work& work) {
-    const Cell ci = cell_along(point.i / volume.sx, volume.nx);
-    const Cell cj = cell_along(point.j / volume.sy, volume.ny);
-    const Cell ck = cell_along(point.k / volume.sz, volume.nz);
-    auto g = [&](int i, int j, int k) { return gradient_at(volume, i, j, k, work); };
-    auto along_i = [&](int j, int k) {
-        return ci.fraction == 0.0f ? g(ci.low, j, k)
-                                   : lerp_vector(g(ci.low, j, k), g(ci.high, j, k), ci.fraction);
+// Eight numbers at the cell's corners blended trilinearly, in trilinear()'s order.
+static float blend(const Corners& corners, const Cell& c) {
+    const float* v = corners.at;
+    return lerp(lerp(lerp(v[0], v[1], c.fi), lerp(v[2], v[3], c.fi), c.fj),
+                lerp(lerp(v[4], v[5], c.fi), lerp(v[6], v[7], c.fi), c.fj), c.fk);
+}
+
+// The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
+// values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
+// Off the volume's border (the usual case) the corners' central differences are read through
+// memory steps, and the division by 2 * spacing is one product after the blend (the same bits
+// when the spacing is a power of two, as CThead's 1, 1, 2).
+static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
+    work.gradients += 8;
+    const bool inside = c.i > 0 && c.i + 2 < volume.nx && c.j > 0 && c.j + 2 < volume.ny &&
+                        c.k > 0 && c.k + 2 < volume.nz;  // every corner has both neighbours
+    if (!inside) {
+        auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
+            return gradient_at(volume, c.i + (a && c.di ? 1 : 0), c.j + (b && c.dj ? 1 : 0),
+                               c.k + (d && c.dk ? 1 : 0));
+        };
+        const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
+        const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
+        const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
+        const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
+        return lerp_vector(lerp_vector(low_low, high_low, c.fj),
+                           lerp_vector(low_high, high_high, c.fj), c.fk);
+    }
+    const ptrdiff_t row = volume.nx, slice = ptrdiff_t(volume.nx) * volume.ny;
+    const int16_t* low = volume.data.data() + c.index;
+    Corners along_i, along_j, along_k;  // differences at the corners, in CT units
+    auto differences = [&](int n, ptrdiff_t offset) {
+        const int16_t* v = low + offset;
+        along_i.at[n] = float(v[1] - v[-1]);
+        along_j.at[n] = float(v[row] - v[-row]);
+        along_k.at[n] = float(v[slice] - v[-slice]);
     };
-    auto along_ij = [&](int k) {
-        return cj.fraction == 0.0f ? along_i(cj.low, k)
-                                   : lerp_vector(along_i(cj.low, k), along_i(cj.high, k), cj.fraction);
-    };
-    return ck.fraction == 0.0f ? along_ij(ck.low)
-                               : lerp_vector(along_ij(ck.low), along_ij(ck.high), ck.fraction);
+    differences(0, 0);
+    differences(1, 1);
+    differences(2, row);
+    differences(3, row + 1);
+    differences(4, slice);
+    differences(5, slice + 1);
+    differences(6, slice + row);
+    differences(7, slice + row + 1);
+    return {blend(along_i, c) * float(0.5 / volume.sx), blend(along_j, c) * float(0.5 / volume.sy),
+            blend(along_k, c) * float(0.5 / volume.sz)};
 }
 //< lesson: gradient
 
@@ -339,48 +507,151 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
+// --shadows volume: T_light at every voxel centre for one light direction, in the volume's
+// layout, so a sample's Cell reads it as it reads the values.
+using LightVolume = std::vector<float>;
+
+// What light that is blocked needs beside step 10's table: ambient occlusion's own table
+// (corrected for occlusion_step) and, with --shadows volume, the light-transmittance volume of
+// the current light (empty otherwise).
+struct Blocking {
+    Lut occlusion_lut;
+    LightVolume light;
+    Vec3d light_towards;  // the light direction `light` was swept for
+};
+
 //> lesson: shadow
-// How much of the light reaches `point`: march from it towards the light, `step` physical
-// units at a time, to where that ray leaves the box, multiplying the transparencies of the
-// samples met, T_light = product of (1 - alpha). The table's alphas are corrected for the step,
-// so through a homogeneous medium T_light = (1 - alpha)^(distance / unit) = exp(-sigma d),
-// Beer-Lambert with sigma = -ln(1 - alpha) per unit. The sample itself is left out (it would
-// shadow itself); the march stops once T_light is below min_light_transmittance.
-static double light_transmittance(const Volume& volume, const Lut& lut, const Vec3d& point,
-                                  const Vec3d& to_light, double step, int* shadow_samples) {
-    const Span span = intersect_box({point, to_light}, Vec3d{}, box_high(volume));
+// How much of the light reaches `point` (physical units): march from it towards the light,
+// `step` physical units at a time, to where that ray leaves the box, multiplying the
+// transparencies of the samples met, T_light = product of (1 - alpha). The table's alphas are
+// corrected for the step, so through a homogeneous medium T_light = (1 - alpha)^(distance /
+// unit) = exp(-sigma d), Beer-Lambert with sigma = -ln(1 - alpha) per unit. The sample itself
+// (n = 0) is left out (it would shadow itself); empty bricks let all the light through, so
+// the shadow ray leaps over them as the camera's ray does; the march stops once T_light is
+// below min_light_transmittance.
+static double light_transmittance(const Volume& volume, const Lut& lut, const EmptySpace& space,
+                                  const Vec3d& point, const Vec3d& to_light, double step,
+                                  Work& work) {
+    const Ray ray = {point, to_light};
+    const Span span = intersect_box(ray, Vec3d{}, box_high(volume));
+    if (!span.hit) return 1;
+    const Walk walk = walk_through(volume, ray, span, step);
     double transmittance = 1;
-    for (double t = step; span.hit && t <= span.t_exit; t += step) {
-        const float value = trilinear(volume, point + t * to_light);
-        ++*shadow_samples;
+    for (long long n = 1; n < walk.count; ++n) {
+        const Cell cell = cell_at(volume, walk.at(n));
+        const int reach = space.reach_at(cell);
+        if (reach > 0) {
+            const long long next = leap_past(walk, space.bricks, cell, reach, n);
+            work.leapt += next - n;
+            n = next - 1;
+            continue;
+        }
+        ++work.samples;
+        const float value = trilinear(volume, cell);
         transmittance *= 1 - lut.entries[int(double(value) - lowest_ct_value)].a;
         if (transmittance < min_light_transmittance) break;
     }
     return transmittance;
 }
 
-// Ambient occlusion: how open the space around `point` is. Along each of the six axis
-// directions, the transmittance over occlusion_radius (samples occlusion_step apart, the table's
-// alphas corrected for that step); their mean, 1 in empty surroundings, less where material
-// around the sample would block light coming from all sides.
-static double ambient_occlusion(const Volume& volume, const Lut& occlusion_lut,
-                                const Vec3d& point, int* shadow_samples) {
-    const Vec3d high = box_high(volume);
-    const Vec3d directions[] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1},
-                                {0, 0, -1}};
-    double sum = 0;
-    for (const Vec3d& direction : directions) {
-        double transmittance = 1;
-        for (double t = occlusion_step; t <= occlusion_radius; t += occlusion_step) {
-            const Vec3d p = point + t * direction;
-            if (p.i < 0 || p.j < 0 || p.k < 0 || p.i > high.i || p.j > high.j || p.k > high.k) {
-                break;  // outside the box: nothing there to block
-            }
-            const float value = trilinear(volume, p);
-            ++*shadow_samples;
-            transmittance *= 1 - occlusion_lut.entries[int(double(value) - lowest_ct_value)].a;
+// The light-transmittance volume for the directional light `to_light` (unit, physical): every
+// shadow ray's answer at once, T_light at every voxel centre, swept slice by slice from the
+// light's side. The slices lie across the axis a the light crosses fastest (the largest
+// |L_a| / s_a); the slice nearest the light gets all of it. A voxel p of the next slice gets
+// what reached q = p + d L on the slice before (d = s_a / |L_a| physical units away), times
+// what the segment between lets through: T(p) = T(q) * (1 - alpha_d(v(q))), the table's
+// alphas corrected for d. q is at most one voxel off p across the slice, and the light is
+// directional: every q is the same offset from its p, so T(q) and v(q) are bilinear reads
+// with the same four neighbours and weights everywhere. A q outside the box: the light came
+// in through a side face, T = 1 (the bit of material between that face and p is missed). One
+// read per voxel, once per light direction; each slice's rows in parallel.
+static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
+                               const Vec3d& to_light, bool corrected, int threads, Work& work) {
+    const int counts[3] = {volume.nx, volume.ny, volume.nz};
+    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
+    const size_t strides[3] = {1, size_t(volume.nx), size_t(volume.nx) * size_t(volume.ny)};
+    int a = 0;
+    for (int axis = 1; axis < 3; ++axis) {
+        if (std::fabs(to_light[axis]) / spacing[axis] > std::fabs(to_light[a]) / spacing[a]) {
+            a = axis;
         }
-        sum += transmittance;
+    }
+    const int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2;  // across the slice, b the faster in memory
+    const double d = spacing[a] / std::fabs(to_light[a]);
+    const Lut segment = build_lut(tf, corrected ? d / unit_length : 1.0);
+    const double shift_b = d * to_light[b] / spacing[b];  // voxels, at most 1 either way
+    const double shift_c = d * to_light[c] / spacing[c];
+    const int offset_b = int(std::floor(shift_b)), offset_c = int(std::floor(shift_c));
+    const float fb = float(shift_b - offset_b), fc = float(shift_c - offset_c);  // 0..1
+    // q's low corner is inside, and so is its high corner unless its weight is 0.
+    auto inside = [](int low, float f, int count) {
+        return low >= 0 && (low + 1 < count || (low + 1 == count && f == 0));
+    };
+    const int towards = to_light[a] > 0 ? 1 : -1;  // from a slice to the one before it
+    LightVolume light(volume.voxel_count(), 1.0f);
+    const int nearest = towards > 0 ? counts[a] - 1 : 0;  // the slice nearest the light
+    for (int u = nearest - towards; u >= 0 && u < counts[a]; u -= towards) {
+        const size_t here = size_t(u) * strides[a], before = size_t(u + towards) * strides[a];
+        parallel_rows(counts[c], threads, work, [&](int w, Work& row_work) {
+            const int low_c = w + offset_c;
+            if (!inside(low_c, fc, counts[c])) return;  // the whole row stays 1
+            const size_t dc = low_c + 1 < counts[c] ? strides[c] : 0;
+            const int v_first = std::max(0, -offset_b);  // the row's voxels whose q is inside
+            int v_end = counts[b];
+            while (v_end > v_first && !inside(v_end - 1 + offset_b, fb, counts[b])) --v_end;
+            for (int v = v_first; v < v_end; ++v) {
+                const int low_b = v + offset_b;
+                const size_t db = low_b + 1 < counts[b] ? strides[b] : 0;
+                const size_t at = before + size_t(low_b) * strides[b] + size_t(low_c) * strides[c];
+                auto bilinear = [&](const auto* data) {
+                    return lerp(lerp(data[at], data[at + db], fb),
+                                lerp(data[at + dc], data[at + dc + db], fb), fc);
+                };
+                const float value = bilinear(volume.data.data());
+                light[here + size_t(v) * strides[b] + size_t(w) * strides[c]] =
+                    bilinear(light.data()) *
+                    (1 - segment.entries[int(double(value) - lowest_ct_value)].a);
+            }
+            row_work.samples += uint64_t(std::max(0, v_end - v_first));
+        });
+    }
+    return light;
+}
+
+// T_light at a sample from the light-transmittance volume: a trilinear read through the
+// sample's cell, as trilinear() reads the values.
+static double light_from_volume(const LightVolume& light, const Cell& c) {
+    const float* v = light.data() + c.index;
+    const float low_low = lerp(v[0], v[c.di], c.fi);
+    const float high_low = lerp(v[c.dj], v[c.dj + c.di], c.fi);
+    const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
+    const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
+    return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
+}
+
+// Ambient occlusion: how open the space around `q` (voxel units) is. Along each of the six
+// axis directions, the transmittance over occlusion_radius physical units (samples
+// occlusion_step apart, the table's alphas corrected for that step), stopping at the box's
+// faces (nothing out there blocks); their mean, 1 in empty surroundings, less where material
+// around the sample would block light coming from all sides.
+static double ambient_occlusion(const Volume& volume, const Lut& occlusion_lut, const Vec3d& q,
+                                Work& work) {
+    const int counts[3] = {volume.nx, volume.ny, volume.nz};
+    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
+    double sum = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+        for (const double sign : {1.0, -1.0}) {
+            double transmittance = 1;
+            for (double t = occlusion_step; t <= occlusion_radius; t += occlusion_step) {
+                double p[3] = {q.i, q.j, q.k};
+                p[axis] += sign * t / spacing[axis];
+                if (p[axis] < 0 || p[axis] > counts[axis] - 1) break;  // outside the box
+                const float value = trilinear(volume, cell_at(volume, {p[0], p[1], p[2]}));
+                ++work.samples;
+                transmittance *= 1 - occlusion_lut.entries[int(double(value) - lowest_ct_value)].a;
+            }
+            sum += transmittance;
+        }
     }
     return sum / 6;
 }
@@ -421,10 +692,15 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 07.
+// transparent, composited front to back; early ray termination as in step 07. Step 09's
+// leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
+// (leap_past), and every sample leapt over would have been transparent. A lit sample's light
+// is blocked: shade_blocked() with T_light (a shadow ray, or the light volume) and its
+// ambient occlusion.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, const Lut& occlusion_lut,
-                                           const Params& params, Work& work, Trace* trace) {
+                                           int y, const Lut& lut, const EmptySpace& space,
+                                           const Blocking& blocking, const Params& params,
+                                           Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
@@ -432,38 +708,49 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     trace_ray(trace, ray, span, high, params.step);
     Accumulated pixel;
     if (!span.hit) return pixel;
-    const Vec3d entry = entry_point(ray, span, high);
-    const double length_inside = span.t_exit - span.t_entry;
-    const long long sample_count =
-        (long long)(std::floor(length_inside / params.step + sample_count_slack)) + 1;
+    const Walk walk = walk_through(volume, ray, span, params.step);
     const Vec3 to_light = params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
-    for (long long n = 0; n < sample_count; ++n) {
-        const double along = n * params.step;  // physical units past the entry
-        const Vec3d point = entry + along * ray.direction;
-        const float value = trilinear(volume, point);
+    const Vec3d light_d = {to_light.i, to_light.j, to_light.k};
+    const Vec3d towards = params.unlit ? Vec3d{} : (1 / length(light_d)) * light_d;  // unit
+    const bool shadow_rays = params.shadows == "ray", light_volume = params.shadows == "volume";
+    const bool occlusion_on = params.ao == "on";
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const Cell cell = cell_at(volume, q);
+        auto t = [&] { return span.t_entry + n * params.step; };  // for traces
+        const int reach = space.reach_at(cell);
+        if (reach > 0) {
+            const long long next = leap_past(walk, space.bricks, cell, reach, n);
+            work.leapt += next - n;
+            if (trace) trace->add("t=%9.4f..%.4f empty bricks (reach %d): %lld samples leapt "
+                                  "over", t(), span.t_entry + (next - 1) * params.step, reach,
+                                  next - n);
+            n = next - 1;
+            continue;
+        }
+        const float value = trilinear(volume, cell);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
-        const double t = span.t_entry + along;
+        auto point = [&] { return Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz}; };
         if (sample.a == 0.0f) {
             ++work.skipped;
             if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f transparent: "
-                                  "skipped", t, point.i, point.j, point.k, value);
+                                  "skipped", t(), point().i, point().j, point().k, value);
             continue;
         }
         double light = 1.0;  // unlit
         double light_t = 1, occlusion = 1;  // nothing blocks the light, nothing around
-        int shadow_samples = 0;
+        const uint64_t samples_before = work.samples, leapt_before = work.leapt;
         if (!params.unlit) {
-            const Vec3d towards = {to_light.i, to_light.j, to_light.k};
-            if (params.shadows == "ray") {
-                light_t = light_transmittance(volume, lut, point, (1 / length(towards)) *
-                                              towards, params.step, &shadow_samples);
+            if (shadow_rays) {
+                light_t = light_transmittance(volume, lut, space, point(), towards,
+                                                     params.step, work);
+            } else if (light_volume) {
+                light_t = light_from_volume(blocking.light, cell);
             }
-            if (params.ao == "on") {
-                occlusion = ambient_occlusion(volume, occlusion_lut, point, &shadow_samples);
-            }
-            light = shade_blocked(gradient_trilinear(volume, point, work), to_light, light_t,
-                                  occlusion);
+            if (occlusion_on) occlusion = ambient_occlusion(volume, blocking.occlusion_lut, q, work);
+            light = shade_blocked(gradient_trilinear(volume, cell, work), to_light,
+                                  light_t, occlusion);
         }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
@@ -472,16 +759,18 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         pixel.b += weight * sample.b;
         pixel.transparency *= 1 - alpha;
         if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f rgba=(%.3f, %.3f, "
-                              "%.3f, %.4f) light_T=%.6f ao=%.6f (%d shadow samples) L=%.4f "
-                              "C=(%.6f, %.6f, %.6f) T=%.6g", t, point.i, point.j, point.k,
-                              value, sample.r, sample.g, sample.b, sample.a, light_t, occlusion,
-                              shadow_samples, light, pixel.r, pixel.g, pixel.b,
-                              pixel.transparency);
-        if (pixel.transparency < stop_below && n + 1 < sample_count) {
+                              "%.3f, %.4f) light_T=%.6f ao=%.6f (%llu shadow samples, %llu "
+                              "leapt) L=%.4f C=(%.6f, %.6f, %.6f) T=%.6g", t(), point().i,
+                              point().j, point().k, value, sample.r, sample.g, sample.b,
+                              sample.a, light_t, occlusion,
+                              (unsigned long long)(work.samples - samples_before),
+                              (unsigned long long)(work.leapt - leapt_before), light, pixel.r,
+                              pixel.g, pixel.b, pixel.transparency);
+        if (pixel.transparency < stop_below && n + 1 < walk.count) {
             ++work.terminated;
             if (trace) trace->add("T=%.3g < %.3g: early ray termination at t=%.4f, %lld samples "
-                                  "not visited", pixel.transparency, stop_below, t,
-                                  sample_count - 1 - n);
+                                  "not visited", pixel.transparency, stop_below, t(),
+                                  walk.count - 1 - n);
             break;
         }
     }
@@ -529,7 +818,8 @@ int main(int argc, char** argv) {
         // --- Options: the shared flags plus this step's own ---
         Params params;
         Args args(step_name, "Step 10's lit compositing with light that is blocked: shadow rays "
-                             "towards the light and ambient occlusion.");
+                             "(or a light-transmittance volume) towards the light and ambient "
+                             "occlusion.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -543,19 +833,22 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
+        args.add_switch("--no-leaping", &params.no_leaping,
+                        "read every sample, even in bricks the table leaves transparent");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
                         "degrees above the i-j plane; 90 looks down from the crown");
-        args.add_double("--zoom", &params.zoom, 0.01, 100,
+        args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
                         "ortho: pixels per voxel; perspective: walks the eye in (>1)");
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
         args.add_double("--fov", &params.fov, 1, 170,
                         "perspective: the image's height as an angle, degrees");
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)");
-        args.add_choice("--shadows", &params.shadows, {"ray", "none"},
-                        "a shadow ray towards the light from every lit sample, or none");
+        args.add_choice("--shadows", &params.shadows, {"ray", "volume", "none"},
+                        "T_light by a shadow ray from every lit sample, from a light-"
+                        "transmittance volume swept once per render, or none");
         args.add_choice("--ao", &params.ao, {"on", "off"},
                         "ambient occlusion from the opacity around every lit sample");
         const Options options = args.parse(argc, argv);
@@ -577,18 +870,56 @@ int main(int argc, char** argv) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
-        const Lut occlusion_lut = build_lut(tf, occlusion_step / unit_length);
+        Blocking blocking;
+        blocking.occlusion_lut = build_lut(tf, occlusion_step / unit_length);
 
-        // --- View: the camera ---
-        const Camera camera = make_camera(volume, params, width, height);
+        // --- The bricks the table leaves empty ---
+        EmptySpace space;
+        if (!params.no_leaping) space.bricks = make_bricks(volume);
+        auto update_empty_space = [&] {
+            if (params.no_leaping) return;
+            space.reach = empty_reach(space.bricks, find_empty_bricks(space.bricks, lut));
+        };
+        update_empty_space();
 
-        // --- Render: one ray per pixel ---
+        // --- View: the camera's image (its camera is made for each render: the window turns
+        // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
-        renderer.ray = [&](const View&, int x, int y, Work& work, Trace* trace) {
-            return over_background(composite_front_to_back(volume, camera, x, y, lut,
-                                                           occlusion_lut, params, work, trace));
+
+        // --- The light-transmittance volume (--shadows volume): the light turns with the
+        // camera (light_direction), so every render sweeps it again, in the render's time and
+        // work; a traced ray reuses it while the light has not moved ---
+        auto sweep_for = [&](const Camera& camera, Work& work, bool again) {
+            if (params.shadows != "volume" || params.unlit) return;
+            const Vec3 l = light_direction(camera, params.light_angle);
+            const Vec3d light_d = {l.i, l.j, l.k};
+            const Vec3d towards = (1 / length(light_d)) * light_d;  // unit, in double
+            const Vec3d moved = towards - blocking.light_towards;
+            if (!again && !blocking.light.empty() && dot(moved, moved) == 0) return;
+            blocking.light = sweep_light(volume, tf, towards, !params.no_correction,
+                                         options.threads, work);
+            blocking.light_towards = towards;
+        };
+
+        // --- Render: one ray per pixel ---
+        auto pixel = [&](const Camera& camera, int x, int y, Work& work, Trace* trace) {
+            return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
+                                                           blocking, params, work, trace));
+        };
+        renderer.image = [&](const View& view, Work& work) {
+            const Camera camera = make_camera(volume, params, view);
+            sweep_for(camera, work, true);
+            return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
+                return pixel(camera, x, y, ray_work, nullptr);
+            });
+        };
+        renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
+            const Camera camera = make_camera(volume, params, view);
+            Work sweep_work;  // not this ray's
+            sweep_for(camera, sweep_work, false);
+            return pixel(camera, x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
             return "samples " + number(params.step) + " physical units apart";
@@ -601,8 +932,20 @@ int main(int argc, char** argv) {
                              if (!too_many_samples(volume, step).empty()) return;  // keep it
                              params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
+                             update_empty_space();
                          },
                          [&] { return number(params.step); }};
+        renderer.orbit.turn = [&](double azimuth, double elevation) {
+            params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
+            params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
+        };
+        renderer.orbit.zoom = [&](double factor) {
+            params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
+        };
+        renderer.orbit.value = [&] {
+            return "azimuth=" + number(params.azimuth) + " elevation=" +
+                   number(params.elevation) + " zoom=" + number(params.zoom);
+        };
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "tf=" + tf.source +
@@ -611,6 +954,7 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
+                   " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + number(params.azimuth) +
                    " elevation=" + number(params.elevation) + " zoom=" + number(params.zoom) +
                    " fov=" + number(params.fov) + " shadows=" + params.shadows +

@@ -28,6 +28,7 @@ constexpr const char* step07 = "07_compositing_order";  // front to back, both o
 constexpr const char* step08 = "08_lit_compositing";    // lit, physical step, correction
 constexpr const char* step09 = "09_empty_space";        // 08 plus leaping over empty bricks
 constexpr double default_ert = 0.01;                    // steps 07-09's --ert default
+constexpr int step09_brick_size = 4;  // steps/09_empty_space.cpp's leap_brick_size (voxels)
 // Step 09's flag that turns leaping over empty bricks off.
 const std::vector<std::string> no_leaping = {"--no-leaping"};
 
@@ -620,11 +621,12 @@ TEST_CASE("compositing: leaping over empty bricks changes no pixel, only the wor
 
 TEST_CASE("compositing: a sample between an empty brick and bone is not leapt over") {
     // A column of air with bone starting exactly at the first voxel of the second brick.
-    // Step 09 at step 0.25 puts samples at 7.25, 7.5, 7.75: between air (-1000) and bone
-    // (1000), where they interpolate through the skin range [-300, 50) (7.5 gives 0 exactly).
-    // The first brick's range covers voxel brick_size (the overlap), so it is not empty.
-    std::vector<int16_t> values(3 * brick_size, -1000);
-    for (int k = brick_size; k < 3 * brick_size; ++k) values[k] = 1000;
+    // Step 09 at step 0.25 puts samples at 3.25, 3.5, 3.75: between air (-1000) and bone
+    // (1000), where they interpolate through the skin range [-300, 50) (3.5 gives 0 exactly).
+    // The first brick's range covers voxel brick (the overlap), so it is not empty.
+    const int brick = step09_brick_size;
+    std::vector<int16_t> values(3 * brick, -1000);
+    for (int k = brick; k < 3 * brick; ++k) values[k] = 1000;
     const Volume volume = column(values);
     const std::vector<std::string> flags = {"--step", "0.25", "--ert", "0", "--unlit"};
     const StepRender leaping = top_view(step09, volume, "", flags, true);
@@ -632,21 +634,25 @@ TEST_CASE("compositing: a sample between an empty brick and bone is not leapt ov
     CHECK(pixel(leaping).r == pixel(reading).r);
     CHECK(pixel(leaping).r > 0);  // T < 1: the bone shows
     CHECK(count(leaping, "leapt") == 0);  // no brick is empty: each holds bone or touches it
-    bool zero_at_7_5 = false;
+    bool zero_at_3_5 = false;
     for (const std::string& line : leaping.run.traces[0].lines) {
-        zero_at_7_5 = zero_at_7_5 || line.rfind("t=   7.50 value=    0.00", 0) == 0;
+        zero_at_3_5 = zero_at_3_5 || line.rfind("t=   3.50 value=    0.00", 0) == 0;
     }
-    CHECK(zero_at_7_5);
+    CHECK(zero_at_3_5);
 
-    // Air all along, but for bone in the last brick: the first two bricks are leapt over.
-    std::vector<int16_t> far(3 * brick_size, -1000);
+    // Air all along, but for bone in the last brick: the first two bricks are leapt over, in
+    // one leap (they are a run of two empty bricks).
+    std::vector<int16_t> far(3 * brick, -1000);
     far.back() = 1000;
     const StepRender far_run = top_view(step09, column(far), "", flags, true);
-    const uint64_t samples = 3 * brick_size * 4;  // step 0.25
+    const uint64_t samples = 3 * brick * 4;  // step 0.25
     CHECK(count(far_run, "samples") + count(far_run, "leapt") == samples);
-    CHECK(count(far_run, "leapt") == 2 * brick_size * 4);  // bricks 0 and 1, 4 samples a voxel
+    CHECK(count(far_run, "leapt") == 2 * brick * 4);  // bricks 0 and 1, 4 samples a voxel
     REQUIRE(far_run.run.traces.size() == 1);
-    CHECK(contains(far_run.run.traces[0].lines[0], "empty brick"));
+    CHECK(contains(far_run.run.traces[0].lines[0], "empty bricks up to voxel " +
+                                                       std::to_string(2 * brick - 1) + ": " +
+                                                       std::to_string(2 * brick * 4) +
+                                                       " samples leapt"));
 }
 
 TEST_CASE("compositing: the empty bricks follow the table's skin opacity") {

@@ -402,6 +402,77 @@ TEST_CASE("bricks: a ramp's brick ranges are its corner values, the far faces in
     CHECK(single.ranges[0].max == -32768);
 }
 
+TEST_CASE("bricks: other sizes cut the same way, and empty runs count along each axis") {
+    // The same ramp at brick sizes 4, 2 and 1: each brick's range is from its first corner to
+    // `size` voxels past it (or the volume's last voxel).
+    Volume volume;
+    volume.nx = 19, volume.ny = 10, volume.nz = 17;
+    auto f = [](int i, int j, int k) { return 3 * i + 5 * j + 7 * k - 1000; };
+    for (int k = 0; k < volume.nz; ++k)
+        for (int j = 0; j < volume.ny; ++j)
+            for (int i = 0; i < volume.nx; ++i) volume.data.push_back(int16_t(f(i, j, k)));
+    for (int size : {4, 2, 1}) {
+        CAPTURE(size);
+        const Bricks bricks = make_bricks(volume, size);
+        CHECK(bricks.size == size);
+        CHECK(bricks.bx == (19 + size - 1) / size);
+        CHECK(bricks.by == (10 + size - 1) / size);
+        CHECK(bricks.bz == (17 + size - 1) / size);
+        REQUIRE(bricks.count() == size_t(bricks.bx) * bricks.by * bricks.bz);
+        for (int k = 0; k < volume.nz; ++k)
+            for (int j = 0; j < volume.ny; ++j)
+                for (int i = 0; i < volume.nx; ++i) {
+                    const size_t n = bricks.index(i, j, k);
+                    const int a = i / size, b = j / size, c = k / size;
+                    REQUIRE(n == size_t((c * bricks.by + b) * bricks.bx + a));
+                    CHECK(bricks.ranges[n].min == f(a * size, b * size, c * size));
+                    CHECK(bricks.ranges[n].max == f(std::min(a * size + size, volume.nx - 1),
+                                                     std::min(b * size + size, volume.ny - 1),
+                                                     std::min(c * size + size, volume.nz - 1)));
+                }
+    }
+    CHECK_THROWS(make_bricks(volume, 3));
+    CHECK_THROWS(make_bricks(volume, 0));
+
+    // Runs: 4 x 3 x 2 bricks, flags set by hand; a run counts the empty bricks in a row from
+    // a brick towards larger indices along the axis, itself included.
+    Bricks bricks;
+    bricks.bx = 4, bricks.by = 3, bricks.bz = 2;
+    std::vector<uint8_t> empty(24, 0);
+    auto at = [&](int a, int b, int c) { return size_t((c * 3 + b) * 4 + a); };
+    // Along i in row (b=1, c=0): empty, empty, full, empty.
+    empty[at(0, 1, 0)] = empty[at(1, 1, 0)] = empty[at(3, 1, 0)] = 1;
+    // Along j in column (a=2, c=1): all three empty.
+    empty[at(2, 0, 1)] = empty[at(2, 1, 1)] = empty[at(2, 2, 1)] = 1;
+    const std::vector<uint8_t> along_i = empty_runs(bricks, empty, 0);
+    CHECK(along_i[at(0, 1, 0)] == 2);
+    CHECK(along_i[at(1, 1, 0)] == 1);
+    CHECK(along_i[at(2, 1, 0)] == 0);
+    CHECK(along_i[at(3, 1, 0)] == 1);  // the last brick: the run stops at the volume's edge
+    const std::vector<uint8_t> along_j = empty_runs(bricks, empty, 1);
+    CHECK(along_j[at(2, 0, 1)] == 3);
+    CHECK(along_j[at(2, 1, 1)] == 2);
+    CHECK(along_j[at(2, 2, 1)] == 1);
+    CHECK(along_j[at(0, 1, 0)] == 1);  // (0, 2, 0) is not empty
+    const std::vector<uint8_t> along_k = empty_runs(bricks, empty, 2);
+    CHECK(along_k[at(2, 1, 0)] == 0);
+    CHECK(along_k[at(2, 1, 1)] == 1);  // c = 1 is the last layer
+    CHECK(along_k[at(0, 1, 0)] == 1);  // (0, 1, 1) is not empty
+    for (size_t n = 0; n < empty.size(); ++n) {
+        CHECK((along_i[n] > 0) == (empty[n] != 0));
+        CHECK((along_j[n] > 0) == (empty[n] != 0));
+        CHECK((along_k[n] > 0) == (empty[n] != 0));
+    }
+    // A run longer than 255 bricks is capped (a leap then stops short and leaps again).
+    Bricks long_row;
+    long_row.bx = 300, long_row.by = long_row.bz = 1;
+    const std::vector<uint8_t> all(300, 1);
+    const std::vector<uint8_t> capped = empty_runs(long_row, all, 0);
+    CHECK(capped[0] == 255);
+    CHECK(capped[299 - 100] == 101);
+    CHECK(capped[299] == 1);
+}
+
 // --- Views ---------------------------------------------------------------------------------
 
 TEST_CASE("views: sizes, ray lengths and spacings on a 7x5x3 volume") {

@@ -50,6 +50,10 @@ constexpr double run_timeout_s = 600;    // one step, every view, every render
 constexpr double frame_budget_ms = 16;   // target: every step 01 on, 256x256 view, 2 threads
 constexpr double leap_top_budget_ms = 8;  // target: step 09 (empty-space leaping, lit), top view
 constexpr double cold_ratio_target = 1.5;  // target: first render / warm median, every view
+// The first-render target again, on the renders of at least this warm median only: below it
+// (00_slices, 0.1-0.6 ms), a page fault or a timer tick more in the first render is a large
+// share of it, and the ratio measures that rather than what a student waits for.
+constexpr double cold_ratio_min_warm_ms = 1;
 constexpr double unlit_top_budget_ms = 2;  // target: step 09 with --unlit, top view
 constexpr int quick_dims[3] = {64, 64, 29};  // --quick: the phantom this size
 constexpr int large_dims = 512;              // the large volume: the phantom at 512^3
@@ -59,7 +63,7 @@ constexpr double per_sample_growth_target = 1.5;  // large / 256^2: time per vis
 constexpr double memory_target = 1.2;             // peak memory / the volume's int16 bytes
 constexpr double parallel_target = 1.7;  // target: speed-up of the parallel loop, 2 threads
 constexpr int thread_counts[2] = {1, 2};
-// Part 2 (#15): each camera step's default run is the oblique view (azimuth 30, elevation 20,
+// Part 2: each camera step's default run is the oblique view (azimuth 30, elevation 20,
 // orthographic, 512x512, the classic table); VTK's CPU ray caster needs about 30 ms for it.
 constexpr double camera_budget_ms = 10;     // target: step 10 (composite), 2 threads
 constexpr double isosurface_budget_ms = 15;  // target: step 13 (the isosurface), 2 threads
@@ -107,6 +111,11 @@ struct Row {
     // Nanoseconds per visited sample, warm median.
     double ns_per_sample(const Times& times) const {
         return samples > 0 ? times.warm * 1e6 / double(samples) : 0.0;
+    }
+    // Nanoseconds per sample along the rays, visited or leapt over (what the step would visit
+    // without leaping), warm median; the same as ns_per_sample for a step that does not leap.
+    double ns_per_position(const Times& times) const {
+        return samples + leapt > 0 ? times.warm * 1e6 / double(samples + leapt) : 0.0;
     }
 };
 
@@ -238,6 +247,7 @@ std::string table(const std::vector<Row>& rows) {
 struct Growth {
     const Row* row = nullptr;
     double per_sample_one = 0, per_sample_two = 0;  // large / 256^2, warm ns per sample
+    double per_position_one = 0, per_position_two = 0;  // the same per visited + leapt sample
     double memory = 0;                              // peak memory / volume bytes, worst pass
 };
 
@@ -255,6 +265,12 @@ std::vector<Growth> growth_of(const std::vector<Row>& large, const std::vector<R
             if (b.ns_per_sample(b.two) > 0) {
                 g.per_sample_two = r.ns_per_sample(r.two) / b.ns_per_sample(b.two);
             }
+            if (b.ns_per_position(b.one) > 0) {
+                g.per_position_one = r.ns_per_position(r.one) / b.ns_per_position(b.one);
+            }
+            if (b.ns_per_position(b.two) > 0) {
+                g.per_position_two = r.ns_per_position(r.two) / b.ns_per_position(b.two);
+            }
         }
         g.memory = std::max(r.rss_one_kib, r.rss_two_kib) * 1024.0 / volume_bytes;
         growth.push_back(g);
@@ -267,21 +283,27 @@ std::string growth_table(const std::vector<Growth>& growth, double volume_bytes,
     std::ostringstream out;
     out << text_of("The volume's voxels take %.0f MiB. *ns/sample*: warm median over the samples "
                    "visited; *vs base*: that figure over the same step's on the top view of %s "
-                   "in this run. *peak memory*: the step program's largest resident size "
+                   "in this run. *ns/sample along the rays*: the same over the samples visited "
+                   "or leapt over (for a step that leaps, most of its work is the leaping and "
+                   "the rays, not the samples it visits; for the others both figures are "
+                   "equal). *peak memory*: the step program's largest resident size "
                    "(ru_maxrss), 1 and 2 threads.\n\n",
                    volume_bytes / (1 << 20), base_name.c_str());
-    out << "| step | pixels | Msamples visited | 1 thread ms: warm (cold) | 2 threads ms: warm "
-        << "(cold) | ns/sample, 1 thr (vs base) | ns/sample, 2 thr (vs base) | peak memory MiB "
-        << "(1, 2 thr) | peak / volume |\n";
-    out << "|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    out << "| step | pixels | Msamples visited | Msamples leapt | 1 thread ms: warm (cold) | "
+        << "2 threads ms: warm (cold) | ns/sample, 1 thr (vs base) | ns/sample, 2 thr (vs base) "
+        << "| ns/sample along the rays, 1 thr (vs base) | ns/sample along the rays, 2 thr (vs "
+        << "base) | peak memory MiB (1, 2 thr) | peak / volume |\n";
+    out << "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const Growth& g : growth) {
         const Row& r = *g.row;
-        out << text_of("| %s | %s | %.1f | %.1f (%.1f) | %.1f (%.1f) | %.2f (%.2fx) | %.2f "
-                       "(%.2fx) | %.0f, %.0f | %.2fx |\n",
-                       r.label().c_str(), r.size.c_str(), r.samples / 1e6, r.one.warm,
-                       r.one.cold, r.two.warm, r.two.cold, r.ns_per_sample(r.one),
+        out << text_of("| %s | %s | %.1f | %.1f | %.1f (%.1f) | %.1f (%.1f) | %.2f (%.2fx) | "
+                       "%.2f (%.2fx) | %.2f (%.2fx) | %.2f (%.2fx) | %.0f, %.0f | %.2fx |\n",
+                       r.label().c_str(), r.size.c_str(), r.samples / 1e6, r.leapt / 1e6,
+                       r.one.warm, r.one.cold, r.two.warm, r.two.cold, r.ns_per_sample(r.one),
                        g.per_sample_one, r.ns_per_sample(r.two), g.per_sample_two,
-                       r.rss_one_kib / 1024.0, r.rss_two_kib / 1024.0, g.memory);
+                       r.ns_per_position(r.one), g.per_position_one, r.ns_per_position(r.two),
+                       g.per_position_two, r.rss_one_kib / 1024.0, r.rss_two_kib / 1024.0,
+                       g.memory);
     }
     return out.str();
 }
@@ -368,6 +390,8 @@ std::string targets(const std::vector<Row>& rows, const std::vector<Row>& unlit,
     int not_identical = 0;
     double worst_cold[2] = {0, 0};  // first render / warm median, 1 and 2 threads
     std::string worst_cold_view[2];
+    double worst_cold_long[2] = {0, 0};  // the same, renders of cold_ratio_min_warm_ms or more
+    std::string worst_cold_long_view[2];
     int cold_slower_with_two = 0;  // views whose first render is slower on 2 threads than on 1
     std::string slower_views;
     std::vector<const Row*> all;
@@ -380,6 +404,10 @@ std::string targets(const std::vector<Row>& rows, const std::vector<Row>& unlit,
             if (ratio > worst_cold[t]) {
                 worst_cold[t] = ratio;
                 worst_cold_view[t] = r->label() + " " + r->view;
+            }
+            if (times[t]->warm >= cold_ratio_min_warm_ms && ratio > worst_cold_long[t]) {
+                worst_cold_long[t] = ratio;
+                worst_cold_long_view[t] = r->label() + " " + r->view;
             }
         }
         if (r->two.cold > r->one.cold) {
@@ -418,6 +446,16 @@ std::string targets(const std::vector<Row>& rows, const std::vector<Row>& unlit,
                        t == 0 ? worst.c_str() : "", t == 1 ? worst.c_str() : "",
                        met(worst_cold[t] <= cold_ratio_target));
     }
+    for (int t = 0; t < 2; ++t) {
+        const std::string worst = text_of("worst %.2fx (%s)", worst_cold_long[t],
+                                          worst_cold_long_view[t].c_str());
+        out << text_of("| the same, views whose warm median is %.0f ms or more (below it a page "
+                       "fault or a timer tick is a large share of the render), %d thread%s | "
+                       "%s | %s | %s |\n",
+                       cold_ratio_min_warm_ms, t + 1, t == 0 ? "" : "s",
+                       t == 0 ? worst.c_str() : "", t == 1 ? worst.c_str() : "",
+                       met(worst_cold_long[t] <= cold_ratio_target));
+    }
     out << text_of("| first render never slower on 2 threads than on 1 | %d of %zu views "
                    "slower%s | | %s |\n",
                    cold_slower_with_two, all.size(),
@@ -425,12 +463,19 @@ std::string targets(const std::vector<Row>& rows, const std::vector<Row>& unlit,
                    met(cold_slower_with_two == 0));
     double worst_growth[2] = {0, 0}, worst_memory = 0;
     std::string worst_growth_step[2], worst_memory_step;
+    double worst_position[2] = {0, 0};  // per sample along the rays (visited + leapt)
+    std::string worst_position_step[2];
     for (const Growth& g : growth) {
         const double per_sample[2] = {g.per_sample_one, g.per_sample_two};
+        const double per_position[2] = {g.per_position_one, g.per_position_two};
         for (int t = 0; t < 2; ++t) {
             if (per_sample[t] > worst_growth[t]) {
                 worst_growth[t] = per_sample[t];
                 worst_growth_step[t] = g.row->label();
+            }
+            if (per_position[t] > worst_position[t]) {
+                worst_position[t] = per_position[t];
+                worst_position_step[t] = g.row->label();
             }
         }
         if (g.memory > worst_memory) {
@@ -445,6 +490,13 @@ std::string targets(const std::vector<Row>& rows, const std::vector<Row>& unlit,
                        worst_growth[0], worst_growth_step[0].c_str(), worst_growth[1],
                        worst_growth_step[1].c_str(),
                        met(std::max(worst_growth[0], worst_growth[1]) <=
+                           per_sample_growth_target));
+        out << text_of("| the same per sample along the rays, visited or leapt over (step 09's "
+                       "work is mostly leaping and rays: its visited samples are a small share) "
+                       "| worst %.2fx (%s) | worst %.2fx (%s) | %s |\n",
+                       worst_position[0], worst_position_step[0].c_str(), worst_position[1],
+                       worst_position_step[1].c_str(),
+                       met(std::max(worst_position[0], worst_position[1]) <=
                            per_sample_growth_target));
         out << text_of("| %s: peak memory within %.1fx of the volume's size, every step | "
                        "worst %.2fx (%s), 1 or 2 threads | | %s |\n",

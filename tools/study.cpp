@@ -12,6 +12,9 @@
 //   jitter     step 11 (the free camera) at step 4 .. 1/2 with jitter none, hash and blue
 //              noise, against step 1/4 without jitter: RMSE, and RMSE after a 5x5 blur
 //              (the rings and bands that survive it; noise does not)
+//   shadows    step 14: shadow rays, the light-transmittance volume and ambient occlusion,
+//              each against step 10's light (what it adds) with its time and samples read;
+//              rays and volume at step 4 .. 1/2 against shadow rays at step 1/4
 //   precision  the cost of subnormal arithmetic on this machine, and of a float ray
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
 //              error measured here (handouts/numerics.md quotes them)
@@ -619,6 +622,66 @@ void jitter_study() {
             record({"jitter-lowpass", jitter, step_text(step), image.ms(), low.rmse, low.max,
                     "8-bit, 5x5 box-blurred difference", image.count("samples")});
         }
+    }
+}
+
+// --- Shadows: what blocked light costs and what it adds (step 14) --------------------------
+
+constexpr const char* shadows_step = "14_shadows";
+
+void shadows_study() {
+    std::printf("shadows: step 14 on the phantom, the default camera at 256x256: each kind of "
+                "blocked light against step 10's light; T_light by shadow rays and by the "
+                "light-transmittance volume at steps 4 .. 1/2 (ambient occlusion off) against "
+                "shadow rays at step 1/4\n");
+    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+    const std::vector<std::string> camera =
+        phantom_volume().flags +
+        std::vector<std::string>{"--size", quick ? "64x64" : "256x256", "--zoom",
+                                 quick ? "1" : "0.5"};
+    // What each adds: the difference from --shadows none --ao off (step 10's light, the same
+    // picture as step 10's), at the default step; the cost in time and samples read (the
+    // shadow rays', the occlusion probes' and the sweep's reads count as samples).
+    const std::string added = "8-bit (RMSE, max) vs step 10's light";
+    const Run open = run(shadows_step, camera + std::vector<std::string>{
+                             "--shadows", "none", "--ao", "off"}, true);
+    record({"shadows", "none, ao off (step 10's light)", "1", open.ms(), 0, 0, added,
+            open.count("samples")});
+    for (const char* ao : {"off", "on"}) {
+        for (const char* shadows : {"ray", "volume", "none"}) {
+            if (std::string(shadows) == "none" && std::string(ao) == "off") continue;
+            const Run image = run(shadows_step, camera + std::vector<std::string>{
+                                      "--shadows", shadows, "--ao", ao}, true);
+            const ImageError error = image_error(image.image(), open.image());
+            record({"shadows", format("%s, ao %s", shadows, ao), "1", image.ms(), error.rmse,
+                    error.max, added, image.count("samples")});
+        }
+    }
+    // Error at equal time: T_light by shadow rays and by the light volume (ambient occlusion
+    // off), the camera's step and the shadow rays' the same, against shadow rays at step 1/4.
+    // Both carry the camera's step error; "shadows-volume" is the light volume's own error,
+    // against the shadow rays at the same step.
+    const std::vector<std::string> no_ao = camera + std::vector<std::string>{"--ao", "off"};
+    const Run reference = run(shadows_step, no_ao + std::vector<std::string>{
+                                  "--step", "0.25", "--shadows", "ray", "--threads",
+                                  std::to_string(cores)});
+    for (const double step : {4.0, 2.0, 1.0, 0.5}) {
+        const std::vector<std::string> at_step = no_ao + std::vector<std::string>{
+                                                     "--step", format("%g", step)};
+        const Run rays = run(shadows_step, at_step + std::vector<std::string>{
+                                 "--shadows", "ray"}, true);
+        const Run swept = run(shadows_step, at_step + std::vector<std::string>{
+                                  "--shadows", "volume"}, true);
+        for (const Run* image : {&rays, &swept}) {
+            const ImageError error = image_error(image->image(), reference.image());
+            record({"shadows-error", image == &rays ? "shadow rays" : "light volume",
+                    step_text(step), image->ms(), error.rmse, error.max,
+                    "8-bit (RMSE, max) vs shadow rays at step 1/4", image->count("samples")});
+        }
+        const ImageError own = image_error(swept.image(), rays.image());
+        record({"shadows-volume", "light volume vs shadow rays", step_text(step), swept.ms(),
+                own.rmse, own.max, "8-bit (RMSE, max) vs shadow rays, same step",
+                swept.count("samples")});
     }
 }
 
@@ -1258,6 +1321,7 @@ int run(int argc, char** argv) {
     step_study();
     ert_study();
     jitter_study();
+    shadows_study();
     std::printf("precision: subnormal arithmetic\n");
     const SubnormalCost cost = subnormal_cost();
     std::vector<FloatRay> rays = {
@@ -1310,6 +1374,20 @@ int run(int argc, char** argv) {
                       "\nThe same after a 5x5 box blur of the difference (the bands and rings "
                       "the eye sees; fine noise averages away):\n\n" +
                       markdown_table("jitter-lowpass", "step"))
+       << "\n";
+    md << "## Shadows (step 14, the default camera at 256x256; error in 8-bit units)\n\n"
+       << section("study:shadows",
+                  written_by + "\nWhat each adds: the difference from step 10's light "
+                               "(`--shadows none --ao off`), at step 1; samples count every "
+                               "read (the camera's rays, the shadow rays, the occlusion probes, "
+                               "the light volume's sweep):\n\n" +
+                      markdown_table("shadows", "step") +
+                      "\nT_light by shadow rays and by the light-transmittance volume, "
+                      "ambient occlusion off, against shadow rays at step 1/4 (error at equal "
+                      "time: compare the ms column):\n\n" +
+                      markdown_table("shadows-error", "step") +
+                      "\nThe light volume's own error: against the shadow rays at the same "
+                      "step:\n\n" + markdown_table("shadows-volume", "step"))
        << "\n";
     std::ofstream(out + "/error_vs_time.md") << md.str();
     std::ofstream(out + "/numerics.md")
