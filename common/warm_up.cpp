@@ -89,9 +89,9 @@ double warm_up(const std::vector<View>& views, int threads, const Volume* volume
     mallopt(M_TRIM_THRESHOLD, int(4 * kept));
 #endif
     touch_heap(kept);
-    Work ignored;  // the threads do nothing: they are started, their stacks faulted in
-    parallel_rows(threads, threads, ignored, [](int, Work&) {});
     if (volume) read_everywhere(*volume, threads);
+    // Last: a new worker stays awake a moment for the first render (common/render.cpp).
+    start_render_threads(threads);
     return timer.ms();
 }
 
