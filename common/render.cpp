@@ -269,11 +269,14 @@ namespace {
 class RenderPool {
 public:
     // Makes workers until there are `wanted`; returns how many there are.
+    // Waits for them to be ready (their stacks faulted in): what a thread costs to start is
+    // paid here, by warm_up(), not by a render.
     int start(int wanted) {
-        std::lock_guard<std::mutex> lock(mutex_);
+        std::unique_lock<std::mutex> lock(mutex_);
         while (int(workers_.size()) < wanted && !start_failed_) {
             try {
-                workers_.emplace_back([this] { work(); });
+                // It joins renders from the next one on: one started now has counted it in.
+                workers_.emplace_back([this, seen = render_.load()] { work(seen); });
             } catch (const std::system_error&) {
                 // ulimit -u, out of memory: fewer threads, the same picture, one note; never
                 // tried again in this process.
@@ -281,20 +284,29 @@ public:
                 note_fewer_threads(int(workers_.size()) + 1, wanted + 1);
             }
         }
+        ready_.wait(lock, [this] { return ready_workers_ == int(workers_.size()); });
         return int(workers_.size());
     }
 
-    void run(int height, int threads, Work& total, RowCallback callback, void* context) {
+    // each: not rows but one call per thread, callback(context, n, work), n = 0 here and
+    // 1..threads-1 on the workers, each on a thread of its own.
+    void run(int height, int threads, Work& total, RowCallback callback, void* context,
+             bool each = false) {
         const int workers = start(threads - 1);
         int places = 0;
         bool wake_all = false;
+        bool alone = false;
         {
             std::lock_guard<std::mutex> lock(mutex_);
-            if (busy_ || workers == 0) {
-                for (int y = 0; y < height; ++y) callback(context, y, total);
-                return;
-            }
-            busy_ = true;
+            alone = busy_ || workers == 0 || (each && workers < threads - 1);
+            if (!alone) busy_ = true;
+        }
+        if (alone) {  // unlocked: a row may start a render of its own
+            for (int y = 0; y < height; ++y) callback(context, y, total);
+            return;
+        }
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
             ++render_;
             open_places_ = std::min(threads - 1, workers);
             callback_ = callback;
@@ -302,6 +314,8 @@ public:
             height_ = height;
             total_ = &total;
             next_row_.store(0, std::memory_order_relaxed);
+            each_ = each;
+            joined_ = 0;
             places = open_places_;
             wake_all = places == int(workers_.size());
         }
@@ -311,6 +325,14 @@ public:
             for (int n = 0; n < places; ++n) wake_.notify_one();  // the others sleep on
         }
         Work own;  // this thread's counts, in its own cache lines
+        if (each) {
+            callback(context, 0, own);
+            std::unique_lock<std::mutex> lock(mutex_);
+            finished_.wait(lock, [this] { return open_places_ == 0 && active_.load() == 0; });
+            total.add(own);
+            busy_ = false;
+            return;
+        }
         take_rows(callback, context, height, own);
         std::unique_lock<std::mutex> lock(mutex_);
         open_places_ = 0;  // a worker that wakes from now on finds no render to join
@@ -357,10 +379,11 @@ private:
 
     // A worker: sleeps until a render starts, joins it while it has places, takes rows until
     // none is left, adds its counts to the render's total.
-    void work() {
+    void work(uint64_t seen) {
         fault_in_stack();
         std::unique_lock<std::mutex> lock(mutex_);
-        uint64_t seen = render_;
+        ++ready_workers_;
+        ready_.notify_all();
         for (;;) {
             lock.unlock();
             const Timer awake;
@@ -373,12 +396,18 @@ private:
             if (open_places_ == 0) continue;  // late: the render is full or over
             --open_places_;
             ++active_;
+            const int index = each_ ? ++joined_ : 0;
+            const bool each = each_;
             const RowCallback callback = callback_;
             void* const context = context_;
             const int height = height_;
             lock.unlock();
             Work own;
-            take_rows(callback, context, height, own);
+            if (each) {
+                callback(context, index, own);
+            } else {
+                take_rows(callback, context, height, own);
+            }
             lock.lock();
             total_->add(own);
             if (active_.fetch_sub(1) == 1) finished_.notify_one();
@@ -390,6 +419,8 @@ private:
     std::condition_variable finished_;   // the render's caller waits here for its workers
     std::vector<std::thread> workers_;
     bool start_failed_ = false;
+    int ready_workers_ = 0;              // workers that have started
+    std::condition_variable ready_;      // start() waits here for new workers
     bool busy_ = false;                  // a render is running
     std::atomic<uint64_t> render_{0};    // counts renders (changed locked): a worker wakes
                                          // when it changes
@@ -399,6 +430,8 @@ private:
     void* context_ = nullptr;
     int height_ = 0;
     Work* total_ = nullptr;
+    bool each_ = false;                  // one call per thread, not rows
+    int joined_ = 0;                     // workers that joined the running call per thread
     std::atomic<int> next_row_{0};       // the next row to hand out
 };
 
@@ -413,6 +446,11 @@ RenderPool& render_pool() {
 
 void pool_rows(int height, int threads, Work& total, RowCallback callback, void* context) {
     render_pool().run(height, threads, total, callback, context);
+}
+
+void pool_each(int threads, RowCallback callback, void* context) {
+    Work ignored;
+    render_pool().run(threads, threads, ignored, callback, context, true);
 }
 
 int start_render_threads(int threads) {

@@ -116,6 +116,11 @@ void pool_rows(int height, int threads, Work& total, RowCallback callback, void*
 // included: fewer than `threads` only when a thread could not be created.
 int start_render_threads(int threads);
 
+// Calls callback(context, n, work) once on each of `threads` threads, n = 0 on this one and
+// 1..threads-1 on the pool's workers (warm_up(): each core reads the volume it will render).
+// Without enough workers, every call is made on this thread.
+void pool_each(int threads, RowCallback callback, void* context);
+
 // Calls row(y, work) for every image row, rows shared among `threads` threads. Each thread
 // counts into its own Work, summed at the end, so the result does not depend on threads.
 // The threads are a pool made once per process (the first parallel render, or warm_up()) and
