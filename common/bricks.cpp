@@ -45,7 +45,7 @@ Bricks make_bricks(const Volume& volume, int size) {
     std::vector<ValueRange> pieces(bricks.bx);
     for (int k = 0; k < volume.nz; ++k) {
         for (int j = 0; j < volume.ny; ++j) {
-            const int16_t* row = &volume.data[(size_t(k) * volume.ny + j) * volume.nx];
+            const int16_t* row = volume.row(j, k);
             for (int a = 0; a < bricks.bx; ++a) {
                 const int from = a * size;
                 const int to = std::min(from + size, volume.nx - 1);  // included

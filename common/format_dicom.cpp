@@ -272,7 +272,7 @@ Volume load_dicom_series(const std::string& folder) {
     volume.sx = spacing[0];
     volume.sy = spacing[1];
     volume.sz = spacing[2];
-    volume.data.resize(volume.voxel_count());
+    resize_dense(volume);
     const uint16_t probe = 1;
     const Endian host = *reinterpret_cast<const unsigned char*>(&probe) ? Endian::little
                                                                         : Endian::big;

@@ -258,7 +258,7 @@ Volume load_metaimage(const std::string& path) {
     volume.sx = spacing[0];
     volume.sy = spacing[1];
     volume.sz = spacing[2];
-    volume.data.resize(size_t(voxels));
+    resize_dense(volume);
     store_samples(volume, data, size_t(voxels), type, endian);
     external = {};
     inflated = {};

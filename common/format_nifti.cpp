@@ -143,7 +143,7 @@ Volume load_nifti(const std::string& path) {
     volume.sz = dz;
     const bool scaled = image->scl_slope != 0 && std::isfinite(image->scl_slope) &&
                         std::isfinite(image->scl_inter);
-    volume.data.resize(size_t(voxels));
+    resize_dense(volume);
     // nifticlib has swapped the data into this machine's byte order.
     const uint16_t probe = 1;
     const Endian host = *reinterpret_cast<const unsigned char*>(&probe) ? Endian::little

@@ -141,7 +141,7 @@ Volume load_nrrd(const std::string& path) {
     volume.sx = spacing[0];
     volume.sy = spacing[1];
     volume.sz = spacing[2];
-    volume.data.resize(size_t(voxels));
+    resize_dense(volume);
     const uint16_t probe = 1;
     const Endian host = *reinterpret_cast<const unsigned char*>(&probe) ? Endian::little
                                                                         : Endian::big;

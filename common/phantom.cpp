@@ -494,7 +494,7 @@ Volume make_phantom_sized(int nx, int ny, int nz) {
 
     // Row by row: air, every shape painted in order, then the noise on top. The noise adds
     // (2u - 1) times the voxel's noise amplitude, u in [0, 1) a hash of (i, j, k); rounded.
-    volume.data.resize(volume.voxel_count());
+    allocate_pitched(volume);
     std::vector<double> values(nx), noise(nx);
     std::vector<uint8_t> labels(nx);
     constexpr double hash_scale = 1.0 / 16777216;  // 2^-24: the hash's top 24 bits to [0, 1)
@@ -506,7 +506,7 @@ Volume make_phantom_sized(int nx, int ny, int nz) {
             const Row row{(j + 0.5) * volume.sy, (k + 0.5) * volume.sz, spacing, edge_spacing,
                           values.data(), noise.data(), labels.data(), nx};
             for (const Painter& painter : painters) paint_row(painter, row);
-            int16_t* out = &volume.data[(size_t(k) * ny + j) * nx];
+            int16_t* out = volume.row(j, k);
             for (int i = 0; i < nx; ++i) {
                 const double u = (hash3(i, j, k) >> 8) * hash_scale;
                 const double value = std::round(values[i] + (2 * u - 1) * noise[i]);

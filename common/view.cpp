@@ -42,9 +42,9 @@ View make_view(const Volume& volume, ViewAxis axis) {
 RayVoxels ray_voxels(const Volume& volume, const View& view, int x, int y) {
     const Voxel start = view.voxel(x, y, 0);
     const Voxel next = view.voxel(x, y, 1);  // index arithmetic only: never read
-    const ptrdiff_t stride = (ptrdiff_t(next.k) - start.k) * volume.ny * volume.nx +
-                             (ptrdiff_t(next.j) - start.j) * volume.nx + (next.i - start.i);
-    return {&volume.data[(size_t(start.k) * volume.ny + start.j) * volume.nx + start.i], stride};
+    const ptrdiff_t stride = ptrdiff_t(volume.index(next.i, next.j, next.k)) -
+                             ptrdiff_t(volume.index(start.i, start.j, start.k));
+    return {&volume.data[volume.index(start.i, start.j, start.k)], stride};
 }
 
 View make_camera_view(int width, int height) {

@@ -10,15 +10,98 @@
 #include <fstream>
 #include <limits>
 #include <memory>
+#include <stdexcept>
 #include "error.h"
 
 namespace ctlab {
 
+// --- Layout (volume.h) ----------------------------------------------------------------------
+
+constexpr size_t cache_line_values = 64 / sizeof(int16_t);
+
+size_t pitched_slice_stride(int nx, int ny) {
+    const size_t dense = size_t(nx) * size_t(ny);
+    size_t lines = (dense + cache_line_values - 1) / cache_line_values;
+    if (lines % 2 == 0) ++lines;  // odd: consecutive slices start in different cache sets
+    return lines * cache_line_values;
+}
+
+size_t pitched_size(int nx, int ny, int nz) {
+    return pitched_slice_stride(nx, ny) * size_t(nz);
+}
+
+void resize_dense(Volume& volume) {
+    volume.row_stride = volume.slice_stride = 0;
+    volume.data.clear();
+    volume.data.reserve(pitched_size(volume.nx, volume.ny, volume.nz));
+    volume.data.resize(volume.voxel_count());
+}
+
+// The padding after slice k's last voxel: copies of that voxel, so no value outside the
+// volume's range ever sits in data.
+static void fill_padding(Volume& volume, int k) {
+    const size_t dense = size_t(volume.nx) * size_t(volume.ny);
+    int16_t* first = volume.data.data() + size_t(k) * volume.slice_stride;
+    std::fill(first + dense, first + volume.slice_stride, first[dense - 1]);
+}
+
+void allocate_pitched(Volume& volume) {
+    volume.row_stride = size_t(volume.nx);
+    volume.slice_stride = pitched_slice_stride(volume.nx, volume.ny);
+    volume.data.assign(pitched_size(volume.nx, volume.ny, volume.nz), 0);
+}
+
+void lay_out_slices(Volume& volume) {
+    // Told apart by size: when the two sizes are equal, so are the two layouts.
+    const size_t pitched = pitched_size(volume.nx, volume.ny, volume.nz);
+    const size_t dense = size_t(volume.nx) * size_t(volume.ny);
+    const bool was_dense = volume.data.size() != pitched;
+    if (was_dense && volume.data.size() != volume.voxel_count()) {
+        throw std::logic_error("lay_out_slices: data holds " + std::to_string(volume.data.size()) +
+                               " values, neither nx*ny*nz = " +
+                               std::to_string(volume.voxel_count()) + " nor the pitched " +
+                               std::to_string(pitched));
+    }
+    volume.row_stride = size_t(volume.nx);
+    volume.slice_stride = pitched_slice_stride(volume.nx, volume.ny);
+    if (!was_dense) {  // written through index(): only the padding to fill
+        for (int k = 0; k < volume.nz; ++k) fill_padding(volume, k);
+        return;
+    }
+    volume.data.resize(pitched_size(volume.nx, volume.ny, volume.nz));  // reserved: no copy
+    // Backwards, so a slice moves up before the one below it is overwritten.
+    int16_t* base = volume.data.data();
+    for (int k = volume.nz - 1; k >= 0; --k) {
+        std::memmove(base + size_t(k) * volume.slice_stride, base + size_t(k) * dense,
+                     dense * sizeof(int16_t));
+        fill_padding(volume, k);
+    }
+}
+
+std::vector<int16_t> dense_values(const Volume& volume) {
+    if (volume.data.size() != pitched_size(volume.nx, volume.ny, volume.nz)) return volume.data;
+    std::vector<int16_t> values;
+    values.reserve(volume.voxel_count());
+    const size_t dense = size_t(volume.nx) * size_t(volume.ny);
+    for (int k = 0; k < volume.nz; ++k) {
+        values.insert(values.end(), volume.slice(k), volume.slice(k) + dense);
+    }
+    return values;
+}
+
 void update_range(Volume& volume) {
     if (volume.data.empty()) return;
-    const auto [low, high] = std::minmax_element(volume.data.begin(), volume.data.end());
-    volume.min_value = *low;
-    volume.max_value = *high;
+    lay_out_slices(volume);
+    const size_t dense = size_t(volume.nx) * size_t(volume.ny);
+    int16_t low = volume.data[0], high = volume.data[0];
+    for (int k = 0; k < volume.nz; ++k) {
+        const auto [slice_low, slice_high] =
+            std::minmax_element(volume.slice(k), volume.slice(k) + dense);
+        low = std::min(low, *slice_low);
+        high = std::max(high, *slice_high);
+    }
+    volume.min_value = low;
+    volume.max_value = high;
 }
 
 // --- Sample types ------------------------------------------------------------------------
@@ -299,7 +382,7 @@ Volume volume_from_bytes(const std::vector<unsigned char>& bytes, const RawForma
         throw InputError(size_mismatch(name, bytes.size(), expected, voxels_text(format)));
     }
     Volume volume = empty_volume(format, name);
-    volume.data.resize(expected / sample_size(format.type));
+    resize_dense(volume);
     store_samples(volume, bytes.data(), volume.data.size(), format.type, format.endian);
     return volume;
 }
@@ -343,7 +426,7 @@ Volume load_raw(const std::string& path, const RawFormat& format) {
     File file = open_for_reading(path);
     if (format.type == SampleType::int16) {
         // Straight into the volume: the file's bytes are the volume's, swapped when needed.
-        volume.data.resize(count);
+        resize_dense(volume);
         read_exactly(file.get(), volume.data.data(), count * 2, path);
         if ((format.endian == Endian::little) != host_is_little()) {
             for (int16_t& value : volume.data) {
@@ -365,7 +448,7 @@ Volume load_raw(const std::string& path, const RawFormat& format) {
         scan_samples(range, buffer.data(), n, format.type, format.endian, 1.0, 0.0);
     }
     volume.map = choose_map(range, path);
-    volume.data.resize(count);
+    resize_dense(volume);
     std::rewind(file.get());
     for (size_t done = 0; done < count; done += chunk) {
         const size_t n = std::min(chunk, count - done);
@@ -491,7 +574,8 @@ void reorient_to_lab(Volume& volume, const Directions& directions, PatientFrame 
     // Reorder: lab axis l reads file axis from[l], backwards when flipped.
     const int file_n[3] = {volume.nx, volume.ny, volume.nz};
     const double file_s[3] = {volume.sx, volume.sy, volume.sz};
-    const int64_t file_stride[3] = {1, int64_t(volume.nx), int64_t(volume.nx) * volume.ny};
+    lay_out_slices(volume);  // (a no-op after store_samples) so the strides are known
+    const int64_t file_stride[3] = {1, int64_t(volume.row_stride), int64_t(volume.slice_stride)};
     int lab_n[3];
     double lab_s[3];
     int64_t stride[3];
@@ -502,7 +586,9 @@ void reorient_to_lab(Volume& volume, const Directions& directions, PatientFrame 
         stride[to[a]] = flip[a] ? -file_stride[a] : file_stride[a];
         if (flip[a]) base += int64_t(file_n[a] - 1) * file_stride[a];
     }
-    std::vector<int16_t> out(volume.data.size());
+    std::vector<int16_t> out;  // dense, then laid out in place (room reserved)
+    out.reserve(pitched_size(lab_n[0], lab_n[1], lab_n[2]));
+    out.resize(volume.voxel_count());
     size_t n = 0;
     for (int k = 0; k < lab_n[2]; ++k) {
         for (int j = 0; j < lab_n[1]; ++j) {
@@ -517,6 +603,8 @@ void reorient_to_lab(Volume& volume, const Directions& directions, PatientFrame 
     volume.sx = lab_s[0];
     volume.sy = lab_s[1];
     volume.sz = lab_s[2];
+    volume.row_stride = volume.slice_stride = 0;
+    lay_out_slices(volume);
 }
 
 std::string volume_line(const Volume& volume) {

@@ -39,7 +39,11 @@ static Display linear_display(const Volume& volume) {
 static Display equalised_display(const Volume& volume) {
     Display display{volume.min_value, {}};
     std::vector<uint64_t> histogram(volume.max_value - volume.min_value + 1, 0);
-    for (int16_t value : volume.data) ++histogram[value - volume.min_value];
+    for (int k = 0; k < volume.nz; ++k) {
+        for (int j = 0; j < volume.ny; ++j) {
+            for (int i = 0; i < volume.nx; ++i) ++histogram[volume.at(i, j, k) - volume.min_value];
+        }
+    }
     uint64_t at_or_below = 0;
     for (uint64_t count : histogram) {
         at_or_below += count;

@@ -245,7 +245,7 @@ static Cell cell_at(const Volume& volume, const Vec3d& point) {
     low_corner(point.i, volume.nx, &cell.i, &cell.fi);
     low_corner(point.j, volume.ny, &cell.j, &cell.fj);
     low_corner(point.k, volume.nz, &cell.k, &cell.fk);
-    const size_t row = size_t(volume.nx), slice = row * size_t(volume.ny);
+    const size_t row = volume.row_stride, slice = volume.slice_stride;
     cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
     cell.di = cell.i + 1 < volume.nx ? 1 : 0;
     cell.dj = cell.j + 1 < volume.ny ? row : 0;

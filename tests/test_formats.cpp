@@ -116,7 +116,8 @@ TEST_CASE("formats: every file of every format, type and orientation loads to th
         REQUIRE(volume.nx == 5);
         REQUIRE(volume.ny == 4);
         REQUIRE(volume.nz == 3);
-        REQUIRE(volume.data.size() == 60);
+        REQUIRE(volume.voxel_count() == 60);
+        REQUIRE(volume.data.size() == pitched_size(5, 4, 3));
         if (e.oriented || volume_format_of(e.path) != "raw") {
             CHECK(volume.sx == doctest::Approx(0.5).epsilon(1e-5));
             CHECK(volume.sy == doctest::Approx(0.75).epsilon(1e-5));
@@ -143,6 +144,12 @@ TEST_CASE("formats: every file of every format, type and orientation loads to th
             }
         }
         CHECK(wrong == 0);
+        // Laid out with padded slices (volume.h) like a raw file's volume; the padding is
+        // never part of the range.
+        CHECK(volume.slice_stride == pitched_slice_stride(5, 4));
+        const std::vector<int16_t> values = dense_values(volume);
+        CHECK(*std::min_element(values.begin(), values.end()) == volume.min_value);
+        CHECK(*std::max_element(values.begin(), values.end()) == volume.max_value);
         if (e.path.find("/nifti_") != std::string::npos && e.path.find("_type_") == std::string::npos &&
             e.oriented) {
             ++nifti_orientations;

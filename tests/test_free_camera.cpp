@@ -264,12 +264,11 @@ TEST_CASE("free camera: trilinear samples of a linear ramp equal the closed form
     volume.sx = 1;
     volume.sy = 0.5;
     volume.sz = 2;
-    volume.data.resize(volume.voxel_count());
+    allocate_pitched(volume);
     for (int k = 0; k < volume.nz; ++k)
         for (int j = 0; j < volume.ny; ++j)
             for (int i = 0; i < volume.nx; ++i)
-                volume.data[(size_t(k) * volume.ny + j) * volume.nx + i] = int16_t(3 * i + 5 * j +
-                                                                                   7 * k);
+                volume.data[volume.index(i, j, k)] = int16_t(3 * i + 5 * j + 7 * k);
     const TempFolder folder("free_camera_ramp");
     const std::vector<std::string> raw = write_raw_volume(volume, folder.path("ramp.raw"));
     for (const std::string projection : {"ortho", "perspective"}) {
@@ -298,7 +297,7 @@ TEST_CASE("free camera: a sphere has the same silhouette radius from every direc
     constexpr double radius = 20;
     Volume volume;
     volume.nx = volume.ny = volume.nz = n;
-    volume.data.resize(volume.voxel_count());
+    allocate_pitched(volume);
     const double centre = (n - 1) / 2.0;
     for (int k = 0; k < n; ++k)
         for (int j = 0; j < n; ++j)
@@ -307,7 +306,7 @@ TEST_CASE("free camera: a sphere has the same silhouette radius from every direc
                                            (j - centre) * (j - centre) +
                                            (k - centre) * (k - centre));
                 const double value = std::clamp(300 + 100 * (radius - r), -1000.0, 2000.0);
-                volume.data[(size_t(k) * n + j) * n + i] = int16_t(std::lround(value));
+                volume.data[volume.index(i, j, k)] = int16_t(std::lround(value));
             }
     const TempFolder folder("free_camera_sphere");
     const std::vector<std::string> raw = write_raw_volume(volume, folder.path("sphere.raw"));

@@ -43,12 +43,12 @@ Volume analytic_volume(int nx, int ny, int nz, const std::function<double(int, i
     volume.nx = nx;
     volume.ny = ny;
     volume.nz = nz;
-    volume.data.resize(volume.voxel_count());
+    allocate_pitched(volume);
     for (int k = 0; k < nz; ++k)
         for (int j = 0; j < ny; ++j)
             for (int i = 0; i < nx; ++i) {
                 const double value = std::clamp(f(i, j, k), -32768.0, 32767.0);
-                volume.data[(size_t(k) * ny + j) * nx + i] = int16_t(std::lround(value));
+                volume.data[volume.index(i, j, k)] = int16_t(std::lround(value));
             }
     return volume;
 }

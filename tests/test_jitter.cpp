@@ -104,7 +104,7 @@ std::vector<std::string> ball(const TempFolder& folder) {
     constexpr double radius = 24;
     Volume volume;
     volume.nx = volume.ny = volume.nz = n;
-    volume.data.resize(volume.voxel_count());
+    allocate_pitched(volume);
     const double centre = (n - 1) / 2.0;
     for (int k = 0; k < n; ++k)
         for (int j = 0; j < n; ++j)
@@ -112,7 +112,7 @@ std::vector<std::string> ball(const TempFolder& folder) {
                 const double r = std::sqrt((i - centre) * (i - centre) +
                                            (j - centre) * (j - centre) +
                                            (k - centre) * (k - centre));
-                volume.data[(size_t(k) * n + j) * n + i] = int16_t(r <= radius ? 0 : -1000);
+                volume.data[volume.index(i, j, k)] = int16_t(r <= radius ? 0 : -1000);
             }
     return write_raw_volume(volume, folder.path("ball.raw"));
 }

@@ -53,10 +53,10 @@ TEST_CASE("run_step: --pfm writes the float image, its PNG is the same rounded; 
     volume.ny = 4;
     volume.nz = 31;
     volume.sz = 2;
-    volume.data.resize(volume.voxel_count());
+    allocate_pitched(volume);
     for (int k = 0; k < volume.nz; ++k)
         for (int j = 0; j < volume.ny; ++j)
-            for (int i = 0; i < volume.nx; ++i) volume.data[(size_t(k) * 4 + j) * 5 + i] = 10 * k;
+            for (int i = 0; i < volume.nx; ++i) volume.data[volume.index(i, j, k)] = 10 * k;
     const TempFolder folder("run_step");
     std::vector<std::string> flags = write_raw_volume(volume, folder.path("ramp.raw"));
     CHECK(flags[3] == "5,4,31");

@@ -38,11 +38,10 @@ Volume filled_volume(int nx, int ny, int nz, const std::function<int(int, int, i
     volume.nx = nx;
     volume.ny = ny;
     volume.nz = nz;
-    volume.data.resize(volume.voxel_count());
+    allocate_pitched(volume);
     for (int k = 0; k < nz; ++k)
         for (int j = 0; j < ny; ++j)
-            for (int i = 0; i < nx; ++i) volume.data[(size_t(k) * ny + j) * nx + i] =
-                int16_t(value(i, j, k));
+            for (int i = 0; i < nx; ++i) volume.data[volume.index(i, j, k)] = int16_t(value(i, j, k));
     return volume;
 }
 

@@ -59,12 +59,12 @@ Volume make_volume(int nx, int ny, int nz, const std::function<double(int, int, 
     volume.sy = sy;
     volume.sz = sz;
     volume.name = "test";
-    volume.data.resize(volume.voxel_count());
+    allocate_pitched(volume);
     for (int k = 0; k < nz; ++k)
         for (int j = 0; j < ny; ++j)
             for (int i = 0; i < nx; ++i) {
                 const double v = std::clamp(std::round(value(i, j, k)), -32768.0, 32767.0);
-                volume.data[(size_t(k) * ny + j) * nx + i] = int16_t(v);
+                volume.data[volume.index(i, j, k)] = int16_t(v);
             }
     update_range(volume);
     return volume;

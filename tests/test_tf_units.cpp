@@ -40,8 +40,9 @@ Pair write_pair(const TempFolder& folder) {
     Pair pair;
     pair.int16_flags = write_raw_volume(head, folder.path("head_int16.raw"));
     std::vector<unsigned char> bytes(head.voxel_count() * 4);
-    for (size_t n = 0; n < head.voxel_count(); ++n) {
-        const float value = float(head.data[n] * per_hu);
+    const std::vector<int16_t> values = dense_values(head);  // the file's order, no padding
+    for (size_t n = 0; n < values.size(); ++n) {
+        const float value = float(values[n] * per_hu);
         std::memcpy(&bytes[4 * n], &value, 4);  // little-endian machines only (as CI's)
     }
     const std::string dims = std::to_string(head.nx) + "," + std::to_string(head.ny) + "," +

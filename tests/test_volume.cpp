@@ -13,6 +13,7 @@
 #include "bricks.h"
 #include "error.h"
 #include "harness.h"
+#include "tools/run_step.h"
 #include "view.h"
 #include "volume.h"
 
@@ -128,8 +129,9 @@ TEST_CASE("raw loader: little- and big-endian files give the same signed values"
         CHECK(volume.nz == 1);
         CHECK(volume.sz == 2.5);
         CHECK(volume.name == path);
-        REQUIRE(volume.data.size() == values.size());
-        for (size_t n = 0; n < values.size(); ++n) CHECK(volume.data[n] == values[n]);
+        const std::vector<int16_t> loaded = dense_values(volume);
+        REQUIRE(loaded.size() == values.size());
+        for (size_t n = 0; n < values.size(); ++n) CHECK(loaded[n] == values[n]);
         CHECK(volume.at(0, 0, 0) == 1);
         CHECK(volume.at(2, 0, 0) == 258);     // i fastest
         CHECK(volume.at(0, 1, 0) == -32768);  // then j
@@ -143,8 +145,8 @@ TEST_CASE("raw loader: reading with the wrong byte order swaps the bytes") {
     TempFolder folder("volume");
     const std::string path = folder.file("raw", int16_bytes({1, 0x1234}, Endian::little));
     const Volume volume = load_raw(path, format_of(2, 1, 1, Endian::big));
-    CHECK(volume.data[0] == 256);
-    CHECK(volume.data[1] == 0x3412);
+    CHECK(volume.at(0, 0, 0) == 256);
+    CHECK(volume.at(1, 0, 0) == 0x3412);
 }
 
 TEST_CASE("raw loader: the k axis is the slowest") {
@@ -332,6 +334,119 @@ TEST_CASE("raw loader: dims below 1 and spacing <= 0 are refused") {
     CHECK(load_raw(path, format_of(2, 1, 1)).at(1, 0, 0) == 2);  // the good case still loads
 }
 
+// A ramp f = 3i + 5j + 7k - 1000 (every voxel a different value along each axis), written
+// densely in the logical order (k*ny + j)*nx + i, as a loader or a test writes it.
+static Volume dense_ramp(int nx, int ny, int nz) {
+    Volume volume;
+    volume.nx = nx, volume.ny = ny, volume.nz = nz;
+    for (int k = 0; k < nz; ++k)
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i) volume.data.push_back(int16_t(3 * i + 5 * j + 7 * k - 1000));
+    return volume;
+}
+
+TEST_CASE("layout: padded slices; at() and index() agree with the dense logical layout") {
+    const int dims[][3] = {{256, 256, 113}, {7, 5, 3}, {1, 1, 1}, {5, 4, 3}, {33, 1, 9}, {64, 64, 4}};
+    for (const auto& d : dims) {
+        CAPTURE(d[0]);
+        CAPTURE(d[1]);
+        CAPTURE(d[2]);
+        Volume volume = dense_ramp(d[0], d[1], d[2]);
+        const std::vector<int16_t> dense = volume.data;
+        update_range(volume);  // lays the slices out
+        const size_t slice_bytes = volume.slice_stride * sizeof(int16_t);
+        CHECK(volume.row_stride == size_t(d[0]));
+        CHECK(volume.slice_stride >= size_t(d[0]) * size_t(d[1]));
+        CHECK(slice_bytes % 64 == 0);
+        CHECK((slice_bytes / 64) % 2 == 1);  // an odd number of cache lines
+        CHECK(slice_bytes - size_t(d[0]) * size_t(d[1]) * sizeof(int16_t) < 128);  // at most 2 lines more
+        CHECK(volume.data.size() == pitched_size(d[0], d[1], d[2]));
+        int wrong = 0;
+        for (int k = 0; k < volume.nz; ++k)
+            for (int j = 0; j < volume.ny; ++j)
+                for (int i = 0; i < volume.nx; ++i) {
+                    const size_t n = volume.index(i, j, k);
+                    if (n != size_t(k) * volume.slice_stride + size_t(j) * size_t(d[0]) + size_t(i) ||
+                        volume.at(i, j, k) != 3 * i + 5 * j + 7 * k - 1000 ||
+                        volume.at(i, j, k) != dense[(size_t(k) * d[1] + j) * d[0] + i] ||
+                        volume.row(j, k)[i] != volume.at(i, j, k) ||
+                        volume.slice(k)[size_t(j) * d[0] + i] != volume.at(i, j, k)) {
+                        ++wrong;
+                    }
+                }
+        CHECK(wrong == 0);
+        CHECK(dense_values(volume) == dense);  // files and hashes see no padding
+        // The range is the ramp's: its first and last voxel, padding left out.
+        CHECK(volume.min_value == -1000);
+        CHECK(volume.max_value == 3 * (d[0] - 1) + 5 * (d[1] - 1) + 7 * (d[2] - 1) - 1000);
+        // The padding holds only values of the volume's range.
+        for (int16_t value : volume.data) {
+            if (value < volume.min_value || value > volume.max_value) ++wrong;
+        }
+        CHECK(wrong == 0);
+        // A second update_range changes nothing; writing through index() gives the same data.
+        const std::vector<int16_t> laid_out = volume.data;
+        update_range(volume);
+        CHECK(volume.data == laid_out);
+        Volume written;
+        written.nx = d[0], written.ny = d[1], written.nz = d[2];
+        allocate_pitched(written);
+        for (int k = 0; k < d[2]; ++k)
+            for (int j = 0; j < d[1]; ++j)
+                for (int i = 0; i < d[0]; ++i)
+                    written.data[written.index(i, j, k)] = int16_t(3 * i + 5 * j + 7 * k - 1000);
+        update_range(written);
+        CHECK(written.data == laid_out);
+    }
+    // CThead's slices: 128 KiB dense, a multiple of 4 KiB; padded by one cache line.
+    CHECK(pitched_slice_stride(256, 256) * 2 == 131072 + 64);
+    CHECK(pitched_slice_stride(512, 512) * 2 == 524288 + 64);
+}
+
+TEST_CASE("layout: the padding never shows: not in min/max, not along any view's ray") {
+    Volume volume = dense_ramp(9, 6, 5);
+    update_range(volume);
+    // Poison the padding with values far outside the ramp: rays and update_range skip it.
+    const size_t dense = size_t(volume.nx) * size_t(volume.ny);
+    for (int k = 0; k < volume.nz; ++k) {
+        int16_t* slice = volume.data.data() + size_t(k) * volume.slice_stride;
+        std::fill(slice + dense, slice + volume.slice_stride, int16_t(32767));
+    }
+    for (ViewAxis axis : {ViewAxis::top, ViewAxis::front, ViewAxis::side}) {
+        const View view = make_view(volume, axis);
+        CAPTURE(view.name);
+        int wrong = 0;
+        for (int y = 0; y < view.height; ++y)
+            for (int x = 0; x < view.width; ++x) {
+                const RayVoxels ray = ray_voxels(volume, view, x, y);
+                int highest = -32768;
+                for (int n = 0; n < view.ray_length; ++n) {
+                    const Voxel v = view.voxel(x, y, n);
+                    if (ray[n] != volume.at(v.i, v.j, v.k)) ++wrong;
+                    highest = std::max(highest, int(ray[n]));
+                }
+                if (highest == 32767) ++wrong;
+            }
+        CHECK(wrong == 0);
+    }
+    update_range(volume);
+    CHECK(volume.min_value == -1000);
+    CHECK(volume.max_value == 3 * 8 + 5 * 5 + 7 * 4 - 1000);
+}
+
+TEST_CASE("layout: a raw file's volume keeps the padding out of a file written back") {
+    TempFolder folder("layout");
+    Volume volume = dense_ramp(31, 7, 4);
+    update_range(volume);
+    const std::vector<std::string> flags = write_raw_volume(volume, folder.path("ramp.raw"));
+    RawFormat format = format_of(31, 7, 4);
+    const Volume loaded = load_raw(folder.path("ramp.raw"), format);
+    CHECK(loaded.data == volume.data);
+    CHECK(dense_values(loaded) == dense_values(volume));
+    CHECK(loaded.min_value == volume.min_value);
+    CHECK(loaded.max_value == volume.max_value);
+}
+
 TEST_CASE("update_range: min and max over the whole volume") {
     Volume volume;
     volume.nx = 4;
@@ -346,6 +461,7 @@ TEST_CASE("update_range: min and max over the whole volume") {
     CHECK(volume.min_value == -32768);
     CHECK(volume.max_value == -32768);
 
+    volume.nx = 1;
     volume.data = {12};
     update_range(volume);
     CHECK(volume.min_value == 12);
@@ -367,6 +483,7 @@ TEST_CASE("bricks: a ramp's brick ranges are its corner values, the far faces in
         for (int j = 0; j < volume.ny; ++j)
             for (int i = 0; i < volume.nx; ++i)
                 volume.data.push_back(int16_t(3 * i + 5 * j + 7 * k - 1000));
+    update_range(volume);  // lays the dense values out
     auto f = [](int i, int j, int k) { return 3 * i + 5 * j + 7 * k - 1000; };
     const Bricks bricks = make_bricks(volume);
     CHECK(bricks.bx == 3);
@@ -396,6 +513,7 @@ TEST_CASE("bricks: a ramp's brick ranges are its corner values, the far faces in
     Volume one;
     one.nx = one.ny = one.nz = 1;
     one.data = {-32768};
+    update_range(one);
     const Bricks single = make_bricks(one);
     REQUIRE(single.count() == 1);
     CHECK(single.ranges[0].min == -32768);
@@ -411,6 +529,7 @@ TEST_CASE("bricks: other sizes cut the same way, and empty runs count along each
     for (int k = 0; k < volume.nz; ++k)
         for (int j = 0; j < volume.ny; ++j)
             for (int i = 0; i < volume.nx; ++i) volume.data.push_back(int16_t(f(i, j, k)));
+    update_range(volume);  // lays the dense values out
     for (int size : {4, 2, 1}) {
         CAPTURE(size);
         const Bricks bricks = make_bricks(volume, size);

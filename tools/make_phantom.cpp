@@ -22,9 +22,10 @@ constexpr const char* usage = "usage: make_phantom OUT.raw";
 
 // Little-endian on every machine: low byte first.
 static void write_raw(const Volume& volume, const std::string& path) {
-    std::vector<unsigned char> bytes(volume.data.size() * 2);
-    for (size_t n = 0; n < volume.data.size(); ++n) {
-        const uint16_t bits = static_cast<uint16_t>(volume.data[n]);
+    const std::vector<int16_t> values = dense_values(volume);  // no padding in files
+    std::vector<unsigned char> bytes(values.size() * 2);
+    for (size_t n = 0; n < values.size(); ++n) {
+        const uint16_t bits = static_cast<uint16_t>(values[n]);
         bytes[2 * n] = static_cast<unsigned char>(bits & 0xff);
         bytes[2 * n + 1] = static_cast<unsigned char>(bits >> 8);
     }
@@ -58,7 +59,7 @@ int main(int argc, char** argv) {
                     "min %d, max %d, %zu bytes (generated in %.0f ms)\n",
                     tool_name, path.c_str(), volume.nx, volume.ny, volume.nz, volume.sx,
                     volume.sy, volume.sz, volume.min_value, volume.max_value,
-                    volume.data.size() * 2, generate_ms);
+                    volume.voxel_count() * 2, generate_ms);
         return 0;
     });
 }

@@ -284,9 +284,10 @@ static std::string number_text(double value) {
 }
 
 std::vector<std::string> write_raw_volume(const Volume& volume, const std::string& path) {
-    std::vector<unsigned char> bytes(volume.data.size() * 2);
-    for (size_t n = 0; n < volume.data.size(); ++n) {
-        const uint16_t bits = uint16_t(volume.data[n]);
+    const std::vector<int16_t> values = dense_values(volume);  // no padding in files
+    std::vector<unsigned char> bytes(values.size() * 2);
+    for (size_t n = 0; n < values.size(); ++n) {
+        const uint16_t bits = uint16_t(values[n]);
         bytes[2 * n] = uint8_t(bits & 0xff);
         bytes[2 * n + 1] = uint8_t(bits >> 8);
     }

@@ -283,12 +283,12 @@ Volume shape_volume(const Ellipsoid& shape) {
     volume.nx = cthead_nx, volume.ny = cthead_ny, volume.nz = cthead_nz;
     volume.sx = cthead_sx, volume.sy = cthead_sy, volume.sz = cthead_sz;
     volume.name = shape.name;
-    volume.data.resize(volume.voxel_count());
+    allocate_pitched(volume);
     for (int k = 0; k < volume.nz; ++k)
         for (int j = 0; j < volume.ny; ++j)
             for (int i = 0; i < volume.nx; ++i) {
                 const double v = shape.value(i * volume.sx, j * volume.sy, k * volume.sz);
-                volume.data[(size_t(k) * volume.ny + j) * volume.nx + i] =
+                volume.data[volume.index(i, j, k)] =
                     int16_t(std::clamp(std::round(v), -32768.0, 32767.0));
             }
     update_range(volume);
@@ -335,12 +335,12 @@ Volume finer_shape_volume(const Ellipsoid& shape, double h) {
     volume.nz = int(std::lround((cthead_nz - 1) / h)) + 1;
     volume.sx = cthead_sx, volume.sy = cthead_sy, volume.sz = cthead_sz * h;
     volume.name = shape.name;
-    volume.data.resize(volume.voxel_count());
+    allocate_pitched(volume);
     for (int k = 0; k < volume.nz; ++k)
         for (int j = 0; j < volume.ny; ++j)
             for (int i = 0; i < volume.nx; ++i) {
                 const double v = shape.value(i * volume.sx, j * volume.sy, k * volume.sz);
-                volume.data[(size_t(k) * volume.ny + j) * volume.nx + i] =
+                volume.data[volume.index(i, j, k)] =
                     int16_t(std::clamp(std::round(v), -32768.0, 32767.0));
             }
     update_range(volume);
@@ -1014,12 +1014,12 @@ Volume make_volume(int nx, int ny, int nz, const std::function<double(int, int, 
     Volume volume;
     volume.nx = nx, volume.ny = ny, volume.nz = nz;
     volume.sx = sx, volume.sy = sy, volume.sz = sz;
-    volume.data.resize(volume.voxel_count());
+    allocate_pitched(volume);
     for (int k = 0; k < nz; ++k)
         for (int j = 0; j < ny; ++j)
             for (int i = 0; i < nx; ++i) {
                 const double v = std::clamp(std::round(value(i, j, k)), -32768.0, 32767.0);
-                volume.data[(size_t(k) * ny + j) * nx + i] = int16_t(v);
+                volume.data[volume.index(i, j, k)] = int16_t(v);
             }
     update_range(volume);
     return volume;

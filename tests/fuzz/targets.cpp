@@ -78,18 +78,20 @@ NOT_FUZZED void check_volume(const ctlab::Volume& volume, const ctlab::RawFormat
             "the volume's dims differ from the format's");
     require(volume.sx == format.sx && volume.sy == format.sy && volume.sz == format.sz,
             "the volume's spacing differs from the format's");
-    require(volume.data.size() == volume.voxel_count(), "data size != nx*ny*nz");
-    require(volume.data.size() * 2 == bytes.size(), "data size != bytes / 2");
+    require(volume.data.size() == ctlab::pitched_size(volume.nx, volume.ny, volume.nz),
+            "data size != the pitched layout's");
+    const std::vector<int16_t> values = ctlab::dense_values(volume);
+    require(values.size() * 2 == bytes.size(), "voxel count != bytes / 2");
     int low = 32767, high = -32768;
-    for (size_t n = 0; n < volume.data.size(); ++n) {
+    for (size_t n = 0; n < values.size(); ++n) {
         const int16_t value = voxel_value(bytes, n, format.endian);
-        if (volume.data[n] != value) throw Broken("voxel " + std::to_string(n) + " is wrong");
+        if (values[n] != value) throw Broken("voxel " + std::to_string(n) + " is wrong");
         low = std::min(low, int(value));
         high = std::max(high, int(value));
     }
     require(volume.min_value == low && volume.max_value == high, "wrong min or max");
     // The last voxel through at(): the index arithmetic reaches the end exactly.
-    require(volume.at(volume.nx - 1, volume.ny - 1, volume.nz - 1) == volume.data.back(),
+    require(volume.at(volume.nx - 1, volume.ny - 1, volume.nz - 1) == values.back(),
             "at(nx-1, ny-1, nz-1) is not the last value");
 }
 
@@ -353,7 +355,8 @@ void image_file(const uint8_t* data, size_t size) {
 NOT_FUZZED void check_loaded(const ctlab::Volume& volume) {
     require(volume.nx >= 1 && volume.ny >= 1 && volume.nz >= 1, "a volume without voxels");
     require(volume.voxel_count() <= ctlab::max_voxels, "a volume over the voxel limit");
-    require(volume.data.size() == volume.voxel_count(), "data size != nx*ny*nz");
+    require(volume.data.size() == ctlab::pitched_size(volume.nx, volume.ny, volume.nz),
+            "data size != the pitched layout's");
     require(std::isfinite(volume.sx) && std::isfinite(volume.sy) && std::isfinite(volume.sz) &&
                 volume.sx > 0 && volume.sy > 0 && volume.sz > 0,
             "a spacing that is not a positive number");
@@ -361,7 +364,7 @@ NOT_FUZZED void check_loaded(const ctlab::Volume& volume) {
                 std::isfinite(volume.map.offset),
             "a value map that is not a positive finite line");
     int16_t low = 32767, high = -32768;
-    for (int16_t value : volume.data) {
+    for (int16_t value : ctlab::dense_values(volume)) {
         low = std::min(low, value);
         high = std::max(high, value);
     }
