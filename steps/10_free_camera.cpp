@@ -4,7 +4,8 @@
 //             --zoom, --projection ortho|perspective, --fov, --size WxH); one ray per pixel in
 //             physical space, voxel (i, j, k) at (i*sx, j*sy, k*sz); where it enters and leaves
 //             the box of voxel centres (the slab method); samples every --step physical units
-//             read by trilinear interpolation of the eight voxels around them; step 09's
+//             read by trilinear interpolation of the eight voxels around them
+//             (--interpolation nearest: the one nearest voxel, part 1's way); step 09's
 //             leaping over empty bricks, along a free ray (--no-leaping: the same picture).
 //             Compositing, lighting and opacity correction are step 08's.
 // Camera:     a proper camera: image x runs along `right` = forward x up. Part 1's top view is
