@@ -1,7 +1,8 @@
 // 08_lit_compositing.cpp: light every sample, and sample in physical units.
 //
-// New here:   L from gradient lighting (steps 04-05), evaluated only where alpha > 0; a
-//             sample step in physical units with linear interpolation along the ray; opacity
+// New here:   L from gradient lighting (steps 04-05), evaluated only where alpha > 0 (and
+//             each voxel's gradient once per ray, kept for the next sample); a sample step
+//             in physical units with linear interpolation along the ray; opacity
 //             correction for the step, so the picture keeps its overall opacity at any step
 //             and in every view (CThead's slices are 2 units apart, its rows and columns 1).
 // Builds on:  07_compositing_order (front to back with early ray termination).
@@ -105,6 +106,13 @@ static float value_along_ray(const RayVoxels& voxels, int ray_length, double pos
 }
 //< lesson: sample_along_ray
 
+// The gradients one ray computed last: of an even and an odd voxel along it (n along the ray).
+// A sample between voxels needs one of each; a ray starts with none.
+struct KeptGradients {
+    int n[2] = {-1, -1};  // the ray's voxel each slot holds, slot n % 2; -1: none yet
+    Vec3 gradient[2];     // gradient_at() of that voxel
+};
+
 //> lesson: gradient
 // The derivative along one axis at index n (of count samples, spacing apart); sample(m) reads
 // the volume at index m on that axis. Central inside, one-sided at the border: never outside.
@@ -128,15 +136,29 @@ static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
             derivative(along_k, k, volume.nz, volume.sz)};
 }
 
+// The gradient at the ray's voxel n, computed once per ray: neighbouring samples share voxels
+// (in the top view at --step 1 two samples fall between each pair of slices), so the last two
+// computed along the ray are kept and reused. Samples only move on along the ray: a voxel
+// whose slot the next but one takes is never needed again.
+static Vec3 gradient_on_ray(const Volume& volume, const View& view, int x, int y, int n,
+                            KeptGradients& kept, Work& work) {
+    const int slot = n % 2;  // a voxel and the next never share a slot
+    if (kept.n[slot] != n) {
+        kept.gradient[slot] = gradient_at(volume, view.voxel(x, y, n), work);
+        kept.n[slot] = n;
+    }
+    return kept.gradient[slot];
+}
+
 // The gradient a fraction (0..1) of the way from the ray's voxel `before` to the next one:
 // interpolated between the two, as the CT values were. The index stays an int: a float holds
 // every integer only up to 2^24, and int(float(16777219)) would be one past the last voxel.
 static Vec3 gradient_along_ray(const Volume& volume, const View& view, int x, int y, int before,
-                               float fraction, Work& work) {
+                               float fraction, KeptGradients& kept, Work& work) {
     const int after = std::min(before + 1, view.ray_length - 1);
-    const Vec3 gradient_before = gradient_at(volume, view.voxel(x, y, before), work);
+    const Vec3 gradient_before = gradient_on_ray(volume, view, x, y, before, kept, work);
     if (fraction == 0.0f) return gradient_before;
-    const Vec3 gradient_after = gradient_at(volume, view.voxel(x, y, after), work);
+    const Vec3 gradient_after = gradient_on_ray(volume, view, x, y, after, kept, work);
     return (1.0f - fraction) * gradient_before + fraction * gradient_after;
 }
 //< lesson: gradient
@@ -183,6 +205,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
     const double voxels_per_sample = params.step / view.ray_spacing;
     const Vec3 to_light = params.unlit ? Vec3{} : light_direction(view, params.light_angle);
     const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
+    KeptGradients kept;  // none yet: the first lit sample computes its own
     Accumulated ray;
     for (int n = 0; n < sample_count; ++n) {
         const double t = n * params.step;                // physical units from the first voxel
@@ -201,7 +224,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         }
         double light = 1.0;  // unlit
         if (!params.unlit) {
-            light = shade(gradient_along_ray(volume, view, x, y, before, fraction, work),
+            light = shade(gradient_along_ray(volume, view, x, y, before, fraction, kept, work),
                           to_light);
         }
         const double alpha = sample.a;  // the opacity, after the TF
