@@ -1,6 +1,9 @@
-// render.cpp: the per-pixel trace, and the note when render threads are short.
+// render.cpp: the per-pixel trace, the render threads' pool, and the note when render threads
+// are short.
 #include "render.h"
 #include <cctype>
+#include <condition_variable>
+#include <mutex>
 #include <cstdarg>
 #include <cstring>
 #include <cstdio>
@@ -256,6 +259,202 @@ void note_fewer_threads(int started, int wanted) {
                  "note: only %d of %d render threads could be started (ulimit -u?); rendering "
                  "with %d\n",
                  started, wanted, started);
+}
+
+namespace {
+
+// The render threads: made once, woken per render (common/render.h, parallel_rows). One
+// render at a time: a parallel_rows called while another runs (from a row, or from another
+// thread) does its rows on its own thread, the same picture.
+class RenderPool {
+public:
+    // Makes workers until there are `wanted`; returns how many there are.
+    // Waits for them to be ready (their stacks faulted in): what a thread costs to start is
+    // paid here, by warm_up(), not by a render.
+    int start(int wanted) {
+        std::unique_lock<std::mutex> lock(mutex_);
+        while (int(workers_.size()) < wanted && !start_failed_) {
+            try {
+                // It joins renders from the next one on: one started now has counted it in.
+                workers_.emplace_back([this, seen = render_.load()] { work(seen); });
+            } catch (const std::system_error&) {
+                // ulimit -u, out of memory: fewer threads, the same picture, one note; never
+                // tried again in this process.
+                start_failed_ = true;
+                note_fewer_threads(int(workers_.size()) + 1, wanted + 1);
+            }
+        }
+        ready_.wait(lock, [this] { return ready_workers_ == int(workers_.size()); });
+        return int(workers_.size());
+    }
+
+    // each: not rows but one call per thread, callback(context, n, work), n = 0 here and
+    // 1..threads-1 on the workers, each on a thread of its own.
+    void run(int height, int threads, Work& total, RowCallback callback, void* context,
+             bool each = false) {
+        const int workers = start(threads - 1);
+        int places = 0;
+        bool wake_all = false;
+        bool alone = false;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            alone = busy_ || workers == 0 || (each && workers < threads - 1);
+            if (!alone) busy_ = true;
+        }
+        if (alone) {  // unlocked: a row may start a render of its own
+            for (int y = 0; y < height; ++y) callback(context, y, total);
+            return;
+        }
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            ++render_;
+            open_places_ = std::min(threads - 1, workers);
+            callback_ = callback;
+            context_ = context;
+            height_ = height;
+            total_ = &total;
+            next_row_.store(0, std::memory_order_relaxed);
+            each_ = each;
+            joined_ = 0;
+            places = open_places_;
+            wake_all = places == int(workers_.size());
+        }
+        if (wake_all) {
+            wake_.notify_all();
+        } else {
+            for (int n = 0; n < places; ++n) wake_.notify_one();  // the others sleep on
+        }
+        Work own;  // this thread's counts, in its own cache lines
+        if (each) {
+            callback(context, 0, own);
+            std::unique_lock<std::mutex> lock(mutex_);
+            finished_.wait(lock, [this] { return open_places_ == 0 && active_.load() == 0; });
+            total.add(own);
+            busy_ = false;
+            return;
+        }
+        take_rows(callback, context, height, own);
+        std::unique_lock<std::mutex> lock(mutex_);
+        open_places_ = 0;  // a worker that wakes from now on finds no render to join
+        if (active_.load(std::memory_order_relaxed) != 0) {
+            // A worker is in its last row, most likely a short one: wait for it awake, since
+            // being woken from a sleep can cost more than a small render (tens of us).
+            lock.unlock();
+            const Timer waiting;
+            while (active_.load(std::memory_order_acquire) != 0 && waiting.ms() < spin_ms) {
+                std::this_thread::yield();
+            }
+            lock.lock();
+            finished_.wait(lock, [this] { return active_.load() == 0; });
+        }
+        total.add(own);
+        busy_ = false;
+    }
+
+private:
+    // How long the caller waits awake for the workers' last rows, at most.
+    static constexpr double spin_ms = 0.2;
+    // The stack a render uses, touched once, so a worker's first rows take no page fault
+    // (about 10 us each on the lab's VM).
+    static constexpr size_t stack_bytes_used = 64 * 1024;
+
+    // How long a worker stays awake for the next render after one (or after it started):
+    // renders of --repeat, of a turning knob, and the first render after warm_up() then find
+    // it awake. Woken from a sleep, a worker came 0.1-0.2 ms late on the lab's VM, longer than
+    // a small render.
+    static constexpr double stay_awake_ms = 2;
+
+    static void fault_in_stack() {
+        char stack[stack_bytes_used];
+        volatile char* touch = stack;
+        for (size_t n = 0; n < stack_bytes_used; n += 1024) touch[n] = 0;
+    }
+
+    void take_rows(RowCallback callback, void* context, int height, Work& work) {
+        for (int y = next_row_.fetch_add(1, std::memory_order_relaxed); y < height;
+             y = next_row_.fetch_add(1, std::memory_order_relaxed)) {
+            callback(context, y, work);
+        }
+    }
+
+    // A worker: sleeps until a render starts, joins it while it has places, takes rows until
+    // none is left, adds its counts to the render's total.
+    void work(uint64_t seen) {
+        fault_in_stack();
+        std::unique_lock<std::mutex> lock(mutex_);
+        ++ready_workers_;
+        ready_.notify_all();
+        for (;;) {
+            lock.unlock();
+            const Timer awake;
+            while (render_.load(std::memory_order_relaxed) == seen && awake.ms() < stay_awake_ms) {
+                std::this_thread::yield();  // another process that wants this core gets it
+            }
+            lock.lock();
+            wake_.wait(lock, [&] { return render_ != seen; });
+            seen = render_;
+            if (open_places_ == 0) continue;  // late: the render is full or over
+            --open_places_;
+            ++active_;
+            const int index = each_ ? ++joined_ : 0;
+            const bool each = each_;
+            const RowCallback callback = callback_;
+            void* const context = context_;
+            const int height = height_;
+            lock.unlock();
+            Work own;
+            if (each) {
+                callback(context, index, own);
+            } else {
+                take_rows(callback, context, height, own);
+            }
+            lock.lock();
+            total_->add(own);
+            if (active_.fetch_sub(1) == 1) finished_.notify_one();
+        }
+    }
+
+    std::mutex mutex_;                   // guards all below but next_row_
+    std::condition_variable wake_;       // workers wait here for a render
+    std::condition_variable finished_;   // the render's caller waits here for its workers
+    std::vector<std::thread> workers_;
+    bool start_failed_ = false;
+    int ready_workers_ = 0;              // workers that have started
+    std::condition_variable ready_;      // start() waits here for new workers
+    bool busy_ = false;                  // a render is running
+    std::atomic<uint64_t> render_{0};    // counts renders (changed locked): a worker wakes
+                                         // when it changes
+    int open_places_ = 0;                // workers that may still join the running render
+    std::atomic<int> active_{0};         // workers in the running render (changed locked)
+    RowCallback callback_ = nullptr;
+    void* context_ = nullptr;
+    int height_ = 0;
+    Work* total_ = nullptr;
+    bool each_ = false;                  // one call per thread, not rows
+    int joined_ = 0;                     // workers that joined the running call per thread
+    std::atomic<int> next_row_{0};       // the next row to hand out
+};
+
+// Made on first use and never destroyed: its workers sleep until the process exits (joining
+// them from a static destructor could wait on a thread a fork()ed child does not have).
+RenderPool& render_pool() {
+    static RenderPool* pool = new RenderPool;
+    return *pool;
+}
+
+}  // namespace
+
+void pool_rows(int height, int threads, Work& total, RowCallback callback, void* context) {
+    render_pool().run(height, threads, total, callback, context);
+}
+
+void pool_each(int threads, RowCallback callback, void* context) {
+    Work ignored;
+    render_pool().run(threads, threads, ignored, callback, context, true);
+}
+
+int start_render_threads(int threads) {
+    return std::min(threads, render_pool().start(threads - 1) + 1);
 }
 
 }  // namespace ctlab

@@ -106,8 +106,28 @@ std::vector<TraceField> trace_fields(const char* format, va_list arguments);
 // Prints once per process "note: only STARTED of WANTED render threads could be started ...".
 void note_fewer_threads(int started, int wanted);
 
+// The pool's side of parallel_rows: calls callback(context, y, work) for every row, rows
+// handed out one at a time to this thread and up to threads - 1 of the pool's workers.
+using RowCallback = void (*)(void* context, int y, Work& work);
+void pool_rows(int height, int threads, Work& total, RowCallback callback, void* context);
+
+// Starts the pool's workers for `threads` render threads now (they are otherwise started by
+// the first parallel render). Returns how many render threads the pool can give, this one
+// included: fewer than `threads` only when a thread could not be created.
+int start_render_threads(int threads);
+
+// Calls callback(context, n, work) once on each of `threads` threads, n = 0 on this one and
+// 1..threads-1 on the pool's workers (warm_up(): each core reads the volume it will render).
+// Without enough workers, every call is made on this thread.
+void pool_each(int threads, RowCallback callback, void* context);
+
 // Calls row(y, work) for every image row, rows shared among `threads` threads. Each thread
 // counts into its own Work, summed at the end, so the result does not depend on threads.
+// The threads are a pool made once per process (the first parallel render, or warm_up()) and
+// woken per render: starting and joining threads per render cost more than a small render
+// (00_slices: 0.3 ms on 1 thread, 0.7 ms on 2 with threads made per render). The calling
+// thread takes rows from the first moment; a worker that wakes late finds fewer rows, or
+// none, so a tiny render costs about what it costs on one thread.
 // Speed: a thread's Work lives on its own stack while it runs; Works side by side in one
 // vector share a cache line, and the two cores would fight over it at every sample counted.
 template <class RowFunction>
@@ -117,28 +137,10 @@ void parallel_rows(int height, int threads, Work& total, RowFunction row) {
         for (int y = 0; y < height; ++y) row(y, total);
         return;
     }
-    std::atomic<int> next_row{0};
-    std::vector<Work> work(threads);
-    auto share_rows = [&](int n) {
-        Work own;  // this thread's counts, in its own cache lines
-        for (int y = next_row++; y < height; y = next_row++) row(y, own);
-        work[n] = own;
+    const RowCallback call_row = [](void* context, int y, Work& work) {
+        (*static_cast<RowFunction*>(context))(y, work);
     };
-    // This thread is worker 0. A thread that cannot be created (ulimit -u, out of memory)
-    // leaves its rows to those that were: fewer threads, the same picture, one note.
-    std::vector<std::thread> pool;
-    pool.reserve(threads - 1);
-    for (int n = 1; n < threads; ++n) {
-        try {
-            pool.emplace_back(share_rows, n);
-        } catch (const std::system_error&) {
-            note_fewer_threads(n, threads);
-            break;
-        }
-    }
-    share_rows(0);
-    for (auto& thread : pool) thread.join();
-    for (const Work& w : work) total.add(w);
+    pool_rows(height, threads, total, call_row, &row);
 }
 
 // Every pixel of a view: pixel(x, y, work) -> Rgb, rows in parallel.

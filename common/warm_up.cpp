@@ -58,16 +58,12 @@ void read_everywhere(const Volume& volume, int threads) {
         volatile int64_t sink = sum;
         (void)sink;
     };
-    std::vector<std::thread> others;
-    for (int n = 1; n < threads; ++n) {
-        try {
-            others.emplace_back(read_all);
-        } catch (const std::system_error&) {
-            break;  // fewer threads: the render starts what it can, as it always does
-        }
-    }
-    read_all();
-    for (std::thread& thread : others) thread.join();
+    // On the render threads themselves (the pool's workers), so that their cores, caches and
+    // address translations are the render's.
+    const RowCallback read_once = [](void* context, int, Work&) {
+        (*static_cast<decltype(read_all)*>(context))();
+    };
+    pool_each(threads, read_once, &read_all);
 }
 
 }  // namespace
@@ -89,8 +85,8 @@ double warm_up(const std::vector<View>& views, int threads, const Volume* volume
     mallopt(M_TRIM_THRESHOLD, int(4 * kept));
 #endif
     touch_heap(kept);
-    Work ignored;  // the threads do nothing: they are started, their stacks faulted in
-    parallel_rows(threads, threads, ignored, [](int, Work&) {});
+    start_render_threads(threads);  // the pool, made once (common/render.h)
+    // Last: a worker stays awake a moment after its work, for the first render.
     if (volume) read_everywhere(*volume, threads);
     return timer.ms();
 }

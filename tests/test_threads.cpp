@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 #include "harness.h"
 #include "render.h"
@@ -122,4 +123,42 @@ TEST_CASE("threads: parallel_rows visits every row once and sums every thread's 
             CHECK(total.hits == 1000);
         }
     }
+}
+
+TEST_CASE("threads: the pool serves many renders, nested and concurrent ones, each in full") {
+    // Renders back to back (workers awake or asleep), a render started from inside a row (it
+    // runs on that thread), and two threads rendering at once (one of them alone): every row
+    // once, every count summed.
+    auto check_render = [](int height, int threads) {
+        std::vector<std::atomic<int>> visits(height);
+        for (auto& count : visits) count = 0;
+        Work total;
+        parallel_rows(height, threads, total, [&](int y, Work& work) {
+            ++visits[y];
+            work.samples += uint64_t(y) + 1;
+            if (y % 7 == 0) {  // a nested render: 3 rows, 2 threads
+                Work inner;
+                parallel_rows(3, 2, inner, [](int, Work& w) { ++w.hits; });
+                work.hits += inner.hits;
+            }
+        });
+        int wrong = 0;
+        for (const auto& count : visits) wrong += count != 1;
+        uint64_t nested = 0;
+        for (int y = 0; y < height; y += 7) nested += 3;
+        return wrong == 0 && total.samples == uint64_t(height) * (height + 1) / 2 &&
+               total.hits == nested;
+    };
+    int failed = 0;
+    for (int n = 0; n < 300; ++n) failed += !check_render(1 + n % 40, 2 + n % 3);
+    CHECK(failed == 0);
+    std::atomic<int> failed_elsewhere{0};
+    std::thread other([&] {
+        for (int n = 0; n < 100; ++n) failed_elsewhere += !check_render(50, 2);
+    });
+    for (int n = 0; n < 100; ++n) failed += !check_render(50, 2);
+    other.join();
+    CHECK(failed == 0);
+    CHECK(failed_elsewhere == 0);
+    CHECK(start_render_threads(2) == 2);
 }
