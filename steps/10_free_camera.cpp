@@ -4,7 +4,8 @@
 //             --zoom, --projection ortho|perspective, --fov, --size WxH); one ray per pixel in
 //             physical space, voxel (i, j, k) at (i*sx, j*sy, k*sz); where it enters and leaves
 //             the box of voxel centres (the slab method); samples every --step physical units
-//             read by trilinear interpolation of the eight voxels around them; step 09's
+//             read by trilinear interpolation of the eight voxels around them
+//             (--interpolation nearest: the one nearest voxel, part 1's way); step 09's
 //             leaping over empty bricks, along a free ray (--no-leaping: the same picture).
 //             Compositing, lighting and opacity correction are step 08's.
 // Camera:     a proper camera: image x runs along `right` = forward x up. Part 1's top view is
@@ -57,6 +58,8 @@ struct Params {
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
     std::string projection = "ortho";      // "ortho" or "perspective"
+    std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
+    bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
 };
@@ -292,18 +295,20 @@ static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span,
 }
 
 // Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
-// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
-static void low_corner(double u, int count, int* low, float* fraction) {
+// voxel centre the fraction is exactly 0, so that voxel comes back as it is. `nearest` first
+// moves the point to the nearest voxel centre (a half rounds up): fraction 0, that voxel.
+static void low_corner(double u, int count, bool nearest, int* low, float* fraction) {
     u = std::clamp(u, 0.0, double(count - 1));
+    if (nearest) u = std::floor(u + 0.5);
     *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
     *fraction = float(u - *low);
 }
 
-static Cell cell_at(const Volume& volume, const Vec3d& point) {
+static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     Cell cell;
-    low_corner(point.i, volume.nx, &cell.i, &cell.fi);
-    low_corner(point.j, volume.ny, &cell.j, &cell.fj);
-    low_corner(point.k, volume.nz, &cell.k, &cell.fk);
+    low_corner(point.i, volume.nx, nearest, &cell.i, &cell.fi);
+    low_corner(point.j, volume.ny, nearest, &cell.j, &cell.fj);
+    low_corner(point.k, volume.nz, nearest, &cell.k, &cell.fk);
     const size_t row = volume.row_stride, slice = volume.slice_stride;
     cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
     cell.di = cell.i + 1 < volume.nx ? 1 : 0;
@@ -324,6 +329,12 @@ static float trilinear(const Volume& volume, const Cell& c) {
     const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
     const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
+}
+
+// A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
+// low corner on it), or trilinear, eight.
+static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
+    return nearest ? float(volume.data[c.index]) : trilinear(volume, c);
 }
 //< lesson: trilinear
 
@@ -487,6 +498,14 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
     return {blend(along_i, c) * float(0.5 / volume.sx), blend(along_j, c) * float(0.5 / volume.sy),
             blend(along_k, c) * float(0.5 / volume.sz)};
 }
+
+// A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
+// differences), else trilinear.
+static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
+    if (!nearest) return gradient_trilinear(volume, c, work);
+    ++work.gradients;
+    return gradient_at(volume, c.i, c.j, c.k);
+}
 //< lesson: gradient
 
 //> lesson: shade
@@ -550,7 +569,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     const Vec3 to_light = params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
-        const Cell cell = cell_at(volume, q);
+        const Cell cell = cell_at(volume, q, params.nearest);
         auto t = [&] { return span.t_entry + n * params.step; };  // for traces
         const int reach = space.reach_at(cell);
         if (reach > 0) {
@@ -562,7 +581,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             n = next - 1;
             continue;
         }
-        const float value = trilinear(volume, cell);
+        const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         auto point = [&] { return Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz}; };
@@ -573,7 +592,9 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             continue;
         }
         double light = 1.0;  // unlit
-        if (!params.unlit) light = shade(gradient_trilinear(volume, cell, work), to_light);
+        if (!params.unlit) {
+            light = shade(sample_gradient(volume, cell, params.nearest, work), to_light);
+        }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
         pixel.r += weight * sample.r;
@@ -659,12 +680,15 @@ int main(int argc, char** argv) {
                         "degrees above the i-j plane; 90 looks down from the crown");
         args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
                         "ortho: pixels per voxel; perspective: walks the eye in (>1)");
+        args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
+                        "a sample's value: the eight voxels around it, or the nearest one");
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
         args.add_double("--fov", &params.fov, 1, 170,
                         "perspective: the image's height as an angle, degrees");
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)");
         const Options options = args.parse(argc, argv);
+        params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
             throw InputError("--view: step 10 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
@@ -749,7 +773,7 @@ int main(int argc, char** argv) {
                    " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + number(params.azimuth) +
                    " elevation=" + number(params.elevation) + " zoom=" + number(params.zoom) +
-                   " fov=" + number(params.fov);
+                   " fov=" + number(params.fov) + " interpolation=" + params.interpolation;
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

@@ -40,6 +40,8 @@ struct Params {
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
     std::string projection = "ortho";      // "ortho" or "perspective"
+    std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
+    bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
 };
@@ -233,18 +235,20 @@ static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span,
 }
 
 // Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
-// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
-static void low_corner(double u, int count, int* low, float* fraction) {
+// voxel centre the fraction is exactly 0, so that voxel comes back as it is. `nearest` first
+// moves the point to the nearest voxel centre (a half rounds up): fraction 0, that voxel.
+static void low_corner(double u, int count, bool nearest, int* low, float* fraction) {
     u = std::clamp(u, 0.0, double(count - 1));
+    if (nearest) u = std::floor(u + 0.5);
     *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
     *fraction = float(u - *low);
 }
 
-static Cell cell_at(const Volume& volume, const Vec3d& point) {
+static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     Cell cell;
-    low_corner(point.i, volume.nx, &cell.i, &cell.fi);
-    low_corner(point.j, volume.ny, &cell.j, &cell.fj);
-    low_corner(point.k, volume.nz, &cell.k, &cell.fk);
+    low_corner(point.i, volume.nx, nearest, &cell.i, &cell.fi);
+    low_corner(point.j, volume.ny, nearest, &cell.j, &cell.fj);
+    low_corner(point.k, volume.nz, nearest, &cell.k, &cell.fk);
     const size_t row = volume.row_stride, slice = volume.slice_stride;
     cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
     cell.di = cell.i + 1 < volume.nx ? 1 : 0;
@@ -265,6 +269,12 @@ static float trilinear(const Volume& volume, const Cell& c) {
     const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
     const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
+}
+
+// A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
+// low corner on it), or trilinear, eight.
+static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
+    return nearest ? float(volume.data[c.index]) : trilinear(volume, c);
 }
 //< lesson: trilinear
 
@@ -334,7 +344,8 @@ static Projection project_ray(const Volume& volume, const Camera& camera, int x,
     const Walk walk = walk_through(volume, ray, span, params.step);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
-        const float value = trilinear(volume, cell_at(volume, q));
+        const float value =
+            sample_value(volume, cell_at(volume, q, params.nearest), params.nearest);
         ++work.samples;
         if (projection.count == 0) projection.highest = projection.lowest = value;
         projection.highest = std::max(projection.highest, value);
@@ -409,12 +420,15 @@ int main(int argc, char** argv) {
                         "degrees above the i-j plane; 90 looks down from the crown");
         args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
                         "ortho: pixels per voxel; perspective: walks the eye in (>1)");
+        args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
+                        "a sample's value: the eight voxels around it, or the nearest one");
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
         args.add_double("--fov", &params.fov, 1, 170,
                         "perspective: the image's height as an angle, degrees");
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)");
         const Options options = args.parse(argc, argv);
+        params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
             throw InputError("--view: step 12 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
@@ -473,7 +487,7 @@ int main(int argc, char** argv) {
             return "mode=" + params.mode + " slab=" + number(params.slab) +
                    " projection=" + params.projection + " azimuth=" + number(params.azimuth) +
                    " elevation=" + number(params.elevation) + " zoom=" + number(params.zoom) +
-                   " fov=" + number(params.fov);
+                   " fov=" + number(params.fov) + " interpolation=" + params.interpolation;
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

@@ -72,6 +72,8 @@ struct Params {
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
     std::string projection = "ortho";      // "ortho" or "perspective"
+    std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
+    bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
     std::string mode = "iso";              // "iso": the surface; "composite": step 10's picture
@@ -349,18 +351,20 @@ static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span,
 }
 
 // Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
-// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
-static void low_corner(double u, int count, int* low, float* fraction) {
+// voxel centre the fraction is exactly 0, so that voxel comes back as it is. `nearest` first
+// moves the point to the nearest voxel centre (a half rounds up): fraction 0, that voxel.
+static void low_corner(double u, int count, bool nearest, int* low, float* fraction) {
     u = std::clamp(u, 0.0, double(count - 1));
+    if (nearest) u = std::floor(u + 0.5);
     *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
     *fraction = float(u - *low);
 }
 
-static Cell cell_at(const Volume& volume, const Vec3d& point) {
+static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     Cell cell;
-    low_corner(point.i, volume.nx, &cell.i, &cell.fi);
-    low_corner(point.j, volume.ny, &cell.j, &cell.fj);
-    low_corner(point.k, volume.nz, &cell.k, &cell.fk);
+    low_corner(point.i, volume.nx, nearest, &cell.i, &cell.fi);
+    low_corner(point.j, volume.ny, nearest, &cell.j, &cell.fj);
+    low_corner(point.k, volume.nz, nearest, &cell.k, &cell.fk);
     const size_t row = volume.row_stride, slice = volume.slice_stride;
     cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
     cell.di = cell.i + 1 < volume.nx ? 1 : 0;
@@ -381,6 +385,12 @@ static float trilinear(const Volume& volume, const Cell& c) {
     const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
     const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
+}
+
+// A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
+// low corner on it), or trilinear, eight.
+static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
+    return nearest ? float(volume.data[c.index]) : trilinear(volume, c);
 }
 //< lesson: trilinear
 
@@ -556,6 +566,14 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
     return {blend(along_i, c) * float(0.5 / volume.sx), blend(along_j, c) * float(0.5 / volume.sy),
             blend(along_k, c) * float(0.5 / volume.sz)};
 }
+
+// A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
+// differences), else trilinear.
+static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
+    if (!nearest) return gradient_trilinear(volume, c, work);
+    ++work.gradients;
+    return gradient_at(volume, c.i, c.j, c.k);
+}
 //< lesson: gradient
 
 //> lesson: shade
@@ -621,7 +639,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     const Vec3 to_light = params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
-        const Cell cell = cell_at(volume, q);
+        const Cell cell = cell_at(volume, q, params.nearest);
         auto t = [&] { return span.t_entry + n * params.step; };  // for traces
         const int reach = space.reach_at(cell);
         if (reach > 0) {
@@ -633,7 +651,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             n = next - 1;
             continue;
         }
-        const float value = trilinear(volume, cell);
+        const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         auto point = [&] { return Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz}; };
@@ -644,7 +662,9 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             continue;
         }
         double light = 1.0;  // unlit
-        if (!params.unlit) light = shade(gradient_trilinear(volume, cell, work), to_light);
+        if (!params.unlit) {
+            light = shade(sample_gradient(volume, cell, params.nearest, work), to_light);
+        }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
         pixel.r += weight * sample.r;
@@ -689,13 +709,15 @@ struct SurfaceHit {
 // iso and halves each time. It stops when the bracket is shorter than `tolerance` (samples),
 // and the crossing is its midpoint, at most tolerance / 2 from the true one: 14 halvings from
 // a step of 1 to 1e-4. (The secant step would usually need fewer reads, but can creep in from
-// one end.) t_entry and step only turn samples into t for the trace.
+// one end.) t_entry and step only turn samples into t for the trace. With nearest samples
+// (--interpolation nearest) the field is a staircase, and the crossing is where it steps.
 static double bisect(const Volume& volume, const Walk& walk, double below, double above,
-                     double iso, double tolerance, double t_entry, double step, Trace* trace) {
+                     double iso, double tolerance, bool nearest, double t_entry, double step,
+                     Trace* trace) {
     for (int iteration = 1; above - below > tolerance; ++iteration) {
         const double middle = 0.5 * (below + above);
         const Vec3d point = walk.first + middle * walk.per_step;  // voxel units
-        const float value = trilinear(volume, cell_at(volume, point));
+        const float value = sample_value(volume, cell_at(volume, point, nearest), nearest);
         const bool is_above = value > iso;
         if (is_above) {
             above = middle;
@@ -754,7 +776,7 @@ static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, 
     auto t = [&](double n) { return span.t_entry + n * params.step; };  // for traces
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
-        const Cell cell = cell_at(volume, q);
+        const Cell cell = cell_at(volume, q, params.nearest);
         const int reach = space.reach_at(cell);
         if (reach > 0) {  // samples n .. next - 1 are all at or below iso
             const long long next = leap_past(walk, space.bricks, cell, reach, n);
@@ -764,7 +786,7 @@ static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, 
             n = next - 1;
             continue;
         }
-        const float value = trilinear(volume, cell);
+        const float value = sample_value(volume, cell, params.nearest);
         ++work.samples;
         if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f %s", t(n),
                               q.i * volume.sx, q.j * volume.sy, q.k * volume.sz, value,
@@ -776,8 +798,8 @@ static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, 
             if (trace) trace->add("crossing between t=%.4f and t=%.4f: bisection to %g voxel",
                                   t(n - 1), t(n), hit_tolerance);
             at = bisect(volume, walk, n - 1, n, params.iso,
-                        hit_tolerance * smallest_spacing / params.step, span.t_entry,
-                        params.step, trace);
+                        hit_tolerance * smallest_spacing / params.step, params.nearest,
+                        span.t_entry, params.step, trace);
         } else if (trace) {
             trace->add("the first sample is above iso: the ray starts inside, hit at its entry");
         }
@@ -809,7 +831,8 @@ static Rgb isosurface_ray(const Volume& volume, const EmptySpace& space, const C
     if (span.clipped && hit.along == 0) {
         normal = to_float(params.clip.normal);  // outward: the cut-away side is +normal
     } else {
-        const Vec3 gradient = gradient_trilinear(volume, cell_at(volume, hit.point), work);
+        const Vec3 gradient = sample_gradient(
+            volume, cell_at(volume, hit.point, params.nearest), params.nearest, work);
         const float size = length(gradient);
         if (size > 0.0f) normal = (-1.0f / size) * gradient;
         source = size > 0.0f ? "-gradient" : "none (zero gradient)";
@@ -914,6 +937,8 @@ int main(int argc, char** argv) {
                         "degrees above the i-j plane; 90 looks down from the crown");
         args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
                         "ortho: pixels per voxel; perspective: walks the eye in (>1)");
+        args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
+                        "a sample's value: the eight voxels around it, or the nearest one");
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
         args.add_double("--fov", &params.fov, 1, 170,
@@ -928,6 +953,7 @@ int main(int argc, char** argv) {
         args.add_string("--clip", &params.clip_text,
                         "clipping plane NX,NY,NZ,D: keeps n.p <= D (physical units)");
         const Options options = args.parse(argc, argv);
+        params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
             throw InputError("--view: step 13 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
@@ -1028,7 +1054,8 @@ int main(int argc, char** argv) {
                    " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + number(params.azimuth) +
                    " elevation=" + number(params.elevation) + " zoom=" + number(params.zoom) +
-                   " fov=" + number(params.fov) + " mode=" + params.mode +
+                   " fov=" + number(params.fov) + " interpolation=" + params.interpolation +
+                   " mode=" + params.mode +
                    (iso_mode ? " step=" + number(params.step)  // the knob's is printed
                              : " iso=" + std::to_string(params.iso)) +
                    " shininess=" + number(params.shininess) +

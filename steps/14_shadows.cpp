@@ -59,6 +59,8 @@ struct Params {
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
     std::string projection = "ortho";      // "ortho" or "perspective"
+    std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
+    bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
     std::string shadows = "ray";  // "ray": a shadow ray per lit sample; "volume": read from a
@@ -297,18 +299,20 @@ static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span,
 }
 
 // Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
-// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
-static void low_corner(double u, int count, int* low, float* fraction) {
+// voxel centre the fraction is exactly 0, so that voxel comes back as it is. `nearest` first
+// moves the point to the nearest voxel centre (a half rounds up): fraction 0, that voxel.
+static void low_corner(double u, int count, bool nearest, int* low, float* fraction) {
     u = std::clamp(u, 0.0, double(count - 1));
+    if (nearest) u = std::floor(u + 0.5);
     *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
     *fraction = float(u - *low);
 }
 
-static Cell cell_at(const Volume& volume, const Vec3d& point) {
+static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     Cell cell;
-    low_corner(point.i, volume.nx, &cell.i, &cell.fi);
-    low_corner(point.j, volume.ny, &cell.j, &cell.fj);
-    low_corner(point.k, volume.nz, &cell.k, &cell.fk);
+    low_corner(point.i, volume.nx, nearest, &cell.i, &cell.fi);
+    low_corner(point.j, volume.ny, nearest, &cell.j, &cell.fj);
+    low_corner(point.k, volume.nz, nearest, &cell.k, &cell.fk);
     const size_t row = volume.row_stride, slice = volume.slice_stride;
     cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
     cell.di = cell.i + 1 < volume.nx ? 1 : 0;
@@ -329,6 +333,12 @@ static float trilinear(const Volume& volume, const Cell& c) {
     const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
     const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
+}
+
+// A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
+// low corner on it), or trilinear, eight.
+static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
+    return nearest ? float(volume.data[c.index]) : trilinear(volume, c);
 }
 //< lesson: trilinear
 
@@ -492,6 +502,14 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
     return {blend(along_i, c) * float(0.5 / volume.sx), blend(along_j, c) * float(0.5 / volume.sy),
             blend(along_k, c) * float(0.5 / volume.sz)};
 }
+
+// A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
+// differences), else trilinear.
+static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
+    if (!nearest) return gradient_trilinear(volume, c, work);
+    ++work.gradients;
+    return gradient_at(volume, c.i, c.j, c.k);
+}
 //< lesson: gradient
 
 //> lesson: shade
@@ -538,7 +556,7 @@ static double light_transmittance(const Volume& volume, const Lut& lut, const Em
     const Walk walk = walk_through(volume, ray, span, step);
     double transmittance = 1;
     for (long long n = 1; n < walk.count; ++n) {
-        const Cell cell = cell_at(volume, walk.at(n));
+        const Cell cell = cell_at(volume, walk.at(n), false);  // trilinear, whatever the camera
         const int reach = space.reach_at(cell);
         if (reach > 0) {
             const long long next = leap_past(walk, space.bricks, cell, reach, n);
@@ -646,7 +664,7 @@ static double ambient_occlusion(const Volume& volume, const Lut& occlusion_lut, 
                 double p[3] = {q.i, q.j, q.k};
                 p[axis] += sign * t / spacing[axis];
                 if (p[axis] < 0 || p[axis] > counts[axis] - 1) break;  // outside the box
-                const float value = trilinear(volume, cell_at(volume, {p[0], p[1], p[2]}));
+                const float value = trilinear(volume, cell_at(volume, {p[0], p[1], p[2]}, false));
                 ++work.samples;
                 transmittance *= 1 - occlusion_lut.entries[int(double(value) - lowest_ct_value)].a;
             }
@@ -716,7 +734,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     const bool occlusion_on = params.ao == "on";
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
-        const Cell cell = cell_at(volume, q);
+        const Cell cell = cell_at(volume, q, params.nearest);
         auto t = [&] { return span.t_entry + n * params.step; };  // for traces
         const int reach = space.reach_at(cell);
         if (reach > 0) {
@@ -728,7 +746,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             n = next - 1;
             continue;
         }
-        const float value = trilinear(volume, cell);
+        const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         auto point = [&] { return Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz}; };
@@ -749,8 +767,8 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
                 light_t = light_from_volume(blocking.light, cell);
             }
             if (occlusion_on) occlusion = ambient_occlusion(volume, blocking.occlusion_lut, q, work);
-            light = shade_blocked(gradient_trilinear(volume, cell, work), to_light,
-                                  light_t, occlusion);
+            light = shade_blocked(sample_gradient(volume, cell, params.nearest, work),
+                                  to_light, light_t, occlusion);
         }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
@@ -841,6 +859,8 @@ int main(int argc, char** argv) {
                         "degrees above the i-j plane; 90 looks down from the crown");
         args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
                         "ortho: pixels per voxel; perspective: walks the eye in (>1)");
+        args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
+                        "a sample's value: the eight voxels around it, or the nearest one");
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
         args.add_double("--fov", &params.fov, 1, 170,
@@ -852,6 +872,7 @@ int main(int argc, char** argv) {
         args.add_choice("--ao", &params.ao, {"on", "off"},
                         "ambient occlusion from the opacity around every lit sample");
         const Options options = args.parse(argc, argv);
+        params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
             throw InputError("--view: step 14 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
@@ -957,7 +978,8 @@ int main(int argc, char** argv) {
                    " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + number(params.azimuth) +
                    " elevation=" + number(params.elevation) + " zoom=" + number(params.zoom) +
-                   " fov=" + number(params.fov) + " shadows=" + params.shadows +
+                   " fov=" + number(params.fov) + " interpolation=" + params.interpolation +
+                   " shadows=" + params.shadows +
                    " ao=" + params.ao;
         };
 

@@ -166,6 +166,41 @@ TEST_CASE("free camera: along the three axes it draws part 1's top and side view
     }
 }
 
+TEST_CASE("free camera: --interpolation nearest at voxel centres is trilinear's picture and "
+          "part 1's top view, bit for bit") {
+    // The top view's camera, the step the spacing: every sample is a voxel centre, where the
+    // nearest voxel and the trilinear value are that voxel, and the nearest voxel's gradient
+    // is step 08's.
+    const TempFolder folder("free_camera_nearest");
+    const std::vector<std::string> phantom = {"--volume", "phantom"};
+    for (const std::string lighting : {"unlit", "lit"}) {
+        CAPTURE(lighting);
+        std::vector<std::string> top = {"--azimuth", "180", "--elevation", "90", "--size",
+                                        "256x256", "--step", "2"};
+        std::vector<std::string> part1_top = {"--view", "top", "--step", "2"};
+        if (lighting == "unlit") {
+            top.push_back("--unlit");
+            part1_top.push_back("--unlit");
+        }
+        std::vector<std::string> nearest = top;
+        nearest.insert(nearest.end(), {"--interpolation", "nearest"});
+        const RunResult run = render(free_camera, phantom, nearest, folder);
+        CHECK(run.out.find("interpolation=nearest") != std::string::npos);
+        const Image nearest_top = pfm_of(folder, free_camera, "camera");
+        render(free_camera, phantom, top, folder);
+        CHECK(differing_pixels(nearest_top, pfm_of(folder, free_camera, "camera"), false) == 0);
+        render(part1, phantom, part1_top, folder);
+        CHECK(differing_pixels(nearest_top, pfm_of(folder, part1, "top"), false) == 0);
+    }
+    // Off the voxel centres (the default oblique camera) the two differ.
+    const TempFolder oblique("free_camera_nearest_oblique");
+    render(free_camera, phantom, {"--size", "64x64", "--zoom", "0.25"}, oblique);
+    const Image trilinear = pfm_of(oblique, free_camera, "camera");
+    render(free_camera, phantom, {"--size", "64x64", "--zoom", "0.25", "--interpolation",
+                                  "nearest"}, oblique);
+    CHECK(differing_pixels(trilinear, pfm_of(oblique, free_camera, "camera"), false) > 100);
+}
+
 TEST_CASE("free camera: the slab method's stiff cases give an entry and exit or a clean "
           "miss, never NaN") {
     const TempFolder folder("free_camera_slab");

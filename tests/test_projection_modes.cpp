@@ -148,6 +148,62 @@ TEST_CASE("projection modes: an oblique ray through a ramp has its extremes at i
     }
 }
 
+TEST_CASE("projection modes: --interpolation nearest reads the voxel nearest each sample "
+          "point, trilinear the ramp's closed form") {
+    const TempFolder folder("projection_nearest");
+    const std::vector<std::string> volume = write_raw_volume(
+        make_volume(nx, ny, nz, [](int i, int j, int k) { return int(ramp(i, j, k)); }),
+        folder.path("ramp.raw"));
+    // The sample points and values a trace prints (spacing 1: physical = voxel units).
+    struct Sample {
+        double i, j, k, value;
+    };
+    auto traced = [&](const char* interpolation) {
+        std::vector<std::string> flags = volume;
+        flags.insert(flags.end(), {"--azimuth", "33", "--elevation", "-21", "--size", "24x24",
+                                   "--zoom", "2", "--step", "0.25", "--mode", "mip",
+                                   "--interpolation", interpolation, "--debug-pixel", "12,11"});
+        const RunResult run = render(flags, folder);
+        REQUIRE(run.traces.size() == 1);
+        CHECK(run.out.find(std::string("interpolation=") + interpolation) != std::string::npos);
+        std::vector<Sample> samples;
+        for (const std::string& line : run.traces[0].lines) {
+            const size_t at = line.find("p=(");
+            Sample s{};
+            if (at != std::string::npos &&
+                std::sscanf(line.c_str() + at, "p=(%lf, %lf, %lf) value=%lf", &s.i, &s.j, &s.k,
+                            &s.value) == 4) {
+                samples.push_back(s);
+            }
+        }
+        CHECK(samples.size() == run.traces[0].samples);
+        return samples;
+    };
+    const std::vector<Sample> nearest = traced("nearest");
+    const std::vector<Sample> trilinear = traced("trilinear");
+    REQUIRE(nearest.size() >= 10);
+    REQUIRE(nearest.size() == trilinear.size());
+    double worst_nearest = 0, worst_trilinear = 0, largest_move = 0;
+    int checked = 0;
+    for (size_t n = 0; n < nearest.size(); ++n) {
+        const Sample& s = nearest[n];
+        // A point within the trace's rounding of a half-way plane could go either way: skip it.
+        auto near_half = [](double u) { return std::fabs(u - std::floor(u) - 0.5) < 1e-5; };
+        if (near_half(s.i) || near_half(s.j) || near_half(s.k)) continue;
+        ++checked;
+        const double voxel = ramp(std::floor(s.i + 0.5), std::floor(s.j + 0.5),
+                                  std::floor(s.k + 0.5));
+        worst_nearest = std::max(worst_nearest, std::fabs(s.value - voxel));
+        largest_move = std::max(largest_move, std::fabs(s.value - ramp(s.i, s.j, s.k)));
+        const Sample& t = trilinear[n];
+        worst_trilinear = std::max(worst_trilinear, std::fabs(t.value - ramp(t.i, t.j, t.k)));
+    }
+    CHECK(checked >= 10);
+    CHECK(worst_nearest == 0);     // a voxel's value, exactly (integers print exactly)
+    CHECK(largest_move > 1);       // ... and not the interpolated value
+    CHECK(worst_trilinear < 2e-3);  // the trace's 4 decimals, float values up to 101
+}
+
 TEST_CASE("projection modes: --slab keeps the samples within half its thickness of the "
           "centre") {
     // Down k through the ramp (k = 0..6, centre 3) with a slab 2 thick: k = 2, 3, 4.

@@ -10,7 +10,8 @@
 //   ert        early ray termination thresholds 0 .. 0.1 (steps 07 and 08, top view):
 //              time saved against error added
 //   jitter     step 11 (the free camera) at step 4 .. 1/2 with jitter none, hash and blue
-//              noise, against step 1/4 without jitter: RMSE, and RMSE after a 5x5 blur
+//              noise, each with trilinear and nearest samples, against step 1/4 without
+//              jitter (trilinear): RMSE, and RMSE after a 5x5 blur
 //              (the rings and bands that survive it; noise does not)
 //   shadows    step 14: shadow rays, the light-transmittance volume and ambient occlusion,
 //              each against step 10's light (what it adds) with its time and samples read;
@@ -563,7 +564,7 @@ void ert_study() {
             "8-bit (against front to back, T* = 0)", b2f.count("samples")});
 }
 
-// --- Jitter: step size x jitter on the free camera (step 11) -----------------------------
+// --- Jitter: step size x jitter x interpolation on the free camera (step 11) -------------
 
 // The difference image - reference (every channel), blurred by a box of (2 * radius + 1)^2
 // pixels: what is left is the low-frequency error the eye sees as bands and rings; fine noise
@@ -600,27 +601,31 @@ constexpr int jitter_blur_radius = 2;  // pixels: the low-pass box is 5 x 5
 
 void jitter_study() {
     std::printf("jitter: step 11 on the phantom, the default camera at 256x256, no early "
-                "termination, steps 4 .. 1/2 x jitter none/hash/blue, against step 1/4 without "
-                "jitter\n");
+                "termination, steps 4 .. 1/2 x jitter none/hash/blue x interpolation "
+                "trilinear/nearest, against step 1/4 without jitter, trilinear\n");
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     const std::vector<std::string> camera =
         phantom_volume().flags +
         std::vector<std::string>{"--size", quick ? "64x64" : "256x256", "--zoom",
                                  quick ? "1" : "0.5", "--ert", "0"};
     const Run reference = run(jitter_step, camera + std::vector<std::string>{
-                                  "--step", "0.25", "--jitter", "none", "--threads",
-                                  std::to_string(cores)});
+                                  "--step", "0.25", "--jitter", "none", "--interpolation",
+                                  "trilinear", "--threads", std::to_string(cores)});
     for (const double step : {4.0, 2.0, 1.0, 0.5}) {
-        for (const char* jitter : {"none", "hash", "blue"}) {
-            const Run image = run(jitter_step, camera + std::vector<std::string>{
-                                      "--step", format("%g", step), "--jitter", jitter}, true);
-            const ImageError error = image_error(image.image(), reference.image());
-            record({"jitter", jitter, step_text(step), image.ms(), error.rmse, error.max,
-                    "8-bit (RMSE, max) vs step 1/4", image.count("samples")});
-            const ImageError low = low_pass_error(image.image(), reference.image(),
-                                                  jitter_blur_radius);
-            record({"jitter-lowpass", jitter, step_text(step), image.ms(), low.rmse, low.max,
-                    "8-bit, 5x5 box-blurred difference", image.count("samples")});
+        for (const char* interpolation : {"trilinear", "nearest"}) {
+            for (const char* jitter : {"none", "hash", "blue"}) {
+                const Run image = run(jitter_step, camera + std::vector<std::string>{
+                                          "--step", format("%g", step), "--jitter", jitter,
+                                          "--interpolation", interpolation}, true);
+                const std::string method = format("%s, %s", jitter, interpolation);
+                const ImageError error = image_error(image.image(), reference.image());
+                record({"jitter", method, step_text(step), image.ms(), error.rmse, error.max,
+                        "8-bit (RMSE, max) vs step 1/4", image.count("samples")});
+                const ImageError low = low_pass_error(image.image(), reference.image(),
+                                                      jitter_blur_radius);
+                record({"jitter-lowpass", method, step_text(step), image.ms(), low.rmse,
+                        low.max, "8-bit, 5x5 box-blurred difference", image.count("samples")});
+            }
         }
     }
 }
@@ -1367,7 +1372,7 @@ int run(int argc, char** argv) {
     md << "## Early ray termination (top view; error added against T* = 0, 8-bit units)\n\n"
        << section("study:ert", written_by + "\n" + markdown_table("ert", "T*")) << "\n";
     md << "## Jitter (step 11, the default camera at 256x256, T* = 0; error in 8-bit units "
-       << "against step 1/4 without jitter; the same step takes the same time)\n\n"
+       << "against step 1/4 without jitter, trilinear; method: jitter, interpolation)\n\n"
        << section("study:jitter",
                   written_by + "\nRMSE and max of the difference:\n\n" +
                       markdown_table("jitter", "step") +
