@@ -351,20 +351,23 @@ static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span,
 }
 
 // Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
-// voxel centre the fraction is exactly 0, so that voxel comes back as it is. `nearest` first
-// moves the point to the nearest voxel centre (a half rounds up): fraction 0, that voxel.
-static void low_corner(double u, int count, bool nearest, int* low, float* fraction) {
+// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
+static void low_corner(double u, int count, int* low, float* fraction) {
     u = std::clamp(u, 0.0, double(count - 1));
-    if (nearest) u = std::floor(u + 0.5);
     *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
     *fraction = float(u - *low);
 }
 
 static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     Cell cell;
-    low_corner(point.i, volume.nx, nearest, &cell.i, &cell.fi);
-    low_corner(point.j, volume.ny, nearest, &cell.j, &cell.fj);
-    low_corner(point.k, volume.nz, nearest, &cell.k, &cell.fk);
+    // nearest: the point first moves to the nearest voxel centre (a half rounds up), so
+    // every fraction is 0 and the low corner is that voxel.
+    const Vec3d p = nearest ? Vec3d{std::floor(point.i + 0.5), std::floor(point.j + 0.5),
+                                    std::floor(point.k + 0.5)}
+                            : point;
+    low_corner(p.i, volume.nx, &cell.i, &cell.fi);
+    low_corner(p.j, volume.ny, &cell.j, &cell.fj);
+    low_corner(p.k, volume.nz, &cell.k, &cell.fk);
     const size_t row = volume.row_stride, slice = volume.slice_stride;
     cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
     cell.di = cell.i + 1 < volume.nx ? 1 : 0;
