@@ -18,9 +18,13 @@ namespace ctlab {
 // --- Layout (volume.h) ----------------------------------------------------------------------
 
 constexpr size_t cache_line_values = 64 / sizeof(int16_t);
+constexpr size_t min_padded_slice_bytes = 4096;  // smaller slices stay dense (above)
 
 size_t pitched_slice_stride(int nx, int ny) {
     const size_t dense = size_t(nx) * size_t(ny);
+    // A slice under 4 KiB stays dense: its padding (up to two lines) would be a large share of
+    // it (a 1x1 slice would take 32 times its size), and such slices do not all land in one set.
+    if (dense * sizeof(int16_t) < min_padded_slice_bytes) return dense;
     size_t lines = (dense + cache_line_values - 1) / cache_line_values;
     if (lines % 2 == 0) ++lines;  // odd: consecutive slices start in different cache sets
     return lines * cache_line_values;

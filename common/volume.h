@@ -58,7 +58,8 @@ struct Volume {
 };
 
 // The padded slice stride (in int16 values) for slices of nx*ny values: a whole, odd number
-// of 64-byte cache lines at least nx*ny values long (see the layout comment above).
+// of 64-byte cache lines at least nx*ny values long (see the layout comment above); nx*ny
+// itself for a slice under 4 KiB, whose padding would cost more than 3% of it.
 size_t pitched_slice_stride(int nx, int ny);
 // The number of values data holds once laid out: nz slice strides.
 size_t pitched_size(int nx, int ny, int nz);
