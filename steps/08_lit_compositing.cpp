@@ -198,17 +198,16 @@ static int samples_along_ray(const View& view, double step) {
 // Samples are `step` physical units apart and each stands for `step` units of the volume's
 // depth; the light L (0..1) darkens the colour only, never the opacity.
 static Accumulated composite_front_to_back(const Volume& volume, const View& view, int x, int y,
-                                           const Lut& lut, const Params& params, Work& work,
-                                           Trace* trace) {
+                                           const Lut& lut, Vec3 to_light, const Params& params,
+                                           Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const int sample_count = samples_along_ray(view, params.step);
     const double voxels_per_sample = params.step / view.ray_spacing;
-    const Vec3 to_light = params.unlit ? Vec3{} : light_direction(view, params.light_angle);
     const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
     KeptGradients kept;  // none yet: the first lit sample computes its own
     Accumulated ray;
     for (int n = 0; n < sample_count; ++n) {
-        const double t = n * params.step;                // physical units from the first voxel
+        auto t = [&] { return n * params.step; };  // physical units from the first voxel: traces
         const double position = n * voxels_per_sample;  // the same in voxels, fractional
         const int before = std::min(int(position), view.ray_length - 1);  // voxel at or before
         const float fraction = float(position - before);  // of the way to the next voxel, 0..1
@@ -219,7 +218,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("t=%7.2f value=%8.2f transparent: skipped", t, value);
+            if (trace) trace->add("t=%7.2f value=%8.2f transparent: skipped", t(), value);
             continue;
         }
         double light = 1.0;  // unlit
@@ -234,12 +233,12 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ray.b += weight * sample.b;
         ray.transparency *= 1 - alpha;
         if (trace) trace->add("t=%7.2f value=%8.2f rgba=(%.3f, %.3f, %.3f, %.4f) L=%.4f "
-                              "C=(%.6f, %.6f, %.6f) T=%.6g", t, value, sample.r, sample.g,
+                              "C=(%.6f, %.6f, %.6f) T=%.6g", t(), value, sample.r, sample.g,
                               sample.b, sample.a, light, ray.r, ray.g, ray.b, ray.transparency);
         if (ray.transparency < stop_below && n + 1 < sample_count) {
             ++work.terminated;
             if (trace) trace->add("T=%.3g < %.3g: early ray termination at t=%.2f, %d samples "
-                                  "not visited", ray.transparency, stop_below, t,
+                                  "not visited", ray.transparency, stop_below, t(),
                                   sample_count - 1 - n);
             break;
         }
@@ -315,12 +314,19 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
+        // --- Light: towards it from every ray of a view, so worked out once per view (its sin
+        // and cos would cost a ray more than its samples); none with --unlit ---
+        Vec3 to_light[3] = {};  // by ViewAxis: top, front, side
+        for (const View& view : views_named(volume, "all")) {
+            if (!params.unlit) to_light[int(view.axis)] = light_direction(view, params.light_angle);
+        }
+
         // --- Render: one ray per pixel ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            return over_background(composite_front_to_back(volume, view, x, y, lut, params, work,
-                                                           trace));
+            return over_background(composite_front_to_back(
+                volume, view, x, y, lut, to_light[int(view.axis)], params, work, trace));
         };
         renderer.ray_samples = [&](const View& view) {
             char text[128];

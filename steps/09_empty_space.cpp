@@ -262,18 +262,17 @@ static int samples_along_ray(const View& view, double step) {
 // lies inside the brick, and that one is checked in turn. Empty bricks often follow each
 // other (the air around the head): the leap passes the whole run of them at once.
 static Accumulated composite_front_to_back(const Volume& volume, const View& view, int x, int y,
-                                           const Lut& lut, const EmptySpace& space,
+                                           const Lut& lut, const EmptySpace& space, Vec3 to_light,
                                            const Params& params, Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const int sample_count = samples_along_ray(view, params.step);
     const double voxels_per_sample = params.step / view.ray_spacing;
-    const Vec3 to_light = params.unlit ? Vec3{} : light_direction(view, params.light_angle);
     const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
     const RayBricks bricks = space.along_ray(view, x, y);     // the same for its bricks
     KeptGradients kept;  // none yet: the first lit sample computes its own
     Accumulated ray;
     for (int n = 0; n < sample_count; ++n) {
-        const double t = n * params.step;                // physical units from the first voxel
+        auto t = [&] { return n * params.step; };  // physical units from the first voxel: traces
         const double position = n * voxels_per_sample;  // the same in voxels, fractional
         const int before = std::min(int(position), view.ray_length - 1);  // voxel at or before
         const float fraction = float(position - before);  // of the way to the next voxel, 0..1
@@ -283,7 +282,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
                                       std::max(n + 1, int(empty_end / voxels_per_sample)));
             work.leapt += next - n;
             if (trace) trace->add("t=%7.2f..%.2f empty bricks up to voxel %d: %d samples leapt "
-                                  "over", t, (next - 1) * params.step, empty_end - 1, next - n);
+                                  "over", t(), (next - 1) * params.step, empty_end - 1, next - n);
             n = next - 1;
             continue;
         }
@@ -294,7 +293,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("t=%7.2f value=%8.2f transparent: skipped", t, value);
+            if (trace) trace->add("t=%7.2f value=%8.2f transparent: skipped", t(), value);
             continue;
         }
         double light = 1.0;  // unlit
@@ -309,12 +308,12 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ray.b += weight * sample.b;
         ray.transparency *= 1 - alpha;
         if (trace) trace->add("t=%7.2f value=%8.2f rgba=(%.3f, %.3f, %.3f, %.4f) L=%.4f "
-                              "C=(%.6f, %.6f, %.6f) T=%.6g", t, value, sample.r, sample.g,
+                              "C=(%.6f, %.6f, %.6f) T=%.6g", t(), value, sample.r, sample.g,
                               sample.b, sample.a, light, ray.r, ray.g, ray.b, ray.transparency);
         if (ray.transparency < stop_below && n + 1 < sample_count) {
             ++work.terminated;
             if (trace) trace->add("T=%.3g < %.3g: early ray termination at t=%.2f, %d samples "
-                                  "not visited", ray.transparency, stop_below, t,
+                                  "not visited", ray.transparency, stop_below, t(),
                                   sample_count - 1 - n);
             break;
         }
@@ -402,12 +401,19 @@ int main(int argc, char** argv) {
         };
         update_empty_space();
 
+        // --- Light: towards it from every ray of a view, so worked out once per view (its sin
+        // and cos would cost a ray more than its samples); none with --unlit ---
+        Vec3 to_light[3] = {};  // by ViewAxis: top, front, side
+        for (const View& view : views_named(volume, "all")) {
+            if (!params.unlit) to_light[int(view.axis)] = light_direction(view, params.light_angle);
+        }
+
         // --- Render: one ray per pixel ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            return over_background(composite_front_to_back(volume, view, x, y, lut, space, params,
-                                                           work, trace));
+            return over_background(composite_front_to_back(
+                volume, view, x, y, lut, space, to_light[int(view.axis)], params, work, trace));
         };
         renderer.ray_samples = [&](const View& view) {
             char text[128];
