@@ -455,6 +455,20 @@ TEST_CASE("layout: a raw file's volume keeps the padding out of a file written b
     CHECK(loaded.max_value == volume.max_value);
 }
 
+#ifdef __SANITIZE_ADDRESS__
+// Only SAN=1 builds check (the release build keeps index() to its arithmetic).
+TEST_CASE("layout: under SAN, index() refuses a volume whose slices were never laid out") {
+    Volume volume = dense_ramp(64, 33, 4);  // dense values, strides still 0
+    CHECK(volume.index(5, 0, 0) == 5);     // row 0 of slice 0 is the same in both layouts
+    CHECK_THROWS_WITH_AS(volume.at(5, 1, 0), doctest::Contains("never laid out"),
+                         std::logic_error);
+    CHECK_THROWS_AS(volume.index(0, 0, 3), std::logic_error);
+    update_range(volume);
+    CHECK(volume.index(5, 1, 0) == volume.row_stride + 5);
+    CHECK(volume.at(5, 1, 3) == 3 * 5 + 5 * 1 + 7 * 3 - 1000);  // the ramp's value there
+}
+#endif
+
 TEST_CASE("update_range: min and max over the whole volume") {
     Volume volume;
     volume.nx = 4;
