@@ -26,6 +26,12 @@
 // 128 x 128 x 128; exit status 1 when the 1- and 2-thread pictures differ. Its figures are
 // not to be quoted.
 //
+// The machine is shared: a burst of other work, or a stretch where the host gives this
+// machine less than its cores, slows every render of the process it falls on (one idle run
+// timed step 04's top view at 7.4 ms on 2 threads, the next at 17.1). So a full run makes
+// `passes` passes over every step, one after the other, and each figure is the median of the
+// passes' figures: a burst spoils one pass of one step, not the figure.
+//
 // A full run on the phantom at default settings also writes each step's figures as a section
 // "bench:NN_name" for tools/measured.cpp (make bench copies them into the handouts' blocks).
 #include "common/ctlab.h"
@@ -35,6 +41,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <thread>
 #include "machine_load.h"
@@ -51,6 +58,9 @@ constexpr int min_runs = 10;             // fewer makes the median a poor figure
 // median): one first render of 0.2 ms is a coin flip against another, a median of five is not.
 // The 256^2 rows only; a 512^3 run loads 256 MiB each time and takes one.
 constexpr int cold_processes = 5;
+constexpr int passes = 3;  // passes over every step (full runs); each figure their median
+// Speed checks that differ by more than this factor: the machine did not keep its speed.
+constexpr double speed_spread_limit = 1.1;
 constexpr double run_timeout_s = 600;    // one step, every view, every render
 constexpr double frame_budget_ms = 16;   // target: every step 01 on, 256x256 view, 2 threads
 constexpr double leap_top_budget_ms = 8;  // target: step 09 (empty-space leaping, lit), top view
@@ -133,12 +143,16 @@ struct Row {
 
 std::string text_of(const char* format, ...) __attribute__((format(printf, 1, 2)));
 std::string text_of(const char* format, ...) {
-    char buffer[512];
-    va_list arguments;
+    va_list arguments, again;
     va_start(arguments, format);
-    std::vsnprintf(buffer, sizeof buffer, format, arguments);
+    va_copy(again, arguments);
+    const int length = std::vsnprintf(nullptr, 0, format, arguments);  // without the '\0'
     va_end(arguments);
-    return buffer;
+    std::string text(size_t(std::max(length, 0)) + 1, '\0');
+    std::vsnprintf(text.data(), text.size(), format, again);
+    va_end(again);
+    text.pop_back();  // the '\0'
+    return text;
 }
 
 std::string first_line_of(const std::string& path, const std::string& key) {
@@ -258,6 +272,90 @@ std::vector<Row> bench_volume_rows(const std::vector<std::string>& volume, int r
     return rows;
 }
 
+// A speed check (tools/machine_load.h) and when in the run it was made.
+struct Check {
+    std::string when;
+    machine::SpeedCheck speed;
+};
+
+Check check_speed(const std::string& when) {
+    const Check check{when, machine::speed_check()};
+    std::printf("bench: speed check %s: %.1f ms on 1 thread, %.1f ms on every core, "
+                "memory %.1f ms\n", when.c_str(), check.speed.one_thread_ms,
+                check.speed.all_cores_ms, check.speed.memory_ms);
+    std::fflush(stdout);
+    return check;
+}
+
+// `count` passes of `pass` (bench_volume_rows), one after the other, each after a speed check
+// (added to `checks`, named after `what`): each time in the rows is the median over the
+// passes (memory and others' load: the largest); the pictures must agree in every pass.
+std::vector<Row> median_of_passes(int count, const std::string& what, std::vector<Check>& checks,
+                                  const std::function<std::vector<Row>()>& pass) {
+    std::vector<std::vector<Row>> runs;
+    for (int n = 0; n < count; ++n) {
+        if (count > 1) std::printf("bench: %s, pass %d of %d\n", what.c_str(), n + 1, count);
+        checks.push_back(check_speed(text_of("before %s, pass %d", what.c_str(), n + 1)));
+        runs.push_back(pass());
+        if (runs.back().size() != runs.front().size()) {
+            throw std::runtime_error("bench: the passes timed different steps and views");
+        }
+    }
+    std::vector<Row> rows = runs.front();
+    for (size_t r = 0; r < rows.size(); ++r) {
+        auto median = [&](double Times::*field, Times Row::*threads) {
+            std::vector<double> values;
+            for (const std::vector<Row>& run : runs) values.push_back(run[r].*threads.*field);
+            return median_of(values);
+        };
+        for (Times Row::*threads : {&Row::one, &Row::two}) {
+            (rows[r].*threads).cold = median(&Times::cold, threads);
+            (rows[r].*threads).warm = median(&Times::warm, threads);
+        }
+        for (const std::vector<Row>& run : runs) {
+            rows[r].rss_one_kib = std::max(rows[r].rss_one_kib, run[r].rss_one_kib);
+            rows[r].rss_two_kib = std::max(rows[r].rss_two_kib, run[r].rss_two_kib);
+            rows[r].threads_identical = rows[r].threads_identical && run[r].threads_identical;
+            rows[r].others = std::max(rows[r].others, run[r].others);
+        }
+    }
+    return rows;
+}
+
+// The speed checks of a run, as a paragraph: the spread of each, and whether the machine
+// kept its speed. `spread` gets the slowest check over the fastest (one thread or every
+// core, whichever is more).
+std::string speed_report(const std::vector<Check>& checks, int cores, double* spread) {
+    double fastest[3] = {1e300, 1e300, 1e300}, slowest[3] = {0, 0, 0};
+    std::string each;
+    for (const Check& check : checks) {
+        const double ms[3] = {check.speed.one_thread_ms, check.speed.all_cores_ms,
+                              check.speed.memory_ms};
+        for (int t = 0; t < 3; ++t) {
+            fastest[t] = std::min(fastest[t], ms[t]);
+            slowest[t] = std::max(slowest[t], ms[t]);
+        }
+        each += text_of("%s%s %.1f / %.1f / %.1f ms", each.empty() ? "" : "; ",
+                        check.when.c_str(), ms[0], ms[1], ms[2]);
+    }
+    *spread = 1;
+    for (int t = 0; t < 3 && !checks.empty(); ++t) {
+        *spread = std::max(*spread, slowest[t] / fastest[t]);
+    }
+    return text_of(
+        "Speed check (tools/machine_load.h), best of 3 tries each, %zu times in the run: a "
+        "fixed loop of integer arithmetic on 1 thread / the same on all %d cores at once / a "
+        "walk of dependent reads through 16 MiB: %s. Slowest against fastest, the worst of "
+        "the three: %.2fx; every core against one thread, at best: %.2fx (1.00: each core "
+        "its own). %s\n",
+        checks.size(), cores, each.c_str(), *spread, fastest[1] / fastest[0],
+        *spread > speed_spread_limit
+            ? "**The host slowed this machine during the run** (its load figures cannot show "
+              "it): the times below carry that, and a target missed by less than the spread "
+              "says little."
+            : "The machine kept its speed through the run.");
+}
+
 std::string table(const std::vector<Row>& rows) {
     std::ostringstream out;
     out << "| step | view | pixels | Msamples visited | Msamples leapt | 1 thread ms: warm "
@@ -360,11 +458,12 @@ std::string step_section(const std::vector<Row>& rows, const std::string& step, 
     out << "<!-- section: bench:" << step << " -->\n";
     out << text_of("Figures of the last `make bench` (%s), not typed by hand: %d cores (%s), "
                    "each step its own program with `--repeat %d`; *warm* is the median of the "
-                   "%d renders after the first, *cold* the first (the `time_ms=` a run prints). "
+                   "%d renders after the first, *cold* the first (the `time_ms=` a run prints); "
+                   "each figure the median of %d passes over every step. "
                    "Other processes used %.0f%% of the cores during the run: on a shared "
                    "machine the times are high and only their ratios mean much.\n\n",
                    when.c_str(), cores, first_line_of("/proc/cpuinfo", "model name").c_str(),
-                   runs, runs - 1, 100 * others_share);
+                   runs, runs - 1, passes, 100 * others_share);
     out << "| view | 1 thread: warm (cold) | 2 threads: warm (cold) | parallel speed-up | "
         << "ns per sample, 1 thread |\n";
     out << "|---|---:|---:|---:|---:|\n";
@@ -583,6 +682,7 @@ int run(int argc, char** argv) {
         }
     }
     if (quick) runs = 1;
+    const int rounds = quick ? 1 : passes;
     const unsigned hardware = std::thread::hardware_concurrency();
     const int cores = hardware > 0 ? int(hardware) : 1;
     // Each volume: its name in the report and the flags that load it.
@@ -601,6 +701,7 @@ int run(int argc, char** argv) {
 
     const std::string load_before = load_average();
     const std::string started = utc_now();
+    std::vector<Check> checks;
     const machine::OtherLoad others;
     std::ostringstream report;
     report << "# ctlab benchmark\n\n";
@@ -620,15 +721,18 @@ int run(int argc, char** argv) {
            << "program with `--repeat " << runs << "`: *cold* is the first render of a view "
            << "(`time_ms=`; on the 256x256 views the median over " << (quick ? 1 : cold_processes)
            << " fresh processes), *warm* the median of the other " << runs - 1
-           << " (`warm_ms=`). "
+           << " (`warm_ms=`). Every figure is the median of " << rounds << " pass"
+           << (rounds == 1 ? "" : "es") << " over all steps, made one after the other. "
            << "Load average before the run: " << load_before
            << " (the machine is shared: a load above 0.5 inflates the figures).\n\n";
     std::vector<Row> first_rows;
     int differing = 0;  // step views whose 1- and 2-thread pictures differ
     for (const auto& [name, volume] : volumes) {
         std::printf("bench: %s, %d renders per view, 1 and 2 threads\n", name.c_str(), runs);
-        const std::vector<Row> rows =
-            bench_volume_rows(volume, runs, only, extra_flags, "all", quick ? 1 : cold_processes);
+        const std::vector<Row> rows = median_of_passes(rounds, name, checks, [&] {
+            return bench_volume_rows(volume, runs, only, extra_flags, "all",
+                                     quick ? 1 : cold_processes);
+        });
         if (first_rows.empty()) first_rows = rows;
         for (const Row& row : rows) differing += !row.threads_identical;
         report << "## " << name << "\n\n" << table(rows) << "\n";
@@ -641,8 +745,10 @@ int run(int argc, char** argv) {
     std::string large_name;
     if (defaults && !first_rows.empty()) {
         std::printf("bench: %s, step 09 with --unlit\n", volumes[0].first.c_str());
-        unlit_rows = bench_volume_rows(volumes[0].second, runs, "09", {"--unlit"}, "all",
-                                       quick ? 1 : cold_processes);
+        unlit_rows = median_of_passes(rounds, "09 --unlit", checks, [&] {
+            return bench_volume_rows(volumes[0].second, runs, "09", {"--unlit"}, "all",
+                                     quick ? 1 : cold_processes);
+        });
         for (const Row& row : unlit_rows) differing += !row.threads_identical;
         report << "## " << volumes[0].first << ", step 09 with --unlit\n\n"
                << table(unlit_rows) << "\n";
@@ -661,13 +767,19 @@ int run(int argc, char** argv) {
         const int large_renders = quick ? 1 : large_runs;
         std::printf("bench: %s, top view, %d renders per run\n", large_name.c_str(),
                     large_renders);
-        large_rows = bench_volume_rows(large_flags, large_renders, "", {}, "top");
+        large_rows = median_of_passes(rounds, large_name, checks, [&] {
+            return bench_volume_rows(large_flags, large_renders, "", {}, "top");
+        });
         for (const Row& row : large_rows) differing += !row.threads_identical;
         growth = growth_of(large_rows, first_rows, volume_bytes);
         report << "## " << large_name << ", top view (" << large_renders
                << " renders per run)\n\n"
                << growth_table(growth, volume_bytes, volumes[0].first) << "\n";
     }
+    checks.push_back(check_speed("at the end"));
+    double spread = 1;
+    const std::string speed = speed_report(checks, cores, &spread);
+    report << "## Machine speed during the run\n\n" << speed << "\n";
     const std::string target_table =
         defaults ? targets(first_rows, unlit_rows, growth, large_name, volumes[0].first)
                  : "Not checked: the targets need every step at its default settings (no "
@@ -687,8 +799,10 @@ int run(int argc, char** argv) {
         }
         std::vector<Row> quoted = first_rows;  // step 09's section has its --unlit rows too
         quoted.insert(quoted.end(), unlit_rows.begin(), unlit_rows.end());
-        const std::string when = "started " + started + ", load average " + load_before +
-                                 " before it, " + load_average() + " after";
+        const std::string when =
+            "started " + started + ", load average " + load_before + " before it, " +
+            load_average() + " after; the speed check's slowest run against its fastest " +
+            text_of("%.2fx", spread);
         for (const std::string& name : names) {
             report << step_section(quoted, name, cores, runs, others.share(), when) << "\n";
         }
@@ -700,6 +814,7 @@ int run(int argc, char** argv) {
     if (!file) throw InputError("--out: cannot write '" + out_path + "'");
     file << report.str();
     std::printf("\n%s", target_table.c_str());
+    std::printf("bench: %s", speed.c_str());
     std::printf("bench: other processes used %.0f%% of the cores during the run\n",
                 100 * others.share());
     std::printf("bench: wrote %s\n", out_path.c_str());
