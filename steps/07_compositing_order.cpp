@@ -71,15 +71,16 @@ static Lut build_lut(const TransferFunction& tf) {
 static Rgb composite_back_to_front(const Volume& volume, const View& view, int x, int y,
                                    const Lut& lut, Work& work, Trace* trace) {
     double r = background.r, g = background.g, b = background.b;  // C
+    const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
     for (int n = view.ray_length - 1; n >= 0; --n) {
-        const Voxel voxel = view.voxel(x, y, n);
-        const int value = volume.at(voxel.i, voxel.j, voxel.k);
+        auto voxel = [&] { return view.voxel(x, y, n); };  // its i, j, k: for traces only
+        const int value = voxels[n];  // volume.at() of voxel(), with no index sum per sample
         const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
             if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", n,
-                                  voxel.i, voxel.j, voxel.k, value);
+                                  voxel().i, voxel().j, voxel().k, value);
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
@@ -88,7 +89,7 @@ static Rgb composite_back_to_front(const Volume& volume, const View& view, int x
         g = alpha * light * sample.g + (1 - alpha) * g;
         b = alpha * light * sample.b + (1 - alpha) * b;
         if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
-                              "C=(%.6f, %.6f, %.6f)", n, voxel.i, voxel.j, voxel.k, value,
+                              "C=(%.6f, %.6f, %.6f)", n, voxel().i, voxel().j, voxel().k, value,
                               sample.r, sample.g, sample.b, sample.a, r, g, b);
     }
     return {float(r), float(g), float(b)};
@@ -107,15 +108,16 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
                                            Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     Accumulated ray;
+    const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
     for (int n = 0; n < view.ray_length; ++n) {
-        const Voxel voxel = view.voxel(x, y, n);
-        const int value = volume.at(voxel.i, voxel.j, voxel.k);
+        auto voxel = [&] { return view.voxel(x, y, n); };  // its i, j, k: for traces only
+        const int value = voxels[n];  // volume.at() of voxel(), with no index sum per sample
         const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
             if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", n,
-                                  voxel.i, voxel.j, voxel.k, value);
+                                  voxel().i, voxel().j, voxel().k, value);
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
@@ -126,7 +128,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ray.b += weight * sample.b;
         ray.transparency *= 1 - alpha;
         if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
-                              "C=(%.6f, %.6f, %.6f) T=%.6g", n, voxel.i, voxel.j, voxel.k,
+                              "C=(%.6f, %.6f, %.6f) T=%.6g", n, voxel().i, voxel().j, voxel().k,
                               value, sample.r, sample.g, sample.b, sample.a, ray.r, ray.g,
                               ray.b, ray.transparency);
         if (ray.transparency < stop_below && n + 1 < view.ray_length) {
