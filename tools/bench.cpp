@@ -36,7 +36,6 @@
 // "bench:NN_name" for tools/measured.cpp (make bench copies them into the handouts' blocks).
 #include "common/ctlab.h"
 #include <sys/stat.h>
-#include <cstdarg>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
@@ -46,6 +45,7 @@
 #include <thread>
 #include "machine_load.h"
 #include "run_step.h"
+#include "text_format.h"
 
 using namespace ctlab;
 
@@ -140,20 +140,6 @@ struct Row {
         return samples + leapt > 0 ? times.warm * 1e6 / double(samples + leapt) : 0.0;
     }
 };
-
-std::string text_of(const char* format, ...) __attribute__((format(printf, 1, 2)));
-std::string text_of(const char* format, ...) {
-    va_list arguments, again;
-    va_start(arguments, format);
-    va_copy(again, arguments);
-    const int length = std::vsnprintf(nullptr, 0, format, arguments);  // without the '\0'
-    va_end(arguments);
-    std::string text(size_t(std::max(length, 0)) + 1, '\0');
-    std::vsnprintf(text.data(), text.size(), format, again);
-    va_end(again);
-    text.pop_back();  // the '\0'
-    return text;
-}
 
 std::string first_line_of(const std::string& path, const std::string& key) {
     std::ifstream in(path);
@@ -682,7 +668,7 @@ int run(int argc, char** argv) {
         }
     }
     if (quick) runs = 1;
-    const int rounds = quick ? 1 : passes;
+    const int pass_count = quick ? 1 : passes;
     const unsigned hardware = std::thread::hardware_concurrency();
     const int cores = hardware > 0 ? int(hardware) : 1;
     // Each volume: its name in the report and the flags that load it.
@@ -721,15 +707,15 @@ int run(int argc, char** argv) {
            << "program with `--repeat " << runs << "`: *cold* is the first render of a view "
            << "(`time_ms=`; on the 256x256 views the median over " << (quick ? 1 : cold_processes)
            << " fresh processes), *warm* the median of the other " << runs - 1
-           << " (`warm_ms=`). Every figure is the median of " << rounds << " pass"
-           << (rounds == 1 ? "" : "es") << " over all steps, made one after the other. "
+           << " (`warm_ms=`). Every figure is the median of " << pass_count << " pass"
+           << (pass_count == 1 ? "" : "es") << " over all steps, made one after the other. "
            << "Load average before the run: " << load_before
            << " (the machine is shared: a load above 0.5 inflates the figures).\n\n";
     std::vector<Row> first_rows;
     int differing = 0;  // step views whose 1- and 2-thread pictures differ
     for (const auto& [name, volume] : volumes) {
         std::printf("bench: %s, %d renders per view, 1 and 2 threads\n", name.c_str(), runs);
-        const std::vector<Row> rows = median_of_passes(rounds, name, checks, [&] {
+        const std::vector<Row> rows = median_of_passes(pass_count, name, checks, [&] {
             return bench_volume_rows(volume, runs, only, extra_flags, "all",
                                      quick ? 1 : cold_processes);
         });
@@ -745,7 +731,7 @@ int run(int argc, char** argv) {
     std::string large_name;
     if (defaults && !first_rows.empty()) {
         std::printf("bench: %s, step 09 with --unlit\n", volumes[0].first.c_str());
-        unlit_rows = median_of_passes(rounds, "09 --unlit", checks, [&] {
+        unlit_rows = median_of_passes(pass_count, "09 --unlit", checks, [&] {
             return bench_volume_rows(volumes[0].second, runs, "09", {"--unlit"}, "all",
                                      quick ? 1 : cold_processes);
         });
@@ -767,7 +753,7 @@ int run(int argc, char** argv) {
         const int large_renders = quick ? 1 : large_runs;
         std::printf("bench: %s, top view, %d renders per run\n", large_name.c_str(),
                     large_renders);
-        large_rows = median_of_passes(rounds, large_name, checks, [&] {
+        large_rows = median_of_passes(pass_count, large_name, checks, [&] {
             return bench_volume_rows(large_flags, large_renders, "", {}, "top");
         });
         for (const Row& row : large_rows) differing += !row.threads_identical;

@@ -39,7 +39,6 @@
 // a thinned table for compositing steps finer than --step allows (1/8, and the 1/32 reference).
 #include "common/ctlab.h"
 #include <cfloat>
-#include <cstdarg>
 #include <cstring>
 #include <ctime>
 #include <fstream>
@@ -53,6 +52,7 @@
 #include "machine_load.h"
 #include "plot.h"
 #include "run_step.h"
+#include "text_format.h"
 
 using namespace ctlab;
 
@@ -103,20 +103,10 @@ ImageError image_error(const Image& image, const Image& reference) {
     return {std::sqrt(sum / (3.0 * image.pixels.size())) * byte_units, largest * byte_units};
 }
 
-std::string format(const char* pattern, ...) __attribute__((format(printf, 1, 2)));
-std::string format(const char* pattern, ...) {
-    char text[1024];
-    va_list arguments;
-    va_start(arguments, pattern);
-    std::vsnprintf(text, sizeof text, pattern, arguments);
-    va_end(arguments);
-    return text;
-}
-
 // "1/8" for 0.125, "4" for 4: step sizes as the tables show them.
 std::string step_text(double step) {
-    if (step >= 1) return format("%g", step);
-    return format("1/%g", 1 / step);
+    if (step >= 1) return text_of("%g", step);
+    return text_of("1/%g", 1 / step);
 }
 
 // One measured point: a row of the CSV and of a table, and a point of the plot.
@@ -201,7 +191,7 @@ std::vector<std::string> tf_flags(const std::string& text, const std::string& na
 
 // "FROM TO constant R G B A\n": one range of a .tf file.
 std::string tf_range(int from, int to, double r, double g, double b, double a) {
-    return format("%d %d constant %.9g %.9g %.9g %.9g\n", from, to, r, g, b, a);
+    return text_of("%d %d constant %.9g %.9g %.9g %.9g\n", from, to, r, g, b, a);
 }
 
 // Step 05's "crossing between n=A and n=B: hit at A + F" in samples along the ray, or a
@@ -248,7 +238,7 @@ double traced_transparency(const Run& run) {
 }
 
 std::vector<std::string> debug_pixel(int x, int y) {
-    return {"--debug-pixel", format("%d,%d", x, y)};
+    return {"--debug-pixel", text_of("%d,%d", x, y)};
 }
 
 // --- 1. First-hit depth against analytic surfaces ---------------------------------------
@@ -432,7 +422,7 @@ void depth_study() {
             }
         record_depth("interpolated (step 05)", "1", hits, traced, interpolated.ms(),
                      interpolated.count("samples"),
-                     format("voxels (mean |t - t*|, max), traced rays every %d pixels",
+                     text_of("voxels (mean |t - t*|, max), traced rays every %d pixels",
                             traced_every));
     }
 }
@@ -497,10 +487,10 @@ void step_study() {
             }
             flags = flags + tf_flags(thinned, "thinned") +
                     std::vector<std::string>{"--spacing",
-                                             format("%g,%g,%g", scale * phantom.sx,
+                                             text_of("%g,%g,%g", scale * phantom.sx,
                                                     scale * phantom.sy, scale * phantom.sz)};
         }
-        flags = flags + std::vector<std::string>{"--step", format("%g", step * scale),
+        flags = flags + std::vector<std::string>{"--step", text_of("%g", step * scale),
                                                  "--threads", std::to_string(threads)};
         if (!correction) flags.push_back("--no-correction");
         return run(lit_step, flags, timed);
@@ -544,16 +534,16 @@ void ert_study() {
     Image full07, full08;
     for (const double ert : {0.0, 0.001, 0.01, 0.05, 0.1}) {
         const std::vector<std::string> flags =
-            top + std::vector<std::string>{"--ert", format("%g", ert)};
+            top + std::vector<std::string>{"--ert", text_of("%g", ert)};
         const Run f2b = run("07_compositing_order", flags, true);
         if (ert == 0) full07 = f2b.image();
         const ImageError error = image_error(f2b.image(), full07);
-        record({"ert", "step 07 front to back", format("%g", ert), f2b.ms(), error.rmse,
+        record({"ert", "step 07 front to back", text_of("%g", ert), f2b.ms(), error.rmse,
                 error.max, "8-bit, added (against T* = 0)", f2b.count("samples")});
         const Run lit = run(lit_step, flags, true);
         if (ert == 0) full08 = lit.image();
         const ImageError error08 = image_error(lit.image(), full08);
-        record({"ert", "step 08 lit, step 1", format("%g", ert), lit.ms(), error08.rmse,
+        record({"ert", "step 08 lit, step 1", text_of("%g", ert), lit.ms(), error08.rmse,
                 error08.max, "8-bit, added (against T* = 0)", lit.count("samples")});
     }
     // Back to front cannot stop early: every sample, every time.
@@ -615,9 +605,9 @@ void jitter_study() {
         for (const char* interpolation : {"trilinear", "nearest"}) {
             for (const char* jitter : {"none", "hash", "blue"}) {
                 const Run image = run(jitter_step, camera + std::vector<std::string>{
-                                          "--step", format("%g", step), "--jitter", jitter,
+                                          "--step", text_of("%g", step), "--jitter", jitter,
                                           "--interpolation", interpolation}, true);
-                const std::string method = format("%s, %s", jitter, interpolation);
+                const std::string method = text_of("%s, %s", jitter, interpolation);
                 const ImageError error = image_error(image.image(), reference.image());
                 record({"jitter", method, step_text(step), image.ms(), error.rmse, error.max,
                         "8-bit (RMSE, max) vs step 1/4", image.count("samples")});
@@ -658,7 +648,7 @@ void shadows_study() {
             const Run image = run(shadows_step, camera + std::vector<std::string>{
                                       "--shadows", shadows, "--ao", ao}, true);
             const ImageError error = image_error(image.image(), open.image());
-            record({"shadows", format("%s, ao %s", shadows, ao), "1", image.ms(), error.rmse,
+            record({"shadows", text_of("%s, ao %s", shadows, ao), "1", image.ms(), error.rmse,
                     error.max, added, image.count("samples")});
         }
     }
@@ -672,7 +662,7 @@ void shadows_study() {
                                   std::to_string(cores)});
     for (const double step : {4.0, 2.0, 1.0, 0.5}) {
         const std::vector<std::string> at_step = no_ao + std::vector<std::string>{
-                                                     "--step", format("%g", step)};
+                                                     "--step", text_of("%g", step)};
         const Run rays = run(shadows_step, at_step + std::vector<std::string>{
                                  "--shadows", "ray"}, true);
         const Run swept = run(shadows_step, at_step + std::vector<std::string>{
@@ -790,8 +780,8 @@ void add_case(const std::string& name, const std::string& test, double analytic,
     Case c;
     c.name = name;
     c.test = test;
-    c.analytic = format(number, analytic);
-    c.measured = format(number, measured);
+    c.analytic = text_of(number, analytic);
+    c.measured = text_of(number, measured);
     c.abs_error = std::abs(measured - analytic);
     c.rel_error = analytic != 0 ? c.abs_error / std::abs(analytic) : not_applicable;
     cases.push_back(c);
@@ -856,7 +846,7 @@ void compositing_cases() {
         const Volume volume = column(std::vector<int16_t>(slab.n, 100));
         const bool trace = slab.n < 1000;  // a trace line per sample
         const Run front = column_run(f2b, volume, tf, no_ert, trace);
-        const std::string name = format("slab a = %g, n = %d: ", slab.a, slab.n);
+        const std::string name = text_of("slab a = %g, n = %d: ", slab.a, slab.n);
         if (trace) {
             add_case(name + "T, front to back (trace, 6 digits)", test_c, exact_t,
                      traced_transparency(front));
@@ -949,7 +939,7 @@ void compositing_cases() {
             const Run corrected = run(
                 lit, volume_flags(row, "row") + tf_flags(tf, "row") +
                          std::vector<std::string>{"--view", "top", "--unlit", "--ert", "0",
-                                                  "--step", format("%g", ratio)});
+                                                  "--step", text_of("%g", ratio)});
             for (size_t n = 0; n < alphas.size(); ++n) {
                 const float alpha = alphas[n];
                 const long double exact = 1.0L - std::pow(1.0L - alpha, (long double)ratio);
@@ -959,7 +949,7 @@ void compositing_cases() {
                 stable = std::max(stable, relative(corrected.image().at(int(n), 0).r));
                 const double f = relative(1.0f - std::pow(1.0f - alpha, float(ratio)));
                 const double d = relative(1.0 - std::pow(1.0 - double(alpha), ratio));
-                const std::string where = format("%g, %g", alpha, ratio);
+                const std::string where = text_of("%g, %g", alpha, ratio);
                 if (f > plain_float) plain_float = f, worst_float = where;
                 if (d > plain_double) plain_double = d, worst_double = where;
             }
@@ -991,7 +981,7 @@ void compositing_cases() {
             const double exact = std::pow(1 - a, 20 * spacing);
             for (const double step : {0.25, 0.5, 1.0, 2.0, 4.0}) {
                 const Run ray = column_run(lit, volume, tf,
-                                           {"--ert", "0", "--unlit", "--step", format("%g", step)});
+                                           {"--ert", "0", "--unlit", "--step", text_of("%g", step)});
                 const double t = 1.0 - ray.image().at(0, 0).r;  // white: C = 1 - T
                 worst = std::max(worst, std::abs(t - exact) / exact);
             }
@@ -1058,7 +1048,7 @@ void surface_cases() {
                  "along k)";
         c.test = test_s;
         c.analytic = "(3, 5, 7 / s_k)";
-        c.measured = format("%d traced rays (printed to 0.01)", traced);
+        c.measured = text_of("%d traced rays (printed to 0.01)", traced);
         c.abs_error = worst_gradient;
         cases.push_back(c);
 
@@ -1090,7 +1080,7 @@ void surface_cases() {
         }
         c.name = "ramp: step 05's crossing, 7 thresholds";
         c.analytic = "(tau - f0) / slope";
-        c.measured = format("in samples, %d traced rays (printed to 1e-6)", crossings);
+        c.measured = text_of("in samples, %d traced rays (printed to 1e-6)", crossings);
         c.abs_error = worst_crossing;
         cases.push_back(c);
     }
@@ -1135,7 +1125,7 @@ std::string markdown_table(const std::string& study, const char* parameter_name)
     out << "|---|---:|---:|---:|---:|---:|\n";
     for (const Point& p : points) {
         if (p.study != study) continue;
-        out << format("| %s | %s | %.2f | %.4g | %.4g | %.2f |\n", p.method.c_str(),
+        out << text_of("| %s | %s | %.2f | %.4g | %.4g | %.2f |\n", p.method.c_str(),
                       p.parameter.c_str(), p.ms, p.error, p.max_error, p.samples / 1e6);
     }
     return out.str();
@@ -1146,8 +1136,8 @@ void write_csv(const std::string& path) {
     out << "study,method,parameter,ms,error,max_error,error_unit,samples\n";
     for (const Point& p : points) {
         out << p.study << ",\"" << p.method << "\"," << p.parameter << ","
-            << format("%.4f", p.ms)
-            << "," << format("%.6g", p.error) << "," << format("%.6g", p.max_error) << ",\""
+            << text_of("%.4f", p.ms)
+            << "," << text_of("%.6g", p.error) << "," << text_of("%.6g", p.max_error) << ",\""
             << p.error_unit << "\"," << p.samples << "\n";
     }
 }
@@ -1218,7 +1208,7 @@ void write_plot(const std::string& path) {
     // T* = 0 adds no error, so it cannot sit on a log axis: its time goes into the legend.
     for (plot::Series& s : ert.series) {
         for (size_t n = 0; n < s.notes.size(); ++n) {
-            if (s.y[n] == 0) s.label += format(" (T*=0: %.0f MS)", s.x[n]);
+            if (s.y[n] == 0) s.label += text_of(" (T*=0: %.0f MS)", s.x[n]);
             s.notes[n] = "T*=" + s.notes[n];
         }
     }
@@ -1232,9 +1222,9 @@ std::string numerics_table(const SubnormalCost& cost, const std::vector<FloatRay
     out << "|---|---|---|---:|---:|---|\n";
     for (const Case& c : cases) {
         auto figure = [](double error) {
-            return error == not_applicable ? std::string("-") : format("%.3g", error);
+            return error == not_applicable ? std::string("-") : text_of("%.3g", error);
         };
-        out << format("| %s | %s | %s | %s | %s | %s |\n", c.name.c_str(), c.analytic.c_str(),
+        out << text_of("| %s | %s | %s | %s | %s | %s |\n", c.name.c_str(), c.analytic.c_str(),
                       c.measured.c_str(), figure(c.abs_error).c_str(),
                       figure(c.rel_error).c_str(), c.test.c_str());
     }
@@ -1243,10 +1233,10 @@ std::string numerics_table(const SubnormalCost& cost, const std::vector<FloatRay
         << " runs):\n\n";
     out << "| type | normal operands | subnormal operands | subnormal, FTZ+DAZ | slowdown |\n";
     out << "|---|---:|---:|---:|---:|\n";
-    out << format("| float | %.3f | %.3f | %.3f | %.0fx |\n", cost.float_normal,
+    out << text_of("| float | %.3f | %.3f | %.3f | %.0fx |\n", cost.float_normal,
                   cost.float_subnormal, cost.float_flushed,
                   cost.float_subnormal / cost.float_normal);
-    out << format("| double | %.3f | %.3f | %.3f | %.0fx |\n", cost.double_normal,
+    out << text_of("| double | %.3f | %.3f | %.3f | %.0fx |\n", cost.double_normal,
                   cost.double_subnormal, cost.double_flushed,
                   cost.double_subnormal / cost.double_normal);
     out << "\nA float front-to-back ray (2000 rays, white, median of " << runs << " runs):\n\n";
@@ -1259,7 +1249,7 @@ std::string numerics_table(const SubnormalCost& cost, const std::vector<FloatRay
                             "a = 0.8, n = 100, never (T* = 0)",
                             "a = 0.8, n = 100, never, FTZ+DAZ on"};
     for (size_t n = 0; n < rays.size(); ++n) {
-        out << format("| %s | %.2f | %d | %.3g |\n", labels[n], rays[n].ns_per_sample,
+        out << text_of("| %s | %.2f | %d | %.3g |\n", labels[n], rays[n].ns_per_sample,
                       rays[n].subnormal_samples, rays[n].transparency);
     }
     return out.str();
@@ -1350,7 +1340,7 @@ int run(int argc, char** argv) {
         md << "**Quick mode** (--quick): one render per case, a 64x64x29 phantom, reference step "
               "1/16. Do not quote these figures.\n\n";
     }
-    const std::string written_by = format(
+    const std::string written_by = text_of(
         "Figures of the last `make study` (tools/study.cpp), not typed by hand: started %s, %.0f s on "
         "%d cores (%s); load average %s before, %s after; other processes used %.0f%% of the "
         "cores meanwhile (a shared machine inflates the times; the errors do not depend on "
