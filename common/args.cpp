@@ -497,9 +497,10 @@ Volume load_volume(const Options& options) {
     Volume volume;
     if (path == "phantom") {
         if (options.has_dims) {
-            volume = make_phantom_sized(options.raw.nx, options.raw.ny, options.raw.nz);
+            volume = make_phantom_sized(options.raw.nx, options.raw.ny, options.raw.nz,
+                                        options.threads);
         } else {
-            volume = make_phantom();
+            volume = make_phantom(options.threads);
         }
         volume.format = "phantom";
         if (options.has_spacing) {

@@ -45,6 +45,19 @@ TEST_CASE("phantom: deterministic, and make_phantom is make_phantom_sized(256, 2
     CHECK(sized.sz == 2.0);
 }
 
+TEST_CASE("phantom: the same voxels on any number of threads") {
+    // Slices are painted in parallel (the render threads' pool); each must be its own work.
+    CHECK(make_phantom(2).data == phantom().data);
+    const Volume one = make_phantom_sized(37, 41, 23, 1);
+    for (int threads : {2, 3, 8, 64}) {  // 64: more threads than slices
+        CAPTURE(threads);
+        const Volume many = make_phantom_sized(37, 41, 23, threads);
+        CHECK(many.data == one.data);
+        CHECK(many.min_value == one.min_value);
+        CHECK(many.max_value == one.max_value);
+    }
+}
+
 TEST_CASE("phantom: value range like CThead, the maximum is the filling") {
     const Volume& volume = phantom();
     CHECK(volume.min_value >= -1117);
