@@ -695,8 +695,8 @@ static Walk jittered(Walk walk, const Span& span, double step, float u) {
 // step 07, leaping over empty bricks as in step 10.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, const EmptySpace& space,
-                                           const Params& params, const Jitter& jitter,
-                                           Work& work, Trace* trace) {
+                                           Vec3 to_light, const Params& params,
+                                           const Jitter& jitter, Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
@@ -710,7 +710,6 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
                           jitter.mode.c_str(), u, t_first - span.t_entry);
     const Walk walk = jittered(walk_through(volume, ray, span, params.step), span, params.step,
                                u);
-    const Vec3 to_light = params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
@@ -875,20 +874,29 @@ int main(int argc, char** argv) {
         jitter.mode = params.jitter;
         if (jitter.mode == "blue") jitter.tile = blue_noise_tile();
 
+        // --- Light: towards it from every ray of a render (it turns with the camera), so
+        // worked out once per render, as step 08 does once per view; none with --unlit ---
+        auto light_towards = [&](const Camera& camera) {
+            return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
+        };
+
         // --- Render: one ray per pixel ---
-        auto pixel = [&](const Camera& camera, int x, int y, Work& work, Trace* trace) {
+        auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
+                         Trace* trace) {
             if (params.show_jitter) return grey(jitter_offset(jitter, x, y));
             return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
-                                                           params, jitter, work, trace));
+                                                           to_light, params, jitter, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
+            const Vec3 to_light = light_towards(camera);
             return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
-                return pixel(camera, x, y, ray_work, nullptr);
+                return pixel(camera, to_light, x, y, ray_work, nullptr);
             });
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            return pixel(make_camera(volume, params, view), x, y, work, trace);
+            const Camera camera = make_camera(volume, params, view);
+            return pixel(camera, light_towards(camera), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
             return "samples " + number(params.step) + " physical units apart";

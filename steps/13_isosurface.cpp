@@ -629,7 +629,8 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // clipped one (clip_span).
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, const EmptySpace& space,
-                                           const Params& params, Work& work, Trace* trace) {
+                                           Vec3 to_light, const Params& params, Work& work,
+                                           Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
@@ -639,7 +640,6 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     Accumulated pixel;
     if (!span.hit) return pixel;
     const Walk walk = walk_through(volume, ray, span, params.step);
-    const Vec3 to_light = params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
@@ -995,22 +995,31 @@ int main(int argc, char** argv) {
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
 
+        // --- Light: towards it from every ray of a render (it turns with the camera), so
+        // worked out once per render, as step 08 does once per view; none with --unlit ---
+        auto light_towards = [&](const Camera& camera) {
+            return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
+        };
+
         // --- Render: one ray per pixel ---
-        auto pixel = [&](const Camera& camera, int x, int y, Work& work, Trace* trace) {
+        auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
+                         Trace* trace) {
             if (iso_mode) {
                 return isosurface_ray(volume, space, camera, x, y, params, work, trace);
             }
             return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
-                                                           params, work, trace));
+                                                           to_light, params, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
+            const Vec3 to_light = light_towards(camera);
             return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
-                return pixel(camera, x, y, ray_work, nullptr);
+                return pixel(camera, to_light, x, y, ray_work, nullptr);
             });
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            return pixel(make_camera(volume, params, view), x, y, work, trace);
+            const Camera camera = make_camera(volume, params, view);
+            return pixel(camera, light_towards(camera), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
             return "samples " + number(params.step) + " physical units apart";

@@ -720,8 +720,8 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // ambient occlusion.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, const EmptySpace& space,
-                                           const Blocking& blocking, const Params& params,
-                                           Work& work, Trace* trace) {
+                                           Vec3 to_light, const Blocking& blocking,
+                                           const Params& params, Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
@@ -730,7 +730,6 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     Accumulated pixel;
     if (!span.hit) return pixel;
     const Walk walk = walk_through(volume, ray, span, params.step);
-    const Vec3 to_light = params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
     const Vec3d light_d = {to_light.i, to_light.j, to_light.k};
     const Vec3d towards = params.unlit ? Vec3d{} : (1 / length(light_d)) * light_d;  // unit
     const bool shadow_rays = params.shadows == "ray", light_volume = params.shadows == "volume";
@@ -912,12 +911,18 @@ int main(int argc, char** argv) {
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
 
+        // --- Light: towards it from every ray of a render (it turns with the camera), so
+        // worked out once per render, as step 08 does once per view; none with --unlit ---
+        auto light_towards = [&](const Camera& camera) {
+            return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
+        };
+
         // --- The light-transmittance volume (--shadows volume): the light turns with the
-        // camera (light_direction), so every render sweeps it again, in the render's time and
+        // camera (light_towards), so every render sweeps it again, in the render's time and
         // work; a traced ray reuses it while the light has not moved ---
         auto sweep_for = [&](const Camera& camera, Work& work, bool again) {
             if (params.shadows != "volume" || params.unlit) return;
-            const Vec3 l = light_direction(camera, params.light_angle);
+            const Vec3 l = light_towards(camera);
             const Vec3d light_d = {l.i, l.j, l.k};
             const Vec3d towards = (1 / length(light_d)) * light_d;  // unit, in double
             const Vec3d moved = towards - blocking.light_towards;
@@ -928,22 +933,25 @@ int main(int argc, char** argv) {
         };
 
         // --- Render: one ray per pixel ---
-        auto pixel = [&](const Camera& camera, int x, int y, Work& work, Trace* trace) {
+        auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
+                         Trace* trace) {
             return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
-                                                           blocking, params, work, trace));
+                                                           to_light, blocking, params, work,
+                                                           trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
+            const Vec3 to_light = light_towards(camera);
             sweep_for(camera, work, true);
             return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
-                return pixel(camera, x, y, ray_work, nullptr);
+                return pixel(camera, to_light, x, y, ray_work, nullptr);
             });
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Camera camera = make_camera(volume, params, view);
             Work sweep_work;  // not this ray's
             sweep_for(camera, sweep_work, false);
-            return pixel(camera, x, y, work, trace);
+            return pixel(camera, light_towards(camera), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
             return "samples " + number(params.step) + " physical units apart";
