@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <limits>
 #include <stdexcept>
+#include "render.h"
 
 namespace ctlab {
 
@@ -26,7 +27,7 @@ void widen(ValueRange& range, ValueRange by) {
 
 }  // namespace
 
-Bricks make_bricks(const Volume& volume, int size) {
+Bricks make_bricks(const Volume& volume, int size, int threads) {
     if (size < 1 || size > max_brick_size || (size & (size - 1)) != 0) {
         throw std::invalid_argument("make_bricks: the brick size must be a power of two");
     }
@@ -40,28 +41,34 @@ Bricks make_bricks(const Volume& volume, int size) {
     const ValueRange nothing_yet = {std::numeric_limits<int16_t>::max(),
                                     std::numeric_limits<int16_t>::min()};
     bricks.ranges.assign(size_t(bricks.bx) * bricks.by * bricks.bz, nothing_yet);
-    // One pass in memory order: each row of voxels, cut into the pieces that fall in each
-    // brick along i (overlap included), widens the bricks that row belongs to along j and k.
-    std::vector<ValueRange> pieces(bricks.bx);
-    for (int k = 0; k < volume.nz; ++k) {
-        for (int j = 0; j < volume.ny; ++j) {
-            const int16_t* row = volume.row(j, k);
-            for (int a = 0; a < bricks.bx; ++a) {
-                const int from = a * size;
-                const int to = std::min(from + size, volume.nx - 1);  // included
-                ValueRange piece = {row[from], row[from]};
-                for (int i = from + 1; i <= to; ++i) widen(piece, {row[i], row[i]});
-                pieces[a] = piece;
-            }
-            const BrickSpan along_j = bricks_of(j, size), along_k = bricks_of(k, size);
-            for (int c = along_k.first; c <= along_k.last; ++c) {
+    // Each layer of bricks along k on its own (layers in parallel): the rows of voxels that
+    // layer covers, overlap included, in memory order. Each row, cut into the pieces that
+    // fall in each brick along i (overlap included), widens the layer's bricks that row
+    // belongs to along j. A layer writes only its own bricks, and min and max do not depend
+    // on the order, so the bricks are the same on any number of threads; the overlap rows
+    // between two layers are read by both.
+    Work unused;  // parallel_rows counts work; this counts none
+    parallel_rows(bricks.bz, threads, unused, [&](int c, Work&) {
+        std::vector<ValueRange> pieces(bricks.bx);
+        const int k_end = std::min((c + 1) * size, volume.nz - 1);  // included
+        for (int k = c * size; k <= k_end; ++k) {
+            for (int j = 0; j < volume.ny; ++j) {
+                const int16_t* row = volume.row(j, k);
+                for (int a = 0; a < bricks.bx; ++a) {
+                    const int from = a * size;
+                    const int to = std::min(from + size, volume.nx - 1);  // included
+                    ValueRange piece = {row[from], row[from]};
+                    for (int i = from + 1; i <= to; ++i) widen(piece, {row[i], row[i]});
+                    pieces[a] = piece;
+                }
+                const BrickSpan along_j = bricks_of(j, size);
                 for (int b = along_j.first; b <= along_j.last; ++b) {
                     ValueRange* brick_row = &bricks.ranges[(size_t(c) * bricks.by + b) * bricks.bx];
                     for (int a = 0; a < bricks.bx; ++a) widen(brick_row[a], pieces[a]);
                 }
             }
         }
-    }
+    });
     return bricks;
 }
 

@@ -39,10 +39,11 @@ struct Bricks {
     size_t count() const { return ranges.size(); }
 };
 
-// One pass over the volume; it does not depend on the transfer function, so a step makes it
-// once, when the volume is loaded. `size`: a power of two from 1 to max_brick_size (else
-// std::invalid_argument: a step's constant, not user input).
-Bricks make_bricks(const Volume& volume, int size = brick_size);
+// One pass over the volume, its layers of bricks along k shared among `threads` threads
+// (the render threads: the same bricks on any number); it does not depend on the transfer
+// function, so a step makes it once, when the volume is loaded. `size`: a power of two from
+// 1 to max_brick_size (else std::invalid_argument: a step's constant, not user input).
+Bricks make_bricks(const Volume& volume, int size = brick_size, int threads = 1);
 
 // Empty runs along one axis (0: i, 1: j, 2: k): for each brick, how many bricks in a row from
 // it towards larger indices are flagged in `empty` (one flag per brick, 1: empty), itself

@@ -393,7 +393,9 @@ int main(int argc, char** argv) {
 
         // --- The bricks the table leaves empty ---
         EmptySpace space;
-        if (!params.no_leaping) space.bricks = make_bricks(volume, leap_brick_size);
+        if (!params.no_leaping) {
+            space.bricks = make_bricks(volume, leap_brick_size, options.threads);
+        }
         auto update_empty_space = [&] {
             if (params.no_leaping) return;
             space.empty = find_empty_bricks(space.bricks, lut);

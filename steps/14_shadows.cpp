@@ -898,7 +898,7 @@ int main(int argc, char** argv) {
 
         // --- The bricks the table leaves empty ---
         EmptySpace space;
-        if (!params.no_leaping) space.bricks = make_bricks(volume);
+        if (!params.no_leaping) space.bricks = make_bricks(volume, brick_size, options.threads);
         auto update_empty_space = [&] {
             if (params.no_leaping) return;
             space.reach = empty_reach(space.bricks, find_empty_bricks(space.bricks, lut));

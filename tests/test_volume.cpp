@@ -13,6 +13,7 @@
 #include "bricks.h"
 #include "error.h"
 #include "harness.h"
+#include "phantom.h"
 #include "tools/run_step.h"
 #include "view.h"
 #include "volume.h"
@@ -542,6 +543,28 @@ TEST_CASE("bricks: a ramp's brick ranges are its corner values, the far faces in
     CHECK(single.ranges[0].max == -32768);
 }
 
+TEST_CASE("bricks: the phantom's bricks are the same on any number of threads") {
+    // make_bricks shares the layers of bricks along k among the threads; each layer reads
+    // its rows, overlap included, so every brick must come out as on one thread. 64 threads:
+    // more than the layers (113 slices: 15 layers of 8, 29 of 4).
+    const Volume volume = make_phantom();
+    for (int size : {8, 4}) {
+        CAPTURE(size);
+        const Bricks one = make_bricks(volume, size, 1);
+        for (int threads : {2, 3, 64}) {
+            CAPTURE(threads);
+            const Bricks many = make_bricks(volume, size, threads);
+            REQUIRE(many.count() == one.count());
+            size_t differing = 0;
+            for (size_t n = 0; n < one.count(); ++n) {
+                differing += many.ranges[n].min != one.ranges[n].min ||
+                             many.ranges[n].max != one.ranges[n].max;
+            }
+            CHECK(differing == 0);
+        }
+    }
+}
+
 TEST_CASE("bricks: other sizes cut the same way, and empty runs count along each axis") {
     // The same ramp at brick sizes 4, 2 and 1: each brick's range is from its first corner to
     // `size` voxels past it (or the volume's last voxel).
@@ -553,24 +576,27 @@ TEST_CASE("bricks: other sizes cut the same way, and empty runs count along each
             for (int i = 0; i < volume.nx; ++i) volume.data.push_back(int16_t(f(i, j, k)));
     update_range(volume);  // lays the dense values out
     for (int size : {4, 2, 1}) {
-        CAPTURE(size);
-        const Bricks bricks = make_bricks(volume, size);
-        CHECK(bricks.size == size);
-        CHECK(bricks.bx == (19 + size - 1) / size);
-        CHECK(bricks.by == (10 + size - 1) / size);
-        CHECK(bricks.bz == (17 + size - 1) / size);
-        REQUIRE(bricks.count() == size_t(bricks.bx) * bricks.by * bricks.bz);
-        for (int k = 0; k < volume.nz; ++k)
-            for (int j = 0; j < volume.ny; ++j)
-                for (int i = 0; i < volume.nx; ++i) {
-                    const size_t n = bricks.index(i, j, k);
-                    const int a = i / size, b = j / size, c = k / size;
-                    REQUIRE(n == size_t((c * bricks.by + b) * bricks.bx + a));
-                    CHECK(bricks.ranges[n].min == f(a * size, b * size, c * size));
-                    CHECK(bricks.ranges[n].max == f(std::min(a * size + size, volume.nx - 1),
-                                                     std::min(b * size + size, volume.ny - 1),
-                                                     std::min(c * size + size, volume.nz - 1)));
-                }
+        for (int threads : {1, 2, 3, 8}) {
+            CAPTURE(size);
+            CAPTURE(threads);  // layers of bricks shared among them: 3 .. 17 layers
+            const Bricks bricks = make_bricks(volume, size, threads);
+            CHECK(bricks.size == size);
+            CHECK(bricks.bx == (19 + size - 1) / size);
+            CHECK(bricks.by == (10 + size - 1) / size);
+            CHECK(bricks.bz == (17 + size - 1) / size);
+            REQUIRE(bricks.count() == size_t(bricks.bx) * bricks.by * bricks.bz);
+            for (int k = 0; k < volume.nz; ++k)
+                for (int j = 0; j < volume.ny; ++j)
+                    for (int i = 0; i < volume.nx; ++i) {
+                        const size_t n = bricks.index(i, j, k);
+                        const int a = i / size, b = j / size, c = k / size;
+                        REQUIRE(n == size_t((c * bricks.by + b) * bricks.bx + a));
+                        CHECK(bricks.ranges[n].min == f(a * size, b * size, c * size));
+                        CHECK(bricks.ranges[n].max == f(std::min(a * size + size, volume.nx - 1),
+                                                         std::min(b * size + size, volume.ny - 1),
+                                                         std::min(c * size + size, volume.nz - 1)));
+                    }
+        }
     }
     CHECK_THROWS(make_bricks(volume, 3));
     CHECK_THROWS(make_bricks(volume, 0));
