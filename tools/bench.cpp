@@ -675,7 +675,8 @@ int run(int argc, char** argv) {
     std::vector<std::pair<std::string, std::vector<std::string>>> volumes;
     const TempFolder quick_folder("bench_quick");
     if (quick && volume_name == "phantom") {
-        const Volume small = make_phantom_sized(quick_dims[0], quick_dims[1], quick_dims[2]);
+        const Volume small =
+            make_phantom_sized(quick_dims[0], quick_dims[1], quick_dims[2], cores);
         volumes.emplace_back(text_of("phantom %dx%dx%d", small.nx, small.ny, small.nz),
                              write_raw_volume(small, quick_folder.path("phantom.raw")));
     } else {
@@ -745,7 +746,7 @@ int run(int argc, char** argv) {
         const TempFolder large_folder("bench_large");
         std::vector<std::string> large_flags;
         {
-            const Volume large = make_phantom_sized(n, n, n);
+            const Volume large = make_phantom_sized(n, n, n, cores);
             large_flags = write_raw_volume(large, large_folder.path("phantom.raw"));
         }  // the bench's own copy is freed before the steps run
         large_name = text_of("phantom %dx%dx%d", n, n, n);
