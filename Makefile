@@ -17,11 +17,22 @@ CPPFLAGS += -I. -Icommon -isystem /usr/include/stb -MMD -MP
 SDL_CFLAGS := $(shell pkg-config --cflags sdl2 2>/dev/null)
 SDL_LIBS   := $(shell pkg-config --libs sdl2 2>/dev/null)
 CPPFLAGS += $(SDL_CFLAGS)
-LDLIBS   += $(SDL_LIBS) -pthread
+LDLIBS   += -pthread
 # zlib: the checker verifies a PNG's compressed data (CRCs, Adler-32, its inflated size).
+# --as-needed: a program maps only the libraries its own code calls (a step needs no zlib).
+LDLIBS   += -lz -ldl
+LDFLAGS  += -Wl,--as-needed
 # The volume formats' libraries (common/format_*.cpp): nifticlib, teem (NRRD), GDCM, zlib.
+# Only the format module (common/module.h) links them; the steps open it when a file needs it.
 CPPFLAGS += -I/usr/include/gdcm-3.0 -I/usr/include/nifti
-LDLIBS   += -lniftiio -lznz -lteem -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
+FORMAT_LIBS := -lniftiio -lznz -lteem -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
+# A module holds only its own code: what it uses of common/ (Volume, Image, the presets' state)
+# is the program's own, exported by the program (--export-dynamic, every member of libctlab.a
+# linked), so that a module and its program share one copy of everything. A function the
+# module defines itself it calls itself (-Bsymbolic-functions): the window module's
+# show_preview is the window, where the program's is the stub that opens the module.
+MODULE_LDFLAGS := -shared -Wl,-Bsymbolic-functions
+PROGRAM_LIB = -Wl,--export-dynamic -Wl,--whole-archive $(LIBCTLAB) -Wl,--no-whole-archive
 # The builds inside demo, test and check-student use every core, unless make was given -j.
 JOBS     ?= $(shell nproc 2>/dev/null || echo 1)
 PARALLEL  = $(if $(filter -j%,$(MAKEFLAGS)),,-j$(JOBS))
@@ -63,8 +74,16 @@ endif
 STEP_SOURCES   := $(sort $(wildcard steps/[0-9][0-9]_*.cpp))
 STEP_NAMES     := $(basename $(notdir $(STEP_SOURCES)))
 STEP_BINARIES  := $(addprefix $(BUILD)/,$(STEP_NAMES))
-COMMON_SOURCES := $(wildcard common/*.cpp)
+# The format readers are not in libctlab.a: they make the format module (and are linked
+# straight into the tests and fuzz harnesses, which call them by name).
+FORMAT_SOURCES := $(wildcard common/format_*.cpp)
+FORMAT_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(FORMAT_SOURCES))
+# Likewise the window (SDL2): the window module; the steps hold window_module.cpp's side.
+WINDOW_SOURCES := common/window.cpp common/window_entry.cpp
+WINDOW_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(WINDOW_SOURCES))
+COMMON_SOURCES := $(filter-out $(FORMAT_SOURCES) $(WINDOW_SOURCES),$(wildcard common/*.cpp))
 COMMON_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(COMMON_SOURCES))
+MODULES        := $(BUILD)/ctlab_formats.so $(BUILD)/ctlab_window.so
 # tools/run_step.cpp is no tool: it runs step binaries for the tests and tools (libctlab_tools).
 TOOL_LIB_SOURCES := tools/run_step.cpp
 TOOL_SOURCES   := $(filter-out $(TOOL_LIB_SOURCES),$(wildcard tools/*.cpp))
@@ -82,8 +101,8 @@ LIBTOOLS       := $(BUILD)/libctlab_tools.a
 .PHONY: bench study  # measuring: speed, and error against run time
 .DEFAULT_GOAL := all
 
-# Build every step and tool.
-all: $(STEP_BINARIES) $(TOOL_BINARIES)
+# Build every step and tool, and the modules they open (common/module.h).
+all: $(STEP_BINARIES) $(TOOL_BINARIES) $(MODULES)
 
 help:
 	@echo "make            build every step into $(BUILD)/NN_name, and the tools"
@@ -278,27 +297,52 @@ fuzz:
 fuzz-build: $(addprefix $(BUILD)/fuzz_,$(FUZZ_HARNESSES))
 
 # --- Rules ---------------------------------------------------------------------------------
-$(BUILD)/%.o: %.cpp
+# The compiler and its flags, kept in $(BUILD)/flags.txt: when they change (SAN=1 into the
+# same folder, a Makefile that links otherwise), everything is built again rather than mixed.
+BUILD_FLAGS := $(CXX) $(CPPFLAGS) $(CXXFLAGS) | $(LDFLAGS) $(LDLIBS) | $(FORMAT_LIBS) $(SDL_LIBS) \
+               | $(MODULE_LDFLAGS) | $(PROGRAM_LIB)
+FLAGS_STAMP := $(BUILD)/flags.txt
+ifneq ($(BUILD_FLAGS),$(shell cat $(FLAGS_STAMP) 2>/dev/null))
+$(shell mkdir -p $(BUILD) && printf '%s\n' '$(BUILD_FLAGS)' > $(FLAGS_STAMP))
+endif
+
+$(BUILD)/%.o: %.cpp $(FLAGS_STAMP)
 	@mkdir -p $(dir $@)
 	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -c $< -o $@
 
 $(LIBCTLAB): $(COMMON_OBJECTS)
-	$(AR) rcs $@ $^
+	rm -f $@
+	$(AR) rcs $@ $(filter %.o,$^)
 
 $(LIBTOOLS): $(patsubst %.cpp,$(BUILD)/%.o,$(TOOL_LIB_SOURCES))
-	$(AR) rcs $@ $^
+	rm -f $@
+	$(AR) rcs $@ $(filter %.o,$^)
 
-$(BUILD)/%: $(BUILD)/steps/%.o $(LIBCTLAB)
-	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+MODULE_LINK = $(CXX) $(MODULE_LDFLAGS) $(LDFLAGS) $(filter %.o,$^)
+# A module's code is position-independent; no semantic interposition, so that its calls
+# inline as they would in a program.
+$(FORMAT_OBJECTS) $(WINDOW_OBJECTS): CXXFLAGS += -fPIC -fno-semantic-interposition
+$(BUILD)/ctlab_formats.so: $(FORMAT_OBJECTS) $(FLAGS_STAMP)
+	$(MODULE_LINK) $(FORMAT_LIBS) -o $@
 
-$(BUILD)/%: $(BUILD)/tools/%.o $(LIBTOOLS) $(LIBCTLAB)
-	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+$(BUILD)/ctlab_window.so: $(WINDOW_OBJECTS) $(FLAGS_STAMP)
+	$(MODULE_LINK) $(SDL_LIBS) -o $@
 
-$(BUILD)/fuzz_%: $(BUILD)/tests/fuzz/fuzz_%.o $(BUILD)/tests/fuzz/targets.o $(LIBCTLAB)
-	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+# Steps and tools open the modules beside them: built with them.
+$(BUILD)/%: $(BUILD)/steps/%.o $(LIBCTLAB) $(FLAGS_STAMP) | $(MODULES)
+	$(CXX) $(LDFLAGS) $< $(PROGRAM_LIB) $(LDLIBS) -o $@
+
+$(BUILD)/%: $(BUILD)/tools/%.o $(LIBTOOLS) $(LIBCTLAB) $(FLAGS_STAMP) | $(MODULES)
+	$(CXX) $(LDFLAGS) $< $(LIBTOOLS) $(PROGRAM_LIB) $(LDLIBS) -o $@
+
+$(BUILD)/fuzz_%: $(BUILD)/tests/fuzz/fuzz_%.o $(BUILD)/tests/fuzz/targets.o $(FORMAT_OBJECTS) \
+                 $(LIBCTLAB)
+	$(CXX) $(LDFLAGS) $(filter %.o %.a,$^) $(FORMAT_LIBS) $(LDLIBS) -o $@
 
 # The tests run the step binaries (tools/run_step.h): built with them.
-$(BUILD)/ctlab_tests: $(TEST_OBJECTS) $(LIBTOOLS) $(LIBCTLAB) | $(STEP_BINARIES)
-	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
+$(BUILD)/ctlab_tests: $(TEST_OBJECTS) $(FORMAT_OBJECTS) $(LIBTOOLS) $(LIBCTLAB) \
+                      $(FLAGS_STAMP) | $(STEP_BINARIES) $(MODULES)
+	$(CXX) $(LDFLAGS) $(TEST_OBJECTS) $(FORMAT_OBJECTS) $(LIBTOOLS) $(PROGRAM_LIB) \
+	    $(FORMAT_LIBS) $(LDLIBS) -o $@
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

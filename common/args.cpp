@@ -508,14 +508,8 @@ Volume load_volume(const Options& options) {
             volume.sy = options.raw.sy;
             volume.sz = options.raw.sz;
         }
-    } else if (volume_format_of(path) == "nifti") {
-        volume = load_nifti(path);
-    } else if (volume_format_of(path) == "nrrd") {
-        volume = load_nrrd(path);
-    } else if (volume_format_of(path) == "metaimage") {
-        volume = load_metaimage(path);
-    } else if (volume_format_of(path) == "dicom") {
-        volume = load_dicom_series(path);
+    } else if (const std::string format = volume_format_of(path); format != "raw") {
+        volume = load_volume_file(format, path);  // NIfTI, NRRD, MetaImage, DICOM
     } else if (options.has_dims) {
         RawFormat format = options.raw;
         volume = load_raw(path, format);

@@ -1,6 +1,8 @@
 // formats.cpp: which loader a path needs, and the formats' help text.
 #include <sys/stat.h>
 #include "formats.h"
+#include "error.h"
+#include "module.h"
 
 namespace ctlab {
 
@@ -22,6 +24,15 @@ std::string volume_format_of(const std::string& path) {
     if (ends_with(path, ".nrrd") || ends_with(path, ".nhdr")) return "nrrd";
     if (ends_with(path, ".mhd") || ends_with(path, ".mha")) return "metaimage";
     return "raw";
+}
+
+Volume load_volume_file(const std::string& format, const std::string& path) {
+    using Entry = VolumeReader (*)(const char* format);
+    const auto entry = reinterpret_cast<Entry>(
+        module_entry("ctlab_formats.so", "ctlab_volume_reader", "to read " + format + " files"));
+    const VolumeReader reader = entry(format.c_str());
+    if (!reader) throw InputError("no reader for the volume format '" + printable(format) + "'");
+    return reader(path);
 }
 
 const char* volume_formats_help() {

@@ -25,6 +25,14 @@ Volume load_metaimage(const std::string& path);
 // normal, rescale slope/intercept applied (CT in Hounsfield units).
 Volume load_dicom_series(const std::string& folder);
 
+// The loaders above, through the format module (build/ctlab_formats.so, module.h): a step
+// maps GDCM, nifticlib, teem and zlib only when it reads such a file. `format` is what
+// volume_format_of says ("nifti", "nrrd", "metaimage" or "dicom").
+Volume load_volume_file(const std::string& format, const std::string& path);
+
+// What the format module hands out: the loader of one format, or nullptr for an unknown name.
+using VolumeReader = Volume (*)(const std::string& path);
+
 // Which loader a path needs: "nifti", "nrrd", "metaimage", "dicom" (a folder), "raw" (any
 // other name), by its name (and for a folder, by being one).
 std::string volume_format_of(const std::string& path);
