@@ -147,18 +147,23 @@ demo: deps
 	@echo "Rendered $(words $(STEP_NAMES)) steps into out/. Open a preview window with:"
 	@echo "    $(BUILD)/$(lastword $(STEP_NAMES)) --volume phantom --view front"
 
-# Every test: unit, analytic and golden tests (doctest), then the command-line and window tests.
+# Every test, as suites side by side on every core: each doctest file (tests/test_*.cpp, its
+# test cases in $(BUILD)/ctlab_tests) and each script tests/NAME_test.sh is one suite, its
+# output in $(BUILD)/test-logs/NAME.log, printed whole when it ends (tests/run_suite.sh). The
+# last line adds them all up: "test: N passed, M failed" (tests/test_summary.sh).
+# The slowest suites start first, so that the last one to finish is a short one.
+SLOW_SUITES := student test_extremes bad_input grade test_steps cli check window
+TEST_SUITES := $(SLOW_SUITES) $(filter-out $(SLOW_SUITES),\
+               $(patsubst tests/%_test.sh,%,$(wildcard tests/*_test.sh)) \
+               $(basename $(notdir $(wildcard tests/test_*.cpp))))
 test: deps
 	@$(MAKE) --no-print-directory $(PARALLEL) all $(BUILD)/ctlab_tests
-	$(BUILD)/ctlab_tests
-	@sh tests/cli_test.sh $(BUILD)
-	@sh tests/bad_input_test.sh $(BUILD)
-	@sh tests/check_test.sh $(BUILD)
-	@sh tests/threshold_mistakes_test.sh $(BUILD)
-	@sh tests/measured_test.sh $(BUILD)
-	@sh tests/window_test.sh $(BUILD)
-	@sh tests/student_test.sh $(BUILD)
-	@sh tests/grade_test.sh $(BUILD)
+	@rm -rf $(BUILD)/test-logs
+	@$(MAKE) --no-print-directory $(PARALLEL) -k $(addprefix test-suite-,$(TEST_SUITES))
+	@sh tests/test_summary.sh $(BUILD) $(TEST_SUITES)
+
+test-suite-%:
+	@sh tests/run_suite.sh $(BUILD) $*
 
 # One step by name: `make 03_depth_shading`.
 $(STEP_NAMES): %: $(BUILD)/%

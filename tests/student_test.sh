@@ -160,14 +160,28 @@ expect "the earlier kit is left as it was" \
     [ "$record_before" = "$(cat "$student/.ctlab-student")" ]
 
 # --- The student tree builds every target on its own -------------------------------------
-# common/ and tests/ are copied unchanged: reuse the lab's compiled objects for them (not for a
-# file that includes a step: the student's steps are stubs), and compile the rest without
-# optimisation, which is enough to show that it builds.
+# common/, tools/ and tests/ are copied unchanged: reuse the lab's compiled objects for them
+# (not for a file that includes a step: the student's steps are stubs), with the lab's
+# compiler flags (BUILD/flags.txt: other flags would build everything again), so that only
+# the steps are compiled: the kit is built once here, and after that only what a change
+# touches.
 reuse_objects() {
-    for file in common/*; do cmp -s "$file" "$student/$file" || return 0; done
-    [ -f "$build/libctlab.a" ] || return 0
+    for file in common/* tools/*; do cmp -s "$file" "$student/$file" || return 0; done
+    [ -f "$build/libctlab.a" ] && [ -f "$build/flags.txt" ] || return 0
     mkdir -p "$student/$build"
     cp -R "$build/common" "$student/$build/" && cp "$build/libctlab.a" "$student/$build/"
+    cp "$build/flags.txt" "$student/$build/"
+    for library in libctlab_tools.a ctlab_formats.so ctlab_window.so; do
+        [ -f "$build/$library" ] && cp "$build/$library" "$student/$build/"
+    done
+    if [ -d "$build/tools" ]; then
+        for object in $(find "$build/tools" -name '*.o'); do
+            depends=${object%.o}.d
+            [ -f "$depends" ] && ! grep -q 'steps/' "$depends" || continue
+            mkdir -p "$student/$(dirname "$object")"
+            cp "$object" "$depends" "$student/$(dirname "$object")/"
+        done
+    fi
     if [ -d "$build/tests" ]; then
         for object in $(find "$build/tests" -name '*.o'); do
             depends=${object%.o}.d
@@ -181,9 +195,11 @@ reuse_objects() {
 reuse_objects
 san=
 [ "$build" = build-san ] && san=SAN=1
+# The lab's own flags, as make test was given them (CI's WERROR=1): the kit's are the same.
+grep -q -- ' -Werror' "$build/flags.txt" 2>/dev/null && san="$san WERROR=1"
 student_make() {  # student_make TARGET...: make in the student tree, quietly, log in build.log
     # shellcheck disable=SC2086
-    env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$student" -j2 BUILD="$build" OPT=-O0 \
+    env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$student" -j2 BUILD="$build" \
         $san "$@" > "$work/build.log" 2>&1
 }
 if student_make all "$build/ctlab_tests"; then ok; else

@@ -1,0 +1,31 @@
+#!/bin/sh
+# run_suite.sh: one suite of `make test`, its output kept together. A suite is a script
+# tests/NAME_test.sh (run as `sh tests/NAME_test.sh BUILD`) or a doctest file tests/NAME.cpp
+# (its test cases in BUILD/ctlab_tests, chosen by source file). The output goes to
+# BUILD/test-logs/NAME.log, and the log is printed whole when the suite ends, so that suites
+# running side by side (make -j) do not interleave; tests/test_summary.sh adds them up.
+#
+#   sh tests/run_suite.sh BUILD NAME
+set -u
+build=${1:?usage: sh tests/run_suite.sh BUILD NAME}
+name=${2:?usage: sh tests/run_suite.sh BUILD NAME}
+cd "$(dirname "$0")/.." || exit 2
+logs=$build/test-logs
+mkdir -p "$logs" || exit 2
+log=$logs/$name.log
+started=$(date +%s)
+if [ -f "tests/${name}_test.sh" ]; then
+    sh "tests/${name}_test.sh" "$build" > "$log" 2>&1
+elif [ -f "tests/$name.cpp" ]; then
+    # -sf: the test cases written in that file; a crash still ends the log with its message.
+    "$build/ctlab_tests" --source-file="*tests/$name.cpp" --no-version=true > "$log" 2>&1
+else
+    echo "run_suite: no suite '$name' (tests/${name}_test.sh or tests/$name.cpp)" > "$log"
+    false
+fi
+status=$?
+seconds=$(( $(date +%s) - started ))
+echo "$status $seconds" > "$logs/$name.status"
+echo "=== $name (exit $status, ${seconds} s) ==="
+cat "$log"
+exit 0  # the summary judges every suite; one failing does not stop the others

@@ -1,0 +1,62 @@
+#!/bin/sh
+# test_summary.sh: the last lines of `make test`: every suite's closing line added up into
+# "test: N passed, M failed" (doctest files count their test cases, scripts their checks),
+# and for a suite that failed, crashed or closed without its count, its name and the last
+# lines of its log. Exit status 1 when anything failed.
+#
+#   sh tests/test_summary.sh BUILD SUITE...
+set -u
+build=${1:?usage: sh tests/test_summary.sh BUILD SUITE...}
+shift
+logs=$build/test-logs
+passed=0
+failed=0
+broken=""
+slowest=""
+for name in "$@"; do
+    log=$logs/$name.log
+    read -r status seconds < "$logs/$name.status" 2>/dev/null || { status=none; seconds=0; }
+    if [ -f "tests/$name.cpp" ]; then
+        # [doctest] test cases:  8 |  8 passed | 0 failed | 161 skipped
+        line=$(grep '^\[doctest\] test cases:' "$log" 2>/dev/null | tail -n 1)
+        p=$(printf '%s\n' "$line" | sed -n 's/.*| *\([0-9]*\) passed.*/\1/p')
+        f=$(printf '%s\n' "$line" | sed -n 's/.*| *\([0-9]*\) failed.*/\1/p')
+    else
+        # "cli test: 351 passed, 0 failed" (with anything after it: "(2 skipped)")
+        line=$(grep -E '^[a-z0-9 _-]+: [0-9]+ passed, [0-9]+ failed' "$log" 2>/dev/null | tail -n 1)
+        p=$(printf '%s\n' "$line" | sed -n 's/^[^:]*: \([0-9]*\) passed.*/\1/p')
+        f=$(printf '%s\n' "$line" | sed -n 's/^[^:]*: [0-9]* passed, \([0-9]*\) failed.*/\1/p')
+    fi
+    passed=$((passed + ${p:-0}))
+    failed=$((failed + ${f:-0}))
+    slowest="$slowest$seconds $name
+"
+    if [ -z "$p" ] || [ "$status" != 0 ] || [ "${f:-0}" != 0 ]; then
+        [ -n "$p" ] || failed=$((failed + 1))  # a suite that never counted is one failure
+        broken="$broken $name"
+        echo "test: FAILED suite $name (exit status $status; log $log), its last lines:"
+        tail -n 15 "$log" 2>/dev/null | sed 's/^/    /'
+    fi
+done
+echo "test: the slowest suites (s):$(printf '%s' "$slowest" | sort -rn | head -n 4 |
+    awk '{printf " %s %s", $2, $1}')"
+# Every doctest test case belongs to one file's suite: the counts must add up.
+if [ -x "$build/ctlab_tests" ]; then
+    total=$("$build/ctlab_tests" --count --no-version=true 2>/dev/null |
+            sed -n 's/.*unskipped test cases passing the current filters: *\([0-9]*\).*/\1/p')
+    shards=0
+    for name in "$@"; do
+        [ -f "tests/$name.cpp" ] || continue
+        n=$(grep '^\[doctest\] test cases:' "$logs/$name.log" 2>/dev/null | tail -n 1 |
+            sed -n 's/^\[doctest\] test cases: *\([0-9]*\) .*/\1/p')
+        shards=$((shards + ${n:-0}))
+    done
+    if [ -n "$total" ] && [ "$total" != "$shards" ]; then
+        echo "test: FAILED: the doctest files' suites ran $shards test cases of $total"
+        failed=$((failed + 1))
+        broken="$broken doctest-files"
+    fi
+fi
+[ -z "$broken" ] || echo "test: failed suites:$broken"
+echo "test: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
