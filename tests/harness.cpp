@@ -25,9 +25,7 @@ const std::vector<std::string>& step_names() {
                                   std::isdigit(static_cast<unsigned char>(file[0])) &&
                                   std::isdigit(static_cast<unsigned char>(file[1])) &&
                                   file[2] == '_';
-            // Part 1 only (00..09): part 2's steps render one camera picture, not the three
-            // axis views every test here expects (tests/test_free_camera.cpp has them).
-            if (numbered && entry.path().extension() == ".cpp" && file < "10") {
+            if (numbered && entry.path().extension() == ".cpp") {
                 found.push_back(entry.path().stem().string());
             }
         }
@@ -35,6 +33,34 @@ const std::vector<std::string>& step_names() {
         return found;
     }();
     return names;
+}
+
+bool is_camera_step(const std::string& name) { return name >= "10"; }
+
+const std::vector<std::string>& part1_step_names() {
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> part1;
+        for (const std::string& name : step_names()) {
+            if (!is_camera_step(name)) part1.push_back(name);
+        }
+        return part1;
+    }();
+    return names;
+}
+
+std::vector<std::string> size_flags(const std::string& name) {
+    if (!is_camera_step(name)) return {};
+    return {"--size", std::to_string(camera_width) + "x" + std::to_string(camera_height)};
+}
+
+std::vector<ctlab::View> default_views(const std::string& name, const ctlab::Volume& volume) {
+    if (!is_camera_step(name)) return ctlab::views_named(volume, "all");
+    ctlab::View camera;
+    camera.camera = true;
+    camera.name = "camera";
+    camera.width = camera_width;
+    camera.height = camera_height;
+    return {camera};
 }
 
 const ctlab::Image& StepRender::image(const std::string& view) const {

@@ -11,6 +11,7 @@
 #include "args.h"
 #include "image.h"
 #include "tools/run_step.h"
+#include "view.h"
 #include "volume.h"
 
 namespace ctlab_test {
@@ -65,10 +66,21 @@ private:
 
 // --- The steps, run as processes (tools/run_step.h) ---------------------------------------
 
-// Every part 1 step in steps/ (00..09) by name ("03_depth_shading"), sorted: each has a binary
-// in the build folder beside the test program. Part 2's steps (10 on) render one camera picture
-// and are tested in tests/test_free_camera.cpp.
+// Every step in steps/ by name ("03_depth_shading"), sorted: each has a binary in the build
+// folder beside the test program. Part 1's steps (00..09) render the three axis views; part
+// 2's (10 on) one orbit-camera picture, "camera".
 const std::vector<std::string>& step_names();
+const std::vector<std::string>& part1_step_names();  // 00..09 only
+bool is_camera_step(const std::string& name);        // 10 on
+
+// The "every step" tests run part 2's steps at a small picture size, not square (a swapped
+// width and height shows): `--size` with it. Part 1's steps get no flags.
+constexpr int camera_width = 24, camera_height = 17;  // pixels
+std::vector<std::string> size_flags(const std::string& name);
+
+// What a step renders of `volume` in its default run: part 1, views_named(volume, "all");
+// part 2, one view "camera" of camera_width x camera_height (with size_flags).
+std::vector<ctlab::View> default_views(const std::string& name, const ctlab::Volume& volume);
 
 // One run of a step with --pfm: what it printed and the float images it wrote.
 struct StepRender {

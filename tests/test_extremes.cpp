@@ -1,4 +1,5 @@
-// test_extremes.cpp: every step, every view and every path a flag takes it down, on volumes at
+// test_extremes.cpp: every step (part 2's at a small camera picture), every view and every
+// path a flag takes it down, on volumes at
 // the edges of what a step can be given: one voxel, one voxel thick (1x256x113, 256x1x1), all
 // air, all bone, all 32767, all -32768, noise over the whole int16 range, and min = max. Each
 // program (run as a process on the volume written to a raw file; the flag variants on the
@@ -76,7 +77,8 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--threshold", "32767"});
     }
     if (step >= "04" && step < "06") all.push_back({"--light-angle", "180"});
-    if (step >= "06") {
+    const bool projection_modes = step.rfind("12", 0) == 0;  // grey: no transfer function
+    if (step >= "06" && !projection_modes) {
         all.push_back({"--skin-opacity", "1"});
         all.push_back({"--tf", "data/tf/transparent.tf"});
     }
@@ -92,6 +94,33 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     if (step.rfind("09", 0) == 0) {  // 08 plus leaping: a step that does not divide a brick
         all.push_back({"--step", "0.3"});
         all.push_back({"--no-leaping"});
+    }
+    // Part 2: the camera from straight above in perspective (rays along k), nearest samples
+    // without leaping, the longest step unlit, and each step's own paths.
+    if (ctlab_test::is_camera_step(step)) {
+        all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
+        std::vector<std::string> nearest = {"--interpolation", "nearest", "--azimuth", "-360"};
+        if (!projection_modes) nearest.push_back("--no-leaping");
+        all.push_back(nearest);
+        if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
+    }
+    if (step.rfind("11", 0) == 0) {
+        all.push_back({"--jitter", "blue"});
+        all.push_back({"--jitter", "hash", "--zoom", "0.01"});
+    }
+    if (projection_modes) {
+        all.push_back({"--mode", "minip", "--slab", "2"});
+        all.push_back({"--mode", "average", "--zoom", "100"});
+    }
+    if (step.rfind("13", 0) == 0) {
+        all.push_back({"--iso", "32767", "--shininess", "1000"});
+        all.push_back({"--iso", "-32768", "--clip", "0,0,1,0"});
+        all.push_back({"--mode", "composite", "--clip", "1,1,1,-1"});
+    }
+    if (step.rfind("14", 0) == 0) {
+        all.push_back({"--shadows", "ray", "--ao", "off"});
+        all.push_back({"--shadows", "none", "--ao", "on"});
+        all.push_back({"--shadows", "volume", "--ao", "on", "--light-angle", "180"});
     }
     return all;
 }
@@ -141,8 +170,8 @@ TEST_CASE("extreme volumes: every step, view and variant: right size, finite, tr
             CAPTURE(shape.ny);
             CAPTURE(shape.nz);
             CAPTURE(fill.name);
-            const std::vector<View> views = views_named(volume, "all");
             for (const std::string& step : ctlab_test::step_names()) {
+                const std::vector<View> views = ctlab_test::default_views(step, volume);
                 const std::vector<std::vector<std::string>> all = variants(step);
                 for (size_t v = 0; v < all.size(); ++v) {
                     // Every fill in the default run; the other paths at the int16 extremes
@@ -152,7 +181,8 @@ TEST_CASE("extreme volumes: every step, view and variant: right size, finite, tr
                     if (v > 0 && name != "noise" && name != "all 32767" && name != "all -32768") {
                         continue;
                     }
-                    std::vector<std::string> flags = all[v];
+                    std::vector<std::string> flags = ctlab_test::size_flags(step);
+                    flags.insert(flags.end(), all[v].begin(), all[v].end());
                     std::string text;
                     for (const std::string& flag : flags) text += flag + " ";
                     CAPTURE(step);
@@ -160,7 +190,7 @@ TEST_CASE("extreme volumes: every step, view and variant: right size, finite, tr
                     flags.insert(flags.end(), {"--threads", "2", "--debug-pixel", "0,0"});
                     const bool grey = step < "06";
                     const ctlab_test::StepRender run = ctlab_test::render(step, flags, volume);
-                    REQUIRE(run.images.size() == 3);
+                    REQUIRE(run.images.size() == views.size());
                     for (size_t n = 0; n < views.size(); ++n) {
                         CAPTURE(views[n].name);
                         REQUIRE(run.views[n] == views[n].name);
@@ -176,11 +206,13 @@ TEST_CASE("extreme volumes: every step, view and variant: right size, finite, tr
                     for (const View& view : views) {
                         if (view.width == 1 && view.height == 1) continue;  // that was 0,0
                         const int x = view.width - 1, y = view.height - 1;
-                        const ctlab_test::StepRender last = ctlab_test::render(
-                            step,
-                            {"--view", view.name, "--debug-pixel",
-                             std::to_string(x) + "," + std::to_string(y)},
-                            volume);
+                        std::vector<std::string> last_flags = ctlab_test::size_flags(step);
+                        if (!view.camera) last_flags.insert(last_flags.end(), {"--view", view.name});
+                        last_flags.insert(last_flags.end(), {"--debug-pixel",
+                                                             std::to_string(x) + "," +
+                                                                 std::to_string(y)});
+                        const ctlab_test::StepRender last =
+                            ctlab_test::render(step, last_flags, volume);
                         traces += traces_checked(last, x, y);
                     }
                 }

@@ -23,6 +23,9 @@ using namespace ctlab;
 using ctlab_test::render;
 using ctlab_test::render_step;
 using ctlab_test::step_names;
+using ctlab_test::default_views;
+using ctlab_test::is_camera_step;
+using ctlab_test::size_flags;
 using ctlab_test::StepRender;
 
 namespace {
@@ -588,8 +591,9 @@ TEST_CASE("constant volume: every step, every view, the known value and never Na
         for (const std::string& step : step_names()) {
             CAPTURE(step);
             CAPTURE(value);
-            const StepRender rendered = render(step, {"--threads", "1"}, volume);
-            REQUIRE(rendered.images.size() == 3);
+            const StepRender rendered =
+                render(step, joined(size_flags(step), {"--threads", "1"}), volume);
+            REQUIRE(rendered.images.size() == default_views(step, volume).size());
             for (const Image& image : rendered.images) {
                 CHECK(bad_pixels(image, shows_unit_grey(step)) == 0);
                 for (const Expected& known : expected) {
@@ -626,9 +630,9 @@ TEST_CASE("1x1x1 and one-voxel-thick volumes: every step and view, finite, right
             1, 1, 2);
         for (const std::string& step : step_names()) {
             CAPTURE(step);
-            const std::vector<Image> images = render_step(step, {}, volume);
-            const std::vector<View> views = views_named(volume, "all");
-            REQUIRE(images.size() == 3);
+            const std::vector<Image> images = render_step(step, size_flags(step), volume);
+            const std::vector<View> views = default_views(step, volume);
+            REQUIRE(images.size() == views.size());
             for (size_t n = 0; n < views.size(); ++n) {
                 CAPTURE(views[n].name);
                 CHECK(images[n].width == views[n].width);
@@ -745,9 +749,9 @@ TEST_CASE("int16 extremes: MIP and display reach exactly 1, thresholds at the ex
               .epsilon(1e-5));
     for (const std::string& step : step_names()) {
         for (const char* threshold : {"-32768", "32767"}) {
-            std::vector<std::string> flags;
+            std::vector<std::string> flags = size_flags(step);
             const bool has_threshold = step >= "02" && step < "06";
-            if (has_threshold) flags = {"--threshold", threshold};
+            if (has_threshold) flags = joined(flags, {"--threshold", threshold});
             for (const Image& image : render_step(step, flags, volume)) {
                 CHECK(bad_pixels(image, shows_unit_grey(step)) == 0);
             }
@@ -835,10 +839,14 @@ TEST_CASE("debug trace: the traced ray gives the image's pixel, and prints it") 
     const std::vector<std::string> phantom = {"--volume", "phantom", "--dims", "48,48,22"};
     for (const std::string& step : step_names()) {
         CAPTURE(step);
+        // Part 2's camera picture at the size of the phantom's top view, 48x48.
+        const std::vector<std::string> size =
+            is_camera_step(step) ? std::vector<std::string>{"--size", "48x48"}
+                                 : std::vector<std::string>{};
         for (const auto& pixel : {std::pair<int, int>{24, 11}, {0, 0}, {47, 21}}) {
             const StepRender run = render(
-                step, joined(joined(phantom, {"--threads", "2"}), debug_pixel(pixel.first,
-                                                                               pixel.second)));
+                step, joined(joined(joined(phantom, size), {"--threads", "2"}),
+                             debug_pixel(pixel.first, pixel.second)));
             int traced = 0;
             for (const PixelTrace& trace : run.run.traces) {
                 CAPTURE(trace.view);
@@ -860,11 +868,14 @@ TEST_CASE("debug trace: the traced ray gives the image's pixel, and prints it") 
                 CHECK(trace.png[1] == to_byte(drawn.g));
                 CHECK(trace.png[2] == to_byte(drawn.b));
                 // A line per sample read; a ray that only leapt over empty bricks still says so.
-                CHECK(trace.lines.size() >= trace.samples);
+                // (Step 14's samples= counts its shadow rays' samples too, and a trace gives
+                // each shadow ray one line: there the count bounds nothing.)
+                if (step.rfind("14", 0) != 0) CHECK(trace.lines.size() >= trace.samples);
                 CHECK_FALSE(trace.lines.empty());
                 ++traced;
             }
-            CHECK(traced == 3);  // 48x48 top; 48x22 front and side: 47,21 is inside all
+            // 48x48 top; 48x22 front and side: 47,21 is inside all; one 48x48 camera picture.
+            CHECK(traced == (is_camera_step(step) ? 1 : 3));
         }
     }
 }

@@ -667,6 +667,51 @@ std::string targets(const std::vector<Row>& rows, const std::vector<Row>& unlit,
     return out.str();
 }
 
+// --- Start-up: what a step costs before it renders (common/module.h) ----------------------
+constexpr int startup_runs = 51;                 // processes per figure; the median is quoted
+constexpr double startup_budget_ms = 3;          // target: `02_threshold --help`, median wall
+constexpr const char* startup_step = "02_threshold";
+
+// The median wall time of `program args` run `count` times, each a fresh process (with the
+// tools' one way to start a child process, run_program).
+double median_start_ms(const std::string& program, const std::vector<std::string>& args,
+                       int count) {
+    std::vector<double> times;
+    for (int n = 0; n < count; ++n) {
+        const Timer timer;
+        const RunResult run = run_program(program, args, run_timeout_s);
+        times.push_back(timer.ms());
+        if (run.status != 0) {
+            throw InputError(program + " exited with status " + std::to_string(run.status) +
+                             " while timing its start");
+        }
+    }
+    return median_of(times);
+}
+
+// The start-up table: a step's --help, a phantom run of a tiny volume, and /bin/true (what
+// starting any process costs here), each the median of startup_runs fresh processes.
+std::string startup_section(int count, bool* met) {
+    const std::string step = step_binary(startup_step);
+    const TempFolder out("bench_startup");
+    const double bare = median_start_ms("/bin/true", {}, count);
+    const double help = median_start_ms(step, {"--help"}, count);
+    const double tiny = median_start_ms(
+        step, {"--volume", "phantom", "--dims", "8,8,4", "--view", "top", "--no-window",
+               "--threads", "1", "--out", out.path()},
+        count);
+    *met = help <= startup_budget_ms;
+    return text_of("| program | median wall (ms) |\n|---|---:|\n"
+                   "| `/bin/true` (starting any process) | %.2f |\n"
+                   "| `%s --help` | %.2f |\n"
+                   "| `%s` on an 8x8x4 phantom, top view, 1 thread | %.2f |\n\n"
+                   "Each the median of %d fresh processes. Target: `--help` within %.0f ms: "
+                   "**%s**. A step maps no format or window library until a file or a "
+                   "window needs one (common/module.h).\n",
+                   bare, startup_step, help, startup_step, tiny, count, startup_budget_ms,
+                   *met ? "met" : "missed");
+}
+
 bool file_exists(const std::string& path) {
     struct stat info {};
     return stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
@@ -795,6 +840,10 @@ int run(int argc, char** argv) {
                << " renders per run)\n\n"
                << growth_table(growth, volume_bytes, volumes[0].first) << "\n";
     }
+    std::printf("bench: start-up, %d processes per figure\n", quick ? 5 : startup_runs);
+    bool startup_met = false;
+    const std::string startup = startup_section(quick ? 5 : startup_runs, &startup_met);
+    report << "## Start-up\n\n" << startup << "\n";
     checks.push_back(check_speed("at the end"));
     double spread = 1;
     const std::string speed = speed_report(checks, cores, &spread);
@@ -833,6 +882,7 @@ int run(int argc, char** argv) {
     if (!file) throw InputError("--out: cannot write '" + out_path + "'");
     file << report.str();
     std::printf("\n%s", target_table.c_str());
+    std::printf("\nbench: start-up\n%s", startup.c_str());
     std::printf("bench: %s", speed.c_str());
     std::printf("bench: other processes used %.0f%% of the cores during the run\n",
                 100 * others.share());
