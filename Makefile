@@ -18,6 +18,11 @@ SDL_CFLAGS := $(shell pkg-config --cflags sdl2 2>/dev/null)
 SDL_LIBS   := $(shell pkg-config --libs sdl2 2>/dev/null)
 CPPFLAGS += $(SDL_CFLAGS)
 LDLIBS   += $(SDL_LIBS) -pthread
+# Dear ImGui (libimgui-dev: a static library) for the window's control panel: only the window
+# code includes it, and the linker takes only the members the panel uses (no OpenGL: the panel
+# draws with SDL_Renderer, common/panel_draw.cpp). A step run without a display loads nothing
+# more than before.
+LDLIBS   += -limgui -l:libstb.a
 # zlib: the checker verifies a PNG's compressed data (CRCs, Adler-32, its inflated size).
 # The volume formats' libraries (common/format_*.cpp): nifticlib, teem (NRRD), GDCM, zlib.
 CPPFLAGS += -I/usr/include/gdcm-3.0 -I/usr/include/nifti
@@ -59,6 +64,9 @@ endif
 ifneq ($(SAN)$(FUZZ),)
 $(BUILD)/common/image_read.o: CXXFLAGS += -fno-sanitize=nonnull-attribute
 endif
+
+# The window code alone sees ImGui's headers (see LDLIBS above).
+$(addprefix $(BUILD)/common/,window.o panel.o panel_draw.o): CPPFLAGS += -isystem /usr/include/imgui
 
 STEP_SOURCES   := $(sort $(wildcard steps/[0-9][0-9]_*.cpp))
 STEP_NAMES     := $(basename $(notdir $(STEP_SOURCES)))
