@@ -88,6 +88,7 @@ LIBTOOLS       := $(BUILD)/libctlab_tools.a
 .PHONY: check check-steps san  # grading this tree's programs, and one step with the sanitizers
 .PHONY: fuzz fuzz-build
 .PHONY: bench study  # measuring: speed, and error against run time
+.PHONY: screenshots  # the README's pictures of the window's control panel
 .DEFAULT_GOAL := all
 
 # Build every step and tool.
@@ -116,6 +117,7 @@ help:
 	@echo "                run it (on the phantom): a crash then names its line"
 	@echo "make check-student   make check inside student/ (generated first if missing)"
 	@echo "make handouts   refresh the code listings in handouts/*.md from the steps' markers"
+	@echo "make screenshots   the README's pictures of the window's control panel (xvfb-run)"
 	@echo "make bench      time every step and view, 1 and 2 threads, cold and warm (the step"
 	@echo "                binaries with --repeat): out/bench.md, and the handouts' speed tables"
 	@echo "                (run it on an idle machine)"
@@ -146,6 +148,7 @@ test: deps
 	@sh tests/threshold_mistakes_test.sh $(BUILD)
 	@sh tests/measured_test.sh $(BUILD)
 	@sh tests/window_test.sh $(BUILD)
+	@sh tests/panel_test.sh $(BUILD)
 	@sh tests/student_test.sh $(BUILD)
 	@sh tests/grade_test.sh $(BUILD)
 
@@ -254,6 +257,11 @@ check-student:
 # them unchanged, where those are still the generated stubs (tools/carry.cpp, .ctlab/carry.txt).
 carry: $(BUILD)/carry
 	$(BUILD)/carry $(if $(STEP),--step $(STEP))
+
+# The README's pictures of the window's control panel: steps 06 and 10 on a virtual X display
+# (xvfb-run), into handouts/panel_NN_name.png (tools/panel_screenshots.sh).
+screenshots: $(BUILD)/06_transfer_function $(BUILD)/10_free_camera
+	sh tools/panel_screenshots.sh $(BUILD) handouts
 
 # Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.
 handouts: $(BUILD)/handout_listings

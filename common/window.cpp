@@ -353,6 +353,7 @@ struct Session {
     int shots = 0;
     bool coarse_next = false;            // the rerun was asked for by a slider still held
     std::string image_line;              // the last "window: image ..." line printed
+    std::string command_line;            // the last "window: command ..." line printed
 
     ~Session() {
         panel_draw.reset();
@@ -558,6 +559,7 @@ public:
         std::fflush(stdout);
         if (preview_.knob.value) remember_flag("--" + preview_.knob.name, preview_.knob.value());
         render();
+        print_command();
     }
 
     // --- The orbit (part 2): drag to turn, wheel to zoom, a coarse preview while it moves ---
@@ -679,10 +681,21 @@ public:
         }
         previews_ = 0;
         render();
+        if (!coarse_from_panel_) print_command();
+    }
+
+    // "window: command ...": the command line the panel shows, when it changed.
+    void print_command() {
+        const std::string command = panel_command(preview_);
+        if (command == session_.command_line) return;
+        session_.command_line = command;
+        std::printf("window: command %s\n", command.c_str());
+        std::fflush(stdout);
     }
 
     // The step changed a flag's value itself (a key, the orbit): the command line follows.
-    void remember_flag(const std::string& flag, const std::string& value) {
+    void remember_flag(std::string flag, const std::string& value) {
+        std::replace(flag.begin(), flag.end(), '_', '-');  // a knob's name: skin_opacity
         for (FlagSpec& spec : preview_.flags) {
             if (spec.name != flag) continue;
             try {
@@ -697,6 +710,14 @@ public:
     // One frame of the control panel: what it asks for is kept for take_actions().
     void panel_frame(int height) {
         ImGui_ImplSDL2_NewFrame();
+        // The mouse where SDL's own events put it: ImGui 1.86's backend asks X for the global
+        // position, which SDL caches from raw input that some servers (Xvfb with xdotool)
+        // never send, so a held slider would not follow the mouse.
+        int mouse_x = 0, mouse_y = 0;
+        const Uint32 buttons = SDL_GetMouseState(&mouse_x, &mouse_y);
+        if (SDL_GetMouseFocus() == session_.window || buttons != 0) {
+            ImGui::GetIO().MousePos = ImVec2(float(mouse_x), float(mouse_y));
+        }
         ImGui::NewFrame();
         PanelActions actions;
         draw_panel(preview_, session_.panel, height, &actions);
@@ -794,6 +815,27 @@ public:
             std::fprintf(stderr, "note: no shot: %s\n", error.what());
             return;
         }
+        // The image as the window shows it: one window pixel per image pixel (the centre of
+        // its block), so that a test can compare it with the headless PNG.
+        std::string image_path;
+        if (!preview_is_showing()) {
+            Image shown_image(shown_.width, shown_.height);
+            for (int y = 0; y < shown_.height; ++y) {
+                for (int x = 0; x < shown_.width; ++x) {
+                    const int wx = layout_.left + x * layout_.scale_x + layout_.scale_x / 2;
+                    const int wy = layout_.top + y * layout_.scale_y + layout_.scale_y / 2;
+                    if (wx < width && wy < height) shown_image.at(x, y) = picture.at(wx, wy);
+                }
+            }
+            image_path = path.substr(0, path.size() - png.size()) + "_image" + png;
+            try {
+                write_png(shown_image, image_path);
+            } catch (const std::exception& error) {
+                std::fprintf(stderr, "note: no shot: %s\n", error.what());
+                image_path.clear();
+            }
+        }
+        if (!image_path.empty()) std::printf("window: shot image %s\n", image_path.c_str());
         std::printf("window: shot %s %dx%d panel=", path.c_str(), width, height);
         if (has_ray_) {
             std::printf("%d,%d,%d,%d\n", panel_left(width), panel_top(height), ray_drawn_width(),
@@ -802,6 +844,9 @@ public:
             std::printf("none\n");
         }
     }
+
+    // A coarse preview is on screen (the full picture is still to come).
+    bool preview_is_showing() const { return refine_due_; }
 
     // The panel's widgets and where they are (--window-script's widgets: tests aim at them).
     void print_widgets() const {
@@ -832,7 +877,7 @@ public:
         char where[160];
         std::snprintf(where, sizeof where, "window: image %d,%d scale %d,%d shrink %d,%d of %s "
                       "%dx%d\n", layout_.left, layout_.top, layout_.scale_x, layout_.scale_y,
-                      shrink_x_, shrink_y_, view().name.c_str(), image_.width, image_.height);
+                      shrink_x_, shrink_y_, view().name.c_str(), view().width, view().height);
         if (where != session_.image_line) {
             session_.image_line = where;
             std::fputs(where, stdout);
@@ -1097,6 +1142,7 @@ bool show_preview(const Options& options, Preview& preview) {
     PreviewWindow window(preview, session);
     window.fit_window();
     window.render_first(coarse);
+    window.print_command();
 
     const Uint32 window_id = SDL_GetWindowID(session.window);
     static Uint32 next_marker = static_cast<Uint32>(-1);  // "push the next script event"
