@@ -1161,6 +1161,7 @@ bool show_preview(const Options& options, Preview& preview) {
     // A rerun's marker is already in the queue (pushed after the event that caused it).
     if (!rerun && !script.empty() && next_marker != static_cast<Uint32>(-1)) push_marker();
     int frames_due = 2;  // the panel's first frames: ImGui lays itself out in the first
+    int mouse_x = -1;    // window x of the mouse's last event (the wheel's goes there)
 
     // The panel's actions of the last frame: true when the step must run again (the window
     // stays open) or quit to switch presets.
@@ -1227,14 +1228,14 @@ bool show_preview(const Options& options, Preview& preview) {
         bool to_panel = false;
         if (event.type == SDL_MOUSEBUTTONDOWN || event.type == SDL_MOUSEBUTTONUP) {
             to_panel = event.button.x < panel_width;
+            mouse_x = event.button.x;
             frames_due = 2;
         } else if (event.type == SDL_MOUSEMOTION) {
             to_panel = event.motion.x < panel_width;
+            mouse_x = event.motion.x;
             frames_due = std::max(frames_due, 1);
         } else if (event.type == SDL_MOUSEWHEEL) {
-            int x = 0, y = 0;
-            SDL_GetMouseState(&x, &y);
-            to_panel = x < panel_width && ImGui::GetIO().WantCaptureMouse;
+            to_panel = mouse_x >= 0 && mouse_x < panel_width;  // where the mouse last was
             frames_due = 2;
         } else if (event.type == SDL_KEYDOWN || event.type == SDL_KEYUP ||
                    event.type == SDL_TEXTINPUT) {
