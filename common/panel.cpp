@@ -586,6 +586,15 @@ void draw_panel(const Preview& preview, PanelState& state, int height, PanelActi
     ImGui::TextUnformatted(preview.step.c_str());
     ImGui::TextWrapped("%s", state.status.c_str());
     if (!state.note.empty()) ImGui::TextColored(ImVec4(1, 0.5f, 0.4f, 1), "%s", state.note.c_str());
+    // The command line that renders this picture, ready to copy.
+    const std::string command = panel_command(preview);
+    ImGui::Separator();
+    ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(0.6f, 0.85f, 1.0f, 1));
+    ImGui::TextWrapped("%s", command.c_str());
+    ImGui::PopStyleColor();
+    if (ImGui::Button("Copy command line")) SDL_SetClipboardText(command.c_str());
+    remember_rect(state, "copy");
+    ImGui::Separator();
 
     if (preview.views.size() > 1) {
         for (size_t n = 0; n < preview.views.size(); ++n) {
@@ -621,12 +630,6 @@ void draw_panel(const Preview& preview, PanelState& state, int height, PanelActi
         if (ImGui::CollapsingHeader("Transfer function", ImGuiTreeNodeFlags_DefaultOpen)) {
             tf_editor(preview, state, actions);
         }
-    }
-    if (ImGui::CollapsingHeader("Command line", ImGuiTreeNodeFlags_DefaultOpen)) {
-        const std::string command = panel_command(preview);
-        ImGui::TextWrapped("%s", command.c_str());
-        if (ImGui::Button("Copy")) SDL_SetClipboardText(command.c_str());
-        remember_rect(state, "copy");
     }
     ImGui::End();
 }

@@ -425,14 +425,16 @@ public:
         char text[160];
         std::snprintf(text, sizeof text, "%s %dx%d: %.1f ms%s\n", view().name.c_str(),
                       view().width, view().height, ms, preview.c_str());
-        std::string line = preview_.summary ? preview_.summary(view(), work, ms) : "";
-        // The counters only: from samples= on, one "key=value" per word.
-        const size_t from = line.find("samples=");
-        if (from != std::string::npos) line = line.substr(from);
-        for (char& c : line) {
-            if (c == ' ') c = '\n';
+        // The summary line's work counters (its settings are the widgets' values).
+        std::istringstream words(preview_.summary ? preview_.summary(view(), work, ms) : "");
+        std::string word, counters;
+        while (words >> word) {
+            for (const char* counter : {"samples=", "skipped=", "leapt=", "gradients=",
+                                        "terminated=", "hits="}) {
+                if (word.rfind(counter, 0) == 0) counters += (counters.empty() ? "" : "  ") + word;
+            }
         }
-        return text + line;
+        return text + counters;
     }
 
     // The first picture after the panel ran the step again: coarse while its slider is

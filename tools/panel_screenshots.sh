@@ -18,8 +18,9 @@ trap 'rm -rf "$work"' EXIT INT TERM
 shoot() {
     step=$1
     shift
+    # Into out/, the default (no --out on the panel's command line); the shot is copied.
     timeout 60 xvfb-run -a -s "-screen 0 1280x1024x24" "$build/$step" --volume phantom \
-        --out "$work" "$@" > "$work/$step.log" 2>&1 || {
+        "$@" > "$work/$step.log" 2>&1 || {
         echo "panel_screenshots: $step failed:" >&2
         tail -n 5 "$work/$step.log" >&2
         exit 1
