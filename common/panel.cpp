@@ -338,6 +338,20 @@ void flag_widget(const Preview& preview, PanelState& state, size_t index,
     const char* label_text = label.c_str();
     switch (flag.kind) {
         case FlagKind::integer: {
+            if (flag.file_units && preview.volume && !preview.volume->map.identity()) {
+                // A float or scaled volume: the value in the file's units, not whole.
+                double value = std::atof(flag.value.c_str());
+                const double low = preview.volume->map.to_file(preview.volume->min_value);
+                const double high = preview.volume->map.to_file(preview.volume->max_value);
+                const bool changed = ImGui::SliderScalar(label_text, ImGuiDataType_Double,
+                                                         &value, &low, &high, "%.4g");
+                const std::string text = real_text(value);
+                if (changed) widget_set(preview, flag.name, text, ImGui::IsItemActive(), actions);
+                if (ImGui::IsItemDeactivatedAfterEdit()) {
+                    widget_set(preview, flag.name, text, false, actions);
+                }
+                break;
+            }
             int value = std::atoi(flag.value.c_str());
             int low = int(flag.min), high = int(flag.max);
             if (flag.file_units && preview.volume) {  // the volume's own values

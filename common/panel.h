@@ -81,8 +81,9 @@ void tf_remove_range(TransferFunction& tf, int range);
 std::vector<std::string> panel_save_tf(const Preview& preview, PanelState& state);
 
 // One --window-script event for the panel: "set:NAME=VALUE" or "tf:N:from=V", "tf:N:to=V",
-// "tf:N:opacity=A", "tf:N:colour=RRGGBB", "tf:add", "tf:remove:N", "tf:path=FILE". Fills
-// actions as the widget would. Throws InputError on a bad event.
+// "tf:N:opacity=A", "tf:N:colour=RRGGBB", "tf:add", "tf:remove:N", "tf:path=FILE" (no commas:
+// they separate the script's events). Fills actions as the widget would. Throws InputError on
+// a bad event.
 void panel_script_event(const Preview& preview, PanelState& state, const std::string& event,
                         PanelActions* actions);
 

@@ -64,7 +64,9 @@ bool window_wanted(const Options& options);
 // options.window_script (tests): comma-separated events injected after the first frame,
 // e.g. "key:2,key:Up,click:40:30,save,quit"; the orbit's mouse: "press:X:Y", "move:X:Y",
 // "release:X:Y" (image pixels), "wheel:N" (notches, up: closer) and "wait:MS"; "shot" writes
-// the window's pixels to OUT/STEP_VIEW_window_N.png and prints where the ray panel is in it.
+// the window's pixels to OUT/STEP_VIEW_window_N.png (and the image as shown, one window pixel
+// per image pixel, to ..._window_N_image.png) and prints where the ray panel is in it; the
+// panel's "set:NAME=VALUE" and "tf:..." (common/panel.h) and "widgets" (where they are).
 // The control panel's widgets (and --window-script's set:NAME=VALUE, tf:...) ask for the step
 // to run again (request_rerun) and return true with the window still open: the rerun's
 // show_preview() goes on in it. "widgets" prints each widget's rectangle (tests aim at them).
