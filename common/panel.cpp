@@ -155,21 +155,22 @@ std::string panel_command(const Preview& preview) {
 
 // --- The transfer-function editor's edits ---------------------------------------------------
 
-void tf_set_from(TransferFunction& tf, int range, int value) {
+void tf_set_from(TransferFunction& tf, int range, int value, bool move_shared) {
     check_range(tf, range);
     TfRange& self = tf.ranges[range];
     TfRange* before = range > 0 ? &tf.ranges[range - 1] : nullptr;
-    const bool joined = before && before->to == self.from;  // a shared boundary moves for both
+    // A shared boundary moves for both ranges; a free end stops at its neighbour.
+    const bool joined = move_shared && before && before->to == self.from;
     const int low = before ? (joined ? before->from + 1 : before->to) : lowest_ct_value;
     self.from = std::clamp(value, low, self.to - 1);
     if (joined) before->to = self.from;
 }
 
-void tf_set_to(TransferFunction& tf, int range, int value) {
+void tf_set_to(TransferFunction& tf, int range, int value, bool move_shared) {
     check_range(tf, range);
     TfRange& self = tf.ranges[range];
     TfRange* after = range + 1 < int(tf.ranges.size()) ? &tf.ranges[range + 1] : nullptr;
-    const bool joined = after && after->from == self.to;
+    const bool joined = move_shared && after && after->from == self.to;
     const int high = after ? (joined ? after->to - 1 : after->from) : ct_value_end;
     self.to = std::clamp(value, self.from + 1, high);
     if (joined) after->from = self.to;
@@ -513,12 +514,24 @@ void tf_editor(const Preview& preview, PanelState& state, PanelActions* actions)
                 state.selected = int(n);
             }
         }
-        if (state.dragging_end >= 0) state.selected = state.dragging_end / 2;
+        if (state.dragging_end >= 0) {
+            // Shared or free is decided when the end is grabbed: a free end dragged onto its
+            // neighbour stops there and does not push it along.
+            const int n = state.dragging_end / 2;
+            const auto& ranges = state.tf.ranges;
+            state.selected = n;
+            state.drag_shared =
+                state.dragging_end % 2 ? n + 1 < int(ranges.size()) && ranges[n + 1].from == ranges[n].to
+                                       : n > 0 && ranges[n - 1].to == ranges[n].from;
+        }
     }
     if (active && state.dragging_end >= 0 && ImGui::GetIO().MouseDelta.x != 0) {
         const int range = state.dragging_end / 2;
-        if (state.dragging_end % 2) tf_set_to(state.tf, range, value_of(mouse_x));
-        else tf_set_from(state.tf, range, value_of(mouse_x));
+        if (state.dragging_end % 2) {
+            tf_set_to(state.tf, range, value_of(mouse_x), state.drag_shared);
+        } else {
+            tf_set_from(state.tf, range, value_of(mouse_x), state.drag_shared);
+        }
         tf_edited(preview, state, true, actions);
     }
     if (ImGui::IsItemDeactivated() && state.dragging_end >= 0) {

@@ -37,6 +37,7 @@ struct PanelState {
     std::string tf_path;       // where edits are saved (--tf then names it)
     int selected = 0;          // the range whose colour and opacity the editor shows
     int dragging_end = -1;     // 2*range + (0: from, 1: to) being dragged on the histogram
+    bool drag_shared = false;  // ... which its neighbour shared when grabbed
     // The histogram of the volume values: counts per bin over [lowest, lowest + bins*width).
     std::string histogram_of;  // the volume's name and size it belongs to
     std::vector<double> counts;
@@ -66,9 +67,11 @@ std::vector<std::string> panel_set_flag(const Preview& preview, const std::strin
 std::string panel_command(const Preview& preview);
 
 // The editor's edits (the widgets and the script's tf:N:FIELD=VALUE use these). Each keeps the
-// ranges half open, sorted, never overlapping; a boundary two ranges share moves for both.
-void tf_set_from(TransferFunction& tf, int range, int value);
-void tf_set_to(TransferFunction& tf, int range, int value);
+// ranges half open, sorted, never overlapping; a boundary two ranges share moves for both
+// (unless move_shared is false: a drag that grabbed a free end), a free end stops at its
+// neighbour.
+void tf_set_from(TransferFunction& tf, int range, int value, bool move_shared = true);
+void tf_set_to(TransferFunction& tf, int range, int value, bool move_shared = true);
 void tf_set_opacity(TransferFunction& tf, int range, double opacity);
 void tf_set_colour(TransferFunction& tf, int range, float r, float g, float b);
 // A new range in the widest gap within [low, high) (half its width, centred), or the

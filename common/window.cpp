@@ -856,6 +856,11 @@ public:
             std::printf("window: widget %s %d,%d,%d,%d\n", name.c_str(), rect[0], rect[1],
                         rect[2], rect[3]);
         }
+        if (!session_.panel.counts.empty()) {  // the editor's histogram: values left to right
+            std::printf("window: histogram values %d to %d\n", session_.panel.lowest,
+                        session_.panel.lowest +
+                            session_.panel.bin_width * int(session_.panel.counts.size()));
+        }
         std::fflush(stdout);
     }
 

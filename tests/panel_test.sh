@@ -57,6 +57,23 @@ if [ "${1:-}" = "--xdotool" ]; then
             xdotool mouseup 1
             wait_for '^window: set --threshold=[-0-9]*$' || finish
             ;;
+        tfdrag)  # the skin range's upper end (50) on the histogram, dragged to the right
+            widget histogram || finish
+            set -- $(sed -n 's/^window: histogram values \([-0-9]*\) to \([-0-9]*\)$/\1 \2/p' "$log")
+            [ $# -eq 2 ] || { echo "xdotool: no histogram values"; finish; }
+            x=$(awk -v l="$1" -v h="$2" -v x="$wx" -v w="$ww" \
+                'BEGIN { printf "%d", x + (50 - l) / (h - l) * w + 0.5 }')
+            y=$((wy + wh / 2))
+            xdotool mousemove "$x" "$y" mousedown 1
+            sleep 0.3
+            for step in 1 2 3 4; do
+                xdotool mousemove $((x + step * ww / 16)) "$y"
+                sleep 0.15
+            done
+            xdotool mouseup 1
+            wait_for '^window: set --tf=[^ ]*$' || finish
+            wait_for '^step=06_transfer_function ' 3 || finish
+            ;;
         type)  # the size field: click, select all, type a new size, Return
             widget --size || finish
             xdotool mousemove $((wx + ww / 2)) $((wy + wh / 2)) click 1
@@ -237,6 +254,24 @@ if command -v xdotool > /dev/null 2>&1; then
     typed=$?
     wait $drag
     dragged=$?
+    step06=$build/06_transfer_function
+    mkdir -p "$work/tfdrag"
+    xvfb sh "$0" --xdotool "$step06" "$work/tfdrag/tfdrag.log" tfdrag --view front \
+        > "$work/tfdrag.out" 2>&1
+    tf_dragged=$?
+    check "real input: the histogram run completes (status $tf_dragged; $(cat "$work/tfdrag.out"))" \
+        [ "$tf_dragged" -eq 0 ]
+    check "real input: dragging a range's end shows coarse previews" \
+        grep -q '^window: set --tf=[^ ]* (preview)$' "$work/tfdrag/tfdrag.log"
+    ranges=$(grep -v '^#' "$work/tfdrag/06_transfer_function.tf" 2>/dev/null | cut -d' ' -f1,2 |
+             tr '\n' ' ')
+    # Dragged about 800 values right: the skin's end stops at bone's start (300), unpushed.
+    check "real input: the skin's end moved right of 50, up to bone's 300 ($ranges)" \
+        sh -c "echo '$ranges' | awk '{ exit !(\$1 == -300 && \$2 > 50 && \$2 <= 300 &&
+                                             \$3 == 300 && \$4 == 32768) }'"
+    check "real input: the picture after the drag uses the saved table" \
+        grep -q "^step=06_transfer_function view=front .* tf=$work/tfdrag/06_transfer_function.tf" \
+        "$work/tfdrag/tfdrag.log"
     log=$work/drag/drag.log
     check "real input: the slider run completes (status $dragged; $(cat "$work/drag.out"))" \
         [ "$dragged" -eq 0 ]

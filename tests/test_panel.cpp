@@ -41,6 +41,11 @@ TEST_CASE("panel: a range's end stays between its neighbours, a shared end moves
     tf_set_from(tf, 1, 500);  // never empty: from < to
     CHECK(ends(tf) == "-32768 398|398 399|399 32768|");
     CHECK_THROWS_AS(tf_set_to(tf, 3, 0), InputError);
+    // A drag that grabbed a free end: it stops at its neighbour, and pushes nothing.
+    TransferFunction apart = table("-300 50 constant 1 0.79 0.6 0.12 skin\n"
+                                   "300 32768 constant 1 1 1 0.8 bone\n");
+    for (int value : {200, 300, 600, 900}) tf_set_to(apart, 0, value, false);
+    CHECK(ends(apart) == "-300 300|300 32768|");
 }
 
 TEST_CASE("panel: add goes into the widest gap, or splits the selected range") {
