@@ -573,6 +573,7 @@ struct KeptVolume {
     Volume volume;
 };
 KeptVolume kept_volume;
+constexpr size_t max_kept_bytes = size_t(128) << 20;  // bytes of voxels a windowed run keeps
 
 std::vector<std::string> volume_key(const Options& options) {
     char raw[200];
@@ -597,7 +598,11 @@ Volume load_volume(const Options& options) {
         return volume;
     }
     Volume volume = load_volume_anew(options);
-    if (!options.no_window && display_named()) {
+    // A second copy costs memory: kept for volumes up to max_kept_bytes (CThead: 14 MiB);
+    // a larger one is read again for each of the panel's reruns.
+    const size_t bytes = volume.data.size() * sizeof(volume.data[0]);
+    kept_volume = KeptVolume{};
+    if (!options.no_window && display_named() && bytes <= max_kept_bytes) {
         kept_volume.kept = true;
         kept_volume.key = volume_key(options);
         kept_volume.volume = volume;
