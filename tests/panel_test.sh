@@ -18,11 +18,11 @@ if [ "${1:-}" = "--xdotool" ]; then
     "$binary" --volume phantom --out "$(dirname "$log")" --window-script widgets "$@" \
         > "$log" 2>&1 &
     pid=$!
-    wait_for() {  # wait_for PATTERN [COUNT]: until COUNT lines of the log match (about 20 s)
+    wait_for() {  # wait_for PATTERN [COUNT]: until COUNT lines of the log match (about 40 s: a busy machine)
         tries=0
         until [ "$(grep -c "$1" "$log")" -ge "${2:-1}" ]; do
             tries=$((tries + 1))
-            [ "$tries" -gt 100 ] && { echo "xdotool: timed out waiting for '$1'"; return 1; }
+            [ "$tries" -gt 200 ] && { echo "xdotool: timed out waiting for '$1'"; return 1; }
             sleep 0.2
         done
     }
@@ -243,19 +243,20 @@ done
 
 # --- Real X input (optional: needs xdotool) ----------------------------------------------------
 if command -v xdotool > /dev/null 2>&1; then
+    mkdir -p "$work/drag" "$work/type" "$work/tfdrag"
+    # Two windows on two virtual displays at once, then a third (more at once time out on a
+    # busy machine).
     step=$build/02_threshold
     xvfb sh "$0" --xdotool "$step" "$work/drag/drag.log" drag --view top \
         > "$work/drag.out" 2>&1 &
     drag=$!
     step10=$build/10_free_camera
-    mkdir -p "$work/drag" "$work/type"
     xvfb sh "$0" --xdotool "$step10" "$work/type/type.log" type --size 128x128 \
         > "$work/type.out" 2>&1
     typed=$?
     wait $drag
     dragged=$?
     step06=$build/06_transfer_function
-    mkdir -p "$work/tfdrag"
     xvfb sh "$0" --xdotool "$step06" "$work/tfdrag/tfdrag.log" tfdrag --view front \
         > "$work/tfdrag.out" 2>&1
     tf_dragged=$?
