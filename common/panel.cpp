@@ -197,7 +197,9 @@ int tf_add_range(TransferFunction& tf, int low, int high, int selected) {
     int cursor = low;
     for (int n = 0; n <= int(tf.ranges.size()); ++n) {
         const int gap_end = n < int(tf.ranges.size()) ? std::min(tf.ranges[n].from, high) : high;
-        if (gap_end - cursor > best_to - best_from) best_from = cursor, best_to = gap_end, best_at = n;
+        if (gap_end - cursor > best_to - best_from) {
+            best_from = cursor, best_to = gap_end, best_at = n;
+        }
         if (n < int(tf.ranges.size())) cursor = std::max(cursor, tf.ranges[n].to);
     }
     TfRange added;
@@ -285,7 +287,8 @@ void panel_script_event(const Preview& preview, PanelState& state, const std::st
         const std::string field = body.substr(colon + 1, equals - colon - 1);
         const std::string value = body.substr(equals + 1);
         if (field == "from") {
-            tf_set_from(state.tf, range, parse_int("tf:from", value, lowest_ct_value, ct_value_end));
+            tf_set_from(state.tf, range,
+                        parse_int("tf:from", value, lowest_ct_value, ct_value_end));
         } else if (field == "to") {
             tf_set_to(state.tf, range, parse_int("tf:to", value, lowest_ct_value, ct_value_end));
         } else if (field == "opacity") {
@@ -520,9 +523,10 @@ void tf_editor(const Preview& preview, PanelState& state, PanelActions* actions)
             const int n = state.dragging_end / 2;
             const auto& ranges = state.tf.ranges;
             state.selected = n;
-            state.drag_shared =
-                state.dragging_end % 2 ? n + 1 < int(ranges.size()) && ranges[n + 1].from == ranges[n].to
-                                       : n > 0 && ranges[n - 1].to == ranges[n].from;
+            const bool upper = state.dragging_end % 2;
+            state.drag_shared = upper ? n + 1 < int(ranges.size()) &&
+                                            ranges[n + 1].from == ranges[n].to
+                                      : n > 0 && ranges[n - 1].to == ranges[n].from;
         }
     }
     if (active && state.dragging_end >= 0 && ImGui::GetIO().MouseDelta.x != 0) {

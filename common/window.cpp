@@ -1100,6 +1100,8 @@ bool open_window(Preview& preview) {
     if (driver == "x11") handle_lost_display(preview.step, display);
     SDL_RendererInfo info;
     if (SDL_GetRendererInfo(session->renderer, &info) == 0) {
+        std::printf("window: renderer %s\n", info.name ? info.name : "?");  // opengl, software
+        std::fflush(stdout);
         if (info.max_texture_width > 0) session->max_texture_width = info.max_texture_width;
         if (info.max_texture_height > 0) session->max_texture_height = info.max_texture_height;
     }

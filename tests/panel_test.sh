@@ -18,7 +18,8 @@ if [ "${1:-}" = "--xdotool" ]; then
     "$binary" --volume phantom --out "$(dirname "$log")" --window-script widgets "$@" \
         > "$log" 2>&1 &
     pid=$!
-    wait_for() {  # wait_for PATTERN [COUNT]: until COUNT lines of the log match (about 40 s: a busy machine)
+    # wait_for PATTERN [COUNT]: until COUNT lines of the log match (about 40 s: a busy machine)
+    wait_for() {
         tries=0
         until [ "$(grep -c "$1" "$log")" -ge "${2:-1}" ]; do
             tries=$((tries + 1))
