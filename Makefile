@@ -18,6 +18,10 @@ SDL_CFLAGS := $(shell pkg-config --cflags sdl2 2>/dev/null)
 SDL_LIBS   := $(shell pkg-config --libs sdl2 2>/dev/null)
 CPPFLAGS += $(SDL_CFLAGS)
 LDLIBS   += -pthread
+# Dear ImGui (libimgui-dev: a static library) for the window's control panel: only the window
+# code includes it, and only the window module links it (no OpenGL: the panel draws with
+# SDL_Renderer, common/panel_draw.cpp).
+IMGUI_LIBS := -limgui -l:libstb.a
 # zlib: the checker verifies a PNG's compressed data (CRCs, Adler-32, its inflated size).
 # --as-needed: a program maps only the libraries its own code calls (a step needs no zlib).
 LDLIBS   += -lz -ldl
@@ -71,6 +75,9 @@ ifneq ($(SAN)$(FUZZ),)
 $(BUILD)/common/image_read.o: CXXFLAGS += -fno-sanitize=nonnull-attribute
 endif
 
+# The window code alone sees ImGui's headers (see LDLIBS above).
+$(addprefix $(BUILD)/common/,window.o panel.o panel_draw.o): CPPFLAGS += -isystem /usr/include/imgui
+
 STEP_SOURCES   := $(sort $(wildcard steps/[0-9][0-9]_*.cpp))
 STEP_NAMES     := $(basename $(notdir $(STEP_SOURCES)))
 STEP_BINARIES  := $(addprefix $(BUILD)/,$(STEP_NAMES))
@@ -79,7 +86,7 @@ STEP_BINARIES  := $(addprefix $(BUILD)/,$(STEP_NAMES))
 FORMAT_SOURCES := $(wildcard common/format_*.cpp)
 FORMAT_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(FORMAT_SOURCES))
 # Likewise the window (SDL2): the window module; the steps hold window_module.cpp's side.
-WINDOW_SOURCES := common/window.cpp common/window_entry.cpp
+WINDOW_SOURCES := common/window.cpp common/panel.cpp common/panel_draw.cpp common/window_entry.cpp
 WINDOW_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(WINDOW_SOURCES))
 COMMON_SOURCES := $(filter-out $(FORMAT_SOURCES) $(WINDOW_SOURCES),$(wildcard common/*.cpp))
 COMMON_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(COMMON_SOURCES))
@@ -99,6 +106,7 @@ LIBTOOLS       := $(BUILD)/libctlab_tools.a
 .PHONY: check check-steps san  # grading this tree's programs, and one step with the sanitizers
 .PHONY: fuzz fuzz-build
 .PHONY: bench study  # measuring: speed, and error against run time
+.PHONY: screenshots  # the README's pictures of the window's control panel
 .DEFAULT_GOAL := all
 
 # Build every step and tool, and the modules they open (common/module.h).
@@ -127,6 +135,7 @@ help:
 	@echo "                run it (on the phantom): a crash then names its line"
 	@echo "make check-student   make check inside student/ (generated first if missing)"
 	@echo "make handouts   refresh the code listings in handouts/*.md from the steps' markers"
+	@echo "make screenshots   the README's pictures of the window's control panel (xvfb-run)"
 	@echo "make bench      time every step and view, 1 and 2 threads, cold and warm (the step"
 	@echo "                binaries with --repeat): out/bench.md, and the handouts' speed tables"
 	@echo "                (run it on an idle machine)"
@@ -153,7 +162,7 @@ demo: deps
 # last line adds them all up: "test: N passed, M failed" (tests/test_summary.sh).
 # The slowest suites start first, so that the last one to finish is a short one.
 # SKIP_SUITES=NAMES leaves suites out, and the summary names them (CI: the sanitizer run).
-SLOW_SUITES := student test_extremes bad_input grade test_steps cli check window
+SLOW_SUITES := student test_extremes bad_input grade test_steps cli check window panel
 ALL_SUITES  := $(SLOW_SUITES) $(filter-out $(SLOW_SUITES),\
                $(patsubst tests/%_test.sh,%,$(wildcard tests/*_test.sh)) \
                $(basename $(notdir $(wildcard tests/test_*.cpp))))
@@ -275,6 +284,11 @@ check-student:
 carry: $(BUILD)/carry
 	$(BUILD)/carry $(if $(STEP),--step $(STEP))
 
+# The README's pictures of the window's control panel: steps 06 and 10 on a virtual X display
+# (xvfb-run), into handouts/panel_NN_name.png (tools/panel_screenshots.sh).
+screenshots: $(BUILD)/06_transfer_function $(BUILD)/10_free_camera
+	sh tools/panel_screenshots.sh $(BUILD) handouts
+
 # Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.
 handouts: $(BUILD)/handout_listings
 	$(BUILD)/handout_listings
@@ -309,6 +323,7 @@ fuzz-build: $(addprefix $(BUILD)/fuzz_,$(FUZZ_HARNESSES))
 # The compiler and its flags, kept in $(BUILD)/flags.txt: when they change (SAN=1 into the
 # same folder, a Makefile that links otherwise), everything is built again rather than mixed.
 BUILD_FLAGS := $(CXX) $(CPPFLAGS) $(CXXFLAGS) | $(LDFLAGS) $(LDLIBS) | $(FORMAT_LIBS) $(SDL_LIBS) \
+               $(IMGUI_LIBS) \
                | $(MODULE_LDFLAGS) | $(PROGRAM_LIB)
 FLAGS_STAMP := $(BUILD)/flags.txt
 ifneq ($(BUILD_FLAGS),$(shell cat $(FLAGS_STAMP) 2>/dev/null))
@@ -335,7 +350,7 @@ $(BUILD)/ctlab_formats.so: $(FORMAT_OBJECTS) $(FLAGS_STAMP)
 	$(MODULE_LINK) $(FORMAT_LIBS) -o $@
 
 $(BUILD)/ctlab_window.so: $(WINDOW_OBJECTS) $(FLAGS_STAMP)
-	$(MODULE_LINK) $(SDL_LIBS) -o $@
+	$(MODULE_LINK) $(IMGUI_LIBS) $(SDL_LIBS) -o $@
 
 # Steps and tools open the modules beside them: built with them.
 $(BUILD)/%: $(BUILD)/steps/%.o $(LIBCTLAB) $(FLAGS_STAMP) | $(MODULES)
@@ -349,9 +364,11 @@ $(BUILD)/fuzz_%: $(BUILD)/tests/fuzz/fuzz_%.o $(BUILD)/tests/fuzz/targets.o $(FO
 	$(CXX) $(LDFLAGS) $(filter %.o %.a,$^) $(FORMAT_LIBS) $(LDLIBS) -o $@
 
 # The tests run the step binaries (tools/run_step.h): built with them.
-$(BUILD)/ctlab_tests: $(TEST_OBJECTS) $(FORMAT_OBJECTS) $(LIBTOOLS) $(LIBCTLAB) \
-                      $(FLAGS_STAMP) | $(STEP_BINARIES) $(MODULES)
-	$(CXX) $(LDFLAGS) $(TEST_OBJECTS) $(FORMAT_OBJECTS) $(LIBTOOLS) $(PROGRAM_LIB) \
-	    $(FORMAT_LIBS) $(LDLIBS) -o $@
+# They call the format readers and the panel's editor by name: linked in (not the window).
+PANEL_OBJECTS := $(BUILD)/common/panel.o $(BUILD)/common/panel_draw.o
+$(BUILD)/ctlab_tests: $(TEST_OBJECTS) $(FORMAT_OBJECTS) $(PANEL_OBJECTS) $(LIBTOOLS) \
+                      $(LIBCTLAB) $(FLAGS_STAMP) | $(STEP_BINARIES) $(MODULES)
+	$(CXX) $(LDFLAGS) $(TEST_OBJECTS) $(FORMAT_OBJECTS) $(PANEL_OBJECTS) $(LIBTOOLS) \
+	    $(PROGRAM_LIB) $(FORMAT_LIBS) $(IMGUI_LIBS) $(SDL_LIBS) $(LDLIBS) -o $@
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

@@ -22,6 +22,7 @@ namespace ctlab {
 static const char* const default_cthead_path = "data/CThead";
 static const char* const presets_folder = "data/presets";
 static bool is_file_units_flag(const std::string& flag);
+static Volume load_volume_anew(const Options& options);
 constexpr int max_threads = 256;
 constexpr int max_repeat = 1000;  // renders of one view for --repeat: enough for a median
 
@@ -209,6 +210,57 @@ void switch_preset(const std::string& name) {
 
 const std::string& switched_preset() { return preset_switch.name; }
 
+namespace {
+// What the window's control panel asked for (see request_rerun).
+struct WordsSwitch {
+    bool requested = false;
+    std::vector<std::string> requested_words;
+    bool active = false;  // Args::parse uses `words` in place of the command line's
+    std::vector<std::string> words;
+};
+WordsSwitch words_switch;
+}  // namespace
+
+void request_rerun(const std::vector<std::string>& words) {
+    words_switch.requested = true;
+    words_switch.requested_words = words;
+}
+
+bool take_rerun_request(std::vector<std::string>* words) {
+    if (!words_switch.requested) return false;
+    words_switch.requested = false;
+    *words = words_switch.requested_words;
+    return true;
+}
+
+void switch_words(const std::vector<std::string>& words) {
+    words_switch.active = true;
+    words_switch.words = words;
+}
+
+void end_rerun() { words_switch.active = false; }
+
+bool rerunning() { return words_switch.active; }
+
+// A flag's value as a command line gives it: "0.12", "400", "nearest".
+static std::string flag_value_text(FlagKind kind, const void* target) {
+    switch (kind) {
+        case FlagKind::integer: return std::to_string(*static_cast<const int*>(target));
+        case FlagKind::real: {
+            const double value = *static_cast<const double*>(target);
+            char text[40];
+            // The shortest text that reads back as the same double.
+            for (int digits = 6; digits <= 17; ++digits) {
+                std::snprintf(text, sizeof text, "%.*g", digits, value);
+                if (std::strtod(text, nullptr) == value) break;
+            }
+            return text;
+        }
+        case FlagKind::on_off: return *static_cast<const bool*>(target) ? "1" : "";
+        default: return *static_cast<const std::string*>(target);
+    }
+}
+
 // The preset's lines "flag value" (or "flag" alone for a switch) as words, keeping only the
 // flags this step has: a preset names settings for every step (the threshold of step 02, the
 // transfer function of step 06), and each step takes its own.
@@ -258,6 +310,7 @@ Options Args::parse(int argc, char** argv) {
     // --preset NAME: its settings go first, so that the command line's own flags win.
     std::vector<std::string> words;
     std::vector<std::string> given(argv + std::min(argc, 1), argv + argc);
+    if (words_switch.active) given = words_switch.words;  // the window's panel
     if (preset_switch.active) words = preset_words(preset_switch.name);  // the window's P
     for (size_t n = 0; n < given.size() && !preset_switch.active; ++n) {
         std::string value;
@@ -273,17 +326,38 @@ Options Args::parse(int argc, char** argv) {
         for (const std::string& word : preset_words(value)) words.push_back(word);
     }
     Options options;
-    if (!words.empty()) {
+    std::vector<std::string> typed = given;  // the words as typed (or as the panel wrote them)
+    if (!words.empty() || words_switch.active) {
         std::vector<char*> all;
         all.push_back(argc > 0 ? argv[0] : nullptr);
         for (std::string& word : words) all.push_back(word.data());
-        for (int n = 1; n < argc; ++n) all.push_back(argv[n]);
+        for (std::string& word : given) all.push_back(word.data());
         all.push_back(nullptr);
         options = parse_words(int(all.size()) - 1, all.data());
     } else {
         options = parse_words(argc, argv);
     }
-    if (preset_switch.active) options.preset = preset_switch.name;
+    if (preset_switch.active) {
+        // The window's P: the preset in use replaces the command line's --preset.
+        options.preset = preset_switch.name;
+        std::vector<std::string> kept = {"--preset", preset_switch.name};
+        for (size_t n = 0; n < typed.size(); ++n) {
+            if (typed[n] == "--preset") ++n;
+            else if (typed[n].rfind("--preset=", 0) != 0) kept.push_back(typed[n]);
+        }
+        typed = kept;
+    }
+    options.words = typed;
+    options.program = argc > 0 && argv[0] ? argv[0] : "";
+    options.rerun = words_switch.active;
+    for (const Flag& own : flags_) {
+        std::string value = flag_value_text(own.kind, own.target);
+        for (const Options::FileUnitsFlag& units : options.file_units) {
+            if (units.name == own.name) value = units.text;  // in the file's units, as typed
+        }
+        options.flags.push_back({own.name, own.kind, own.min, own.max, own.choices, own.help,
+                                 value, is_file_units_flag(own.name)});
+    }
     return options;
 }
 
@@ -490,7 +564,53 @@ static void convert_file_units(const Options& options, const Volume& volume) {
     }
 }
 
+// The volume a windowed run loaded, kept for the panel's reruns (which change no volume flag:
+// the panel shows none), so that moving a widget does not read the file again.
+namespace {
+struct KeptVolume {
+    bool kept = false;
+    std::vector<std::string> key;  // the volume's flags as loaded
+    Volume volume;
+};
+KeptVolume kept_volume;
+constexpr size_t max_kept_bytes = size_t(128) << 20;  // bytes of voxels a windowed run keeps
+
+std::vector<std::string> volume_key(const Options& options) {
+    char raw[200];
+    std::snprintf(raw, sizeof raw, "%d %d %d %d %d %.17g %.17g %.17g %d %d %d %d",
+                  options.raw.nx, options.raw.ny, options.raw.nz, int(options.raw.type),
+                  int(options.raw.endian), options.raw.sx, options.raw.sy, options.raw.sz,
+                  options.has_dims, options.has_endian, options.has_spacing, options.has_type);
+    return {options.volume, raw, std::to_string(options.threads)};
+}
+
+bool display_named() {
+    const char* x11 = std::getenv("DISPLAY");
+    const char* wayland = std::getenv("WAYLAND_DISPLAY");
+    return (x11 && *x11) || (wayland && *wayland);
+}
+}  // namespace
+
 Volume load_volume(const Options& options) {
+    if (options.rerun && kept_volume.kept && kept_volume.key == volume_key(options)) {
+        Volume volume = kept_volume.volume;
+        convert_file_units(options, volume);
+        return volume;
+    }
+    Volume volume = load_volume_anew(options);
+    // A second copy costs memory: kept for volumes up to max_kept_bytes (CThead: 14 MiB);
+    // a larger one is read again for each of the panel's reruns.
+    const size_t bytes = volume.data.size() * sizeof(volume.data[0]);
+    kept_volume = KeptVolume{};
+    if (!options.no_window && display_named() && bytes <= max_kept_bytes) {
+        kept_volume.kept = true;
+        kept_volume.key = volume_key(options);
+        kept_volume.volume = volume;
+    }
+    return volume;
+}
+
+static Volume load_volume_anew(const Options& options) {
     std::string path = options.volume;
     if (path.empty()) path = default_volume_path();
 

@@ -13,6 +13,20 @@
 
 namespace ctlab {
 
+// A step's own flag as the window's control panel shows it (common/panel.cpp): one entry of
+// the table Args::add_* builds, with its value after parsing.
+enum class FlagKind { integer, real, choice, text, on_off };
+struct FlagSpec {
+    std::string name;                 // "--skin-opacity"
+    FlagKind kind = FlagKind::text;
+    double min = 0, max = 0;          // integer and real: the accepted range
+    std::vector<std::string> choices; // choice: the accepted words
+    std::string help;
+    std::string value;                // as parsed, written as a command line would give it;
+                                      // on_off: "1" when given, "" when not
+    bool file_units = false;          // a value of the volume in its file's units (--threshold)
+};
+
 struct Options {
     std::string step;                 // e.g. "03_depth_shading": names the PNGs and the summary
     std::string volume;               // "" = data/CThead when present, else the phantom
@@ -40,6 +54,11 @@ struct Options {
     int repeat = 1;                   // --repeat N: render each view N times (timing)
     std::string window_script;        // tests only: events to inject into the preview window
     std::string preset;               // --preset NAME ("" = none)
+    std::string program;              // argv[0], as the window's command line shows it
+    std::vector<FlagSpec> flags;      // the step's own flags and their values (the panel)
+    std::vector<std::string> words;   // the command line after the program's name, as typed
+                                      // (or as the window's panel rewrote it)
+    bool rerun = false;               // run again by the window's panel: the window is open
 };
 
 class Args {
@@ -63,7 +82,7 @@ public:
 private:
     Options parse_words(int argc, char** argv);
     std::vector<std::string> preset_words(const std::string& name) const;
-    enum class Kind { integer, real, choice, text, on_off };
+    using Kind = FlagKind;
     struct Flag {
         std::string name;
         Kind kind;
@@ -90,6 +109,16 @@ void request_preset(const std::string& name);
 bool take_preset_request(std::string* name);
 void switch_preset(const std::string& name);
 const std::string& switched_preset();
+
+// The window's control panel: the step runs again (guarded_main) with `words` in place of the
+// command line's (a widget moved: the panel rewrote one flag). request_rerun() records the
+// wish, take_rerun_request() hands it over, switch_words() makes Args::parse use the words
+// (and mark the Options as a rerun) until end_rerun().
+void request_rerun(const std::vector<std::string>& words);
+bool take_rerun_request(std::vector<std::string>* words);
+void switch_words(const std::vector<std::string>& words);
+void end_rerun();
+bool rerunning();
 
 // Strict number parsing: the whole text must be a number in [min, max]. Throw InputError
 // "FLAG: expected WHAT, got 'TEXT'".

@@ -52,27 +52,46 @@ Image render_view(const Options& options, const View& view, const Renderer& rend
 // warm_up()'s time in this process (common/warm_up.h), on every summary line; < 0: none yet.
 static double warmup_ms = -1;
 
-// warm_ms < 0: no repeated renders (--repeat 1), no warm_ms= on the line.
+// The summary line without its newline. warm_ms < 0: no repeated renders (--repeat 1), no
+// warm_ms= on the line.
+static std::string summary_line(const Options& options, const View& view,
+                                const Renderer& renderer, const Work& work, double ms,
+                                double warm_ms = -1) {
+    char text[512];
+    std::snprintf(text, sizeof text,
+                  "step=%s view=%s size=%dx%d time_ms=%.2f threads=%d samples=%llu "
+                  "skipped=%llu leapt=%llu gradients=%llu terminated=%llu hits=%llu",
+                  options.step.c_str(), view.name.c_str(), view.width, view.height, ms,
+                  options.threads, static_cast<unsigned long long>(work.samples),
+                  static_cast<unsigned long long>(work.skipped),
+                  static_cast<unsigned long long>(work.leapt),
+                  static_cast<unsigned long long>(work.gradients),
+                  static_cast<unsigned long long>(work.terminated),
+                  static_cast<unsigned long long>(work.hits));
+    std::string line = text;
+    if (!renderer.knob.name.empty()) line += " " + renderer.knob.name + "=" + renderer.knob.value();
+    if (renderer.settings) line += " " + printable(renderer.settings());
+    if (warm_ms >= 0) {
+        std::snprintf(text, sizeof text, " warm_ms=%.2f repeat=%d", warm_ms, options.repeat);
+        line += text;
+    }
+    if (warmup_ms >= 0) {
+        std::snprintf(text, sizeof text, " warmup_ms=%.2f", warmup_ms);
+        line += text;
+    }
+    return line;
+}
+
 static void print_summary(const Options& options, const View& view, const Renderer& renderer,
                           const Work& work, double ms, double warm_ms = -1) {
-    std::printf("step=%s view=%s size=%dx%d time_ms=%.2f threads=%d samples=%llu skipped=%llu "
-                "leapt=%llu gradients=%llu terminated=%llu hits=%llu",
-                options.step.c_str(), view.name.c_str(), view.width, view.height, ms,
-                options.threads, static_cast<unsigned long long>(work.samples),
-                static_cast<unsigned long long>(work.skipped),
-                static_cast<unsigned long long>(work.leapt),
-                static_cast<unsigned long long>(work.gradients),
-                static_cast<unsigned long long>(work.terminated),
-                static_cast<unsigned long long>(work.hits));
-    if (!renderer.knob.name.empty()) {
-        std::printf(" %s=%s", renderer.knob.name.c_str(), renderer.knob.value().c_str());
-    }
-    if (renderer.settings) std::printf(" %s", printable(renderer.settings()).c_str());
-    if (warm_ms >= 0) std::printf(" warm_ms=%.2f repeat=%d", warm_ms, options.repeat);
-    if (warmup_ms >= 0) std::printf(" warmup_ms=%.2f", warmup_ms);
-    std::printf("\n");
+    std::printf("%s\n", summary_line(options, view, renderer, work, ms, warm_ms).c_str());
     flush_stdout();
 }
+
+// The command line of the last run that reached the window: a rerun the panel asked for that
+// fails (a value the step refuses) goes back to it.
+static std::vector<std::string> good_words;
+static bool have_good_words = false;
 
 std::vector<ValueBand> value_bands(const Renderer& renderer) {
     if (renderer.transfer_function) return transfer_function_bands(*renderer.transfer_function);
@@ -160,9 +179,16 @@ static bool inside(const View& view, int x, int y) {
     return x >= 0 && y >= 0 && x < view.width && y < view.height;
 }
 
+static int show_window(const Options& options, const Volume& volume, const Renderer& renderer,
+                       const std::vector<View>& views);
+
 int run_views(const Options& options, const Volume& volume, const Renderer& renderer) {
     const std::vector<View> views =
         renderer.views.empty() ? views_named(volume, options.view) : renderer.views;
+
+    // The window's panel ran the step again: straight back to the open window (the PNGs and
+    // the summary lines were written by the run as typed).
+    if (options.rerun && window_open()) return show_window(options, volume, renderer, views);
 
     // Refuse bad requests before any work, so nothing is half done.
     if (options.has_debug_pixel) {
@@ -253,6 +279,12 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
     outputs.reset();  // the signals' own handlers again, for the window
 
     if (!window_wanted(options)) return 0;
+    return show_window(options, volume, renderer, views);
+}
+
+// The preview window with its control panel (common/window.h), after the PNGs.
+static int show_window(const Options& options, const Volume& volume, const Renderer& renderer,
+                       const std::vector<View>& views) {
     Preview preview;
     preview.step = options.step;
     preview.views = renderer.views.empty() ? views_named(volume, "all") : renderer.views;
@@ -277,6 +309,17 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         return render_view(options, view, renderer, work);
     };
     preview.save_path = [&](const View& view) { return output_path(options, view); };
+    preview.summary = [&](const View& view, const Work& work, double ms) {
+        return summary_line(options, view, renderer, work, ms);
+    };
+    preview.program = options.program;
+    preview.flags = options.flags;
+    preview.words = options.words;
+    preview.volume = &volume;
+    preview.transfer_function = renderer.transfer_function;
+    preview.out = options.out;
+    good_words = options.words;
+    have_good_words = true;
     show_preview(options, preview);
     return 0;
 }
@@ -288,10 +331,17 @@ int guarded_main(const char* step, const std::function<int()>& body) {
         int status = 0;
         try {
             status = body();
+            std::vector<std::string> words;
+            if (take_rerun_request(&words)) {
+                // The window's panel: the step again with one flag changed, the window open.
+                switch_words(words);
+                continue;
+            }
             std::string next;
             if (!take_preset_request(&next)) return status;
             // The window's P key: the whole step again (volume, transfer function, views).
             presets_failed = 0;
+            end_rerun();
             switch_preset(next);
             std::printf("window: preset=%s\n", next.c_str());
             std::fflush(stdout);
@@ -306,6 +356,15 @@ int guarded_main(const char* step, const std::function<int()>& body) {
             kind = "internal error";
             message = error.what();
             status = 1;
+        }
+        // A value the panel set that the step refuses (a size of 0, a clip plane it cannot
+        // read): said in one line and on the panel, then the command line that worked.
+        if (status == exit_bad_input && rerunning() && window_open() && have_good_words) {
+            std::printf("window: not applied: %s\n", printable(message).c_str());
+            std::fflush(stdout);
+            window_note("not applied: " + message);
+            switch_words(good_words);
+            continue;
         }
         // A preset the window switched to that does not fit this volume or step (a threshold
         // beyond its values, a missing data/CThead): said in one line, then the next preset;

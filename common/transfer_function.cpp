@@ -292,6 +292,37 @@ TransferFunction load_transfer_function(const std::string& path, const ValueMap&
     return tf;
 }
 
+// A colour or opacity with the digits that read back to the same float.
+static std::string channel_text(float value) {
+    char text[40];
+    for (int digits = 3; digits <= 9; ++digits) {
+        std::snprintf(text, sizeof text, "%.*g", digits, double(value));
+        if (std::strtof(text, nullptr) == value) break;
+    }
+    return text;
+}
+
+std::string transfer_function_text(const TransferFunction& tf, const ValueMap& map,
+                                   const std::string& title) {
+    std::string text = "# " + title + "\n# The format: see data/tf/classic.tf.\n"
+                       "# from  to  kind  r g b opacity  [r g b opacity]  label\n";
+    for (const TfRange& range : tf.ranges) {
+        if (range.to <= range.from) continue;
+        // The volume's values back to the file's: the identity keeps whole numbers.
+        const double from = map.identity() ? range.from : map.to_file(range.from);
+        const double to = map.identity() ? range.to : map.to_file(range.to);
+        text += value_text(from) + " " + value_text(to) + (range.ramp ? " ramp" : " constant");
+        for (const Rgba* colour : {&range.start, &range.end}) {
+            text += " " + channel_text(colour->r) + " " + channel_text(colour->g) + " " +
+                    channel_text(colour->b) + " " + channel_text(colour->a);
+            if (!range.ramp) break;
+        }
+        if (!range.label.empty()) text += " " + range.label;
+        text += "\n";
+    }
+    return text;
+}
+
 TransferFunction classic_transfer_function() {
     return parse_transfer_function(classic_text, classic_source);
 }

@@ -60,6 +60,13 @@ TransferFunction parse_transfer_function(const std::string& text, const std::str
 TransferFunction load_transfer_function(const std::string& path,
                                         const ValueMap& map = ValueMap{});
 
+// The text of a .tf file holding these ranges (the window's editor saves it): FROM and TO in
+// the volume file's units through `map` (whole numbers for the identity), every number with
+// the digits that read back to the same value, a header naming `title`. Empty ranges are left
+// out. parse_transfer_function() of it gives the same ranges.
+std::string transfer_function_text(const TransferFunction& tf, const ValueMap& map,
+                                   const std::string& title);
+
 // The classic table (skin and bone) without any file; a test checks it equals classic.tf.
 TransferFunction classic_transfer_function();
 

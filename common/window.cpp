@@ -5,6 +5,8 @@
 // back to exactly one image pixel. Everything runs on the main thread, driven by SDL_WaitEvent.
 #include "window.h"
 #include <SDL.h>
+#include <imgui.h>
+#include <backends/imgui_impl_sdl.h>
 #include <arpa/inet.h>
 #include <dlfcn.h>
 #include <fcntl.h>
@@ -19,18 +21,27 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <sstream>
+#include <memory>
 #include <string>
 #include <vector>
 #include "error.h"
 #include "image.h"
+#include "panel.h"
+#include "panel_draw.h"
 #include "render.h"
 
 namespace ctlab {
 
 namespace {
 
-constexpr int max_window_width = 1024;  // window pixels: the zoom is chosen to fit in these
-constexpr int max_window_height = 800;
+constexpr int max_window_width = 1024;  // window pixels: the image's zoom is chosen to fit in
+constexpr int max_window_height = 800;  // these (and in the display, beside the panels)
+constexpr int decoration_allowance = 32;  // window pixels of the display kept for a title bar
+constexpr int min_panel_height = 640;     // the control panel's height when the display allows
+constexpr int min_image_room = 240;       // window pixels the image keeps beside a ray panel
+constexpr double min_ray_scale = 0.25;    // the ray picture is never drawn smaller than this
+constexpr Uint32 frame_ms = 16;           // the panel's frames while it is in use
 constexpr int min_window_width = 240;   // window pixels: tiny images sit centred in this
 constexpr int min_window_height = 120;
 constexpr int max_zoom = 64;            // a 1 x 1 volume should not ask for a 800 x 800 block
@@ -55,14 +66,14 @@ struct Layout {
 
 // The largest whole zoom at which the view fits max_window_*, with rows and columns stretched
 // by their physical size (pixel_width, pixel_height) relative to the smaller of the two.
-Layout fit_view(const View& view) {
+Layout fit_view(const View& view, int max_width, int max_height) {
     const bool sizes_valid = view.pixel_width > 0 && view.pixel_height > 0;  // false for NaN too
     const double smaller = sizes_valid ? std::min(view.pixel_width, view.pixel_height) : 1.0;
     const double aspect_x = sizes_valid ? view.pixel_width / smaller : 1.0;  // >= 1
     const double aspect_y = sizes_valid ? view.pixel_height / smaller : 1.0;
     const int width = std::max(1, view.width), height = std::max(1, view.height);
-    const int limit_x = std::max(1, max_window_width / width);  // largest scale that fits
-    const int limit_y = std::max(1, max_window_height / height);
+    const int limit_x = std::max(1, max_width / width);  // largest scale that fits
+    const int limit_y = std::max(1, max_height / height);
 
     auto layout_at = [&](int zoom) {
         Layout layout;
@@ -83,11 +94,6 @@ Layout fit_view(const View& view) {
     return layout;
 }
 
-// The window size that shows `view` under `layout`, with a little room around tiny images.
-void window_size_for(const View& view, const Layout& layout, int* width, int* height) {
-    *width = std::max(min_window_width, view.width * layout.scale_x);
-    *height = std::max(min_window_height, view.height * layout.scale_y);
-}
 
 // --- Is anyone there? ---------------------------------------------------------------------
 // SDL_Init opens the X display with Xlib, which waits for the server's first reply without a
@@ -225,7 +231,8 @@ std::vector<ScriptEvent> parse_script(const std::string& script) {
     if (script.empty()) return events;
     const std::string expected =
         "--window-script: expected comma-separated key:1|2|3|Up|Down|plus|minus|s|q|Escape|p, "
-        "click:X:Y, press:X:Y, move:X:Y, release:X:Y, wheel:N, wait:MS, save, shot or quit, got '";
+        "click:X:Y, press:X:Y, move:X:Y, release:X:Y, wheel:N, wait:MS, save, shot, quit, "
+        "set:NAME=VALUE, tf:..., or widgets, got '";
     size_t start = 0;
     while (start <= script.size()) {
         size_t comma = script.find(',', start);
@@ -235,8 +242,13 @@ std::vector<ScriptEvent> parse_script(const std::string& script) {
         start = comma + 1;
 
         std::string key_name;
-        if (event.text == "shot") {
-            event.mouse = "shot";  // handled by the loop, like wait: no SDL event
+        if (event.text == "shot" || event.text == "widgets") {
+            event.mouse = event.text;  // handled by the loop, like wait: no SDL event
+            events.push_back(event);
+            continue;
+        }
+        if (is_panel_event(event.text)) {  // the control panel's: set:NAME=VALUE, tf:...
+            event.mouse = "panel";
             events.push_back(event);
             continue;
         }
@@ -319,7 +331,9 @@ std::string key_name(SDL_Keycode key) {
     return SDL_GetKeyName(key);
 }
 
-// Owns the SDL objects, so they are released on every way out (including exceptions).
+// Owns the SDL objects, so they are released on every way out (including exceptions). It
+// outlives one show_preview() while the panel runs the step again (request_rerun): the
+// window stays open, with what it showed.
 struct Session {
     SDL_Window* window = nullptr;
     SDL_Renderer* renderer = nullptr;
@@ -327,8 +341,26 @@ struct Session {
     SDL_Texture* ray_texture = nullptr;  // the ray panel, once a click opened it
     int texture_width = 0, texture_height = 0;
     int max_texture_width = max_window_width, max_texture_height = max_window_height;  // pixels
+    bool imgui = false;                  // ImGui's context and SDL backend are up
+    std::unique_ptr<PanelDraw> panel_draw;
+    PanelState panel;
+    // What the window showed, kept across the panel's reruns.
+    std::string step;
+    int view = -1;                       // index into Preview::views; -1: as the run says
+    bool has_ray = false;
+    int ray_x = 0, ray_y = 0;
+    double full_ms = 0;
+    int shots = 0;
+    bool coarse_next = false;            // the rerun was asked for by a slider still held
+    std::string image_line;              // the last "window: image ..." line printed
+    std::string command_line;            // the last "window: command ..." line printed
 
     ~Session() {
+        panel_draw.reset();
+        if (imgui) {
+            ImGui_ImplSDL2_Shutdown();
+            ImGui::DestroyContext();
+        }
         if (texture) SDL_DestroyTexture(texture);
         if (ray_texture) SDL_DestroyTexture(ray_texture);
         if (renderer) SDL_DestroyRenderer(renderer);
@@ -336,6 +368,9 @@ struct Session {
         SDL_Quit();
     }
 };
+
+// The window between show_preview() calls of the panel's reruns; empty when closed.
+std::unique_ptr<Session> open_session;
 
 bool no_window() {
     std::fprintf(stderr, "note: no window (SDL: %s); the PNGs are written\n",
@@ -346,7 +381,24 @@ bool no_window() {
 // The preview's state between events.
 class PreviewWindow {
 public:
-    PreviewWindow(Preview& preview, Session& session) : preview_(preview), session_(session) {}
+    // Takes over what the window showed before the panel ran the step again.
+    PreviewWindow(Preview& preview, Session& session) : preview_(preview), session_(session) {
+        has_ray_ = session.has_ray;
+        ray_x_ = session.ray_x;
+        ray_y_ = session.ray_y;
+        full_ms_ = session.full_ms;
+        shots_ = session.shots;
+    }
+
+    // ... and hands it on.
+    ~PreviewWindow() {
+        session_.view = preview_.current;
+        session_.has_ray = has_ray_;
+        session_.ray_x = ray_x_;
+        session_.ray_y = ray_y_;
+        session_.full_ms = full_ms_;
+        session_.shots = shots_;
+    }
 
     const View& view() const { return preview_.views[preview_.current]; }
 
@@ -359,11 +411,41 @@ public:
         image_ = preview_.render(view(), work);
         const double ms = timer.ms();
         full_ms_ = ms;
+        coarse_from_panel_ = false;
 
         SDL_SetWindowTitle(session_.window, title(ms).c_str());
+        session_.panel.status = status_text(work, ms, "");
         upload();
         if (has_ray_) show_ray(ray_x_, ray_y_);  // follows the knob and the view
         draw();
+    }
+
+    // The panel's live text: the view, its time, and the summary line's counters.
+    std::string status_text(const Work& work, double ms, const std::string& preview) const {
+        char text[160];
+        std::snprintf(text, sizeof text, "%s %dx%d: %.1f ms%s\n", view().name.c_str(),
+                      view().width, view().height, ms, preview.c_str());
+        // The summary line's work counters (its settings are the widgets' values).
+        std::istringstream words(preview_.summary ? preview_.summary(view(), work, ms) : "");
+        std::string word, counters;
+        while (words >> word) {
+            for (const char* counter : {"samples=", "skipped=", "leapt=", "gradients=",
+                                        "terminated=", "hits="}) {
+                if (word.rfind(counter, 0) == 0) counters += (counters.empty() ? "" : "  ") + word;
+            }
+        }
+        return text + counters;
+    }
+
+    // The first picture after the panel ran the step again: coarse while its slider is
+    // held (as the orbit's previews), else at full size.
+    void render_first(bool coarse) {
+        if (!coarse || full_ms_ <= 0) {
+            render();
+            return;
+        }
+        coarse_from_panel_ = true;
+        render_coarse();
     }
 
     // Switches to the view along `axis` (resizing the window to its zoom) and renders it.
@@ -379,13 +461,33 @@ public:
         std::printf("window: this run has no such view\n");
     }
 
-    // Sizes the window for the current view's zoom (before its first render). A view wider or
-    // taller than the window's maximum (or the texture limit) is shown shrunk by whole
-    // factors: every shrink_x-th column and shrink_y-th row.
+    // Sizes the window for the current view's zoom (before its first render), within the
+    // display it is on: the control panel left, the image, the ray panel right when open. A
+    // view wider or taller than its room (or the texture limit) is shown shrunk by whole
+    // factors: every shrink_x-th column and shrink_y-th row. A ray picture that does not fit
+    // beside the smallest image is drawn scaled down.
     void fit_window() {
+        SDL_Rect display = {0, 0, max_window_width + panel_width, max_window_height};
+        const int index = std::max(0, SDL_GetWindowDisplayIndex(session_.window));
+        if (SDL_GetDisplayUsableBounds(index, &display) != 0 || display.w <= 0) {
+            display = {0, 0, max_window_width + panel_width, max_window_height};
+        }
+        const int room_x = std::max(1, display.w - panel_width);
+        const int room_y = std::max(1, display.h - decoration_allowance);
+        ray_scale_ = 1;
+        if (has_ray_ && ray_.width > 0 && ray_.height > 0) {
+            ray_scale_ = std::min({1.0, double(room_x - min_image_room) / ray_.width,
+                                   double(room_y) / ray_.height});
+            ray_scale_ = std::max(ray_scale_, min_ray_scale);
+        }
+        const int ray_width = has_ray_ ? int(std::lround(ray_.width * ray_scale_)) : 0;
+        const int ray_height = has_ray_ ? int(std::lround(ray_.height * ray_scale_)) : 0;
+
         const View& full = view();
-        const int limit_x = std::max(1, std::min(max_window_width, session_.max_texture_width));
-        const int limit_y = std::max(1, std::min(max_window_height, session_.max_texture_height));
+        const int limit_x = std::max(1, std::min({max_window_width, room_x - ray_width,
+                                                  session_.max_texture_width}));
+        const int limit_y = std::max(1, std::min({max_window_height, room_y,
+                                                  session_.max_texture_height}));
         shrink_x_ = std::max(1, (full.width + limit_x - 1) / limit_x);
         shrink_y_ = std::max(1, (full.height + limit_y - 1) / limit_y);
         View shown = full;
@@ -393,11 +495,23 @@ public:
         shown.height = (full.height + shrink_y_ - 1) / shrink_y_;
         shown.pixel_width = full.pixel_width * shrink_x_;
         shown.pixel_height = full.pixel_height * shrink_y_;
-        layout_ = fit_view(shown);
-        int width = 0, height = 0;
-        window_size_for(shown, layout_, &width, &height);
-        if (has_ray_) width += ray_.width, height = std::max(height, ray_.height);
+        layout_ = fit_view(shown, limit_x, limit_y);
+        int width = panel_width + std::max(min_window_width, shown.width * layout_.scale_x) +
+                    ray_width;
+        int height = std::max({min_window_height, shown.height * layout_.scale_y, ray_height,
+                               std::min(min_panel_height, room_y)});
+        width = std::min(width, display.w);
+        height = std::min(height, room_y);
         SDL_SetWindowSize(session_.window, width, height);
+        // Keep the whole window on the display (it grew from where it was).
+        int x = 0, y = 0;
+        SDL_GetWindowPosition(session_.window, &x, &y);
+        const int kept_x = std::clamp(x, display.x, display.x + display.w - width);
+        const int kept_y = std::clamp(y, display.y, display.y + std::max(0, room_y - height));
+        if (kept_x != x || kept_y != y) SDL_SetWindowPosition(session_.window, kept_x, kept_y);
+        std::printf("window: size %dx%d at %d,%d on a %dx%d display\n", width, height, kept_x,
+                    kept_y, display.w, display.h);
+        std::fflush(stdout);
     }
 
     // The ray panel for pixel (x, y) of the current view: drawn anew (after a click, a knob
@@ -429,7 +543,11 @@ public:
             bytes[3 * n + 2] = to_byte(ray_.pixels[n].b);
         }
         SDL_UpdateTexture(session_.ray_texture, nullptr, bytes.data(), ray_.width * 3);
-        if (opening) fit_window();
+        if (opening || ray_.width != ray_width_fitted_ || ray_.height != ray_height_fitted_) {
+            ray_width_fitted_ = ray_.width;
+            ray_height_fitted_ = ray_.height;
+            fit_window();
+        }
         std::printf("window: ray panel x=%d y=%d view=%s %dx%d%s%s\n", x, y, view().name.c_str(),
                     ray_.width, ray_.height, marks.empty() ? "" : " ", marks.c_str());
         std::fflush(stdout);
@@ -441,7 +559,9 @@ public:
         std::printf("window: %s=%s\n", preview_.knob.name.c_str(),
                     preview_.knob.value ? preview_.knob.value().c_str() : "?");
         std::fflush(stdout);
+        if (preview_.knob.value) remember_flag("--" + preview_.knob.name, preview_.knob.value());
         render();
+        print_command();
     }
 
     // --- The orbit (part 2): drag to turn, wheel to zoom, a coarse preview while it moves ---
@@ -498,6 +618,12 @@ public:
     void preview() {
         if (!moved_) return;
         apply_orbit();
+        render_coarse();
+    }
+
+    // A coarse picture of the view: 1 in factor x factor pixels, the texture stretched over
+    // the full picture; the full size follows (refine) when the mouse or slider is let go.
+    void render_coarse() {
         const int factor = preview_factor();
         View coarse = view();
         coarse.width = (coarse.width + factor - 1) / factor;
@@ -516,8 +642,11 @@ public:
         std::snprintf(text, sizeof text, " | preview %dx%d | %.1f ms", image.width, image.height,
                       ms);
         const std::string title = preview_.step + " | " + view().name + " | " +
-                                  preview_.orbit.value() + text;
+                                  (orbits() ? preview_.orbit.value() + text : text + 3);
         SDL_SetWindowTitle(session_.window, title.c_str());
+        session_.panel.status = status_text(work, ms, " (preview " +
+                                            std::to_string(image.width) + "x" +
+                                            std::to_string(image.height) + ")");
         upload_texture(image);
         draw();
         refine_due_ = true;
@@ -532,12 +661,80 @@ public:
             refine_due_ = true;
         }
         if (!refine_due_) return;
+        if (coarse_from_panel_ && ImGui::IsAnyItemActive()) {  // the slider is still held
+            refine_at_ = SDL_GetTicks() + refine_after_ms;
+            return;
+        }
         refine_due_ = false;
-        std::printf("window: orbit %s (%d previews at %dx%d)\n", preview_.orbit.value().c_str(),
-                    previews_, preview_width_, preview_height_);
-        std::fflush(stdout);
+        if (!coarse_from_panel_) {
+            std::printf("window: orbit %s (%d previews at %dx%d)\n",
+                        preview_.orbit.value().c_str(), previews_, preview_width_,
+                        preview_height_);
+            std::fflush(stdout);
+            // The camera's flags follow the mouse, so the command line shows this camera.
+            std::istringstream fields(preview_.orbit.value());
+            std::string field;
+            while (fields >> field) {
+                const size_t equals = field.find('=');
+                if (equals != std::string::npos) {
+                    remember_flag("--" + field.substr(0, equals), field.substr(equals + 1));
+                }
+            }
+        }
         previews_ = 0;
         render();
+        if (!coarse_from_panel_) print_command();
+    }
+
+    // "window: command ...": the command line the panel shows, when it changed.
+    void print_command() {
+        const std::string command = panel_command(preview_);
+        if (command == session_.command_line) return;
+        session_.command_line = command;
+        std::printf("window: command %s\n", command.c_str());
+        std::fflush(stdout);
+    }
+
+    // The step changed a flag's value itself (a key, the orbit): the command line follows.
+    void remember_flag(std::string flag, const std::string& value) {
+        std::replace(flag.begin(), flag.end(), '_', '-');  // a knob's name: skin_opacity
+        for (FlagSpec& spec : preview_.flags) {
+            if (spec.name != flag) continue;
+            try {
+                preview_.words = panel_set_flag(preview_, flag, value);
+                spec.value = value;
+            } catch (const InputError&) {
+                // A value the command line would not take (none today): leave the words.
+            }
+        }
+    }
+
+    // One frame of the control panel: what it asks for is kept for take_actions().
+    void panel_frame(int height) {
+        ImGui_ImplSDL2_NewFrame();
+        // The mouse where SDL's own events put it: ImGui 1.86's backend asks X for the global
+        // position, which SDL caches from raw input that some servers (Xvfb with xdotool)
+        // never send, so a held slider would not follow the mouse.
+        int mouse_x = 0, mouse_y = 0;
+        const Uint32 buttons = SDL_GetMouseState(&mouse_x, &mouse_y);
+        if (SDL_GetMouseFocus() == session_.window || buttons != 0) {
+            ImGui::GetIO().MousePos = ImVec2(float(mouse_x), float(mouse_y));
+        }
+        ImGui::NewFrame();
+        PanelActions actions;
+        draw_panel(preview_, session_.panel, height, &actions);
+        ImGui::Render();
+        if (actions.set || actions.view >= 0 || !actions.preset.empty() || !actions.note.empty()) {
+            actions_ = actions;
+            has_actions_ = true;
+        }
+    }
+
+    bool take_actions(PanelActions* actions) {
+        if (!has_actions_) return false;
+        *actions = actions_;
+        has_actions_ = false;
+        return true;
     }
 
     // Milliseconds until refine() is due, the mouse still since the last preview for
@@ -620,26 +817,79 @@ public:
             std::fprintf(stderr, "note: no shot: %s\n", error.what());
             return;
         }
+        // The image as the window shows it: one window pixel per image pixel (the centre of
+        // its block), so that a test can compare it with the headless PNG.
+        std::string image_path;
+        if (!preview_is_showing()) {
+            Image shown_image(shown_.width, shown_.height);
+            for (int y = 0; y < shown_.height; ++y) {
+                for (int x = 0; x < shown_.width; ++x) {
+                    const int wx = layout_.left + x * layout_.scale_x + layout_.scale_x / 2;
+                    const int wy = layout_.top + y * layout_.scale_y + layout_.scale_y / 2;
+                    if (wx < width && wy < height) shown_image.at(x, y) = picture.at(wx, wy);
+                }
+            }
+            image_path = path.substr(0, path.size() - png.size()) + "_image" + png;
+            try {
+                write_png(shown_image, image_path);
+            } catch (const std::exception& error) {
+                std::fprintf(stderr, "note: no shot: %s\n", error.what());
+                image_path.clear();
+            }
+        }
+        if (!image_path.empty()) std::printf("window: shot image %s\n", image_path.c_str());
         std::printf("window: shot %s %dx%d panel=", path.c_str(), width, height);
         if (has_ray_) {
-            std::printf("%d,%d,%d,%d\n", panel_left(width), panel_top(height), ray_.width,
-                        ray_.height);
+            std::printf("%d,%d,%d,%d\n", panel_left(width), panel_top(height), ray_drawn_width(),
+                        ray_drawn_height());
         } else {
             std::printf("none\n");
+        }
+    }
+
+    // A coarse preview is on screen (the full picture is still to come).
+    bool preview_is_showing() const { return refine_due_; }
+
+    // The panel's widgets and where they are (--window-script's widgets: tests aim at them).
+    void print_widgets() const {
+        for (const auto& [name, rect] : session_.panel.rects) {
+            std::printf("window: widget %s %d,%d,%d,%d\n", name.c_str(), rect[0], rect[1],
+                        rect[2], rect[3]);
+        }
+        if (!session_.panel.counts.empty()) {  // the editor's histogram: values left to right
+            std::printf("window: histogram values %d to %d\n", session_.panel.lowest,
+                        session_.panel.lowest +
+                            session_.panel.bin_width * int(session_.panel.counts.size()));
         }
         std::fflush(stdout);
     }
 
-    int panel_left(int window_width) const { return window_width - ray_.width; }
-    int panel_top(int window_height) const { return std::max(0, (window_height - ray_.height) / 2); }
+    int ray_drawn_width() const { return int(std::lround(ray_.width * ray_scale_)); }
+    int ray_drawn_height() const { return int(std::lround(ray_.height * ray_scale_)); }
+    int panel_left(int window_width) const { return window_width - ray_drawn_width(); }
+    int panel_top(int window_height) const {
+        return std::max(0, (window_height - ray_drawn_height()) / 2);
+    }
 
     // draw() without presenting the frame.
     void paint() {
         int window_width = 0, window_height = 0;
         SDL_GetWindowSize(session_.window, &window_width, &window_height);
-        const int panel_width = has_ray_ ? ray_.width : 0;  // the ray panel, right
-        layout_.left = std::max(0, (window_width - panel_width - layout_.drawn_width(shown_)) / 2);
+        const int ray_width = has_ray_ ? ray_drawn_width() : 0;  // the ray panel, right
+        const int room = window_width - panel_width - ray_width;  // the image's, between
+        layout_.left = panel_width + std::max(0, (room - layout_.drawn_width(shown_)) / 2);
         layout_.top = std::max(0, (window_height - layout_.drawn_height(shown_)) / 2);
+        // Where the image is, when it moved: its left, top, window pixels per image pixel
+        // and image pixels per shown pixel (tests aim at it and compare it with the PNG).
+        char where[160];
+        std::snprintf(where, sizeof where, "window: image %d,%d scale %d,%d shrink %d,%d of %s "
+                      "%dx%d\n", layout_.left, layout_.top, layout_.scale_x, layout_.scale_y,
+                      shrink_x_, shrink_y_, view().name.c_str(), view().width, view().height);
+        if (where != session_.image_line) {
+            session_.image_line = where;
+            std::fputs(where, stdout);
+            std::fflush(stdout);
+        }
 
         const Uint8 margin_grey = 40;  // dark surround, so the image's own black edge shows
         SDL_SetRenderDrawColor(session_.renderer, margin_grey, margin_grey, margin_grey, 255);
@@ -649,7 +899,7 @@ public:
         SDL_RenderCopy(session_.renderer, session_.texture, nullptr, &target);
         if (has_ray_ && session_.ray_texture) {
             const SDL_Rect panel = {panel_left(window_width), panel_top(window_height),
-                                    ray_.width, ray_.height};
+                                    ray_drawn_width(), ray_drawn_height()};
             SDL_RenderCopy(session_.renderer, session_.ray_texture, nullptr, &panel);
             int wx = 0, wy = 0;  // the traced pixel, marked on the image
             window_position(ray_x_, ray_y_, &wx, &wy);
@@ -660,6 +910,8 @@ public:
             SDL_RenderDrawLine(session_.renderer, wx, wy - arm, wx, wy - 2);
             SDL_RenderDrawLine(session_.renderer, wx, wy + 2, wx, wy + arm);
         }
+        panel_frame(window_height);  // the control panel over the left
+        session_.panel_draw->draw(ImGui::GetDrawData());
     }
 
 private:
@@ -749,6 +1001,11 @@ private:
     Uint32 refine_at_ = 0;                // SDL ticks when (unless the button is held)
     int previews_ = 0, preview_width_ = 0, preview_height_ = 0;  // since the last full render
     int shots_ = 0;                       // --window-script shots written
+    double ray_scale_ = 1;                // the ray picture's size on screen: it fits
+    int ray_width_fitted_ = 0, ray_height_fitted_ = 0;  // the ray picture fit_window() saw
+    bool coarse_from_panel_ = false;      // the coarse picture is the panel's, not the orbit's
+    PanelActions actions_;                // what the panel's last frame asked for
+    bool has_actions_ = false;
 };
 
 // Pushes script event `event` as the SDL event a user would cause, followed by `next_marker`:
@@ -797,22 +1054,8 @@ void push_script_event(const ScriptEvent& script, const PreviewWindow& preview,
     SDL_PushEvent(&marker);
 }
 
-}  // namespace
-
-void check_window_script(const Options& options) { parse_script(options.window_script); }
-
-bool window_wanted(const Options& options) {
-    if (options.no_window) return false;
-    const char* x11 = std::getenv("DISPLAY");
-    const char* wayland = std::getenv("WAYLAND_DISPLAY");
-    return (x11 && *x11) || (wayland && *wayland);
-}
-
-bool show_preview(const Options& options, Preview& preview) {
-    const std::vector<ScriptEvent> script = parse_script(options.window_script);
-    if (preview.views.empty()) return false;
-    preview.current = std::clamp(preview.current, 0, static_cast<int>(preview.views.size()) - 1);
-
+// Opens the window (SDL, the renderer, ImGui): false, with one note, when none can be.
+bool open_window(Preview& preview) {
     const char* display = std::getenv("DISPLAY");
     const char* requested_driver = std::getenv("SDL_VIDEODRIVER");
     const bool x11_expected = display && *display &&
@@ -834,7 +1077,7 @@ bool show_preview(const Options& options, Preview& preview) {
         SDL_Quit();
         return false;
     }
-    Session session;  // from here on, its destructor cleans up (and calls SDL_Quit)
+    auto session = std::make_unique<Session>();  // its destructor cleans up (and SDL_Quit)
     // When no display answers, SDL quietly falls back to drivers that show nothing; a
     // window nobody can see would then wait forever for a key. Only allowed when asked for.
     const std::string driver = SDL_GetCurrentVideoDriver() ? SDL_GetCurrentVideoDriver() : "";
@@ -843,33 +1086,72 @@ bool show_preview(const Options& options, Preview& preview) {
         SDL_SetError("no display answered, only the invisible '%s' driver", driver.c_str());
         return no_window();
     }
-    int width = 0, height = 0;
-    const View& first = preview.views[preview.current];
-    window_size_for(first, fit_view(first), &width, &height);
-    session.window = SDL_CreateWindow(preview.step.c_str(), SDL_WINDOWPOS_CENTERED,
-                                      SDL_WINDOWPOS_CENTERED, width, height,
-                                      SDL_WINDOW_RESIZABLE);
-    if (!session.window) return no_window();
-    session.renderer = SDL_CreateRenderer(session.window, -1, SDL_RENDERER_ACCELERATED);
-    if (!session.renderer) {
+    // Created small and centred; fit_window() sizes it for the view and keeps it on screen.
+    session->window = SDL_CreateWindow(preview.step.c_str(), SDL_WINDOWPOS_CENTERED,
+                                       SDL_WINDOWPOS_CENTERED, panel_width + min_window_width,
+                                       min_panel_height / 2, SDL_WINDOW_RESIZABLE);
+    if (!session->window) return no_window();
+    session->renderer = SDL_CreateRenderer(session->window, -1, SDL_RENDERER_ACCELERATED);
+    if (!session->renderer) {
         // No GPU (Xvfb, remote X): SDL's own software renderer always works.
-        session.renderer = SDL_CreateRenderer(session.window, -1, SDL_RENDERER_SOFTWARE);
+        session->renderer = SDL_CreateRenderer(session->window, -1, SDL_RENDERER_SOFTWARE);
     }
-    if (!session.renderer) return no_window();
+    if (!session->renderer) return no_window();
     if (driver == "x11") handle_lost_display(preview.step, display);
     SDL_RendererInfo info;
-    if (SDL_GetRendererInfo(session.renderer, &info) == 0) {
-        if (info.max_texture_width > 0) session.max_texture_width = info.max_texture_width;
-        if (info.max_texture_height > 0) session.max_texture_height = info.max_texture_height;
+    if (SDL_GetRendererInfo(session->renderer, &info) == 0) {
+        std::printf("window: renderer %s\n", info.name ? info.name : "?");  // opengl, software
+        std::fflush(stdout);
+        if (info.max_texture_width > 0) session->max_texture_width = info.max_texture_width;
+        if (info.max_texture_height > 0) session->max_texture_height = info.max_texture_height;
     }
+    // The control panel: ImGui with its SDL input backend, drawn by PanelDraw.
+    IMGUI_CHECKVERSION();
+    ImGui::CreateContext();
+    ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini written into the working folder
+    ImGui::GetIO().BackendFlags |= ImGuiBackendFlags_RendererHasVtxOffset;
+    ImGui::StyleColorsDark();
+    ImGui_ImplSDL2_InitForSDLRenderer(session->window);
+    session->imgui = true;
+    session->panel_draw = std::make_unique<PanelDraw>(session->renderer);
+    session->step = preview.step;
+    open_session = std::move(session);
+    return true;
+}
+
+}  // namespace
+
+void check_window_script(const Options& options) { parse_script(options.window_script); }
+
+// window_wanted() is the steps' own (window_module.cpp): it decides whether to open this.
+
+bool window_open() { return open_session != nullptr; }
+
+void window_note(const std::string& note) {
+    if (open_session) open_session->panel.note = note;
+}
+
+bool show_preview(const Options& options, Preview& preview) {
+    const std::vector<ScriptEvent> script = parse_script(options.window_script);
+    if (preview.views.empty()) return false;
+    if (open_session && open_session->step != preview.step) open_session.reset();
+    const bool rerun = open_session != nullptr;  // the panel ran the step again
+    if (!rerun && !open_window(preview)) return false;
+    Session& session = *open_session;
+    if (rerun && session.view >= 0) preview.current = session.view;
+    preview.current = std::clamp(preview.current, 0, static_cast<int>(preview.views.size()) - 1);
+    const bool coarse = session.coarse_next;
+    session.coarse_next = false;
 
     PreviewWindow window(preview, session);
     window.fit_window();
-    window.render();
+    window.render_first(coarse);
+    window.print_command();
 
     const Uint32 window_id = SDL_GetWindowID(session.window);
-    const Uint32 next_marker = SDL_RegisterEvents(1);  // "push the next script event"
-    // The script goes on where it was when P ran the step again with the next preset.
+    static Uint32 next_marker = static_cast<Uint32>(-1);  // "push the next script event"
+    if (next_marker == static_cast<Uint32>(-1)) next_marker = SDL_RegisterEvents(1);
+    // The script goes on where it was when P or the panel ran the step again.
     static size_t script_done = 0;
     size_t& next_script = script_done;
     bool script_waits = false;  // a wait:MS event holds the script until script_resumes
@@ -880,18 +1162,53 @@ bool show_preview(const Options& options, Preview& preview) {
         marker.type = next_marker;
         SDL_PushEvent(&marker);
     };
-    if (!script.empty() && next_marker != static_cast<Uint32>(-1)) push_marker();
+    // A rerun's marker is already in the queue (pushed after the event that caused it).
+    if (!rerun && !script.empty() && next_marker != static_cast<Uint32>(-1)) push_marker();
+    int frames_due = 2;  // the panel's first frames: ImGui lays itself out in the first
+    int mouse_x = -1;    // window x of the mouse's last event (the wheel's goes there)
+
+    // The panel's actions of the last frame: true when the step must run again (the window
+    // stays open) or quit to switch presets.
+    auto handle_actions = [&]() -> bool {
+        PanelActions actions;
+        if (!window.take_actions(&actions)) return false;
+        if (!actions.note.empty()) {
+            std::printf("window: %s\n", printable(actions.note).c_str());
+            session.panel.note = actions.note;
+        }
+        if (actions.view >= 0 && actions.view != preview.current) {
+            window.show_view(preview.views[actions.view].axis);
+        }
+        if (!actions.preset.empty()) {
+            request_preset(actions.preset);
+            open_session.reset();  // the step runs again with it, in a new window (as P)
+            return true;
+        }
+        if (actions.set) {
+            std::printf("window: set %s%s\n", printable(actions.changed).c_str(),
+                        actions.coarse ? " (preview)" : "");
+            std::fflush(stdout);
+            session.panel.note.clear();
+            session.coarse_next = actions.coarse;
+            request_rerun(actions.words);
+            return true;
+        }
+        return false;
+    };
 
     SDL_Event event;
     for (;;) {
-        // Wait for an event, or until a preview is due for its full render or a scripted
-        // wait is over, whichever comes first.
+        // Wait for an event, or until a preview is due for its full render, a scripted
+        // wait is over or the panel needs a frame, whichever comes first.
         int wait_ms = window.ms_until_refine();
         if (script_waits) {
             const Uint32 now = SDL_GetTicks();
             const int script_ms = SDL_TICKS_PASSED(now, script_resumes)
                                       ? 0 : int(script_resumes - now);
             wait_ms = wait_ms < 0 ? script_ms : std::min(wait_ms, script_ms);
+        }
+        if (frames_due > 0 || ImGui::IsAnyItemActive()) {
+            wait_ms = wait_ms < 0 ? int(frame_ms) : std::min(wait_ms, int(frame_ms));
         }
         if (wait_ms < 0) {
             if (!SDL_WaitEvent(&event)) break;
@@ -901,14 +1218,61 @@ bool show_preview(const Options& options, Preview& preview) {
                 script_waits = false;
                 push_marker();
             }
+            if (frames_due > 0 || ImGui::IsAnyItemActive()) {
+                if (frames_due > 0) --frames_due;
+                window.draw();
+                if (handle_actions()) return true;
+            }
             continue;
         }
         if (event.type == SDL_QUIT) break;
+        // The panel sees every input; the image gets the mouse right of the panel and the
+        // keys unless a text field of the panel is being typed in.
+        ImGui_ImplSDL2_ProcessEvent(&event);
+        bool to_panel = false;
+        if (event.type == SDL_MOUSEBUTTONDOWN || event.type == SDL_MOUSEBUTTONUP) {
+            to_panel = event.button.x < panel_width;
+            mouse_x = event.button.x;
+            frames_due = 2;
+        } else if (event.type == SDL_MOUSEMOTION) {
+            to_panel = event.motion.x < panel_width;
+            mouse_x = event.motion.x;
+            frames_due = std::max(frames_due, 1);
+        } else if (event.type == SDL_MOUSEWHEEL) {
+            to_panel = mouse_x >= 0 && mouse_x < panel_width;  // where the mouse last was
+            frames_due = 2;
+        } else if (event.type == SDL_KEYDOWN || event.type == SDL_KEYUP ||
+                   event.type == SDL_TEXTINPUT) {
+            to_panel = ImGui::GetIO().WantTextInput;
+            frames_due = 2;
+        }
         if (event.type == next_marker) {
             if (next_script < script.size() && script[next_script].mouse == "shot") {
                 ++next_script;
                 window.shot();
                 push_marker();
+            } else if (next_script < script.size() && script[next_script].mouse == "widgets") {
+                ++next_script;
+                window.draw();
+                window.print_widgets();
+                push_marker();
+            } else if (next_script < script.size() && script[next_script].mouse == "panel") {
+                // set:NAME=VALUE and tf:...: as the widget would (common/panel.h).
+                const ScriptEvent& panel_event = script[next_script++];
+                push_marker();  // taken by the next show_preview after the rerun
+                PanelActions actions;
+                try {
+                    panel_script_event(preview, session.panel, panel_event.text, &actions);
+                } catch (const InputError& error) {
+                    std::printf("window: %s\n", printable(error.what()).c_str());
+                    std::fflush(stdout);
+                    continue;
+                }
+                std::printf("window: set %s\n", printable(actions.changed).c_str());
+                std::fflush(stdout);
+                session.coarse_next = false;
+                request_rerun(actions.words);
+                return true;
             } else if (next_script < script.size() && script[next_script].mouse == "wait") {
                 script_waits = true;
                 script_resumes = SDL_GetTicks() + Uint32(script[next_script++].amount);
@@ -921,6 +1285,8 @@ bool show_preview(const Options& options, Preview& preview) {
                 event.window.event == SDL_WINDOWEVENT_SIZE_CHANGED) {
                 window.draw();
             }
+        } else if (to_panel) {
+            // The panel's: drawn with the next frame.
         } else if (event.type == SDL_MOUSEBUTTONDOWN && event.button.button == SDL_BUTTON_LEFT) {
             window.press(event.button.x, event.button.y);
         } else if (event.type == SDL_MOUSEBUTTONUP && event.button.button == SDL_BUTTON_LEFT) {
@@ -944,7 +1310,7 @@ bool show_preview(const Options& options, Preview& preview) {
                 case Action::knob_up: window.change_knob(+1); break;
                 case Action::knob_down: window.change_knob(-1); break;
                 case Action::save: window.save(); break;
-                case Action::quit: return true;
+                case Action::quit: open_session.reset(); return true;
                 case Action::next_preset: {
                     // The step runs again with it (guarded_main), in a new window.
                     const std::string next = next_preset(options.preset);
@@ -953,6 +1319,7 @@ bool show_preview(const Options& options, Preview& preview) {
                         break;
                     }
                     request_preset(next);
+                    open_session.reset();
                     return true;
                 }
                 case Action::none: break;
@@ -963,8 +1330,16 @@ bool show_preview(const Options& options, Preview& preview) {
         if (SDL_PeepEvents(nullptr, 0, SDL_PEEKEVENT, SDL_MOUSEMOTION, SDL_MOUSEWHEEL) <= 0) {
             window.preview();
         }
+        // The panel's frame once the queue is empty.
+        if (frames_due > 0 && SDL_PeepEvents(nullptr, 0, SDL_PEEKEVENT, SDL_FIRSTEVENT,
+                                             SDL_LASTEVENT) <= 0) {
+            --frames_due;
+            window.draw();
+        }
+        if (handle_actions()) return true;
         std::fflush(stdout);
     }
+    open_session.reset();
     return true;
 }
 

@@ -12,10 +12,13 @@ namespace ctlab {
 
 namespace {
 
+const WindowFunctions* opened = nullptr;  // the module's functions, once it is open
+
 const WindowFunctions& window_module() {
     using Entry = const WindowFunctions* (*)();
     static const WindowFunctions* functions = reinterpret_cast<Entry>(
         module_entry("ctlab_window.so", "ctlab_window_functions", "to show a window"))();
+    opened = functions;
     return *functions;
 }
 
@@ -44,6 +47,13 @@ bool show_preview(const Options& options, Preview& preview) {
         return false;
     }
     return functions->show_preview(options, preview);
+}
+
+// No window was ever opened while the module is not: nothing to ask it then.
+bool window_open() { return opened && opened->window_open(); }
+
+void window_note(const std::string& note) {
+    if (opened) opened->window_note(note);
 }
 
 }  // namespace ctlab

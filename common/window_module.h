@@ -7,6 +7,8 @@ namespace ctlab {
 struct WindowFunctions {
     void (*check_window_script)(const Options& options);
     bool (*show_preview)(const Options& options, Preview& preview);
+    bool (*window_open)();
+    void (*window_note)(const std::string& note);
 };
 
 }  // namespace ctlab

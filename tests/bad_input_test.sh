@@ -367,7 +367,7 @@ expect 2 "08_lit_compositing: error: cannot write the summary to standard output
     - "$build/08_lit_compositing" "$out" "$small"
 same_folder "stdout to /dev/full" "$out" "$work/before"
 # A bad --window-script is refused before anything is rendered.
-expect 2 "08_lit_compositing: error: --window-script: expected comma-separated key:1|2|3|Up|Down|plus|minus|s|q|Escape|p, click:X:Y, press:X:Y, move:X:Y, release:X:Y, wheel:N, wait:MS, save, shot or quit, got 'key:9'" \
+expect 2 "08_lit_compositing: error: --window-script: expected comma-separated key:1|2|3|Up|Down|plus|minus|s|q|Escape|p, click:X:Y, press:X:Y, move:X:Y, release:X:Y, wheel:N, wait:MS, save, shot, quit, set:NAME=VALUE, tf:..., or widgets, got 'key:9'" \
     "$build/08_lit_compositing" $small --skin-opacity 0.5 --no-window --out "$out" \
     --window-script key:9
 same_folder "a bad --window-script" "$out" "$work/before"

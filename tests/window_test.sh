@@ -34,12 +34,12 @@ if [ "${1:-}" = "--xdotool" ]; then
         [ -z "$window" ] && sleep 0.2
     done
     eval "$(xdotool getwindowgeometry --shell "$window")"  # sets X, Y, WIDTH, HEIGHT
-    # The image sits centred, each pixel a block of whole window pixels (image size: summary).
-    size=$(sed -n 's/^step=.* view=top size=\([0-9]*x[0-9]*\) .*/\1/p' "$log" | head -n 1)
-    [ -n "$size" ] || { echo "xdotool: no top summary line"; finish; }
-    image_width=${size%x*} image_height=${size#*x}
-    scale_x=$((WIDTH / image_width)) scale_y=$((HEIGHT / image_height))
-    left=$(((WIDTH - image_width * scale_x) / 2)) top=$(((HEIGHT - image_height * scale_y) / 2))
+    # Right of the control panel, each image pixel a block of whole window pixels: the window
+    # says where ("window: image LEFT,TOP scale SX,SY ...").
+    wait_for '^window: image ' || finish
+    set -- $(sed -n 's/^window: image \([0-9]*\),\([0-9]*\) scale \([0-9]*\),\([0-9]*\) .*/\1 \2 \3 \4/p' \
+             "$log" | tail -n 1)
+    left=$1 top=$2 scale_x=$3 scale_y=$4
     click_x=$((X + left + 100 * scale_x + scale_x / 2))
     click_y=$((Y + top + 50 * scale_y + scale_y / 2))
     xdotool mousemove "$click_x" "$click_y" click 1

@@ -6,7 +6,7 @@
 # on a virtual display). As root it installs whatever is missing with apt-get. Otherwise a
 # missing required package stops here (exit status 1) with the one sudo command to run, and
 # missing optional packages get a one-line note: the tests that need them are skipped.
-required="g++ make pkg-config libsdl2-dev libstb-dev doctest-dev"
+required="g++ make pkg-config libsdl2-dev libstb-dev doctest-dev libimgui-dev"
 # The volume formats: nifticlib, teem (NRRD), GDCM (DICOM), zlib; the tests' independent
 # writers of those files: nibabel, pydicom, numpy.
 required="$required libnifti2-dev libteem-dev libgdcm-dev zlib1g-dev"
