@@ -382,7 +382,8 @@ if [ "$(id -u)" = 0 ] && command -v unshare > /dev/null 2>&1 &&
     expect 2 "08_lit_compositing: error: cannot write '$out/08_lit_compositing_top.png': No space left on device" \
         unshare -m sh -c 'mount -t tmpfs -o size=256k tmpfs "$2" &&
             "$1" $5 --skin-opacity 0.3 --no-window --out "$2" > /dev/null &&
-            dd if=/dev/zero of="$2/filler" bs=4k 2> /dev/null; snapshot() { (cd "$2" &&
+            dd if=/dev/zero of="$2/filler" bs=4k 2> /dev/null; full=$2
+            snapshot() { (cd "$full" &&
             find . | sort && find . -type f -exec md5sum {} + | sort); }; snapshot > "$3" &&
             "$1" $5 --skin-opacity 0.5 --no-window --out "$2" > /dev/null;
             status=$?; snapshot > "$4"; exit $status' \
