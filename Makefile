@@ -65,8 +65,9 @@ STEP_NAMES     := $(basename $(notdir $(STEP_SOURCES)))
 STEP_BINARIES  := $(addprefix $(BUILD)/,$(STEP_NAMES))
 COMMON_SOURCES := $(wildcard common/*.cpp)
 COMMON_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(COMMON_SOURCES))
-# tools/run_step.cpp is no tool: it runs step binaries for the tests and tools (libctlab_tools).
-TOOL_LIB_SOURCES := tools/run_step.cpp
+# tools/run_step.cpp, process.cpp and sandbox.cpp are no tools: they start the programs the
+# tests and tools run (libctlab_tools).
+TOOL_LIB_SOURCES := tools/run_step.cpp tools/process.cpp tools/sandbox.cpp
 TOOL_SOURCES   := $(filter-out $(TOOL_LIB_SOURCES),$(wildcard tools/*.cpp))
 TOOL_BINARIES  := $(patsubst tools/%.cpp,$(BUILD)/%,$(TOOL_SOURCES))
 TEST_SOURCES   := $(wildcard tests/*.cpp) tests/fuzz/targets.cpp  # targets: crash replays

@@ -39,6 +39,7 @@
 #include "image.h"
 #include "image_read.h"
 #include "output_folder.h"
+#include "tools/process.h"
 
 using namespace ctlab;
 namespace fs = std::filesystem;
@@ -52,6 +53,7 @@ const char* const default_reference = "data/reference";
 constexpr size_t max_folder_entries = 100000;  // a submission or a class is far smaller
 const char* const pictures_folder = "pictures";  // OUT_DIR/pictures/NAME.png, side by side
 const char* const grade_tool = "grade";          // beside build/check: grades a student tree
+constexpr double grade_budget_s = 3600;          // wall-clock seconds for one student's tree
 
 // Only NN_name_top|front|side.png count: variants (..._front_skin030.png), manifests and
 // anything else in the reference folder are not expected from the student.
@@ -800,37 +802,14 @@ std::string grade_program() {
 // stderr line the reason). Its tolerances are the manifest's per run, not --tol.
 void grade_program_tree(const std::string& grade, const std::string& tree,
                         const Settings& settings, const OutputFolder& out, Student& student) {
-    int output[2];
-    if (::pipe(output) != 0) throw InputError("cannot run " + grade + ": no pipe");
-    const std::vector<std::string> arguments = {grade, "--tree", tree, "--reference",
+    const std::vector<std::string> arguments = {"--tree", tree, "--reference",
                                                 settings.reference, "--out", out.path()};
-    const pid_t child = ::fork();
-    if (child < 0) throw InputError("cannot run " + grade + ": " + std::strerror(errno));
-    if (child == 0) {
-        ::dup2(output[1], 1);
-        ::close(output[0]);
-        ::close(output[1]);
-        std::vector<char*> argv;
-        for (const std::string& argument : arguments) {
-            argv.push_back(const_cast<char*>(argument.c_str()));
-        }
-        argv.push_back(nullptr);
-        ::execv(grade.c_str(), argv.data());
-        ::_exit(127);
-    }
-    ::close(output[1]);
-    std::string text;
-    constexpr size_t max_output = 1 << 20;  // bytes of grade's stdout kept
-    char buffer[4096];
-    for (ssize_t got; (got = ::read(output[0], buffer, sizeof buffer)) != 0;) {
-        if (got < 0 && errno == EINTR) continue;
-        if (got < 0) break;
-        if (text.size() < max_output) text.append(buffer, static_cast<size_t>(got));
-    }
-    ::close(output[0]);
-    int status = 0;
-    while (::waitpid(child, &status, 0) < 0 && errno == EINTR) {}
-    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    ProcessOptions options;
+    options.limits.wall_s = grade_budget_s;
+    options.limits.output_bytes = 1 << 20;  // bytes of grade's stdout kept
+    const ProcessResult result = run_process(grade, arguments, options);
+    constexpr size_t max_output = 1 << 20;  // bytes of grade's report read
+    const int code = result.exit_status;
     // grade's report.txt: "NN_name: STATUS, pictures P/T, counters C/T", "-" for none.
     std::string report;
     {

@@ -49,6 +49,7 @@
 #include "compare.h"
 #include "error.h"
 #include "image.h"
+#include "tools/process.h"
 #include "tools/run_step.h"
 
 using namespace ctlab;
@@ -304,73 +305,28 @@ std::optional<CounterTable> read_counters(const fs::path& path) {
 }
 
 // --- Running a step as a process -----------------------------------------------------------
-// Not run_program (tools/run_step.h): a step runs inside the tree (its relative paths, e.g.
-// data/tf/, are the tree's), in a process group of its own, its output read within a bound,
-// and a signal kept apart from an exit status.
+// tools/process.h's run_process: a step runs inside the tree (its relative paths, e.g. data/tf/,
+// are the tree's), in a process group of its own, its output read within a bound, and a
+// signal kept apart from an exit status. Its stdout and stderr are kept beside its pictures.
 
-struct Outcome {
-    bool started = false;
-    bool timed_out = false;
-    int exit_status = -1;  // when it exited
-    int signal = 0;        // when a signal ended it
-    std::string out, err;  // what it printed (bounded)
-    double seconds = 0;
-};
+using Outcome = ProcessResult;
 
-Outcome run_process(const fs::path& program, const std::vector<std::string>& arguments,
-                    const fs::path& folder, const fs::path& log_folder, double timeout_s) {
-    Outcome outcome;
-    const fs::path out_path = log_folder / "stdout.txt", err_path = log_folder / "stderr.txt";
-    std::vector<std::string> words = {program.string()};
-    words.insert(words.end(), arguments.begin(), arguments.end());
-    std::vector<char*> argv;
-    for (std::string& word : words) argv.push_back(word.data());
-    argv.push_back(nullptr);
-
-    const auto start = std::chrono::steady_clock::now();
-    const pid_t pid = fork();
-    if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
-    if (pid == 0) {
-        setpgid(0, 0);  // its own group: a timeout stops its children too
-        const int out = ::open(out_path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644);
-        const int err = ::open(err_path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644);
-        const int none = ::open("/dev/null", O_RDONLY);
-        if (out < 0 || err < 0 || none < 0 || dup2(out, 1) < 0 || dup2(err, 2) < 0 ||
-            dup2(none, 0) < 0 || chdir(folder.c_str()) != 0) {
-            _exit(127);
-        }
-        execv(argv[0], argv.data());
-        std::fprintf(stderr, "grade: cannot run %s: %s\n", argv[0], std::strerror(errno));
-        _exit(127);
-    }
-    setpgid(pid, pid);
-    outcome.started = true;
-    int status = 0;
-    for (;;) {
-        const pid_t done = waitpid(pid, &status, WNOHANG);
-        if (done == pid) break;
-        if (done < 0 && errno != EINTR) throw std::runtime_error("waitpid failed");
-        const double elapsed =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        if (elapsed > timeout_s) {
-            kill(-pid, SIGKILL);
-            kill(pid, SIGKILL);
-            waitpid(pid, &status, 0);
-            outcome.timed_out = true;
-            break;
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    outcome.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (!outcome.timed_out) {
-        if (WIFEXITED(status)) outcome.exit_status = WEXITSTATUS(status);
-        if (WIFSIGNALED(status)) outcome.signal = WTERMSIG(status);
-    }
-    try {
-        outcome.out = read_bounded(out_path, max_output_bytes);
-        outcome.err = read_bounded(err_path, max_output_bytes);
-    } catch (const InputError&) {
+Outcome run_step_process(const fs::path& program, const std::vector<std::string>& arguments,
+                         const fs::path& folder, const fs::path& log_folder, double timeout_s) {
+    ProcessOptions options;
+    options.folder = folder.string();
+    options.limits.wall_s = timeout_s;
+    options.limits.output_bytes = max_output_bytes;
+    Outcome outcome = run_process(program.string(), arguments, options);
+    for (const auto& [name, text] : {std::pair<const char*, const std::string*>{"stdout.txt",
+                                                                                &outcome.out},
+                                     {"stderr.txt", &outcome.err}}) {
+        const fs::path path = log_folder / name;
+        const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644);
+        if (fd < 0) continue;
+        const ssize_t written = ::write(fd, text->data(), text->size());
+        (void)written;
+        ::close(fd);
     }
     return outcome;
 }
@@ -823,7 +779,7 @@ void Grader::probe_rays(const Step& step, const Run& run, const std::string& vie
         if (view != "camera") arguments.insert(arguments.end(), {"--view", view});
         const std::string pixel = std::to_string(probe.x) + "," + std::to_string(probe.y);
         arguments.insert(arguments.end(), {"--debug-pixel", pixel});
-        const Outcome outcome = run_process(fs::absolute(settings_.bin / step.name), arguments,
+        const Outcome outcome = run_step_process(fs::absolute(settings_.bin / step.name), arguments,
                                             settings_.tree, probe_folder, settings_.timeout_s);
         const fs::path yours_path =
             probe_folder / (step.name + "_" + view + "_ray_" + xy + ".txt");
@@ -883,7 +839,7 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
         }
     }
     result.pictures += static_cast<int>(graded_views.size());
-    const Outcome outcome = run_process(fs::absolute(settings_.bin / step.name), arguments,
+    const Outcome outcome = run_step_process(fs::absolute(settings_.bin / step.name), arguments,
                                         settings_.tree, folder, settings_.timeout_s);
     const std::string command = command_for(step, run, settings_.view);
 
