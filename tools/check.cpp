@@ -20,7 +20,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 #include <algorithm>
+#include <atomic>
 #include <cctype>
+#include <csignal>
+#include <mutex>
+#include <thread>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -30,6 +34,7 @@
 #include <memory>
 #include <regex>
 #include <set>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -40,6 +45,7 @@
 #include "image_read.h"
 #include "output_folder.h"
 #include "tools/process.h"
+#include "tools/sandbox.h"
 
 using namespace ctlab;
 namespace fs = std::filesystem;
@@ -53,7 +59,9 @@ const char* const default_reference = "data/reference";
 constexpr size_t max_folder_entries = 100000;  // a submission or a class is far smaller
 const char* const pictures_folder = "pictures";  // OUT_DIR/pictures/NAME.png, side by side
 const char* const grade_tool = "grade";          // beside build/check: grades a student tree
-constexpr double grade_budget_s = 3600;          // wall-clock seconds for one student's tree
+constexpr double default_budget_s = 600;         // wall-clock seconds for one student's tree
+constexpr double budget_margin_s = 60;           // build/grade's own start and end, past it
+const char* const graded_mark = "graded.txt";    // students/NAME/graded.txt: finished
 
 // Only NN_name_top|front|side.png count: variants (..._front_skin030.png), manifests and
 // anything else in the reference folder are not expected from the student.
@@ -75,13 +83,21 @@ const char* const usage_text =
     "                      reference folder is expected in DIR (names match in any case;\n"
     "                      pictures in one subfolder such as DIR/out/ are found and said so)\n"
     "  --class DIR         a class: one subfolder per student, each a folder of pictures or a\n"
-    "                      student tree (has .ctlab-student or steps/). A tree is graded by\n"
-    "                      build/grade when it is built, else from its out/ pictures\n"
+    "                      student tree (has .ctlab-student or steps/). A tree's steps/ are\n"
+    "                      built from source and run by build/grade --build in a sandbox,\n"
+    "                      against this lab's common/ (its own build/ is never used)\n"
     "  --reference DIR     the reference folder (default data/reference)\n"
     "  --report OUT_DIR    where reports go (created if missing; never inside a submission or\n"
     "                      the reference folder): report.md, report.csv and pictures/NAME.png\n"
     "                      (student | reference | heat map) for each picture that fails; for a\n"
     "                      class: class.csv, summary.md and students/NAME/ as above\n"
+    "  --jobs N            --class: grade N students at once (default 1)\n"
+    "  --budget S          --class: wall-clock seconds for one student tree, its build and\n"
+    "                      all its runs (default 600)\n"
+    "  --regrade           --class: grade again the students a stopped run had finished\n"
+    "                      (otherwise their reports are kept and they are skipped)\n"
+    "  --no-sandbox        --class: where bubblewrap cannot run, build and run the trees'\n"
+    "                      programs anyway, unconfined (otherwise they are not run)\n"
     "  --help              this text\n"
     "\n"
     "Verdicts per picture: pass, fail, damaged (its CRC or checksum is wrong: a changed or\n"
@@ -97,6 +113,9 @@ struct Settings {
     std::string diff, submission, class_folder, reference = default_reference, report;
     bool has_submission = false, has_class = false, has_reference = false, has_report = false;
     bool help = false;
+    int jobs = 1;                           // --class: students graded at once
+    double budget_s = default_budget_s;     // --class: wall-clock seconds per student tree
+    bool no_sandbox = false, regrade = false, has_class_flag = false;
 };
 
 Settings parse_arguments(int argc, char** argv) {
@@ -126,6 +145,18 @@ Settings parse_arguments(int argc, char** argv) {
         } else if (arg == "--report") {
             settings.report = take_value();
             settings.has_report = true;
+        } else if (arg == "--jobs") {
+            settings.jobs = parse_int(arg, take_value(), 1, 256);
+            settings.has_class_flag = true;
+        } else if (arg == "--budget") {
+            settings.budget_s = parse_double(arg, take_value(), 1, 7 * 24 * 3600);
+            settings.has_class_flag = true;
+        } else if (arg == "--no-sandbox") {
+            settings.no_sandbox = true;
+            settings.has_class_flag = true;
+        } else if (arg == "--regrade") {
+            settings.regrade = true;
+            settings.has_class_flag = true;
         } else if (arg.size() > 1 && arg[0] == '-') {
             throw InputError("unknown flag '" + printable(arg) + "' (see check --help)");
         } else {
@@ -133,6 +164,9 @@ Settings parse_arguments(int argc, char** argv) {
         }
     }
     if (settings.help) return settings;
+    if (settings.has_class_flag && !settings.has_class) {
+        throw InputError("--jobs, --budget, --no-sandbox and --regrade are for --class DIR");
+    }
     if (settings.has_submission && settings.has_class) {
         throw InputError("--submission and --class: one at a time");
     }
@@ -794,22 +828,44 @@ std::string grade_program() {
     return ::access(grade.c_str(), X_OK) == 0 ? grade.string() : "";
 }
 
+// Set by SIGINT, SIGTERM or SIGHUP: no student is started, the running ones are stopped.
+volatile std::sig_atomic_t stop_requested = 0;
+
+// Compilers each student's build runs at once: the cores left to each of --jobs students.
+int grade_jobs(const Settings& settings) {
+    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    return std::max(1, static_cast<int>(cores) / settings.jobs);
+}
+
 // The interface with build/grade (tools/grade.cpp), for a student tree:
-//   grade --tree TREE --reference REF --out OUT_DIR
+//   grade --build --tree TREE --reference REF --out OUT_DIR --budget S --jobs N
 // renders into OUT_DIR (the student's folder in the report, never the tree), writes
 // OUT_DIR/report.txt with one line per step, "NN_name: STATUS, pictures P/T, counters C/T"
 // ("-" where nothing ran), and exits 0 (all pass), 1 (some fail) or 2 (bad input, its first
 // stderr line the reason). Its tolerances are the manifest's per run, not --tol.
 void grade_program_tree(const std::string& grade, const std::string& tree,
                         const Settings& settings, const OutputFolder& out, Student& student) {
-    const std::vector<std::string> arguments = {"--tree", tree, "--reference",
-                                                settings.reference, "--out", out.path()};
+    std::vector<std::string> arguments = {"--build", "--tree", tree, "--reference",
+                                          settings.reference, "--out", out.path(),
+                                          "--budget", std::to_string(settings.budget_s),
+                                          "--jobs", std::to_string(grade_jobs(settings))};
+    if (settings.no_sandbox) arguments.push_back("--no-sandbox");
     ProcessOptions options;
-    options.limits.wall_s = grade_budget_s;
+    options.limits.wall_s = settings.budget_s + budget_margin_s;
+    options.stop = &stop_requested;
     options.limits.output_bytes = 1 << 20;  // bytes of grade's stdout kept
     const ProcessResult result = run_process(grade, arguments, options);
     constexpr size_t max_output = 1 << 20;  // bytes of grade's report read
     const int code = result.exit_status;
+    if (result.timed_out || result.interrupted) {
+        student.source = "program (build/grade)";
+        student.result = "error";
+        student.note = result.timed_out
+            ? "build/grade went past the student's budget of " + std::to_string(
+                  static_cast<int>(settings.budget_s)) + " s and was stopped"
+            : "not finished: the check was interrupted";
+        return;
+    }
     // grade's report.txt: "NN_name: STATUS, pictures P/T, counters C/T", "-" for none.
     std::string report;
     {
@@ -845,6 +901,46 @@ void grade_program_tree(const std::string& grade, const std::string& tree,
         student.note = "build/grade stopped with status " + std::to_string(code) +
                        " (its report: " + out.path() + ")";
     }
+}
+
+// students/NAME/graded.txt: a student tree whose programs were graded, written last, so a
+// stopped class run keeps it (what a rerun reads back instead of grading the tree again).
+void write_graded(const OutputFolder& out, const Student& student) {
+    if (student.source.rfind("program", 0) != 0) return;  // pictures: quick to grade again
+    std::string text = "result: " + student.result + "\nsource: " + student.source +
+                       "\nnote: " + student.note + "\n";
+    for (const auto& [step, score] : student.steps) {
+        text += "step: " + step + " " + std::to_string(score.first) + " " +
+                std::to_string(score.second) + "\n";
+    }
+    out.write(graded_mark, text);
+}
+
+bool read_graded(const OutputFolder& out, Student& student) {
+    std::string text;
+    try {
+        const std::vector<unsigned char> bytes =
+            read_file_at(out.fd(), graded_mark, out.path(graded_mark), 1 << 20);
+        text.assign(bytes.begin(), bytes.end());
+    } catch (const InputError&) {
+        return false;
+    }
+    std::istringstream lines(text);
+    for (std::string line; std::getline(lines, line);) {
+        const size_t colon = line.find(": ");
+        if (colon == std::string::npos) continue;
+        const std::string key = line.substr(0, colon), value = line.substr(colon + 2);
+        if (key == "result") student.result = value;
+        if (key == "source") student.source = value;
+        if (key == "note") student.note = value;
+        if (key == "step") {
+            std::istringstream words(value);
+            std::string step;
+            int passed = 0, total = 0;
+            if (words >> step >> passed >> total) student.steps[step] = {passed, total};
+        }
+    }
+    return student.result == "pass" || student.result == "fail";
 }
 
 std::string score_text(int passed, int total) {
@@ -921,8 +1017,24 @@ int check_class(const Settings& settings) {
         open_folder(AT_FDCWD, settings.class_folder, settings.class_folder, true);
     const OutputFolder out = OutputFolder::open(settings.report);
     const OutputFolder students_out = out.subfolder("students");
-    const std::string grade = grade_program();
 
+    // Student trees' programs are built and run only in the sandbox (build/grade --build),
+    // unless the instructor says otherwise.
+    std::string grade = grade_program();
+    if (!grade.empty() && !sandbox_problem().empty() && !settings.no_sandbox) {
+        std::printf("check: no sandbox (%s): student trees' programs are not built or run, "
+                    "their out/ pictures are graded (--no-sandbox runs them unconfined)\n",
+                    sandbox_problem().c_str());
+        grade.clear();
+    }
+    // One slot per student, in the class folder's order; a stopped run's finished students
+    // (students/NAME/graded.txt) are kept unless --regrade.
+    struct Slot {
+        Entry entry;
+        std::unique_ptr<OutputFolder> out;
+        bool kept = false;
+    };
+    std::vector<Slot> slots;
     std::vector<Student> students;
     std::set<std::string> taken;
     for (const Entry& entry : list_folder(class_folder)) {
@@ -930,21 +1042,67 @@ int check_class(const Settings& settings) {
         if (entry.kind == Kind::file || entry.name[0] == '.') continue;
         Student student;
         student.name = printable(entry.name);
-        const OutputFolder student_out = students_out.subfolder(safe_component(entry.name, taken));
-        try {
-            grade_student(class_folder, entry, references, settings, student_out, grade, student);
-        } catch (const InputError& error) {
-            student.result = "error";
-            student.note = error.what();
-        }
-        if (student.result == "error") {
-            student_out.write("report.md", "# Check report\n\n- student: `" + student.name +
-                                               "`\n- result: error\n- " + student.note + "\n");
-        }
-        std::printf("%-24s %-5s %s%s%s\n", student.name.c_str(), student.result.c_str(),
-                    student.source.c_str(), student.note.empty() ? "" : ": ",
-                    student.note.c_str());
+        Slot slot{entry, std::make_unique<OutputFolder>(
+                             students_out.subfolder(safe_component(entry.name, taken)))};
+        if (!settings.regrade) slot.kept = read_graded(*slot.out, student);
         students.push_back(std::move(student));
+        slots.push_back(std::move(slot));
+    }
+    for (int signal : {SIGINT, SIGTERM, SIGHUP}) {
+        std::signal(signal, [](int) { stop_requested = 1; });
+    }
+    std::mutex printing;
+    std::atomic<size_t> next{0};
+    int kept = 0;
+    for (const Slot& slot : slots) kept += slot.kept;
+    auto worker = [&] {
+        for (size_t n; (n = next++) < slots.size() && !stop_requested;) {
+            Slot& slot = slots[n];
+            Student& student = students[n];
+            if (!slot.kept) {
+                try {
+                    grade_student(class_folder, slot.entry, references, settings, *slot.out,
+                                  grade, student);
+                } catch (const InputError& error) {
+                    student.result = "error";
+                    student.note = error.what();
+                }
+                if (stop_requested) {
+                    student.result = "error";
+                    student.note = "not finished: the check was interrupted";
+                    continue;
+                }
+                if (student.result == "error") {
+                    slot.out->write("report.md", "# Check report\n\n- student: `" +
+                                                     student.name + "`\n- result: error\n- " +
+                                                     student.note + "\n");
+                }
+                write_graded(*slot.out, student);
+            }
+            const std::lock_guard<std::mutex> lock(printing);
+            std::printf("%-24s %-5s %s%s%s%s\n", student.name.c_str(), student.result.c_str(),
+                        student.source.c_str(), student.note.empty() ? "" : ": ",
+                        student.note.c_str(), slot.kept ? " (graded before: kept)" : "");
+            std::fflush(stdout);
+        }
+    };
+    std::vector<std::thread> workers;
+    for (int w = 0; w < settings.jobs; ++w) workers.emplace_back(worker);
+    for (std::thread& thread : workers) thread.join();
+    if (stop_requested) {
+        size_t finished = 0;
+        for (const Student& student : students) {
+            finished += student.note != "not finished: the check was interrupted" &&
+                        !student.result.empty();
+        }
+        std::printf("check: interrupted; %zu of %zu students graded, their reports kept: "
+                    "run the same command again to grade the rest\n", finished,
+                    students.size());
+        return exit_fail;
+    }
+    if (kept > 0) {
+        std::printf("check: %d students graded by an earlier run were kept (--regrade grades "
+                    "them again)\n", kept);
     }
     if (students.empty()) {
         throw InputError("class folder '" + printable(settings.class_folder) +

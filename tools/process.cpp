@@ -50,6 +50,7 @@ std::string ProcessResult::stop_reason() const {
         return text;
     }
     if (output_exceeded) return "stopped: it printed more than the output cap";
+    if (interrupted) return "stopped: the grader was interrupted";
     switch (signal) {
         case 0: return "";
         case SIGXCPU: return "killed by SIGXCPU: it used up its CPU seconds";
@@ -192,6 +193,15 @@ ProcessResult run_process(const std::string& program, const std::vector<std::str
         kill(child, SIGKILL);
     };
     while (!exited) {
+        if (options.stop && *options.stop) {
+            result.interrupted = true;
+            kill(-child, SIGTERM);  // a grader below us removes its stage first
+            for (int n = 0; n < 100 && wait4(child, &wait_status, WNOHANG, &usage) == 0; ++n) {
+                poll(nullptr, 0, 10);
+            }
+            kill_all();
+            break;
+        }
         const double left =
             std::chrono::duration<double, std::milli>(deadline - clock::now()).count();
         if (left <= 0) {

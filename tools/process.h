@@ -6,6 +6,7 @@
 //
 // Compiled into build/libctlab_tools.a, never into a step.
 #pragma once
+#include <csignal>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -30,6 +31,9 @@ struct ProcessOptions {
     // As root, run the sandbox as this user and group (a uid of its own, so that the process
     // limit holds: the kernel never counts root's processes). 0: as whoever runs us.
     unsigned uid = 0;
+    // When this becomes nonzero (a signal handler's flag), the child is stopped: SIGTERM to
+    // its group, SIGKILL a second later.
+    const volatile std::sig_atomic_t* stop = nullptr;
 };
 
 struct ProcessResult {
@@ -41,6 +45,7 @@ struct ProcessResult {
     int signal = 0;                  // when a signal ended it (a timeout: SIGKILL)
     bool timed_out = false;          // killed after limits.wall_s
     bool output_exceeded = false;    // killed for printing more than limits.output_bytes
+    bool interrupted = false;        // stopped because *options.stop was set
     std::string out, err;            // what it printed, at most limits.output_bytes each
     double seconds = 0;              // wall-clock time it took
     long max_rss_kib = 0;            // peak resident memory of the child (ru_maxrss), KiB
