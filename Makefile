@@ -141,6 +141,7 @@ test: deps
 	@sh tests/window_test.sh $(BUILD)
 	@sh tests/student_test.sh $(BUILD)
 	@sh tests/grade_test.sh $(BUILD)
+	@sh tests/sandbox_test.sh $(BUILD)
 
 # One step by name: `make 03_depth_shading`.
 $(STEP_NAMES): %: $(BUILD)/%

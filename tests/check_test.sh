@@ -233,15 +233,15 @@ check $? "side-by-side pictures: $(ls -R "$work/class_report/students" | tr '\n'
 [ $? -eq 2 ] && [ ! -e "$class/reports" ]
 check $? "--report inside the class folder was not refused"
 
-# --- A class of student trees, graded by running their programs ----------------------------
-# With build/grade beside the checker, a student tree is graded as `make check` grades it: its
-# build/ programs are run on the phantom (never its out/ pictures). Two trees with step 02:
-# ann's program is the lab's own, ben's runs it with the threshold 1000 instead of the step's.
-gbin=$work/gbin
+# --- A class of student trees, graded by building and running their programs --------------
+# build/grade --build (beside the checker) builds each tree's steps/ from source against the
+# lab's common/ in the sandbox and runs them on the phantom (never its out/ pictures, never its
+# build/). Two trees with step 02: ann's source is the lab's own, ben's has the threshold 1000
+# instead of the step's; each build/ holds a prebuilt program that says the opposite (ann's
+# runs with --threshold 1000, ben's is the lab's binary): both are ignored.
 gref=$work/gref
 gclass=$work/gclass
-mkdir -p "$gbin" "$gref"
-cp "$build/check" "$build/grade" "$gbin/" || exit 2
+mkdir -p "$gref"
 cp data/reference/02_threshold_top.png data/reference/02_threshold_front.png \
     data/reference/02_threshold_side.png "$gref/"
 echo "02_threshold:" > "$gref/manifest.txt"  # the default run alone: one run per student
@@ -249,20 +249,22 @@ grep '^02_threshold: ' data/reference/counters.txt > "$gref/counters.txt"
 for student in ann ben; do
     mkdir -p "$gclass/$student/steps" "$gclass/$student/build"
     : > "$gclass/$student/.ctlab-student"
-    cp steps/02_threshold.cpp "$gclass/$student/steps/"
 done
-cp "$build/02_threshold" "$gclass/ann/build/"
+cp steps/02_threshold.cpp "$gclass/ann/steps/"
+sed 's/bone_threshold = 400;/bone_threshold = 1000;/' steps/02_threshold.cpp \
+    > "$gclass/ben/steps/02_threshold.cpp"
+cp "$build/02_threshold" "$gclass/ben/build/"
 case "$build" in
     /*) lab_program=$build/02_threshold ;;
     *) lab_program=$(pwd)/$build/02_threshold ;;
 esac
 printf '#!/bin/sh\nexec "%s" "$@" --threshold 1000\n' "$lab_program" \
-    > "$gclass/ben/build/02_threshold"
-chmod +x "$gclass/ben/build/02_threshold"
-grade_class "$gbin/check" "$gclass" "$gref" "$work/gclass_report" "class of trees"
+    > "$gclass/ann/build/02_threshold"
+chmod +x "$gclass/ann/build/02_threshold"
+grade_class "$build/check" "$gclass" "$gref" "$work/gclass_report" "class of trees"
 gcsv="$work/gclass_report/class.csv"
 grep -qx 'ann,pass,100.0,program (build/grade),1.00,' "$gcsv" &&
-    grep -qx 'ben,fail,0.0,program (build/grade),0.00,' "$gcsv"
+    grep -q '^ben,fail,0.0,program (build/grade),0.00,"*02_threshold: ' "$gcsv"
 check $? "class of trees: class.csv: $(cat "$gcsv")"
 ben=$work/gclass_report/students/ben
 grep -q '^02_threshold: failing, pictures 0/3, counters 0/3$' "$ben/report.txt" &&

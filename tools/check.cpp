@@ -94,6 +94,7 @@ const char* const usage_text =
     "  --jobs N            --class: grade N students at once (default 1)\n"
     "  --budget S          --class: wall-clock seconds for one student tree, its build and\n"
     "                      all its runs (default 600)\n"
+    "  --timeout S         --class: seconds one run of a step may take (default 120)\n"
     "  --regrade           --class: grade again the students a stopped run had finished\n"
     "                      (otherwise their reports are kept and they are skipped)\n"
     "  --no-sandbox        --class: where bubblewrap cannot run, build and run the trees'\n"
@@ -115,6 +116,7 @@ struct Settings {
     bool help = false;
     int jobs = 1;                           // --class: students graded at once
     double budget_s = default_budget_s;     // --class: wall-clock seconds per student tree
+    std::string timeout;                    // --class: build/grade's --timeout (per run)
     bool no_sandbox = false, regrade = false, has_class_flag = false;
 };
 
@@ -151,6 +153,9 @@ Settings parse_arguments(int argc, char** argv) {
         } else if (arg == "--budget") {
             settings.budget_s = parse_double(arg, take_value(), 1, 7 * 24 * 3600);
             settings.has_class_flag = true;
+        } else if (arg == "--timeout") {
+            settings.timeout = std::to_string(parse_double(arg, take_value(), 0.1, 24 * 3600));
+            settings.has_class_flag = true;
         } else if (arg == "--no-sandbox") {
             settings.no_sandbox = true;
             settings.has_class_flag = true;
@@ -165,7 +170,8 @@ Settings parse_arguments(int argc, char** argv) {
     }
     if (settings.help) return settings;
     if (settings.has_class_flag && !settings.has_class) {
-        throw InputError("--jobs, --budget, --no-sandbox and --regrade are for --class DIR");
+        throw InputError("--jobs, --budget, --timeout, --no-sandbox and --regrade are for "
+                         "--class DIR");
     }
     if (settings.has_submission && settings.has_class) {
         throw InputError("--submission and --class: one at a time");
@@ -850,6 +856,8 @@ void grade_program_tree(const std::string& grade, const std::string& tree,
                                           "--budget", std::to_string(settings.budget_s),
                                           "--jobs", std::to_string(grade_jobs(settings))};
     if (settings.no_sandbox) arguments.push_back("--no-sandbox");
+    if (!settings.timeout.empty()) arguments.insert(arguments.end(), {"--timeout",
+                                                                      settings.timeout});
     ProcessOptions options;
     options.limits.wall_s = settings.budget_s + budget_margin_s;
     options.stop = &stop_requested;
@@ -879,6 +887,7 @@ void grade_program_tree(const std::string& grade, const std::string& tree,
     const std::regex line("^([0-9]{2}_[a-z0-9_]+): [a-z ]+, pictures (-|([0-9]+)/([0-9]+)), "
                           "counters (-|([0-9]+)/([0-9]+))$");
     size_t start = 0;
+    std::string step, reason;
     while (start < report.size()) {
         size_t end = report.find('\n', start);
         if (end == std::string::npos) end = report.size();
@@ -890,12 +899,16 @@ void grade_program_tree(const std::string& grade, const std::string& tree,
             };
             const int passed = number(3) + number(6), total = number(4) + number(7);
             student.steps[match[1]] = {passed, std::max(total, 1)};  // nothing ran: 0 of 1
+            step = match[1];
+        } else if (reason.empty() && one.rfind("  ", 0) == 0 && one.rfind("    ", 0) != 0) {
+            reason = step + ": " + one.substr(2);  // the first problem: one line of reason
         }
         start = end + 1;
     }
     student.source = "program (build/grade)";
     if (code == 0 || code == 1) {
         student.result = code == 0 ? "pass" : "fail";
+        student.note = reason;
     } else {
         student.result = "error";
         student.note = "build/grade stopped with status " + std::to_string(code) +

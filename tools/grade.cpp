@@ -817,6 +817,13 @@ Outcome Grader::execute(const Step& step, const std::vector<std::string>& argume
         ? (stage_->lab() / "build" / step.name).string() : "/lab/build/" + step.name;
     options.stop = &interrupted;
     outcome = checked(run_process(program, words, options));
+    // bwrap exits with 128 + N when a signal N ended the program inside it.
+    constexpr int signal_status = 128, last_signal = 64;
+    if (!settings_.no_sandbox && outcome.signal == 0 && outcome.exit_status > signal_status &&
+        outcome.exit_status <= signal_status + last_signal) {
+        outcome.signal = outcome.exit_status - signal_status;
+        outcome.exit_status = -1;
+    }
     // What it left in its folder, ordinary files only and within bounds, goes to `folder`.
     size_t files = 0, bytes = 0;
     std::string problem;
@@ -946,8 +953,10 @@ void Grader::stage_and_build(const std::vector<std::string>& names) {
 // "build/02_threshold --volume phantom --view top --threshold 500 --debug-pixel 12,40".
 std::string Grader::command_for(const Step& step, const Run& run, const std::string& view,
                                 const std::string& more) const {
-    std::string text = relative_to(settings_.bin / step.name, cwd_) + " --volume " +
-                       settings_.volume;
+    // --build: the command as the student runs it in their own tree.
+    std::string text = (stage_ ? "build/" + step.name : relative_to(settings_.bin / step.name,
+                                                                      cwd_)) +
+                       " --volume " + settings_.volume;
     if (!settings_.volume_args.empty()) text += " " + join(settings_.volume_args);
     const bool chooses_view = std::find(run.arguments.begin(), run.arguments.end(),
                                         "--view") != run.arguments.end();
