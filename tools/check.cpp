@@ -65,7 +65,8 @@ const char* const graded_mark = "graded.txt";    // students/NAME/graded.txt: fi
 
 // Only NN_name_top|front|side.png count: variants (..._front_skin030.png), manifests and
 // anything else in the reference folder are not expected from the student.
-const std::regex expected_name("^([0-9]{2}_[a-z0-9_]+)_(top|front|side)\\.png$");
+// Part 2's steps (10 on) write one picture, NN_name_camera.png.
+const std::regex expected_name("^([0-9]{2}_[a-z0-9_]+)_(top|front|side|camera)\\.png$");
 
 const char* const usage_text =
     "usage: check STUDENT.png REFERENCE.png [--tol N] [--diff OUT.png]\n"
@@ -75,7 +76,9 @@ const char* const usage_text =
     "Compares pictures after rounding both to 8 bits per channel. Errors are in 8-bit\n"
     "units (0..255); a pixel fails when any channel differs by more than the tolerance.\n"
     "\n"
-    "  --tol N             tolerance in 8-bit units, a number from 0 to 255 (default 2)\n"
+    "  --tol N             tolerance in 8-bit units, a number from 0 to 255 (default: each\n"
+    "                      step's tol= in the reference folder's manifest.txt, as make check\n"
+    "                      grades it, else 2)\n"
     "  --diff OUT.png      one pair: write a heat map of the differences (black = equal,\n"
     "                      blue = within the tolerance, magenta, yellow, white = largest);\n"
     "                      OUT's folder must exist; an input or a reference is never replaced\n"
@@ -111,6 +114,7 @@ const char* const usage_text =
 struct Settings {
     std::vector<std::string> files;  // STUDENT.png REFERENCE.png
     double tolerance = default_tolerance;
+    bool has_tolerance = false;  // --tol given: it holds for every picture
     std::string diff, submission, class_folder, reference = default_reference, report;
     bool has_submission = false, has_class = false, has_reference = false, has_report = false;
     bool help = false;
@@ -132,6 +136,7 @@ Settings parse_arguments(int argc, char** argv) {
             settings.help = true;
         } else if (arg == "--tol") {
             settings.tolerance = parse_double(arg, take_value(), 0, max_tolerance);
+            settings.has_tolerance = true;
         } else if (arg == "--diff") {
             settings.diff = take_value();
             if (settings.diff.empty()) throw InputError("--diff: expected a file name, got ''");
@@ -339,7 +344,27 @@ struct References {
     std::vector<std::string> names;   // expected pictures, sorted
     std::vector<std::string> steps;   // their steps (NN_name), sorted, each once
     std::map<std::string, Image> images;
+    std::map<std::string, double> tolerances;  // picture -> its tolerance (8-bit units)
 };
+
+// REFERENCE/manifest.txt's tol=N of each step's default line ("NN_name: ... tol=N"), as
+// build/grade reads it: step -> tolerance.
+std::map<std::string, double> manifest_tolerances(const std::string& folder) {
+    std::map<std::string, double> tolerances;
+    std::ifstream manifest(join(folder, "manifest.txt"));
+    for (std::string line; std::getline(manifest, line);) {
+        const size_t colon = line.find(':');
+        if (line.empty() || line[0] == '#' || colon == std::string::npos) continue;
+        const std::string name = line.substr(0, colon);
+        std::istringstream words(line.substr(colon + 1));
+        for (std::string word; words >> word;) {
+            if (word.rfind("tol=", 0) == 0) {
+                tolerances[name] = parse_double("tol", word.substr(4), 0, max_tolerance);
+            }
+        }
+    }
+    return tolerances;
+}
 
 std::string step_of(const std::string& picture) {
     std::smatch match;
@@ -348,7 +373,7 @@ std::string step_of(const std::string& picture) {
 
 // Reads every expected reference picture once (a class reuses them): an unreadable one is
 // bad input.
-References load_references(const std::string& folder) {
+References load_references(const std::string& folder, const Settings& settings) {
     References references;
     references.folder = folder;
     std::error_code error;
@@ -375,6 +400,12 @@ References load_references(const std::string& folder) {
         steps.insert(step_of(name));
     }
     references.steps.assign(steps.begin(), steps.end());
+    const std::map<std::string, double> manifest = manifest_tolerances(folder);
+    for (const std::string& name : references.names) {
+        const auto step = manifest.find(step_of(name));
+        references.tolerances[name] = settings.has_tolerance || step == manifest.end()
+                                          ? settings.tolerance : step->second;
+    }
     return references;
 }
 
@@ -460,6 +491,7 @@ Row grade_picture(const Folder& folder, const Entry& entry, const std::string& n
         return row;
     }
     const Image& reference = references.images.at(name);
+    tolerance = references.tolerances.at(name);
     Image student;
     std::vector<unsigned char> bytes;
     try {
@@ -645,6 +677,24 @@ std::string tolerance_text(double tolerance) {
     return text;
 }
 
+// "2", or "2, and 3 for 07_compositing_order, 08_lit_compositing (manifest.txt's tol=)".
+std::string tolerances_text(const References& references, double tolerance) {
+    std::map<double, std::set<std::string>> others;
+    for (const auto& [name, value] : references.tolerances) {
+        if (value != tolerance) others[value].insert(step_of(name));
+    }
+    std::string text = tolerance_text(tolerance);
+    for (const auto& [value, steps] : others) {
+        text += ", " + tolerance_text(value) + " for";
+        bool first = true;
+        for (const std::string& step : steps) {
+            text += std::string(first ? " " : ", ") + step;
+            first = false;
+        }
+    }
+    return others.empty() ? text : text + " (manifest.txt's tol=)";
+}
+
 std::string summary_line(const Graded& graded) {
     std::map<std::string, int> counts = graded.counts;
     return std::to_string(graded.expected) + " expected: " + std::to_string(counts["pass"]) +
@@ -660,7 +710,7 @@ std::string markdown_report(const std::string& submission, const References& ref
     std::string text = "# Check report\n\n";
     text += "- submission: `" + printable(submission) + "`\n";
     text += "- reference: `" + printable(references.folder) + "`\n";
-    text += "- tolerance: " + tolerance_text(tolerance) + " (8-bit units)\n";
+    text += "- tolerance: " + tolerances_text(references, tolerance) + " (8-bit units)\n";
     for (const std::string& note : graded.notes) text += "- note: " + note + "\n";
     text += "- " + summary_line(graded) + "\n\n";
     std::string header = "|", rule = "|";
@@ -769,7 +819,7 @@ int check_submission(const Settings& settings) {
         check_report_place(settings.report, {{"submission folder", settings.submission},
                                              {"reference folder", settings.reference}});
     }
-    const References references = load_references(settings.reference);
+    const References references = load_references(settings.reference, settings);
     const Folder submission = open_folder(AT_FDCWD, settings.submission, settings.submission, true);
     std::unique_ptr<OutputFolder> out, pictures;
     if (settings.has_report) {
@@ -1025,7 +1075,7 @@ int check_class(const Settings& settings) {
     }
     check_report_place(settings.report, {{"class folder", settings.class_folder},
                                          {"reference folder", settings.reference}});
-    const References references = load_references(settings.reference);
+    const References references = load_references(settings.reference, settings);
     const Folder class_folder =
         open_folder(AT_FDCWD, settings.class_folder, settings.class_folder, true);
     const OutputFolder out = OutputFolder::open(settings.report);
@@ -1160,7 +1210,7 @@ int check_class(const Settings& settings) {
     std::string md = "# Class summary\n\n";
     md += "- class: `" + printable(settings.class_folder) + "`\n";
     md += "- reference: `" + printable(settings.reference) + "`\n";
-    md += "- tolerance: " + tolerance_text(settings.tolerance) + " (8-bit units)\n";
+    md += "- tolerance: " + tolerances_text(references, settings.tolerance) + " (8-bit units)\n";
     md += "- students: " + std::to_string(students.size()) + ", all steps pass: " +
           std::to_string(passing) + "\n";
     md += "- per student: `students/NAME/report.md`, failing pictures side by side (student | "
