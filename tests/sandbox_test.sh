@@ -4,7 +4,8 @@
 # the lab's common/). Each gets its verdict with one line of reason (tests/hostile/*.inc say
 # what each program does), and nothing outside the students' output folders changes: the
 # class, the lab's steps and references and a home folder are hashed before and after; a
-# server on 127.0.0.1 sees no connection.
+# server on 127.0.0.1 sees no connection. The class is graded on phantom:SEED, a volume the
+# students never saw: a program that renders the kit's phantom is named.
 #
 #   sh tests/sandbox_test.sh BUILD      (from the repository root; make test runs it)
 #   KEEP=1 sh tests/sandbox_test.sh BUILD   keep the class and reports
@@ -32,13 +33,20 @@ work=$(mktemp -d) || exit 1
 if [ -n "${KEEP:-}" ]; then echo "sandbox test: kept in $work"; else
     trap 'rm -rf "$work"' EXIT INT TERM; fi
 
-# --- The reference: step 02's default run only (one build and one run per student) ---------
+# --- The reference: step 02's default run only (one build and one run per student), on a ----
+# volume the students never saw: the phantom moved, mirrored and resized by the seed, as
+# make reference VOLUME=phantom:SEED makes it (its volume.txt names the volume grade renders).
+seed=2029
 ref=$work/ref
 mkdir -p "$ref"
-cp data/reference/02_threshold_top.png data/reference/02_threshold_front.png \
-    data/reference/02_threshold_side.png "$ref/"
+"$build/02_threshold" --volume "phantom:$seed" --no-window --out "$ref" > "$work/ref.log" 2>&1 ||
+    { bad "02_threshold --volume phantom:$seed: $(cat "$work/ref.log")"; finish; }
 echo "02_threshold:" > "$ref/manifest.txt"
-grep '^02_threshold: ' data/reference/counters.txt > "$ref/counters.txt"
+sed -n 's/^step=/02_threshold: step=/p' "$work/ref.log" > "$ref/counters.txt"
+echo "volume: phantom:$seed" > "$ref/volume.txt"
+# The variant's pictures are not the kit's.
+"$build/check" "$ref/02_threshold_top.png" data/reference/02_threshold_top.png > /dev/null
+[ $? -eq 1 ] && ok || bad "phantom:$seed renders step 02's top view as the kit's phantom does"
 
 # --- Without a sandbox, programs are not run unless the instructor says so -------------------
 mkdir -p "$work/one/steps"
@@ -163,5 +171,6 @@ verdict allocates_50gb fail 'crashed with SIGABRT'
 verdict floods_stdout fail 'stopped: it printed more than 1 MiB'
 verdict floods_file fail 'crashed with SIGXFSZ'
 verdict sleeps fail 'stopped after [0-9]+ s'
+verdict renders_kit_phantom fail "matches the kit's phantom reference, not the volume it was given \\(phantom:$seed\\)"
 verdict connects fail "exited with status 3: connect 127.0.0.1:$port: Connection refused"
 finish

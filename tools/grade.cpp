@@ -742,6 +742,7 @@ private:
     std::optional<CounterTable> counters_;
     fs::path cwd_;
     std::unique_ptr<Stage> stage_;
+    fs::path kit_reference_;  // the kit's phantom references, when grading on another volume
     std::map<std::string, std::string> not_built_;  // --build: step -> why it was not built
     std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
@@ -1054,6 +1055,16 @@ void Grader::grade_picture(const Step& step, const Run& run, const std::string& 
                                                  student_path.string(), reference_name);
     if (comparison.pass) {
         ++result.pictures_passed;
+        return;
+    }
+    // Graded on another volume than the kit's phantom: a picture that is the kit's own
+    // reference was not rendered from the volume this run was given.
+    const fs::path kit_path = kit_reference_ / reference_name;
+    if (!kit_reference_.empty() &&
+        fs::is_regular_file(fs::symlink_status(kit_path, error)) &&
+        passes(student, read_image(kit_path.string()), run.tolerance)) {
+        problem("matches the kit's phantom reference, not the volume it was given (" +
+                settings_.volume + "): pictures copied or rendered from another volume");
         return;
     }
     const Worst worst = worst_pixel(student, reference);
@@ -1410,6 +1421,13 @@ int Grader::run() {
         }
     }
     if (settings_.volume.empty()) settings_.volume = "phantom";
+    if (settings_.volume != "phantom") {
+        const fs::path kit = (settings_.build ? settings_.lab : settings_.tree) / "data" /
+                             "reference";
+        if (fs::is_directory(kit, error) && !fs::equivalent(kit, settings_.reference, error)) {
+            kit_reference_ = kit;
+        }
+    }
     make_folder(settings_.out.string());
     fs::remove_all(settings_.out / "side_by_side", error);
     if (settings_.build) {
