@@ -57,7 +57,7 @@ endif
 # stb_image (compiled into image_read.o) calls memcpy(NULL, p, 0) for a PNG whose first IDAT
 # chunk is empty: harmless, but UBSan's nonnull check stops there. Found by `make fuzz`.
 ifneq ($(SAN)$(FUZZ),)
-$(BUILD)/common/image_read.o: CXXFLAGS += -fno-sanitize=nonnull-attribute
+$(BUILD)/tools/image_read.o: CXXFLAGS += -fno-sanitize=nonnull-attribute
 endif
 
 STEP_SOURCES   := $(sort $(wildcard steps/[0-9][0-9]_*.cpp))
@@ -66,8 +66,10 @@ STEP_BINARIES  := $(addprefix $(BUILD)/,$(STEP_NAMES))
 COMMON_SOURCES := $(wildcard common/*.cpp)
 COMMON_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(COMMON_SOURCES))
 # tools/run_step.cpp, process.cpp and sandbox.cpp are no tools: they start the programs the
-# tests and tools run (libctlab_tools).
-TOOL_LIB_SOURCES := tools/run_step.cpp tools/process.cpp tools/sandbox.cpp
+# tests and tools run; compare, image_read and output_folder are the checker's and grader's
+# picture code (libctlab_tools: never linked into a step).
+TOOL_LIB_SOURCES := tools/run_step.cpp tools/process.cpp tools/sandbox.cpp tools/compare.cpp \
+                    tools/image_read.cpp tools/output_folder.cpp
 TOOL_SOURCES   := $(filter-out $(TOOL_LIB_SOURCES),$(wildcard tools/*.cpp))
 TOOL_BINARIES  := $(patsubst tools/%.cpp,$(BUILD)/%,$(TOOL_SOURCES))
 TEST_SOURCES   := $(wildcard tests/*.cpp) tests/fuzz/targets.cpp  # targets: crash replays
@@ -296,7 +298,7 @@ $(BUILD)/%: $(BUILD)/steps/%.o $(LIBCTLAB)
 $(BUILD)/%: $(BUILD)/tools/%.o $(LIBTOOLS) $(LIBCTLAB)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(BUILD)/fuzz_%: $(BUILD)/tests/fuzz/fuzz_%.o $(BUILD)/tests/fuzz/targets.o $(LIBCTLAB)
+$(BUILD)/fuzz_%: $(BUILD)/tests/fuzz/fuzz_%.o $(BUILD)/tests/fuzz/targets.o $(LIBTOOLS) $(LIBCTLAB)
 	$(CXX) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 # The tests run the step binaries (tools/run_step.h): built with them.

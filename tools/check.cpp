@@ -39,11 +39,11 @@
 #include <tuple>
 #include <vector>
 #include "args.h"
-#include "compare.h"
+#include "tools/compare.h"
 #include "error.h"
 #include "image.h"
-#include "image_read.h"
-#include "output_folder.h"
+#include "tools/image_read.h"
+#include "tools/output_folder.h"
 #include "tools/process.h"
 #include "tools/sandbox.h"
 

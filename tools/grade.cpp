@@ -11,7 +11,7 @@
 // (V: the phantom, or the volume REFERENCE/volume.txt names)
 // into a folder emptied first (an old picture never passes). Then, for each view:
 //   - the picture against REFERENCE/NN_name_<view>[_VARIANT].png, within the run's tolerance
-//     (8-bit units, common/compare.h);
+//     (8-bit units, tools/compare.h);
 //   - the summary line's work counters against REFERENCE/counters.txt (written by make
 //     reference): each must be equal, since the lab prescribes the work as well as the result.
 // Per step it prints one row of a progress table (not built, not started, crashed, failing,
@@ -47,7 +47,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 #include "args.h"
-#include "compare.h"
+#include "tools/compare.h"
 #include "error.h"
 #include "image.h"
 #include "tools/process.h"
@@ -744,6 +744,7 @@ private:
     std::unique_ptr<Stage> stage_;
     fs::path kit_reference_;  // the kit's phantom references, when grading on another volume
     std::map<std::string, std::string> not_built_;  // --build: step -> why it was not built
+    double build_s_ = 0;  // --build: wall-clock seconds of the sandboxed build
     std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
@@ -927,6 +928,7 @@ void Grader::stage_and_build(const std::vector<std::string>& names) {
     arguments.insert(arguments.end(), targets.begin(), targets.end());
     options.stop = &interrupted;
     const Outcome outcome = checked(run_process("/usr/bin/make", arguments, options));
+    build_s_ = outcome.seconds;
     {
         std::ofstream log(settings_.out / "build.txt", std::ios::binary | std::ios::trunc);
         log << outcome.out << outcome.err;
@@ -1500,6 +1502,12 @@ int Grader::run() {
     const bool all_pass = passing == static_cast<int>(steps.size());
     summary += std::string("; result=") + (all_pass ? "pass" : "fail");
     report += "\n" + summary + "\n";
+    if (stage_) {  // what a class's timing table is made of
+        char times[96];
+        std::snprintf(times, sizeof times, "time: build %.1f s, runs %.1f s\n", build_s_,
+                      settings_.budget_s - seconds_left() - build_s_);
+        report += times;
+    }
     {
         const fs::path path = settings_.out / "report.txt";
         fs::remove(path, error);
