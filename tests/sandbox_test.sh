@@ -74,8 +74,8 @@ student() {
     cp "${2:-steps/02_threshold.cpp}" "$class/$1/steps/02_threshold.cpp"
 }
 student honest
-sed 's/const bool above = value > threshold;/const bool above = value >= threshold;/' \
-    steps/02_threshold.cpp > "$work/mistake.cpp"
+# A wrong threshold (a constant: this file goes into student trees, no lesson line is quoted).
+sed 's/bone_threshold = 400;/bone_threshold = 1000;/' steps/02_threshold.cpp > "$work/mistake.cpp"
 cmp -s steps/02_threshold.cpp "$work/mistake.cpp" && bad "the mistake changes nothing in step 02"
 student mistake "$work/mistake.cpp"
 # Its own common/ breaks the PNG writer: ignored, the instructor's library is used.
@@ -173,4 +173,15 @@ verdict floods_file fail 'crashed with SIGXFSZ'
 verdict sleeps fail 'stopped after [0-9]+ s'
 verdict renders_kit_phantom fail "matches the kit's phantom reference, not the volume it was given \\(phantom:$seed\\)"
 verdict connects fail "exited with status 3: connect 127.0.0.1:$port: Connection refused"
+
+# --- A rerun keeps every finished student (as after an interrupted run) --------------------
+students=$(ls -d "$class"/*/ | wc -l)
+HOME=$home "$build/check" --class "$class" --reference "$ref" --report "$work/report" \
+    --jobs 2 --timeout 3 --budget 60 > "$work/rerun.log" 2>&1
+status=$?
+kept=$(grep -c '(graded before: kept)$' "$work/rerun.log")
+if [ "$status" -eq 1 ] && [ "$kept" -eq "$students" ] &&
+        grep -q "^check: $students students graded by an earlier run were kept" "$work/rerun.log"
+then ok; else bad "the rerun kept $kept of $students students (status $status):" \
+    "$(cat "$work/rerun.log")"; fi
 finish

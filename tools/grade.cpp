@@ -768,8 +768,10 @@ Limits sandbox_limits(double wall_s, bool build) {
 
 std::vector<std::string> Grader::first_arguments(const fs::path& folder) const {
     std::string volume = settings_.volume;
-    if (stage_ && fs::is_regular_file(stage_->root() / "volume" / fs::path(volume).filename())) {
-        volume = "/volume/" + fs::path(volume).filename().string();
+    const fs::path name = fs::path(volume).lexically_normal().filename();
+    std::error_code error;
+    if (stage_ && !name.empty() && fs::exists(stage_->root() / "volume" / name, error)) {
+        volume = "/volume/" + name.string();
     }
     std::vector<std::string> arguments = {"--volume", volume, "--no-window", "--out",
                                           stage_ ? "/out" : fs::absolute(folder).string()};
@@ -893,8 +895,10 @@ void Grader::stage_and_build(const std::vector<std::string>& names) {
     }
     fs::copy_file(library, lab / "build" / "libctlab.a");
     if (settings_.volume != "phantom" && settings_.volume.rfind("phantom:", 0) != 0) {
-        fs::copy_file(settings_.volume, stage_->root() / "volume" /
-                                            fs::path(settings_.volume).filename());
+        // A file, or a folder (a DICOM series): the instructor's, copied as it is.
+        const fs::path volume = fs::path(settings_.volume).lexically_normal();
+        fs::copy(volume, stage_->root() / "volume" / volume.filename(),
+                 fs::copy_options::recursive);
     }
     // The student's sources: ordinary files only, never through a link.
     std::vector<std::string> targets;
