@@ -72,7 +72,7 @@ endif
 # stb_image (compiled into image_read.o) calls memcpy(NULL, p, 0) for a PNG whose first IDAT
 # chunk is empty: harmless, but UBSan's nonnull check stops there. Found by `make fuzz`.
 ifneq ($(SAN)$(FUZZ),)
-$(BUILD)/common/image_read.o: CXXFLAGS += -fno-sanitize=nonnull-attribute
+$(BUILD)/tools/image_read.o: CXXFLAGS += -fno-sanitize=nonnull-attribute
 endif
 
 # The window code alone sees ImGui's headers (see LDLIBS above).
@@ -91,8 +91,11 @@ WINDOW_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(WINDOW_SOURCES))
 COMMON_SOURCES := $(filter-out $(FORMAT_SOURCES) $(WINDOW_SOURCES),$(wildcard common/*.cpp))
 COMMON_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(COMMON_SOURCES))
 MODULES        := $(BUILD)/ctlab_formats.so $(BUILD)/ctlab_window.so
-# tools/run_step.cpp is no tool: it runs step binaries for the tests and tools (libctlab_tools).
-TOOL_LIB_SOURCES := tools/run_step.cpp
+# tools/run_step.cpp, process.cpp and sandbox.cpp are no tools: they start the programs the
+# tests and tools run; compare, image_read and output_folder are the checker's and grader's
+# picture code (libctlab_tools: never linked into a step).
+TOOL_LIB_SOURCES := tools/run_step.cpp tools/process.cpp tools/sandbox.cpp tools/compare.cpp \
+                    tools/image_read.cpp tools/output_folder.cpp
 TOOL_SOURCES   := $(filter-out $(TOOL_LIB_SOURCES),$(wildcard tools/*.cpp))
 TOOL_BINARIES  := $(patsubst tools/%.cpp,$(BUILD)/%,$(TOOL_SOURCES))
 TEST_SOURCES   := $(wildcard tests/*.cpp) tests/fuzz/targets.cpp  # targets: crash replays
@@ -162,7 +165,7 @@ demo: deps
 # last line adds them all up: "test: N passed, M failed" (tests/test_summary.sh).
 # The slowest suites start first, so that the last one to finish is a short one.
 # SKIP_SUITES=NAMES leaves suites out, and the summary names them (CI: the sanitizer run).
-SLOW_SUITES := student test_extremes bad_input grade test_steps cli check window panel
+SLOW_SUITES := student test_extremes grade sandbox bad_input test_steps cli check window panel
 ALL_SUITES  := $(SLOW_SUITES) $(filter-out $(SLOW_SUITES),\
                $(patsubst tests/%_test.sh,%,$(wildcard tests/*_test.sh)) \
                $(basename $(notdir $(wildcard tests/test_*.cpp))))
@@ -360,7 +363,7 @@ $(BUILD)/%: $(BUILD)/tools/%.o $(LIBTOOLS) $(LIBCTLAB) $(FLAGS_STAMP) | $(MODULE
 	$(CXX) $(LDFLAGS) $< $(LIBTOOLS) $(PROGRAM_LIB) $(LDLIBS) -o $@
 
 $(BUILD)/fuzz_%: $(BUILD)/tests/fuzz/fuzz_%.o $(BUILD)/tests/fuzz/targets.o $(FORMAT_OBJECTS) \
-                 $(LIBCTLAB)
+                 $(LIBTOOLS) $(LIBCTLAB)
 	$(CXX) $(LDFLAGS) $(filter %.o %.a,$^) $(FORMAT_LIBS) $(LDLIBS) -o $@
 
 # The tests run the step binaries (tools/run_step.h): built with them.

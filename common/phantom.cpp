@@ -454,9 +454,95 @@ void paint_row(const Painter& painter, const Row& row) {
     }
 }
 
+// --- Variants: the head moved, mirrored, resized, with other noise (phantom:SEED) ---------
+
+// p' = c + D (p - c) + t, D = diag(mirror * scale, scale, scale), c the box's centre: an
+// affine map that keeps image rows along x (painting finds each row's inside as one interval).
+struct Variant {
+    double d[3] = {1, 1, 1};    // D's diagonal
+    Vec3 shift{0, 0, 0};        // t, mm
+    uint32_t noise_key[3] = {0, 0, 0};  // added to (i, j, k) before hashing the noise
+};
+
+constexpr double min_scale = 0.88, max_scale = 1.04;  // the head's size against the kit's
+constexpr double max_shift = 12;                      // mm along each axis
+
+// SplitMix64: a well-mixed stream of 64-bit numbers from the seed.
+uint64_t split_mix(uint64_t& state) {
+    uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+Variant variant_of(uint64_t seed) {
+    uint64_t state = seed;
+    auto unit = [&] { return (split_mix(state) >> 11) * (1.0 / 9007199254740992.0); };  // [0,1)
+    Variant variant;
+    const bool mirror = split_mix(state) & 1;
+    const double scale = min_scale + (max_scale - min_scale) * unit();
+    variant.d[0] = mirror ? -scale : scale;
+    variant.d[1] = variant.d[2] = scale;
+    variant.shift = {float((2 * unit() - 1) * max_shift), float((2 * unit() - 1) * max_shift),
+                     float((2 * unit() - 1) * max_shift)};
+    for (uint32_t& key : variant.noise_key) key = uint32_t(split_mix(state));
+    return variant;
+}
+
+// The shape carried by the variant's map: centre and box mapped, m' = D^-1 m D^-1, planes
+// n' = D^-1 n with their offsets moved along.
+Shape transformed(Shape shape, const Variant& variant) {
+    const double c[3] = {box_x / 2, box_y / 2, box_z / 2};
+    const double t[3] = {variant.shift.i, variant.shift.j, variant.shift.k};
+    auto map = [&](double p, int axis) { return c[axis] + variant.d[axis] * (p - c[axis]) + t[axis]; };
+    shape.centre = {float(map(shape.centre.i, 0)), float(map(shape.centre.j, 1)),
+                    float(map(shape.centre.k, 2))};
+    for (int row = 0; row < 3; ++row) {
+        for (int col = 0; col < 3; ++col) shape.m[row][col] /= variant.d[row] * variant.d[col];
+    }
+    const double lo[3] = {map(shape.lo.i, 0), map(shape.lo.j, 1), map(shape.lo.k, 2)};
+    const double hi[3] = {map(shape.hi.i, 0), map(shape.hi.j, 1), map(shape.hi.k, 2)};
+    shape.lo = {float(std::min(lo[0], hi[0])), float(std::min(lo[1], hi[1])),
+                float(std::min(lo[2], hi[2]))};
+    shape.hi = {float(std::max(lo[0], hi[0])), float(std::max(lo[1], hi[1])),
+                float(std::max(lo[2], hi[2]))};
+    shape.r_min = float(shape.r_min * std::fabs(variant.d[1]));
+    for (int n = 0; n < shape.plane_count; ++n) {
+        Plane& plane = shape.planes[n];
+        // n . p <= o with p = c + D^-1 (p' - c - t):  (D^-1 n) . p' <= o - n.c + (D^-1 n).(c + t)
+        const double normal[3] = {plane.normal.i / variant.d[0], plane.normal.j / variant.d[1],
+                                  plane.normal.k / variant.d[2]};
+        double offset = plane.offset;
+        const double old_normal[3] = {plane.normal.i, plane.normal.j, plane.normal.k};
+        for (int a = 0; a < 3; ++a) offset += normal[a] * (c[a] + t[a]) - old_normal[a] * c[a];
+        plane.normal = {float(normal[0]), float(normal[1]), float(normal[2])};
+        plane.offset = offset;
+    }
+    return shape;
+}
+
+Volume paint_phantom(int nx, int ny, int nz, int threads, const Variant* variant);
+
 }  // namespace
 
 Volume make_phantom_sized(int nx, int ny, int nz, int threads) {
+    return paint_phantom(nx, ny, nz, threads, nullptr);
+}
+
+Volume make_phantom_variant(uint64_t seed, int threads) {
+    return make_phantom_variant_sized(seed, cthead_nx, cthead_ny, cthead_nz, threads);
+}
+
+Volume make_phantom_variant_sized(uint64_t seed, int nx, int ny, int nz, int threads) {
+    const Variant variant = variant_of(seed);
+    Volume volume = paint_phantom(nx, ny, nz, threads, &variant);
+    volume.name = "phantom:" + std::to_string(seed);
+    return volume;
+}
+
+namespace {
+
+Volume paint_phantom(int nx, int ny, int nz, int threads, const Variant* variant) {
     if (nx < 1 || ny < 1 || nz < 1) {
         throw InputError("phantom: dims must be at least 1 voxel each, got " +
                          std::to_string(nx) + "x" + std::to_string(ny) + "x" +
@@ -480,7 +566,12 @@ Volume make_phantom_sized(int nx, int ny, int nz, int threads) {
                                     std::min(volume.sz, edge_max_voxel)};
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const double coarsest = std::max({edge_spacing[0], edge_spacing[1], edge_spacing[2]});
-    const std::vector<Shape> shapes = head_shapes();
+    std::vector<Shape> shapes = head_shapes();
+    if (variant) {
+        for (Shape& shape : shapes) shape = transformed(shape, *variant);
+    }
+    const uint32_t no_key[3] = {0, 0, 0};
+    const uint32_t* key = variant ? variant->noise_key : no_key;
     std::vector<Painter> painters;
     for (const Shape& shape : shapes) {
         Painter painter{&shape, shape.sharp ? 0 : edge_half_width * coarsest, {}};
@@ -512,7 +603,7 @@ Volume make_phantom_sized(int nx, int ny, int nz, int threads) {
             for (const Painter& painter : painters) paint_row(painter, row);
             int16_t* out = volume.row(j, k);
             for (int i = 0; i < nx; ++i) {
-                const double u = (hash3(i, j, k) >> 8) * hash_scale;
+                const double u = (hash3(i + key[0], j + key[1], k + key[2]) >> 8) * hash_scale;
                 const double value = std::round(values[i] + (2 * u - 1) * noise[i]);
                 out[i] = static_cast<int16_t>(std::clamp(value, -32768.0, 32767.0));
             }
@@ -521,6 +612,8 @@ Volume make_phantom_sized(int nx, int ny, int nz, int threads) {
     update_range(volume);
     return volume;
 }
+
+}  // namespace
 
 Volume make_phantom(int threads) {
     return make_phantom_sized(cthead_nx, cthead_ny, cthead_nz, threads);

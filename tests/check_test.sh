@@ -233,15 +233,15 @@ check $? "side-by-side pictures: $(ls -R "$work/class_report/students" | tr '\n'
 [ $? -eq 2 ] && [ ! -e "$class/reports" ]
 check $? "--report inside the class folder was not refused"
 
-# --- A class of student trees, graded by running their programs ----------------------------
-# With build/grade beside the checker, a student tree is graded as `make check` grades it: its
-# build/ programs are run on the phantom (never its out/ pictures). Two trees with step 02:
-# ann's program is the lab's own, ben's runs it with the threshold 1000 instead of the step's.
-gbin=$work/gbin
+# --- A class of student trees, graded by building and running their programs --------------
+# build/grade --build (beside the checker) builds each tree's steps/ from source against the
+# lab's common/ in the sandbox and runs them on the phantom (never its out/ pictures, never its
+# build/). Two trees with step 02: ann's source is the lab's own, ben's has the threshold 1000
+# instead of the step's; each build/ holds a prebuilt program that says the opposite (ann's
+# runs with --threshold 1000, ben's is the lab's binary): both are ignored.
 gref=$work/gref
 gclass=$work/gclass
-mkdir -p "$gbin" "$gref"
-cp "$build/check" "$build/grade" "$gbin/" || exit 2
+mkdir -p "$gref"
 cp data/reference/02_threshold_top.png data/reference/02_threshold_front.png \
     data/reference/02_threshold_side.png "$gref/"
 echo "02_threshold:" > "$gref/manifest.txt"  # the default run alone: one run per student
@@ -249,20 +249,22 @@ grep '^02_threshold: ' data/reference/counters.txt > "$gref/counters.txt"
 for student in ann ben; do
     mkdir -p "$gclass/$student/steps" "$gclass/$student/build"
     : > "$gclass/$student/.ctlab-student"
-    cp steps/02_threshold.cpp "$gclass/$student/steps/"
 done
-cp "$build/02_threshold" "$gclass/ann/build/"
+cp steps/02_threshold.cpp "$gclass/ann/steps/"
+sed 's/bone_threshold = 400;/bone_threshold = 1000;/' steps/02_threshold.cpp \
+    > "$gclass/ben/steps/02_threshold.cpp"
+cp "$build/02_threshold" "$gclass/ben/build/"
 case "$build" in
     /*) lab_program=$build/02_threshold ;;
     *) lab_program=$(pwd)/$build/02_threshold ;;
 esac
 printf '#!/bin/sh\nexec "%s" "$@" --threshold 1000\n' "$lab_program" \
-    > "$gclass/ben/build/02_threshold"
-chmod +x "$gclass/ben/build/02_threshold"
-grade_class "$gbin/check" "$gclass" "$gref" "$work/gclass_report" "class of trees"
+    > "$gclass/ann/build/02_threshold"
+chmod +x "$gclass/ann/build/02_threshold"
+grade_class "$build/check" "$gclass" "$gref" "$work/gclass_report" "class of trees"
 gcsv="$work/gclass_report/class.csv"
 grep -qx 'ann,pass,100.0,program (build/grade),1.00,' "$gcsv" &&
-    grep -qx 'ben,fail,0.0,program (build/grade),0.00,' "$gcsv"
+    grep -q '^ben,fail,0.0,program (build/grade),0.00,"*02_threshold: ' "$gcsv"
 check $? "class of trees: class.csv: $(cat "$gcsv")"
 ben=$work/gclass_report/students/ben
 grep -q '^02_threshold: failing, pictures 0/3, counters 0/3$' "$ben/report.txt" &&
@@ -278,6 +280,45 @@ grep -q "^| 02_threshold (the program) | fail: see the student's report.txt | 1 
     "$work/gclass_report/summary.md"
 check $? "class of trees: summary.md: $(sed -n '/Commonest/,/Identical/p' \
     "$work/gclass_report/summary.md")"
+
+# --- Folder mode and program mode agree ------------------------------------------------------
+# The same submission graded both ways: the lab's steps 07 and 08 run with --ert 0 (the exact
+# answer: within 3 levels, the manifest's tol=3, of the early-terminated reference) pass both
+# in program mode (build/grade, pictures P/P) and folder mode (build/check --submission on the
+# pictures those runs wrote), and --ert 0.3 fails both; part 2's camera picture is expected,
+# not "extra".
+bref=$work/bref
+mkdir -p "$bref"
+for stem in 07_compositing_order 08_lit_compositing; do
+    cp "data/reference/${stem}_top.png" "data/reference/${stem}_front.png" \
+        "data/reference/${stem}_side.png" "$bref/"
+    grep "^$stem: " data/reference/manifest.txt >> "$bref/manifest.txt"
+done
+cp data/reference/10_free_camera_camera.png "$bref/"
+echo "10_free_camera: tol=3" >> "$bref/manifest.txt"
+for ert in 0 0.3; do
+    "$build/grade" --bin "$build" --reference "$bref" --out "$work/both_$ert" --step 07 \
+        --step 08 --step 10 --args "--ert $ert" > "$work/both_$ert.log" 2>&1
+    mkdir -p "$work/both_sub_$ert"
+    cp "$work/both_$ert"/07_compositing_order/*.png "$work/both_$ert"/08_lit_compositing/*.png \
+        "$work/both_sub_$ert/"
+    "$build/10_free_camera" --volume phantom --no-window --out "$work/both_sub_$ert" \
+        > /dev/null 2>&1
+    "$checker" --submission "$work/both_sub_$ert" --reference "$bref" > "$work/both_check_$ert.log" 2>&1
+done
+grep -q '^07_compositing_order: [a-z]*, pictures 3/3,' "$work/both_0/report.txt" &&
+    grep -q '^08_lit_compositing: [a-z]*, pictures 3/3,' "$work/both_0/report.txt" &&
+    grep -q '^10_free_camera: [a-z]*, pictures 1/1,' "$work/both_0/report.txt" &&
+    grep -q '^7 expected: 7 pass, 0 fail, 0 damaged, 0 error, 0 missing; 0 extra; result=pass$' \
+        "$work/both_check_0.log"
+check $? "--ert 0 passes both modes: $(cat "$work/both_0/report.txt" "$work/both_check_0.log")"
+grep -q '^07_compositing_order: failing, pictures 0/3,' "$work/both_0.3/report.txt" &&
+    grep -q '^08_lit_compositing: failing, pictures 0/3,' "$work/both_0.3/report.txt" &&
+    grep -q '^7 expected: 1 pass, 6 fail, .*result=fail$' "$work/both_check_0.3.log"
+check $? "--ert 0.3 fails both modes: $(cat "$work/both_0.3/report.txt" "$work/both_check_0.3.log")"
+"$checker" --submission "$work/both_sub_0" --reference "$bref" --tol 2 > "$work/both_tol2.log" 2>&1
+grep -q '^7 expected: 1 pass, 6 fail' "$work/both_tol2.log"
+check $? "--tol 2 holds for every picture: $(cat "$work/both_tol2.log")"
 
 # --- make reference for a raw volume of another size ----------------------------------------
 python3 - "$work/sphere.raw" <<'EOF'

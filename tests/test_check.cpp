@@ -10,11 +10,11 @@
 #include <limits>
 #include <string>
 #include <unistd.h>
-#include "compare.h"
+#include "tools/compare.h"
 #include "error.h"
 #include "image.h"
-#include "image_read.h"
-#include "output_folder.h"
+#include "tools/image_read.h"
+#include "tools/output_folder.h"
 
 using namespace ctlab;
 namespace fs = std::filesystem;

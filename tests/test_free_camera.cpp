@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <string>
 #include <vector>
-#include "compare.h"
+#include "tools/compare.h"
 #include "image.h"
 #include "phantom.h"
 #include "tools/run_step.h"

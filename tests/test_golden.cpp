@@ -13,7 +13,7 @@
 #include <set>
 #include <string>
 #include <vector>
-#include "compare.h"
+#include "tools/compare.h"
 #include "error.h"
 #include "harness.h"
 #include "image.h"

@@ -11,7 +11,7 @@
 #include <functional>
 #include <string>
 #include <vector>
-#include "compare.h"
+#include "tools/compare.h"
 #include "image.h"
 #include "tools/run_step.h"
 #include "volume.h"

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "compare.h"
+#include "tools/compare.h"
 #include "harness.h"
 #include "image.h"
 #include "output_files.h"

@@ -20,7 +20,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 #include <algorithm>
+#include <atomic>
 #include <cctype>
+#include <csignal>
+#include <mutex>
+#include <thread>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -30,15 +34,18 @@
 #include <memory>
 #include <regex>
 #include <set>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
 #include "args.h"
-#include "compare.h"
+#include "tools/compare.h"
 #include "error.h"
 #include "image.h"
-#include "image_read.h"
-#include "output_folder.h"
+#include "tools/image_read.h"
+#include "tools/output_folder.h"
+#include "tools/process.h"
+#include "tools/sandbox.h"
 
 using namespace ctlab;
 namespace fs = std::filesystem;
@@ -52,10 +59,14 @@ const char* const default_reference = "data/reference";
 constexpr size_t max_folder_entries = 100000;  // a submission or a class is far smaller
 const char* const pictures_folder = "pictures";  // OUT_DIR/pictures/NAME.png, side by side
 const char* const grade_tool = "grade";          // beside build/check: grades a student tree
+constexpr double default_budget_s = 600;         // wall-clock seconds for one student's tree
+constexpr double budget_margin_s = 60;           // build/grade's own start and end, past it
+const char* const graded_mark = "graded.txt";    // students/NAME/graded.txt: finished
 
 // Only NN_name_top|front|side.png count: variants (..._front_skin030.png), manifests and
 // anything else in the reference folder are not expected from the student.
-const std::regex expected_name("^([0-9]{2}_[a-z0-9_]+)_(top|front|side)\\.png$");
+// Part 2's steps (10 on) write one picture, NN_name_camera.png.
+const std::regex expected_name("^([0-9]{2}_[a-z0-9_]+)_(top|front|side|camera)\\.png$");
 
 const char* const usage_text =
     "usage: check STUDENT.png REFERENCE.png [--tol N] [--diff OUT.png]\n"
@@ -65,7 +76,9 @@ const char* const usage_text =
     "Compares pictures after rounding both to 8 bits per channel. Errors are in 8-bit\n"
     "units (0..255); a pixel fails when any channel differs by more than the tolerance.\n"
     "\n"
-    "  --tol N             tolerance in 8-bit units, a number from 0 to 255 (default 2)\n"
+    "  --tol N             tolerance in 8-bit units, a number from 0 to 255 (default: each\n"
+    "                      step's tol= in the reference folder's manifest.txt, as make check\n"
+    "                      grades it, else 2)\n"
     "  --diff OUT.png      one pair: write a heat map of the differences (black = equal,\n"
     "                      blue = within the tolerance, magenta, yellow, white = largest);\n"
     "                      OUT's folder must exist; an input or a reference is never replaced\n"
@@ -73,13 +86,22 @@ const char* const usage_text =
     "                      reference folder is expected in DIR (names match in any case;\n"
     "                      pictures in one subfolder such as DIR/out/ are found and said so)\n"
     "  --class DIR         a class: one subfolder per student, each a folder of pictures or a\n"
-    "                      student tree (has .ctlab-student or steps/). A tree is graded by\n"
-    "                      build/grade when it is built, else from its out/ pictures\n"
+    "                      student tree (has .ctlab-student or steps/). A tree's steps/ are\n"
+    "                      built from source and run by build/grade --build in a sandbox,\n"
+    "                      against this lab's common/ (its own build/ is never used)\n"
     "  --reference DIR     the reference folder (default data/reference)\n"
     "  --report OUT_DIR    where reports go (created if missing; never inside a submission or\n"
     "                      the reference folder): report.md, report.csv and pictures/NAME.png\n"
     "                      (student | reference | heat map) for each picture that fails; for a\n"
     "                      class: class.csv, summary.md and students/NAME/ as above\n"
+    "  --jobs N            --class: grade N students at once (default 1)\n"
+    "  --budget S          --class: wall-clock seconds for one student tree, its build and\n"
+    "                      all its runs (default 600)\n"
+    "  --timeout S         --class: seconds one run of a step may take (default 120)\n"
+    "  --regrade           --class: grade again the students a stopped run had finished\n"
+    "                      (otherwise their reports are kept and they are skipped)\n"
+    "  --no-sandbox        --class: where bubblewrap cannot run, build and run the trees'\n"
+    "                      programs anyway, unconfined (otherwise they are not run)\n"
     "  --help              this text\n"
     "\n"
     "Verdicts per picture: pass, fail, damaged (its CRC or checksum is wrong: a changed or\n"
@@ -92,9 +114,14 @@ const char* const usage_text =
 struct Settings {
     std::vector<std::string> files;  // STUDENT.png REFERENCE.png
     double tolerance = default_tolerance;
+    bool has_tolerance = false;  // --tol given: it holds for every picture
     std::string diff, submission, class_folder, reference = default_reference, report;
     bool has_submission = false, has_class = false, has_reference = false, has_report = false;
     bool help = false;
+    int jobs = 1;                           // --class: students graded at once
+    double budget_s = default_budget_s;     // --class: wall-clock seconds per student tree
+    std::string timeout;                    // --class: build/grade's --timeout (per run)
+    bool no_sandbox = false, regrade = false, has_class_flag = false;
 };
 
 Settings parse_arguments(int argc, char** argv) {
@@ -109,6 +136,7 @@ Settings parse_arguments(int argc, char** argv) {
             settings.help = true;
         } else if (arg == "--tol") {
             settings.tolerance = parse_double(arg, take_value(), 0, max_tolerance);
+            settings.has_tolerance = true;
         } else if (arg == "--diff") {
             settings.diff = take_value();
             if (settings.diff.empty()) throw InputError("--diff: expected a file name, got ''");
@@ -124,6 +152,21 @@ Settings parse_arguments(int argc, char** argv) {
         } else if (arg == "--report") {
             settings.report = take_value();
             settings.has_report = true;
+        } else if (arg == "--jobs") {
+            settings.jobs = parse_int(arg, take_value(), 1, 256);
+            settings.has_class_flag = true;
+        } else if (arg == "--budget") {
+            settings.budget_s = parse_double(arg, take_value(), 1, 7 * 24 * 3600);
+            settings.has_class_flag = true;
+        } else if (arg == "--timeout") {
+            settings.timeout = std::to_string(parse_double(arg, take_value(), 0.1, 24 * 3600));
+            settings.has_class_flag = true;
+        } else if (arg == "--no-sandbox") {
+            settings.no_sandbox = true;
+            settings.has_class_flag = true;
+        } else if (arg == "--regrade") {
+            settings.regrade = true;
+            settings.has_class_flag = true;
         } else if (arg.size() > 1 && arg[0] == '-') {
             throw InputError("unknown flag '" + printable(arg) + "' (see check --help)");
         } else {
@@ -131,6 +174,10 @@ Settings parse_arguments(int argc, char** argv) {
         }
     }
     if (settings.help) return settings;
+    if (settings.has_class_flag && !settings.has_class) {
+        throw InputError("--jobs, --budget, --timeout, --no-sandbox and --regrade are for "
+                         "--class DIR");
+    }
     if (settings.has_submission && settings.has_class) {
         throw InputError("--submission and --class: one at a time");
     }
@@ -297,7 +344,27 @@ struct References {
     std::vector<std::string> names;   // expected pictures, sorted
     std::vector<std::string> steps;   // their steps (NN_name), sorted, each once
     std::map<std::string, Image> images;
+    std::map<std::string, double> tolerances;  // picture -> its tolerance (8-bit units)
 };
+
+// REFERENCE/manifest.txt's tol=N of each step's default line ("NN_name: ... tol=N"), as
+// build/grade reads it: step -> tolerance.
+std::map<std::string, double> manifest_tolerances(const std::string& folder) {
+    std::map<std::string, double> tolerances;
+    std::ifstream manifest(join(folder, "manifest.txt"));
+    for (std::string line; std::getline(manifest, line);) {
+        const size_t colon = line.find(':');
+        if (line.empty() || line[0] == '#' || colon == std::string::npos) continue;
+        const std::string name = line.substr(0, colon);
+        std::istringstream words(line.substr(colon + 1));
+        for (std::string word; words >> word;) {
+            if (word.rfind("tol=", 0) == 0) {
+                tolerances[name] = parse_double("tol", word.substr(4), 0, max_tolerance);
+            }
+        }
+    }
+    return tolerances;
+}
 
 std::string step_of(const std::string& picture) {
     std::smatch match;
@@ -306,7 +373,7 @@ std::string step_of(const std::string& picture) {
 
 // Reads every expected reference picture once (a class reuses them): an unreadable one is
 // bad input.
-References load_references(const std::string& folder) {
+References load_references(const std::string& folder, const Settings& settings) {
     References references;
     references.folder = folder;
     std::error_code error;
@@ -333,6 +400,12 @@ References load_references(const std::string& folder) {
         steps.insert(step_of(name));
     }
     references.steps.assign(steps.begin(), steps.end());
+    const std::map<std::string, double> manifest = manifest_tolerances(folder);
+    for (const std::string& name : references.names) {
+        const auto step = manifest.find(step_of(name));
+        references.tolerances[name] = settings.has_tolerance || step == manifest.end()
+                                          ? settings.tolerance : step->second;
+    }
     return references;
 }
 
@@ -418,6 +491,7 @@ Row grade_picture(const Folder& folder, const Entry& entry, const std::string& n
         return row;
     }
     const Image& reference = references.images.at(name);
+    tolerance = references.tolerances.at(name);
     Image student;
     std::vector<unsigned char> bytes;
     try {
@@ -603,6 +677,24 @@ std::string tolerance_text(double tolerance) {
     return text;
 }
 
+// "2", or "2, and 3 for 07_compositing_order, 08_lit_compositing (manifest.txt's tol=)".
+std::string tolerances_text(const References& references, double tolerance) {
+    std::map<double, std::set<std::string>> others;
+    for (const auto& [name, value] : references.tolerances) {
+        if (value != tolerance) others[value].insert(step_of(name));
+    }
+    std::string text = tolerance_text(tolerance);
+    for (const auto& [value, steps] : others) {
+        text += ", " + tolerance_text(value) + " for";
+        bool first = true;
+        for (const std::string& step : steps) {
+            text += std::string(first ? " " : ", ") + step;
+            first = false;
+        }
+    }
+    return others.empty() ? text : text + " (manifest.txt's tol=)";
+}
+
 std::string summary_line(const Graded& graded) {
     std::map<std::string, int> counts = graded.counts;
     return std::to_string(graded.expected) + " expected: " + std::to_string(counts["pass"]) +
@@ -618,7 +710,7 @@ std::string markdown_report(const std::string& submission, const References& ref
     std::string text = "# Check report\n\n";
     text += "- submission: `" + printable(submission) + "`\n";
     text += "- reference: `" + printable(references.folder) + "`\n";
-    text += "- tolerance: " + tolerance_text(tolerance) + " (8-bit units)\n";
+    text += "- tolerance: " + tolerances_text(references, tolerance) + " (8-bit units)\n";
     for (const std::string& note : graded.notes) text += "- note: " + note + "\n";
     text += "- " + summary_line(graded) + "\n\n";
     std::string header = "|", rule = "|";
@@ -727,7 +819,7 @@ int check_submission(const Settings& settings) {
         check_report_place(settings.report, {{"submission folder", settings.submission},
                                              {"reference folder", settings.reference}});
     }
-    const References references = load_references(settings.reference);
+    const References references = load_references(settings.reference, settings);
     const Folder submission = open_folder(AT_FDCWD, settings.submission, settings.submission, true);
     std::unique_ptr<OutputFolder> out, pictures;
     if (settings.has_report) {
@@ -792,45 +884,46 @@ std::string grade_program() {
     return ::access(grade.c_str(), X_OK) == 0 ? grade.string() : "";
 }
 
+// Set by SIGINT, SIGTERM or SIGHUP: no student is started, the running ones are stopped.
+volatile std::sig_atomic_t stop_requested = 0;
+
+// Compilers each student's build runs at once: the cores left to each of --jobs students.
+int grade_jobs(const Settings& settings) {
+    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    return std::max(1, static_cast<int>(cores) / settings.jobs);
+}
+
 // The interface with build/grade (tools/grade.cpp), for a student tree:
-//   grade --tree TREE --reference REF --out OUT_DIR
+//   grade --build --tree TREE --reference REF --out OUT_DIR --budget S --jobs N
 // renders into OUT_DIR (the student's folder in the report, never the tree), writes
 // OUT_DIR/report.txt with one line per step, "NN_name: STATUS, pictures P/T, counters C/T"
 // ("-" where nothing ran), and exits 0 (all pass), 1 (some fail) or 2 (bad input, its first
 // stderr line the reason). Its tolerances are the manifest's per run, not --tol.
 void grade_program_tree(const std::string& grade, const std::string& tree,
                         const Settings& settings, const OutputFolder& out, Student& student) {
-    int output[2];
-    if (::pipe(output) != 0) throw InputError("cannot run " + grade + ": no pipe");
-    const std::vector<std::string> arguments = {grade, "--tree", tree, "--reference",
-                                                settings.reference, "--out", out.path()};
-    const pid_t child = ::fork();
-    if (child < 0) throw InputError("cannot run " + grade + ": " + std::strerror(errno));
-    if (child == 0) {
-        ::dup2(output[1], 1);
-        ::close(output[0]);
-        ::close(output[1]);
-        std::vector<char*> argv;
-        for (const std::string& argument : arguments) {
-            argv.push_back(const_cast<char*>(argument.c_str()));
-        }
-        argv.push_back(nullptr);
-        ::execv(grade.c_str(), argv.data());
-        ::_exit(127);
+    std::vector<std::string> arguments = {"--build", "--tree", tree, "--reference",
+                                          settings.reference, "--out", out.path(),
+                                          "--budget", std::to_string(settings.budget_s),
+                                          "--jobs", std::to_string(grade_jobs(settings))};
+    if (settings.no_sandbox) arguments.push_back("--no-sandbox");
+    if (!settings.timeout.empty()) arguments.insert(arguments.end(), {"--timeout",
+                                                                      settings.timeout});
+    ProcessOptions options;
+    options.limits.wall_s = settings.budget_s + budget_margin_s;
+    options.stop = &stop_requested;
+    options.limits.output_bytes = 1 << 20;  // bytes of grade's stdout kept
+    const ProcessResult result = run_process(grade, arguments, options);
+    constexpr size_t max_output = 1 << 20;  // bytes of grade's report read
+    const int code = result.exit_status;
+    if (result.timed_out || result.interrupted) {
+        student.source = "program (build/grade)";
+        student.result = "error";
+        student.note = result.timed_out
+            ? "build/grade went past the student's budget of " + std::to_string(
+                  static_cast<int>(settings.budget_s)) + " s and was stopped"
+            : "not finished: the check was interrupted";
+        return;
     }
-    ::close(output[1]);
-    std::string text;
-    constexpr size_t max_output = 1 << 20;  // bytes of grade's stdout kept
-    char buffer[4096];
-    for (ssize_t got; (got = ::read(output[0], buffer, sizeof buffer)) != 0;) {
-        if (got < 0 && errno == EINTR) continue;
-        if (got < 0) break;
-        if (text.size() < max_output) text.append(buffer, static_cast<size_t>(got));
-    }
-    ::close(output[0]);
-    int status = 0;
-    while (::waitpid(child, &status, 0) < 0 && errno == EINTR) {}
-    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     // grade's report.txt: "NN_name: STATUS, pictures P/T, counters C/T", "-" for none.
     std::string report;
     {
@@ -844,6 +937,7 @@ void grade_program_tree(const std::string& grade, const std::string& tree,
     const std::regex line("^([0-9]{2}_[a-z0-9_]+): [a-z ]+, pictures (-|([0-9]+)/([0-9]+)), "
                           "counters (-|([0-9]+)/([0-9]+))$");
     size_t start = 0;
+    std::string step, reason;
     while (start < report.size()) {
         size_t end = report.find('\n', start);
         if (end == std::string::npos) end = report.size();
@@ -855,17 +949,61 @@ void grade_program_tree(const std::string& grade, const std::string& tree,
             };
             const int passed = number(3) + number(6), total = number(4) + number(7);
             student.steps[match[1]] = {passed, std::max(total, 1)};  // nothing ran: 0 of 1
+            step = match[1];
+        } else if (reason.empty() && one.rfind("  ", 0) == 0 && one.rfind("    ", 0) != 0) {
+            reason = step + ": " + one.substr(2);  // the first problem: one line of reason
         }
         start = end + 1;
     }
     student.source = "program (build/grade)";
     if (code == 0 || code == 1) {
         student.result = code == 0 ? "pass" : "fail";
+        student.note = reason;
     } else {
         student.result = "error";
         student.note = "build/grade stopped with status " + std::to_string(code) +
                        " (its report: " + out.path() + ")";
     }
+}
+
+// students/NAME/graded.txt: a student tree whose programs were graded, written last, so a
+// stopped class run keeps it (what a rerun reads back instead of grading the tree again).
+void write_graded(const OutputFolder& out, const Student& student) {
+    if (student.source.rfind("program", 0) != 0) return;  // pictures: quick to grade again
+    std::string text = "result: " + student.result + "\nsource: " + student.source +
+                       "\nnote: " + student.note + "\n";
+    for (const auto& [step, score] : student.steps) {
+        text += "step: " + step + " " + std::to_string(score.first) + " " +
+                std::to_string(score.second) + "\n";
+    }
+    out.write(graded_mark, text);
+}
+
+bool read_graded(const OutputFolder& out, Student& student) {
+    std::string text;
+    try {
+        const std::vector<unsigned char> bytes =
+            read_file_at(out.fd(), graded_mark, out.path(graded_mark), 1 << 20);
+        text.assign(bytes.begin(), bytes.end());
+    } catch (const InputError&) {
+        return false;
+    }
+    std::istringstream lines(text);
+    for (std::string line; std::getline(lines, line);) {
+        const size_t colon = line.find(": ");
+        if (colon == std::string::npos) continue;
+        const std::string key = line.substr(0, colon), value = line.substr(colon + 2);
+        if (key == "result") student.result = value;
+        if (key == "source") student.source = value;
+        if (key == "note") student.note = value;
+        if (key == "step") {
+            std::istringstream words(value);
+            std::string step;
+            int passed = 0, total = 0;
+            if (words >> step >> passed >> total) student.steps[step] = {passed, total};
+        }
+    }
+    return student.result == "pass" || student.result == "fail";
 }
 
 std::string score_text(int passed, int total) {
@@ -937,13 +1075,29 @@ int check_class(const Settings& settings) {
     }
     check_report_place(settings.report, {{"class folder", settings.class_folder},
                                          {"reference folder", settings.reference}});
-    const References references = load_references(settings.reference);
+    const References references = load_references(settings.reference, settings);
     const Folder class_folder =
         open_folder(AT_FDCWD, settings.class_folder, settings.class_folder, true);
     const OutputFolder out = OutputFolder::open(settings.report);
     const OutputFolder students_out = out.subfolder("students");
-    const std::string grade = grade_program();
 
+    // Student trees' programs are built and run only in the sandbox (build/grade --build),
+    // unless the instructor says otherwise.
+    std::string grade = grade_program();
+    if (!grade.empty() && !sandbox_problem().empty() && !settings.no_sandbox) {
+        std::printf("check: no sandbox (%s): student trees' programs are not built or run, "
+                    "their out/ pictures are graded (--no-sandbox runs them unconfined)\n",
+                    sandbox_problem().c_str());
+        grade.clear();
+    }
+    // One slot per student, in the class folder's order; a stopped run's finished students
+    // (students/NAME/graded.txt) are kept unless --regrade.
+    struct Slot {
+        Entry entry;
+        std::unique_ptr<OutputFolder> out;
+        bool kept = false;
+    };
+    std::vector<Slot> slots;
     std::vector<Student> students;
     std::set<std::string> taken;
     for (const Entry& entry : list_folder(class_folder)) {
@@ -951,21 +1105,67 @@ int check_class(const Settings& settings) {
         if (entry.kind == Kind::file || entry.name[0] == '.') continue;
         Student student;
         student.name = printable(entry.name);
-        const OutputFolder student_out = students_out.subfolder(safe_component(entry.name, taken));
-        try {
-            grade_student(class_folder, entry, references, settings, student_out, grade, student);
-        } catch (const InputError& error) {
-            student.result = "error";
-            student.note = error.what();
-        }
-        if (student.result == "error") {
-            student_out.write("report.md", "# Check report\n\n- student: `" + student.name +
-                                               "`\n- result: error\n- " + student.note + "\n");
-        }
-        std::printf("%-24s %-5s %s%s%s\n", student.name.c_str(), student.result.c_str(),
-                    student.source.c_str(), student.note.empty() ? "" : ": ",
-                    student.note.c_str());
+        Slot slot{entry, std::make_unique<OutputFolder>(
+                             students_out.subfolder(safe_component(entry.name, taken)))};
+        if (!settings.regrade) slot.kept = read_graded(*slot.out, student);
         students.push_back(std::move(student));
+        slots.push_back(std::move(slot));
+    }
+    for (int signal : {SIGINT, SIGTERM, SIGHUP}) {
+        std::signal(signal, [](int) { stop_requested = 1; });
+    }
+    std::mutex printing;
+    std::atomic<size_t> next{0};
+    int kept = 0;
+    for (const Slot& slot : slots) kept += slot.kept;
+    auto worker = [&] {
+        for (size_t n; (n = next++) < slots.size() && !stop_requested;) {
+            Slot& slot = slots[n];
+            Student& student = students[n];
+            if (!slot.kept) {
+                try {
+                    grade_student(class_folder, slot.entry, references, settings, *slot.out,
+                                  grade, student);
+                } catch (const InputError& error) {
+                    student.result = "error";
+                    student.note = error.what();
+                }
+                if (stop_requested) {
+                    student.result = "error";
+                    student.note = "not finished: the check was interrupted";
+                    continue;
+                }
+                if (student.result == "error") {
+                    slot.out->write("report.md", "# Check report\n\n- student: `" +
+                                                     student.name + "`\n- result: error\n- " +
+                                                     student.note + "\n");
+                }
+                write_graded(*slot.out, student);
+            }
+            const std::lock_guard<std::mutex> lock(printing);
+            std::printf("%-24s %-5s %s%s%s%s\n", student.name.c_str(), student.result.c_str(),
+                        student.source.c_str(), student.note.empty() ? "" : ": ",
+                        student.note.c_str(), slot.kept ? " (graded before: kept)" : "");
+            std::fflush(stdout);
+        }
+    };
+    std::vector<std::thread> workers;
+    for (int w = 0; w < settings.jobs; ++w) workers.emplace_back(worker);
+    for (std::thread& thread : workers) thread.join();
+    if (stop_requested) {
+        size_t finished = 0;
+        for (const Student& student : students) {
+            finished += student.note != "not finished: the check was interrupted" &&
+                        !student.result.empty();
+        }
+        std::printf("check: interrupted; %zu of %zu students graded, their reports kept: "
+                    "run the same command again to grade the rest\n", finished,
+                    students.size());
+        return exit_fail;
+    }
+    if (kept > 0) {
+        std::printf("check: %d students graded by an earlier run were kept (--regrade grades "
+                    "them again)\n", kept);
     }
     if (students.empty()) {
         throw InputError("class folder '" + printable(settings.class_folder) +
@@ -1010,7 +1210,7 @@ int check_class(const Settings& settings) {
     std::string md = "# Class summary\n\n";
     md += "- class: `" + printable(settings.class_folder) + "`\n";
     md += "- reference: `" + printable(settings.reference) + "`\n";
-    md += "- tolerance: " + tolerance_text(settings.tolerance) + " (8-bit units)\n";
+    md += "- tolerance: " + tolerances_text(references, settings.tolerance) + " (8-bit units)\n";
     md += "- students: " + std::to_string(students.size()) + ", all steps pass: " +
           std::to_string(passing) + "\n";
     md += "- per student: `students/NAME/report.md`, failing pictures side by side (student | "

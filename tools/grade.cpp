@@ -11,7 +11,7 @@
 // (V: the phantom, or the volume REFERENCE/volume.txt names)
 // into a folder emptied first (an old picture never passes). Then, for each view:
 //   - the picture against REFERENCE/NN_name_<view>[_VARIANT].png, within the run's tolerance
-//     (8-bit units, common/compare.h);
+//     (8-bit units, tools/compare.h);
 //   - the summary line's work counters against REFERENCE/counters.txt (written by make
 //     reference): each must be equal, since the lab prescribes the work as well as the result.
 // Per step it prints one row of a progress table (not built, not started, crashed, failing,
@@ -35,6 +35,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -46,9 +47,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 #include "args.h"
-#include "compare.h"
+#include "tools/compare.h"
 #include "error.h"
 #include "image.h"
+#include "tools/process.h"
+#include "tools/sandbox.h"
 #include "tools/run_step.h"
 
 using namespace ctlab;
@@ -59,6 +62,7 @@ namespace {
 constexpr double default_tolerance = 2;    // 8-bit units: rounding differences pass
 constexpr double max_tolerance = 255;      // 8-bit units
 constexpr double default_timeout_s = 120;  // per run: a step on the phantom takes < 2 s
+constexpr double default_budget_s = 600;   // per student tree with --build: build and runs
 constexpr size_t max_output_bytes = 1 << 20;  // of a run's stdout or stderr that is read
 constexpr int max_details = 4;             // lines of "look at" printed per step
 constexpr int gap = 4;                     // pixels between the side-by-side panels
@@ -90,6 +94,20 @@ const char* const usage_text =
     "                    arguments: lines, as make reference VOLUME=... writes them; else\n"
     "                    the phantom)\n"
     "  --timeout S       seconds a run may take before it is stopped (default 120)\n"
+    "\n"
+    "Grading a student's tree (the instructor; build/check --class does this for a class):\n"
+    "  --build           build the tree's steps/*.cpp from source (ordinary files only, links\n"
+    "                    never followed) against the instructor's lab (--lab: its Makefile,\n"
+    "                    common/ and compiled library), never running what TREE/build holds;\n"
+    "                    build and runs inside the sandbox (bubblewrap: no network, no home,\n"
+    "                    only the sources, the volume and one output folder; limits on CPU,\n"
+    "                    memory, file size, files, processes and output)\n"
+    "  --lab DIR         the instructor's lab (default: the one this grade was built in)\n"
+    "  --jobs N          compile N steps at once (default 2)\n"
+    "  --budget S        wall-clock seconds for the whole tree, build and runs (default 600):\n"
+    "                    runs past it are not started\n"
+    "  --no-sandbox      with --build where bubblewrap cannot run: run the programs anyway,\n"
+    "                    with limits but unconfined (the instructor's explicit choice)\n"
     "  --help            this text\n"
     "\n"
     "Exit status: 0 every graded step passes, 1 some step does not, 2 bad input.\n";
@@ -104,6 +122,11 @@ struct Settings {
     std::string volume;                       // "" = REFERENCE/volume.txt's, else the phantom
     std::vector<std::string> volume_args;     // --dims ... from REFERENCE/volume.txt
     double timeout_s = default_timeout_s;
+    bool build = false;          // a stranger's tree: built and run in the sandbox
+    bool no_sandbox = false;     // --build without a sandbox, explicitly
+    fs::path lab;                // the instructor's lab: Makefile, common/, its library
+    int jobs = 2;
+    double budget_s = default_budget_s;
 };
 
 std::vector<std::string> split_words(const std::string& text) {
@@ -153,6 +176,17 @@ Settings parse_arguments(int argc, char** argv) {
             if (settings.volume.empty()) throw InputError("--volume: expected a file or phantom");
         } else if (arg == "--timeout") {
             settings.timeout_s = parse_double(arg, value(), 0.1, 24 * 3600);
+        } else if (arg == "--build") {
+            settings.build = true;
+        } else if (arg == "--no-sandbox") {
+            settings.no_sandbox = true;
+        } else if (arg == "--lab") {
+            settings.lab = value();
+            if (settings.lab.empty()) throw InputError("--lab: expected a folder");
+        } else if (arg == "--jobs") {
+            settings.jobs = parse_int(arg, value(), 1, 256);
+        } else if (arg == "--budget") {
+            settings.budget_s = parse_double(arg, value(), 1, 7 * 24 * 3600);
         } else {
             throw InputError("unknown argument '" + arg + "' (see grade --help)");
         }
@@ -163,6 +197,9 @@ Settings parse_arguments(int argc, char** argv) {
             (path == &settings.reference && has_reference) || (path == &settings.out && has_out)) {
             if (path->empty()) throw InputError("expected a folder name, got ''");
         }
+    }
+    if (settings.build && has_bin) {
+        throw InputError("--build builds the tree's steps itself: no --bin");
     }
     if (!has_bin) settings.bin = settings.tree / "build";
     if (!has_reference) settings.reference = settings.tree / "data" / "reference";
@@ -304,78 +341,131 @@ std::optional<CounterTable> read_counters(const fs::path& path) {
 }
 
 // --- Running a step as a process -----------------------------------------------------------
-// Not run_program (tools/run_step.h): a step runs inside the tree (its relative paths, e.g.
-// data/tf/, are the tree's), in a process group of its own, its output read within a bound,
-// and a signal kept apart from an exit status.
+// tools/process.h's run_process: a step runs inside the tree (its relative paths, e.g. data/tf/,
+// are the tree's), in a process group of its own, its output read within a bound, and a
+// signal kept apart from an exit status. Its stdout and stderr are kept beside its pictures.
 
-struct Outcome {
-    bool started = false;
-    bool timed_out = false;
-    int exit_status = -1;  // when it exited
-    int signal = 0;        // when a signal ended it
-    std::string out, err;  // what it printed (bounded)
-    double seconds = 0;
-};
+using Outcome = ProcessResult;
 
-Outcome run_process(const fs::path& program, const std::vector<std::string>& arguments,
-                    const fs::path& folder, const fs::path& log_folder, double timeout_s) {
-    Outcome outcome;
-    const fs::path out_path = log_folder / "stdout.txt", err_path = log_folder / "stderr.txt";
-    std::vector<std::string> words = {program.string()};
-    words.insert(words.end(), arguments.begin(), arguments.end());
-    std::vector<char*> argv;
-    for (std::string& word : words) argv.push_back(word.data());
-    argv.push_back(nullptr);
+// Set by SIGINT, SIGTERM or SIGHUP: the running step is stopped and grade ends (its stage
+// removed) with status 130.
+volatile std::sig_atomic_t interrupted = 0;
+struct Interrupted {};
 
-    const auto start = std::chrono::steady_clock::now();
-    const pid_t pid = fork();
-    if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
-    if (pid == 0) {
-        setpgid(0, 0);  // its own group: a timeout stops its children too
-        const int out = ::open(out_path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644);
-        const int err = ::open(err_path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644);
-        const int none = ::open("/dev/null", O_RDONLY);
-        if (out < 0 || err < 0 || none < 0 || dup2(out, 1) < 0 || dup2(err, 2) < 0 ||
-            dup2(none, 0) < 0 || chdir(folder.c_str()) != 0) {
-            _exit(127);
-        }
-        execv(argv[0], argv.data());
-        std::fprintf(stderr, "grade: cannot run %s: %s\n", argv[0], std::strerror(errno));
-        _exit(127);
-    }
-    setpgid(pid, pid);
-    outcome.started = true;
-    int status = 0;
-    for (;;) {
-        const pid_t done = waitpid(pid, &status, WNOHANG);
-        if (done == pid) break;
-        if (done < 0 && errno != EINTR) throw std::runtime_error("waitpid failed");
-        const double elapsed =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        if (elapsed > timeout_s) {
-            kill(-pid, SIGKILL);
-            kill(pid, SIGKILL);
-            waitpid(pid, &status, 0);
-            outcome.timed_out = true;
-            break;
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    outcome.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (!outcome.timed_out) {
-        if (WIFEXITED(status)) outcome.exit_status = WEXITSTATUS(status);
-        if (WIFSIGNALED(status)) outcome.signal = WTERMSIG(status);
-    }
-    try {
-        outcome.out = read_bounded(out_path, max_output_bytes);
-        outcome.err = read_bounded(err_path, max_output_bytes);
-    } catch (const InputError&) {
+Outcome checked(Outcome outcome) {
+    if (outcome.interrupted) throw Interrupted{};
+    return outcome;
+}
+
+Outcome run_step_process(const fs::path& program, const std::vector<std::string>& arguments,
+                         const fs::path& folder, const fs::path& log_folder, double timeout_s) {
+    ProcessOptions options;
+    options.folder = folder.string();
+    options.limits.wall_s = timeout_s;
+    options.limits.output_bytes = max_output_bytes;
+    options.stop = &interrupted;
+    Outcome outcome = checked(run_process(program.string(), arguments, options));
+    for (const auto& [name, text] : {std::pair<const char*, const std::string*>{"stdout.txt",
+                                                                                &outcome.out},
+                                     {"stderr.txt", &outcome.err}}) {
+        const fs::path path = log_folder / name;
+        const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644);
+        if (fd < 0) continue;
+        const ssize_t written = ::write(fd, text->data(), text->size());
+        (void)written;
+        ::close(fd);
     }
     return outcome;
 }
 
+// --- A stranger's tree: staged, then built and run in the sandbox ----------------------------
+// The sandbox's user (as root, a uid of its own) must reach every folder it is given, and a
+// student's files are read only as ordinary files (never through a link). So a stage under
+// the system temp folder (mode 0711) holds copies of just what the build and runs need:
+//   STAGE/lab/Makefile, common/, data/tf/, data/presets/   the instructor's
+//   STAGE/lab/build/libctlab.a                              the instructor's compiled library
+//   STAGE/lab/build/ctlab_*.so                              its modules (formats, window)
+//   STAGE/lab/steps/NN_name.cpp                             the student's, ordinary files only
+//   STAGE/lab/build/NN_name                                 compiled in the sandbox
+//   STAGE/volume/NAME                                       the volume, when it is a file
+//   STAGE/run/                                              one run's output folder
+// No reference folder, no other student, no home: the sandbox sees /usr and these.
+
+// The lab's modules beside its library (common/module.h): staged with it, never rebuilt.
+constexpr const char* lab_modules[] = {"ctlab_formats.so", "ctlab_window.so"};
+constexpr size_t max_source_bytes = 4 << 20;        // one step's .cpp
+constexpr size_t max_run_folder_bytes = 64 << 20;   // what a run may leave in its folder
+constexpr size_t max_run_folder_files = 256;
+constexpr double build_cpu_s = 300;                  // CPU seconds of one compiler process
+constexpr size_t build_memory = size_t(4) << 30;     // address space of one compiler process
+constexpr size_t run_memory = size_t(4) << 30;       // address space of a step
+constexpr size_t build_file_bytes = 512u << 20;      // the largest file a build writes
+constexpr size_t run_file_bytes = 64u << 20;         // the largest file a step writes
+constexpr size_t sandbox_open_files = 256;
+constexpr size_t sandbox_processes = 64;             // processes and threads
+constexpr size_t build_tmp_bytes = 512u << 20;       // the compiler's /tmp
+constexpr size_t run_tmp_bytes = 16u << 20;
+
+// Copies an ordinary file of at most `limit` bytes, never through a link; "" or the reason.
+std::string copy_untrusted(const fs::path& from, const fs::path& to, size_t limit) {
+    const int in = ::open(from.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC | O_NONBLOCK);
+    if (in < 0) {
+        return errno == ELOOP ? "is a symbolic link: not followed"
+                              : std::string("cannot be read: ") + std::strerror(errno);
+    }
+    struct stat info {};
+    if (fstat(in, &info) != 0 || !S_ISREG(info.st_mode)) {
+        ::close(in);
+        return "is not an ordinary file";
+    }
+    if (static_cast<size_t>(info.st_size) > limit) {
+        ::close(in);
+        return "is larger than " + bytes_text(limit);
+    }
+    const int out = ::open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC,
+                           0644);
+    if (out < 0) {
+        ::close(in);
+        return "cannot be copied to " + to.string() + ": " + std::strerror(errno);
+    }
+    char buffer[65536];
+    size_t total = 0;
+    std::string problem;
+    for (ssize_t got; (got = ::read(in, buffer, sizeof buffer)) > 0;) {
+        total += static_cast<size_t>(got);
+        if (total > limit) {
+            problem = "is larger than " + bytes_text(limit);
+            break;
+        }
+        if (::write(out, buffer, static_cast<size_t>(got)) != got) {
+            problem = std::string("cannot be copied: ") + std::strerror(errno);
+            break;
+        }
+    }
+    ::close(in);
+    ::close(out);
+    return problem;
+}
+
+// The stage: made once per grade, removed at the end.
+class Stage {
+public:
+    Stage() : folder_("grade") {
+        fs::permissions(folder_.path(), fs::perms::owner_all | fs::perms::others_exec);
+    }
+    fs::path root() const { return folder_.path(); }
+    fs::path lab() const { return root() / "lab"; }
+
+private:
+    TempFolder folder_;
+};
+
 std::string signal_name(int signal) {
+    switch (signal) {
+        case SIGXCPU: return "SIGXCPU (it used up its CPU seconds: a loop that never ends?)";
+        case SIGXFSZ: return "SIGXFSZ (it wrote a file larger than the grader allows)";
+        default: break;
+    }
     switch (signal) {
         case SIGSEGV: return "SIGSEGV (segmentation fault: a read or write outside memory)";
         case SIGABRT: return "SIGABRT (aborted: an assert, or the sanitizers, or a throw "
@@ -642,17 +732,249 @@ private:
         return settings_.reference /
                (step.name + "_" + view + (run.variant.empty() ? "" : "_" + run.variant) + ".png");
     }
+    // The first flags of every run: the volume, no window, the output folder.
+    std::vector<std::string> first_arguments(const fs::path& folder) const;
+    // Runs the step with these flags, its pictures ending in `folder`.
+    Outcome execute(const Step& step, const std::vector<std::string>& arguments,
+                    const fs::path& folder);
+    // --build: the stage, and the student's steps compiled in the sandbox.
+    void stage_and_build(const std::vector<std::string>& names);
+    double seconds_left() const;
 
     Settings settings_;
     std::optional<CounterTable> counters_;
     fs::path cwd_;
+    std::unique_ptr<Stage> stage_;
+    fs::path kit_reference_;  // the kit's phantom references, when grading on another volume
+    std::map<std::string, std::string> not_built_;  // --build: step -> why it was not built
+    double build_s_ = 0;  // --build: wall-clock seconds of the sandboxed build
+    std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
+
+double Grader::seconds_left() const {
+    return settings_.budget_s -
+           std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+}
+
+// Sandbox settings shared by the build and the runs: the stage's lab read-only at /lab.
+Limits sandbox_limits(double wall_s, bool build) {
+    Limits limits;
+    limits.wall_s = wall_s;
+    limits.cpu_s = build ? build_cpu_s : wall_s;
+    limits.address_space = build ? build_memory : run_memory;
+    limits.file_size = build ? build_file_bytes : run_file_bytes;
+    limits.open_files = sandbox_open_files;
+    limits.processes = sandbox_processes;
+    limits.output_bytes = max_output_bytes;
+    return limits;
+}
+
+std::vector<std::string> Grader::first_arguments(const fs::path& folder) const {
+    std::string volume = settings_.volume;
+    const fs::path name = fs::path(volume).lexically_normal().filename();
+    std::error_code error;
+    if (stage_ && !name.empty() && fs::exists(stage_->root() / "volume" / name, error)) {
+        volume = "/volume/" + name.string();
+    }
+    std::vector<std::string> arguments = {"--volume", volume, "--no-window", "--out",
+                                          stage_ ? "/out" : fs::absolute(folder).string()};
+    arguments.insert(arguments.end(), settings_.volume_args.begin(),
+                     settings_.volume_args.end());
+    return arguments;
+}
+
+Outcome Grader::execute(const Step& step, const std::vector<std::string>& arguments,
+                        const fs::path& folder) {
+    if (!stage_) {
+        return run_step_process(fs::absolute(settings_.bin / step.name), arguments,
+                                settings_.tree, folder, settings_.timeout_s);
+    }
+    Outcome outcome;
+    const double left = seconds_left();
+    if (left <= 0) {  // the student's budget is spent: reported as a timeout
+        outcome.timed_out = true;
+        outcome.err = "not run: this tree's budget of " +
+                      std::to_string(static_cast<int>(settings_.budget_s)) + " s is used up\n";
+        return outcome;
+    }
+    const fs::path run_folder = stage_->root() / "run";
+    std::error_code error;
+    fs::remove_all(run_folder, error);
+    fs::create_directory(run_folder);
+    give_to_sandbox(run_folder.string());
+    Sandbox sandbox;
+    sandbox.mounts = {{stage_->lab().string(), "/lab", false},
+                      {(stage_->root() / "volume").string(), "/volume", false},
+                      {run_folder.string(), "/out", true}};
+    sandbox.folder = "/lab";
+    sandbox.tmp_bytes = run_tmp_bytes;
+    ProcessOptions options;
+    options.limits = sandbox_limits(std::min(settings_.timeout_s, left), false);
+    options.prefix = settings_.no_sandbox ? std::vector<std::string>{} : sandbox_command(sandbox);
+    options.uid = settings_.no_sandbox ? 0 : sandbox_uid();
+    std::vector<std::string> words = arguments;
+    if (settings_.no_sandbox) {  // the same flags, the stage's own paths
+        for (std::string& word : words) {
+            if (word == "/out") word = run_folder.string();
+            if (word.rfind("/volume/", 0) == 0) word = (stage_->root() / word.substr(1)).string();
+        }
+        options.folder = stage_->lab().string();
+    }
+    const std::string program = settings_.no_sandbox
+        ? (stage_->lab() / "build" / step.name).string() : "/lab/build/" + step.name;
+    options.stop = &interrupted;
+    outcome = checked(run_process(program, words, options));
+    // bwrap exits with 128 + N when a signal N ended the program inside it.
+    constexpr int signal_status = 128, last_signal = 64;
+    if (!settings_.no_sandbox && outcome.signal == 0 && outcome.exit_status > signal_status &&
+        outcome.exit_status <= signal_status + last_signal) {
+        outcome.signal = outcome.exit_status - signal_status;
+        outcome.exit_status = -1;
+    }
+    // What it left in its folder, ordinary files only and within bounds, goes to `folder`.
+    size_t files = 0, bytes = 0;
+    std::string problem;
+    for (const fs::directory_entry& entry : fs::directory_iterator(run_folder, error)) {
+        const fs::path name = entry.path().filename();
+        if (++files > max_run_folder_files) {
+            problem = "it left more than " + std::to_string(max_run_folder_files) +
+                      " files in its output folder";
+            break;
+        }
+        struct stat info {};
+        if (::lstat(entry.path().c_str(), &info) != 0 || !S_ISREG(info.st_mode)) continue;
+        bytes += static_cast<size_t>(info.st_size);
+        if (bytes > max_run_folder_bytes) {
+            problem = "it left more than " + bytes_text(max_run_folder_bytes) +
+                      " in its output folder";
+            break;
+        }
+        copy_untrusted(entry.path(), folder / name, max_run_folder_bytes);
+    }
+    fs::remove_all(run_folder, error);
+    if (!problem.empty()) {  // graded as a program that printed too much
+        outcome.output_exceeded = true;
+        outcome.err = "grade: " + problem + "\n" + outcome.err;
+    }
+    for (const auto& [name, text] : {std::pair<const char*, const std::string*>{"stdout.txt",
+                                                                                &outcome.out},
+                                     {"stderr.txt", &outcome.err}}) {
+        std::ofstream log(folder / name, std::ios::binary | std::ios::trunc);
+        log << *text;
+    }
+    return outcome;
+}
+
+void Grader::stage_and_build(const std::vector<std::string>& names) {
+    const fs::path library = fs::path(build_folder()).parent_path() == settings_.lab
+        ? fs::path(build_folder()) / "libctlab.a" : settings_.lab / "build" / "libctlab.a";
+    std::error_code error;
+    if (!fs::is_regular_file(settings_.lab / "Makefile", error) ||
+        !fs::is_directory(settings_.lab / "common", error)) {
+        throw InputError("--lab: '" + settings_.lab.string() + "' holds no Makefile and common/");
+    }
+    if (!fs::is_regular_file(library, error)) {
+        throw InputError("the lab's library " + library.string() + " is not built: make");
+    }
+    for (const fs::directory_entry& entry : fs::directory_iterator(settings_.lab / "common")) {
+        if (fs::last_write_time(entry.path(), error) > fs::last_write_time(library, error)) {
+            throw InputError(entry.path().string() + " is newer than " + library.string() +
+                             ": make, so students are built against the library as it is");
+        }
+    }
+    stage_ = std::make_unique<Stage>();
+    const fs::path lab = stage_->lab();
+    fs::create_directories(lab / "steps");
+    fs::create_directories(lab / "build");
+    fs::create_directories(lab / "data");
+    fs::create_directories(stage_->root() / "volume");
+    fs::copy_file(settings_.lab / "Makefile", lab / "Makefile");
+    fs::copy(settings_.lab / "common", lab / "common", fs::copy_options::recursive);
+    for (const char* data : {"tf", "presets"}) {
+        if (fs::is_directory(settings_.lab / "data" / data, error)) {
+            fs::copy(settings_.lab / "data" / data, lab / "data" / data,
+                     fs::copy_options::recursive);
+        }
+    }
+    fs::copy_file(library, lab / "build" / "libctlab.a");
+    // The modules the steps open (common/module.h): the instructor's, as the library is.
+    for (const char* module : lab_modules) {
+        const fs::path built = library.parent_path() / module;
+        if (fs::is_regular_file(built, error)) fs::copy_file(built, lab / "build" / module);
+    }
+    if (settings_.volume != "phantom" && settings_.volume.rfind("phantom:", 0) != 0) {
+        // A file, or a folder (a DICOM series): the instructor's, copied as it is.
+        const fs::path volume = fs::path(settings_.volume).lexically_normal();
+        fs::copy(volume, stage_->root() / "volume" / volume.filename(),
+                 fs::copy_options::recursive);
+    }
+    // The student's sources: ordinary files only, never through a link.
+    std::vector<std::string> targets;
+    for (const std::string& name : names) {
+        const std::string problem = copy_untrusted(settings_.tree / "steps" / (name + ".cpp"),
+                                                   lab / "steps" / (name + ".cpp"),
+                                                   max_source_bytes);
+        if (problem.empty()) {
+            targets.push_back("build/" + name);
+        } else {
+            not_built_[name] = "steps/" + name + ".cpp " + problem;
+        }
+    }
+    give_to_sandbox((lab / "build").string());
+    if (targets.empty()) return;
+
+    Sandbox sandbox;
+    sandbox.mounts = {{lab.string(), "/lab", false}, {(lab / "build").string(), "/lab/build", true}};
+    sandbox.folder = "/lab";
+    sandbox.tmp_bytes = build_tmp_bytes;
+    ProcessOptions options;
+    options.limits = sandbox_limits(std::max(1.0, seconds_left()), true);
+    options.prefix = settings_.no_sandbox ? std::vector<std::string>{} : sandbox_command(sandbox);
+    options.uid = settings_.no_sandbox ? 0 : sandbox_uid();
+    if (settings_.no_sandbox) options.folder = lab.string();
+    // -o: the instructor's library is never remade (nor its objects looked for); -k: every
+    // step that compiles is built.
+    std::vector<std::string> arguments = {"--no-print-directory", "-k",
+                                          "-j" + std::to_string(settings_.jobs), "BUILD=build",
+                                          "WERROR=0", "-o", "build/libctlab.a"};
+    for (const char* module : lab_modules) {
+        arguments.insert(arguments.end(), {"-o", std::string("build/") + module});
+    }
+    arguments.insert(arguments.end(), targets.begin(), targets.end());
+    options.stop = &interrupted;
+    const Outcome outcome = checked(run_process("/usr/bin/make", arguments, options));
+    build_s_ = outcome.seconds;
+    {
+        std::ofstream log(settings_.out / "build.txt", std::ios::binary | std::ios::trunc);
+        log << outcome.out << outcome.err;
+    }
+    for (const std::string& name : names) {
+        if (not_built_.count(name)) continue;
+        if (fs::is_regular_file(lab / "build" / name, error)) continue;
+        // The compiler's first error in this step's file.
+        std::string first;
+        for (const std::string& line : lines_of(outcome.err + outcome.out)) {
+            if (line.rfind("steps/" + name + ".cpp:", 0) == 0 &&
+                line.find("error") != std::string::npos) {
+                first = line;
+                break;
+            }
+        }
+        if (first.empty()) {
+            first = outcome.timed_out ? "the build " + outcome.stop_reason()
+                                      : "no error in steps/" + name + ".cpp (see build.txt)";
+        }
+        not_built_[name] = "does not compile: " + first;
+    }
+}
 
 // "build/02_threshold --volume phantom --view top --threshold 500 --debug-pixel 12,40".
 std::string Grader::command_for(const Step& step, const Run& run, const std::string& view,
                                 const std::string& more) const {
-    std::string text = relative_to(settings_.bin / step.name, cwd_) + " --volume " +
-                       settings_.volume;
+    // --build: the command as the student runs it in their own tree.
+    std::string text = (stage_ ? "build/" + step.name : relative_to(settings_.bin / step.name,
+                                                                      cwd_)) +
+                       " --volume " + settings_.volume;
     if (!settings_.volume_args.empty()) text += " " + join(settings_.volume_args);
     const bool chooses_view = std::find(run.arguments.begin(), run.arguments.end(),
                                         "--view") != run.arguments.end();
@@ -752,6 +1074,16 @@ void Grader::grade_picture(const Step& step, const Run& run, const std::string& 
         ++result.pictures_passed;
         return;
     }
+    // Graded on another volume than the kit's phantom: a picture that is the kit's own
+    // reference was not rendered from the volume this run was given.
+    const fs::path kit_path = kit_reference_ / reference_name;
+    if (!kit_reference_.empty() &&
+        fs::is_regular_file(fs::symlink_status(kit_path, error)) &&
+        passes(student, read_image(kit_path.string()), run.tolerance)) {
+        problem("matches the kit's phantom reference, not the volume it was given (" +
+                settings_.volume + "): pictures copied or rendered from another volume");
+        return;
+    }
     const Worst worst = worst_pixel(student, reference);
     const std::string xy = std::to_string(worst.x) + "," + std::to_string(worst.y);
     char numbers[160];
@@ -813,18 +1145,14 @@ void Grader::probe_rays(const Step& step, const Run& run, const std::string& vie
         const fs::path probe_folder = folder / ("probe_" + view + "_" + xy);
         fs::remove_all(probe_folder, error);
         make_folder(probe_folder.string());
-        std::vector<std::string> arguments = {"--volume", settings_.volume, "--no-window",
-                                              "--out", fs::absolute(probe_folder).string()};
-        arguments.insert(arguments.end(), settings_.volume_args.begin(),
-                         settings_.volume_args.end());
+        std::vector<std::string> arguments = first_arguments(probe_folder);
         arguments.insert(arguments.end(), run.arguments.begin(), run.arguments.end());
         arguments.insert(arguments.end(), settings_.extra_args.begin(),
                          settings_.extra_args.end());
         if (view != "camera") arguments.insert(arguments.end(), {"--view", view});
         const std::string pixel = std::to_string(probe.x) + "," + std::to_string(probe.y);
         arguments.insert(arguments.end(), {"--debug-pixel", pixel});
-        const Outcome outcome = run_process(fs::absolute(settings_.bin / step.name), arguments,
-                                            settings_.tree, probe_folder, settings_.timeout_s);
+        const Outcome outcome = execute(step, arguments, probe_folder);
         const fs::path yours_path =
             probe_folder / (step.name + "_" + view + "_ray_" + xy + ".txt");
         const std::string command = command_for(step, run, view, " --debug-pixel " + pixel);
@@ -862,10 +1190,7 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
     if (error) throw InputError("cannot empty '" + folder.string() + "': " + error.message());
     make_folder(folder.string());
 
-    std::vector<std::string> arguments = {"--volume", settings_.volume, "--no-window", "--out",
-                                          fs::absolute(folder).string()};
-    arguments.insert(arguments.end(), settings_.volume_args.begin(),
-                     settings_.volume_args.end());
+    std::vector<std::string> arguments = first_arguments(folder);
     const bool chooses_view =
         std::find(run.arguments.begin(), run.arguments.end(), "--view") != run.arguments.end();
     if (!settings_.view.empty() && !chooses_view) {
@@ -883,8 +1208,7 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
         }
     }
     result.pictures += static_cast<int>(graded_views.size());
-    const Outcome outcome = run_process(fs::absolute(settings_.bin / step.name), arguments,
-                                        settings_.tree, folder, settings_.timeout_s);
+    const Outcome outcome = execute(step, arguments, folder);
     const std::string command = command_for(step, run, settings_.view);
 
     // Stubs still in the code: their TODO lines (common/not_done.cpp) say what to write.
@@ -898,9 +1222,22 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
     }
     if (outcome.timed_out) {
         result.status = std::max(result.status, Status::failing);
-        const std::string text = run.name + ": stopped after " +
-            std::to_string(static_cast<int>(settings_.timeout_s)) + " s: a loop that never "
-            "ends? run it yourself: " + command;
+        const std::string text = run.name + ": " +
+            (outcome.err.rfind("not run: ", 0) == 0
+                 ? outcome.err.substr(0, outcome.err.find('\n'))
+                 : "stopped after " + std::to_string(static_cast<int>(outcome.seconds + 0.5)) +
+                       " s: a loop that never ends? run it yourself: " + command);
+        result.problems.push_back(text);
+        result.look_at.push_back(text);
+        return;
+    }
+    if (outcome.output_exceeded) {
+        result.status = std::max(result.status, Status::failing);
+        const std::string text = run.name + ": stopped: " +
+            (outcome.err.rfind("grade: ", 0) == 0
+                 ? outcome.err.substr(7, outcome.err.find('\n') - 7)
+                 : "it printed more than " + bytes_text(max_output_bytes)) +
+            " (a print inside a loop?)";
         result.problems.push_back(text);
         result.look_at.push_back(text);
         return;
@@ -983,8 +1320,19 @@ StepResult Grader::grade_step(const Step& step) {
     const fs::path binary = settings_.bin / step.name;
     const fs::path source = settings_.tree / "steps" / (step.name + ".cpp");
     std::error_code error;
+    if (stage_) {
+        const auto why = not_built_.find(step.name);
+        if (why != not_built_.end()) {
+            result.status = Status::not_built;
+            result.look_at.push_back(why->second);
+            result.problems.push_back(why->second);
+            return result;
+        }
+    }
     const bool built = fs::is_regular_file(binary, error) && access(binary.c_str(), X_OK) == 0;
-    if (!built || (fs::exists(source, error) &&
+    if (stage_) {
+        // Built from the tree's sources in the sandbox: what TREE/build holds plays no part.
+    } else if (!built || (fs::exists(source, error) &&
                    fs::last_write_time(source, error) > fs::last_write_time(binary, error))) {
         result.status = Status::not_built;
         const std::string text = std::string(built ? "steps/" + step.name + ".cpp is newer "
@@ -1020,8 +1368,18 @@ int Grader::run() {
         throw InputError("--out: '" + settings_.out.string() + "' is a symbolic link");
     }
 
+    // A stranger's tree is graded on the lab's steps: a step it lacks is not built, not absent.
+    if (settings_.build && settings_.lab.empty()) {
+        settings_.lab = fs::path(build_folder()).parent_path();
+    }
+    if (settings_.build && fs::is_symlink(settings_.tree / "steps", error)) {
+        throw InputError("--tree: '" + (settings_.tree / "steps").string() +
+                         "' is a symbolic link: not followed");
+    }
+    const fs::path steps_folder = settings_.build ? settings_.lab / "steps"
+                                                  : settings_.tree / "steps";
     std::vector<std::string> names;
-    for (const fs::directory_entry& entry : fs::directory_iterator(settings_.tree / "steps")) {
+    for (const fs::directory_entry& entry : fs::directory_iterator(steps_folder)) {
         const std::string name = entry.path().filename().string();
         if (name.size() > 7 && std::isdigit(static_cast<unsigned char>(name[0])) &&
             std::isdigit(static_cast<unsigned char>(name[1])) && name[2] == '_' &&
@@ -1030,6 +1388,17 @@ int Grader::run() {
         }
     }
     std::sort(names.begin(), names.end());
+    if (settings_.build) {  // the reference folder's pictures say which steps are assigned
+        std::set<std::string> assigned;
+        for (const fs::directory_entry& entry : fs::directory_iterator(settings_.reference)) {
+            const std::string file = entry.path().filename().string();
+            if (entry.path().extension() != ".png") continue;
+            for (const std::string& name : names) {
+                if (file.rfind(name + "_", 0) == 0) assigned.insert(name);
+            }
+        }
+        names.assign(assigned.begin(), assigned.end());
+    }
     if (!settings_.steps.empty()) {
         std::vector<std::string> chosen;
         for (const std::string& wanted : settings_.steps) {
@@ -1044,7 +1413,7 @@ int Grader::run() {
             }
             if (!found) {
                 throw InputError("--step " + wanted + ": no such step in " +
-                                 (settings_.tree / "steps").string());
+                                 steps_folder.string());
             }
         }
         std::sort(chosen.begin(), chosen.end());
@@ -1069,8 +1438,25 @@ int Grader::run() {
         }
     }
     if (settings_.volume.empty()) settings_.volume = "phantom";
+    if (settings_.volume != "phantom") {
+        const fs::path kit = (settings_.build ? settings_.lab : settings_.tree) / "data" /
+                             "reference";
+        if (fs::is_directory(kit, error) && !fs::equivalent(kit, settings_.reference, error)) {
+            kit_reference_ = kit;
+        }
+    }
     make_folder(settings_.out.string());
     fs::remove_all(settings_.out / "side_by_side", error);
+    if (settings_.build) {
+        // A stranger's programs run only in the sandbox, unless the instructor says otherwise.
+        if (!sandbox_problem().empty() && !settings_.no_sandbox) {
+            throw InputError("no sandbox: " + sandbox_problem() + "; the tree's programs are "
+                             "not built or run (--no-sandbox runs them unconfined)");
+        }
+        std::vector<std::string> step_names;
+        for (const Step& step : steps) step_names.push_back(step.name);
+        stage_and_build(step_names);
+    }
 
     std::printf("grading %zu step%s of %s against %s on %s%s\n", steps.size(),
                 steps.size() == 1 ? "" : "s", relative_to(settings_.tree, cwd_).c_str(),
@@ -1131,6 +1517,12 @@ int Grader::run() {
     const bool all_pass = passing == static_cast<int>(steps.size());
     summary += std::string("; result=") + (all_pass ? "pass" : "fail");
     report += "\n" + summary + "\n";
+    if (stage_) {  // what a class's timing table is made of
+        char times[96];
+        std::snprintf(times, sizeof times, "time: build %.1f s, runs %.1f s\n", build_s_,
+                      settings_.budget_s - seconds_left() - build_s_);
+        report += times;
+    }
     {
         const fs::path path = settings_.out / "report.txt";
         fs::remove(path, error);
@@ -1148,8 +1540,14 @@ int Grader::run() {
 }  // namespace
 
 int main(int argc, char** argv) {
+    for (int signal : {SIGINT, SIGTERM, SIGHUP}) {
+        std::signal(signal, [](int) { interrupted = 1; });
+    }
     try {
         return Grader(parse_arguments(argc, argv)).run();
+    } catch (const Interrupted&) {
+        std::fprintf(stderr, "grade: interrupted\n");
+        return 128 + SIGINT;
     } catch (const InputError& error) {
         std::fprintf(stderr, "grade: error: %s\n", error.what());
         return exit_bad_input;

@@ -11,6 +11,8 @@ required="g++ make pkg-config libsdl2-dev libstb-dev doctest-dev libimgui-dev"
 # writers of those files: nibabel, pydicom, numpy.
 required="$required libnifti2-dev libteem-dev libgdcm-dev zlib1g-dev"
 required="$required python3-nibabel python3-pydicom python3-numpy"
+# The grading sandbox: students' programs are built and run inside bwrap (tools/sandbox.h).
+required="$required bubblewrap"
 optional="xvfb xauth xdotool python3"  # window tests: virtual X display, real X input,
                                         # a display that never answers (bad_input_test.sh)
 [ "${1:-}" = fuzz ] && required="$required clang libclang-rt-dev"

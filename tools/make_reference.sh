@@ -55,7 +55,11 @@ if [ -z "$volume" ]; then
     volume=phantom
     reference=${reference:-data/reference}
 else
-    [ -f "$volume" ] || fail "VOLUME=$volume: no such file"
+    # phantom:SEED: the phantom moved, mirrored and resized by the seed (common/phantom.h).
+    case "$volume" in
+        phantom:[0-9]*) ;;
+        *) [ -f "$volume" ] || fail "VOLUME=$volume: no such file" ;;
+    esac
     case "$volume" in -*) volume=./$volume ;; esac  # never read as a flag
     [ -n "$reference" ] || fail "VOLUME=$volume needs REFERENCE=folder (data/reference holds \
 the phantom's images), e.g. make reference VOLUME=$volume REFERENCE=ref-cthead"

@@ -1,15 +1,9 @@
 // run_step.cpp: running step binaries as processes and reading what they write.
 #include "run_step.h"
-#include <fcntl.h>
-#include <poll.h>
-#include <signal.h>
-#include <sys/resource.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 #include <algorithm>
 #include <cerrno>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -91,91 +85,13 @@ const Summary& RunResult::summary(const std::string& view) const {
                              err);
 }
 
-std::string RunResult::command() const {
-    std::string text = program;
-    for (const std::string& arg : args) text += " " + arg;
-    return text;
-}
-
-// Everything left in `fd` appended to `text`; false at end of file.
-static bool drain(int fd, std::string& text) {
-    char buffer[65536];
-    const ssize_t count = read(fd, buffer, sizeof buffer);
-    if (count > 0) {
-        text.append(buffer, size_t(count));
-        return true;
-    }
-    return count < 0 && (errno == EINTR || errno == EAGAIN);
-}
-
 RunResult run_program(const std::string& program, const std::vector<std::string>& args,
                       double timeout_s) {
+    ProcessOptions options;
+    options.limits.wall_s = timeout_s;
+    options.limits.output_bytes = size_t(1) << 30;  // long traces: the caller's own programs
     RunResult result;
-    result.program = program;
-    result.args = args;
-    int out_pipe[2], err_pipe[2];
-    if (pipe(out_pipe) != 0) throw std::runtime_error("pipe: " + std::string(strerror(errno)));
-    if (pipe(err_pipe) != 0) {
-        close(out_pipe[0]);
-        close(out_pipe[1]);
-        throw std::runtime_error("pipe: " + std::string(strerror(errno)));
-    }
-    std::vector<std::string> words = args;
-    words.insert(words.begin(), program);
-    std::vector<char*> argv;
-    for (std::string& word : words) argv.push_back(word.data());
-    argv.push_back(nullptr);
-
-    std::fflush(nullptr);  // nothing buffered here may be written twice by the child
-    const pid_t child = fork();
-    if (child < 0) throw std::runtime_error("fork: " + std::string(strerror(errno)));
-    if (child == 0) {
-        const int null_in = open("/dev/null", O_RDONLY);
-        if (null_in >= 0) dup2(null_in, 0);
-        dup2(out_pipe[1], 1);
-        dup2(err_pipe[1], 2);
-        close(out_pipe[0]);
-        close(err_pipe[0]);
-        execv(program.c_str(), argv.data());
-        const std::string message = "cannot run " + program + ": " + strerror(errno) + "\n";
-        if (write(2, message.data(), message.size()) < 0) _exit(127);
-        _exit(127);
-    }
-    close(out_pipe[1]);
-    close(err_pipe[1]);
-
-    using clock = std::chrono::steady_clock;
-    const auto deadline = clock::now() + std::chrono::duration<double>(timeout_s);
-    bool out_open = true, err_open = true;
-    while (out_open || err_open) {
-        const double left =
-            std::chrono::duration<double, std::milli>(deadline - clock::now()).count();
-        if (left <= 0) {
-            result.timed_out = true;
-            kill(child, SIGKILL);
-            break;
-        }
-        pollfd fds[2] = {{out_open ? out_pipe[0] : -1, POLLIN, 0},
-                         {err_open ? err_pipe[0] : -1, POLLIN, 0}};
-        const int ready = poll(fds, 2, int(std::min(left, 1000.0)) + 1);
-        if (ready < 0 && errno != EINTR) break;
-        if (ready <= 0) continue;
-        if (out_open && (fds[0].revents & (POLLIN | POLLHUP | POLLERR))) {
-            out_open = drain(out_pipe[0], result.out);
-        }
-        if (err_open && (fds[1].revents & (POLLIN | POLLHUP | POLLERR))) {
-            err_open = drain(err_pipe[0], result.err);
-        }
-    }
-    close(out_pipe[0]);
-    close(err_pipe[0]);
-    int wait_status = 0;
-    rusage usage {};
-    while (wait4(child, &wait_status, 0, &usage) < 0 && errno == EINTR) {
-    }
-    result.max_rss_kib = usage.ru_maxrss;  // Linux: kibibytes
-    if (WIFEXITED(wait_status)) result.status = WEXITSTATUS(wait_status);
-    if (WIFSIGNALED(wait_status)) result.status = 128 + WTERMSIG(wait_status);
+    static_cast<ProcessResult&>(result) = run_process(program, args, options);
     parse_output(result);
     return result;
 }

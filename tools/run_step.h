@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 #include "image.h"
+#include "tools/process.h"
 #include "volume.h"
 
 namespace ctlab {
@@ -38,25 +39,18 @@ struct PixelTrace {
     bool complete = false;           // the result line was found
 };
 
-// What one run of a program gave.
-struct RunResult {
-    std::string program;               // the path that ran
-    std::vector<std::string> args;
-    int status = -1;                   // exit status; 128 + N when killed by signal N
-    bool timed_out = false;            // killed after the timeout
-    std::string out, err;              // everything on stdout and stderr
+// What one run of a program gave (tools/process.h), its output parsed.
+struct RunResult : ProcessResult {
     std::vector<Summary> summaries;    // the summary lines, in order (lines starting "step=")
     std::vector<PixelTrace> traces;    // the --debug-pixel traces, in order
-    long max_rss_kib = 0;              // the program's peak resident memory (ru_maxrss), KiB
 
     // The summary line of a view ("top", "front", "side"); throws when there is none.
     const Summary& summary(const std::string& view) const;
-    // The command line, for failure messages: "build/03_depth_shading --view top ...".
-    std::string command() const;
 };
 
-// Runs `program` with `args` (no shell), stdin from /dev/null, stdout and stderr captured,
-// killed after timeout_s seconds. Throws std::runtime_error only when it cannot start.
+// Runs `program` with `args` (no shell; tools/process.h), stdin from /dev/null, stdout and
+// stderr captured, killed after timeout_s seconds. Throws std::runtime_error only when it
+// cannot start.
 RunResult run_program(const std::string& program, const std::vector<std::string>& args,
                       double timeout_s = 120);
 

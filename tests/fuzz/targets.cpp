@@ -9,7 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include "common/args.h"
-#include "common/compare.h"
+#include "tools/compare.h"
 #include "common/error.h"
 #include "common/formats.h"
 #include "common/image.h"

@@ -10,7 +10,7 @@
 #define STBI_FAILURE_USERMSG
 #include <stb_image.h>
 #include "image.h"
-#include "image_read.h"
+#include "tools/image_read.h"
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>

@@ -1,5 +1,5 @@
 // output_folder.cpp: exclusive temporaries, renames and folders by descriptor (see the .h).
-#include "output_folder.h"
+#include "tools/output_folder.h"
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>

@@ -1,5 +1,5 @@
 // compare.cpp: error metrics between two pictures, and a heat map of where they differ.
-#include "compare.h"
+#include "tools/compare.h"
 #include <algorithm>
 #include <array>
 #include <cmath>
