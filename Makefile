@@ -140,6 +140,7 @@ test: deps
 	@sh tests/window_test.sh $(BUILD)
 	@sh tests/student_test.sh $(BUILD)
 	@sh tests/grade_test.sh $(BUILD)
+	@sh tests/hostile_files_test.sh $(BUILD)
 
 # One step by name: `make 03_depth_shading`.
 $(STEP_NAMES): %: $(BUILD)/%
@@ -208,9 +209,17 @@ endif
 # data/reference/ on the phantom; or, given VOLUME=path/to/CThead, into REFERENCE=folder.
 # A raw volume of another size: DIMS=NX,NY,NZ [ENDIAN=big] [SPACING=SX,SY,SZ]; ARGS= adds flags
 # to every run. REFERENCE/volume.txt records the volume, its flags, the commit and the date.
+# The values reach the script through the environment, never pasted into the shell's text:
+# VOLUME='a`touch x`.raw' or a '"' in ARGS stays a plain string.
+reference: export CTLAB_VOLUME := $(value VOLUME)
+reference: export CTLAB_REFERENCE := $(value REFERENCE)
+reference: export CTLAB_DIMS := $(value DIMS)
+reference: export CTLAB_ENDIAN := $(value ENDIAN)
+reference: export CTLAB_SPACING := $(value SPACING)
+reference: export CTLAB_ARGS := $(value ARGS)
 reference: $(STEP_BINARIES)
-	@DIMS="$(DIMS)" ENDIAN="$(ENDIAN)" SPACING="$(SPACING)" ARGS="$(ARGS)" \
-	    sh tools/make_reference.sh $(BUILD) "$(VOLUME)" "$(REFERENCE)"
+	@DIMS="$$CTLAB_DIMS" ENDIAN="$$CTLAB_ENDIAN" SPACING="$$CTLAB_SPACING" ARGS="$$CTLAB_ARGS" \
+	    sh tools/make_reference.sh '$(BUILD)' "$$CTLAB_VOLUME" "$$CTLAB_REFERENCE"
 
 # Generate student/: the lab with each lesson function's body a TODO stub (tools/make_student).
 # Refuses to overwrite files changed since the last generation unless FORCE=1.
@@ -244,8 +253,9 @@ check-student:
 
 # In a student tree: copy the student's lesson functions forward into the later steps that use
 # them unchanged, where those are still the generated stubs (tools/carry.cpp, .ctlab/carry.txt).
+carry: export CTLAB_STEP := $(value STEP)
 carry: $(BUILD)/carry
-	$(BUILD)/carry $(if $(STEP),--step $(STEP))
+	'$(BUILD)/carry' $(if $(value STEP),--step "$$CTLAB_STEP")
 
 # Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.
 handouts: $(BUILD)/handout_listings
