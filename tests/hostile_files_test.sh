@@ -101,6 +101,27 @@ for kind in fifo device folder; do
     with_step=
 done
 
+# A preset (data/presets/NAME.preset, read from the current folder) that is a FIFO, a device,
+# a folder: refused at once, in a folder of our own.
+case $build in /*) step_path=$step ;; *) step_path=$root/$step ;; esac
+for kind in fifo device folder; do
+    mkdir -p "$files/presets_$kind/data/presets"
+    case $kind in
+        fifo) mkfifo "$files/presets_$kind/data/presets/evil.preset"; says=FIFO ;;
+        device) ln -s /dev/zero "$files/presets_$kind/data/presets/evil.preset"; says="a device" ;;
+        folder) mkdir "$files/presets_$kind/data/presets/evil.preset"; says="a folder" ;;
+    esac
+    (cd "$files/presets_$kind" && timeout 20 "$step_path" --preset evil --volume phantom \
+        --no-window --view top --out out > /dev/null 2> "$work/preset.err" < /dev/null)
+    status=$?
+    if [ "$status" -eq 2 ] && grep -q "$says" "$work/preset.err" &&
+            [ ! -e "$files/presets_$kind/out" ]; then
+        pass
+    else
+        fail "a preset that is a $kind: exit status $status: $(head -c 300 "$work/preset.err")"
+    fi
+done
+
 # --- Classes 1-5: damaged files of every format, from independent writers -------------------------
 if /usr/bin/python3 tests/formats/write_hostile.py "$work/hostile" > "$work/python.log" 2>&1; then
     # A .hdr whose .img is a FIFO, a device, a folder (each beside a good header).
