@@ -266,7 +266,7 @@ handouts: $(BUILD)/handout_listings
 # tests/fuzz/seeds/NAME and the crash inputs kept in tests/fuzz/regressions/NAME. A crash
 # stops the run and leaves its input in build-fuzz/crashes/NAME/: copy it to
 # tests/fuzz/regressions/NAME/, where `make test` replays it (tests/test_fuzz_regressions.cpp).
-FUZZ_HARNESSES := raw cthead tf image nifti nrrd metaimage dicom
+FUZZ_HARNESSES := raw cthead tf image nifti nrrd metaimage dicom volume_data
 FUZZ_SECONDS   ?= 60
 fuzz:
 	@sh tools/install-deps.sh fuzz
