@@ -181,11 +181,14 @@ Volume load_metaimage(const std::string& path) {
         } catch (const InputError& error) {
             // The name came from the file: shown with its control characters replaced.
             const std::string why = error.what();
-            const size_t cut = why.rfind("': ") != std::string::npos ? why.rfind("': ") + 1
-                               : why.rfind("' is ") != std::string::npos ? why.rfind("' is ") + 1
-                                                                         : std::string::npos;
+            const size_t is = why.rfind("' is ");
+            if (is != std::string::npos) {  // "'P' is a FIFO (named pipe), not an ordinary file"
+                throw InputError(prefix + "its ElementDataFile '" + shown(data_name) + "'" +
+                                 why.substr(is + 1));
+            }
+            const size_t colon = why.rfind("': ");  // "cannot open 'P': No such file..."
             throw InputError(prefix + "cannot read its ElementDataFile '" + shown(data_name) +
-                             "'" + (cut == std::string::npos ? "" : why.substr(cut)));
+                             "'" + (colon == std::string::npos ? "" : why.substr(colon + 1)));
         }
         data_prefix = prefix + "its ElementDataFile '" + shown(data_name) + "': ";
         offset = 0;
