@@ -27,6 +27,7 @@ except ImportError:
     missing.append("python3-nibabel")
 try:
     import pydicom
+    import pydicom.encaps
     from pydicom.dataset import FileDataset, FileMetaDataset
     from pydicom.uid import ExplicitVRLittleEndian
 except ImportError:
@@ -231,6 +232,39 @@ def dicom_series(name, positions, bits_allocated=16, cut=0, slope=1):
         ds.save_as(file, write_like_original=False)
 
 
+def write_bad_jpeg(name):
+    """One slice whose encapsulated JPEG Baseline frame has no scan: libjpeg prints its own
+    complaint, which must end up quoted in our one line, not on a line of its own."""
+    os.makedirs(path(name))
+    meta = FileMetaDataset()
+    meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.2"
+    meta.MediaStorageSOPInstanceUID = pydicom.uid.generate_uid()
+    meta.TransferSyntaxUID = pydicom.uid.JPEGBaseline8Bit
+    file = os.path.join(path(name), "slice.dcm")
+    ds = FileDataset(file, {}, file_meta=meta, preamble=b"\0" * 128)
+    ds.is_little_endian = True
+    ds.is_implicit_VR = False
+    ds.SOPClassUID = meta.MediaStorageSOPClassUID
+    ds.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
+    ds.Modality = "CT"
+    ds.SeriesInstanceUID = pydicom.uid.generate_uid()
+    ds.ImageOrientationPatient = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+    ds.ImagePositionPatient = [0.0, 0.0, 0.0]
+    ds.PixelSpacing = [1.0, 1.0]
+    ds.Rows, ds.Columns = 8, 8
+    ds.SamplesPerPixel = 1
+    ds.PhotometricInterpretation = "MONOCHROME2"
+    ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 8, 8, 7, 0
+    # SOI, APP0 (JFIF), a quantisation table, a frame header, then junk and EOI: no SOS.
+    frame = (bytes([0xFF, 0xD8, 0xFF, 0xE0, 0, 16]) + b"JFIF\0" + bytes(9) +
+             bytes([0xFF, 0xDB, 0, 67, 0]) + bytes(range(64)) +
+             bytes([0xFF, 0xC0, 0, 11, 8, 0, 8, 0, 8, 1, 1, 0x11, 0]) + b"\x12\x34junk" +
+             bytes([0xFF, 0xD9]))
+    ds.PixelData = pydicom.encaps.encapsulate([frame])
+    ds["PixelData"].is_undefined_length = True
+    ds.save_as(file, write_like_original=False)
+
+
 def write_dicom():
     dicom_series("dicom_good", [0, 2, 4, 6])
     good.append("dicom_good")
@@ -240,6 +274,8 @@ def write_dicom():
     refuse("dicom_short_pixels", "PixelData has 34 bytes")
     dicom_series("dicom_bits12", [0, 2, 4], bits_allocated=12)
     refuse("dicom_bits12", "BitsAllocated 12")
+    write_bad_jpeg("dicom_bad_jpeg")
+    refuse("dicom_bad_jpeg", "GDCM could not decode its pixels (it said: ")
 
 
 def write_big():
