@@ -255,7 +255,7 @@ check-student:
 # them unchanged, where those are still the generated stubs (tools/carry.cpp, .ctlab/carry.txt).
 carry: export CTLAB_STEP := $(value STEP)
 carry: $(BUILD)/carry
-	'$(BUILD)/carry' $(if $(value STEP),--step "$$CTLAB_STEP")
+	@'$(BUILD)/carry' $(if $(value STEP),--step "$$CTLAB_STEP")
 
 # Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.
 handouts: $(BUILD)/handout_listings
