@@ -131,7 +131,7 @@ public:
         position_ += got;
         return got;
     }
-    void rewind() override { position_ = start_; }
+    void restart() override { position_ = start_; }
     const char* kind() const override { return "data"; }
 
 private:

@@ -58,15 +58,31 @@ public:
     virtual size_t read(void* into, size_t count) = 0;
     // Reads count bytes, as many reads as it takes; fewer only where the data ends.
     size_t read_all(void* into, size_t count);
-    virtual void rewind() = 0;
+    // Back to the start of the data (past what skip_start skipped).
+    void rewind() {
+        restart();
+        skip(skipped_);
+    }
     // Skips count bytes (NIfTI extensions, NRRD byte skip) without keeping them.
     void skip(uint64_t count);
+    // Skips count bytes now and again after every rewind: where the data starts in the stream.
+    void skip_start(uint64_t count) {
+        skip(count);
+        skipped_ += count;
+    }
     // True when no byte is left.
     bool at_end();
     // What the data is, for messages: "data" or "compressed data".
     virtual const char* kind() const = 0;
     // Messages start with this ("'head.nii' (NIfTI): ").
     std::string prefix;
+
+protected:
+    // Back to the stream's first byte.
+    virtual void restart() = 0;
+
+private:
+    uint64_t skipped_ = 0;
 };
 
 // Reads exactly volume.voxel_count() samples of `type` from `stream` into the volume (whose

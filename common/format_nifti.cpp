@@ -222,24 +222,11 @@ Volume load_nifti(const std::string& path) {
     volume.sz = dz;
     {
         const std::unique_ptr<ByteStream> stream = stream_of(data_file, data_prefix);
-        stream->skip(offset);  // the rest of the header and any extensions, not kept
-        // A stream that skips must be rewound to the same place for the second pass.
-        struct Skipping : ByteStream {
-            ByteStream& inner;
-            uint64_t offset;
-            Skipping(ByteStream& stream, uint64_t skip) : inner(stream), offset(skip) {}
-            size_t read(void* into, size_t count) override { return inner.read(into, count); }
-            void rewind() override {
-                inner.rewind();
-                inner.skip(offset);
-            }
-            const char* kind() const override { return inner.kind(); }
-        } data(*stream, offset);
-        data.prefix = data_prefix;
+        stream->skip_start(offset);  // the rest of the header and any extensions, not kept
         const Endian endian = swapped ? (host_endian() == Endian::little ? Endian::big
                                                                          : Endian::little)
                                       : host_endian();
-        read_volume_samples(volume, data, type, endian, scaled ? slope : 1.0,
+        read_volume_samples(volume, *stream, type, endian, scaled ? slope : 1.0,
                             scaled ? inter : 0.0);
     }
 

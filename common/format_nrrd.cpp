@@ -270,21 +270,8 @@ Volume load_nrrd(const std::string& path) {
         // gzip: "byte skip" counts unpacked bytes.
         const uint64_t unpacked_skip =
             encoding == nrrdEncodingGzip ? uint64_t(std::max(0L, byte_skip)) : 0;
-        struct Skipping : ByteStream {
-            ByteStream& inner;
-            uint64_t count;
-            Skipping(ByteStream& stream, uint64_t skip) : inner(stream), count(skip) {
-                inner.skip(count);
-            }
-            size_t read(void* into, size_t size) override { return inner.read(into, size); }
-            void rewind() override {
-                inner.rewind();
-                inner.skip(count);
-            }
-            const char* kind() const override { return inner.kind(); }
-        } data(*stream, unpacked_skip);
-        data.prefix = data_prefix;
-        read_volume_samples(volume, data, type, file_endian);
+        stream->skip_start(unpacked_skip);
+        read_volume_samples(volume, *stream, type, file_endian);
     } else {
         // Text: at least one character and a separator per value, so teem's copy is at most
         // a few times the file's size.

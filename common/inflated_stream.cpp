@@ -18,11 +18,11 @@ public:
                                                              input_(compressed_chunk) {
         // 15 + 32: a zlib or a gzip header, told apart by zlib.
         if (inflateInit2(&stream_, 15 + 32) != Z_OK) throw std::bad_alloc();
-        rewind();
+        restart();
     }
     ~InflatedStream() override { inflateEnd(&stream_); }
 
-    void rewind() override {
+    void restart() override {
         inflateReset(&stream_);
         position_ = start_;
         stream_.avail_in = 0;
