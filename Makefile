@@ -23,7 +23,8 @@ LDLIBS   += -pthread
 # SDL_Renderer, common/panel_draw.cpp).
 IMGUI_LIBS := -limgui -l:libstb.a
 # zlib: the checker verifies a PNG's compressed data (CRCs, Adler-32, its inflated size).
-# --as-needed: a program maps only the libraries its own code calls (a step needs no zlib).
+# --as-needed: a program maps only the libraries its own code calls (a step needs no zlib:
+# the compressed volume files are the format module's).
 LDLIBS   += -lz -ldl
 LDFLAGS  += -Wl,--as-needed
 # The volume formats' libraries (common/format_*.cpp): nifticlib, teem (NRRD), GDCM, zlib.
@@ -83,7 +84,7 @@ STEP_NAMES     := $(basename $(notdir $(STEP_SOURCES)))
 STEP_BINARIES  := $(addprefix $(BUILD)/,$(STEP_NAMES))
 # The format readers are not in libctlab.a: they make the format module (and are linked
 # straight into the tests and fuzz harnesses, which call them by name).
-FORMAT_SOURCES := $(wildcard common/format_*.cpp)
+FORMAT_SOURCES := $(wildcard common/format_*.cpp) common/inflated_stream.cpp  # zlib: theirs
 FORMAT_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(FORMAT_SOURCES))
 # Likewise the window (SDL2): the window module; the steps hold window_module.cpp's side.
 WINDOW_SOURCES := common/window.cpp common/panel.cpp common/panel_draw.cpp common/window_entry.cpp
@@ -165,7 +166,8 @@ demo: deps
 # last line adds them all up: "test: N passed, M failed" (tests/test_summary.sh).
 # The slowest suites start first, so that the last one to finish is a short one.
 # SKIP_SUITES=NAMES leaves suites out, and the summary names them (CI: the sanitizer run).
-SLOW_SUITES := student test_extremes grade sandbox bad_input test_steps cli check window panel
+SLOW_SUITES := student test_extremes grade sandbox hostile_files bad_input test_steps cli check \
+               window panel
 ALL_SUITES  := $(SLOW_SUITES) $(filter-out $(SLOW_SUITES),\
                $(patsubst tests/%_test.sh,%,$(wildcard tests/*_test.sh)) \
                $(basename $(notdir $(wildcard tests/test_*.cpp))))
@@ -248,9 +250,17 @@ endif
 # data/reference/ on the phantom; or, given VOLUME=path/to/CThead, into REFERENCE=folder.
 # A raw volume of another size: DIMS=NX,NY,NZ [ENDIAN=big] [SPACING=SX,SY,SZ]; ARGS= adds flags
 # to every run. REFERENCE/volume.txt records the volume, its flags, the commit and the date.
+# The values reach the script through the environment, never pasted into the shell's text:
+# VOLUME='a`touch x`.raw' or a '"' in ARGS stays a plain string.
+reference: export CTLAB_VOLUME := $(value VOLUME)
+reference: export CTLAB_REFERENCE := $(value REFERENCE)
+reference: export CTLAB_DIMS := $(value DIMS)
+reference: export CTLAB_ENDIAN := $(value ENDIAN)
+reference: export CTLAB_SPACING := $(value SPACING)
+reference: export CTLAB_ARGS := $(value ARGS)
 reference: $(STEP_BINARIES)
-	@DIMS="$(DIMS)" ENDIAN="$(ENDIAN)" SPACING="$(SPACING)" ARGS="$(ARGS)" \
-	    sh tools/make_reference.sh $(BUILD) "$(VOLUME)" "$(REFERENCE)"
+	@DIMS="$$CTLAB_DIMS" ENDIAN="$$CTLAB_ENDIAN" SPACING="$$CTLAB_SPACING" ARGS="$$CTLAB_ARGS" \
+	    sh tools/make_reference.sh '$(BUILD)' "$$CTLAB_VOLUME" "$$CTLAB_REFERENCE"
 
 # Generate student/: the lab with each lesson function's body a TODO stub (tools/make_student).
 # Refuses to overwrite files changed since the last generation unless FORCE=1.
@@ -284,8 +294,9 @@ check-student:
 
 # In a student tree: copy the student's lesson functions forward into the later steps that use
 # them unchanged, where those are still the generated stubs (tools/carry.cpp, .ctlab/carry.txt).
+carry: export CTLAB_STEP := $(value STEP)
 carry: $(BUILD)/carry
-	$(BUILD)/carry $(if $(STEP),--step $(STEP))
+	@'$(BUILD)/carry' $(if $(value STEP),--step "$$CTLAB_STEP")
 
 # The README's pictures of the window's control panel: steps 06 and 10 on a virtual X display
 # (xvfb-run), into handouts/panel_NN_name.png (tools/panel_screenshots.sh).
@@ -301,7 +312,7 @@ handouts: $(BUILD)/handout_listings
 # tests/fuzz/seeds/NAME and the crash inputs kept in tests/fuzz/regressions/NAME. A crash
 # stops the run and leaves its input in build-fuzz/crashes/NAME/: copy it to
 # tests/fuzz/regressions/NAME/, where `make test` replays it (tests/test_fuzz_regressions.cpp).
-FUZZ_HARNESSES := raw cthead tf image nifti nrrd metaimage dicom
+FUZZ_HARNESSES := raw cthead tf image nifti nrrd metaimage dicom volume_data
 FUZZ_SECONDS   ?= 60
 fuzz:
 	@sh tools/install-deps.sh fuzz

@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <thread>
 #include "error.h"
+#include "file_input.h"
 #include "formats.h"
 #include "phantom.h"
 
@@ -272,8 +273,19 @@ std::vector<std::string> Args::preset_words(const std::string& name) const {
         }
     }
     const std::string path = std::string(presets_folder) + "/" + name + ".preset";
-    std::ifstream in(path);
-    if (!in) {
+    // Opened without blocking, only an ordinary file, at most 64 KiB (common/file_input.h): a
+    // preset that is a FIFO, a device or a huge file is refused, never read on and on.
+    constexpr uint64_t max_preset_bytes = 64 * 1024;
+    struct stat info {};
+    std::istringstream in;
+    if (lstat(path.c_str(), &info) == 0) {
+        try {
+            const std::vector<unsigned char> bytes = read_small_file(path, max_preset_bytes);
+            in.str(std::string(bytes.begin(), bytes.end()));
+        } catch (const InputError& error) {
+            throw InputError(std::string("--preset: ") + error.what());
+        }
+    } else {
         std::string known;
         for (const std::string& each : preset_names()) known += (known.empty() ? "" : ", ") + each;
         throw InputError("--preset: no " + path + " (presets: " +

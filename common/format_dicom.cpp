@@ -12,12 +12,15 @@
 #include <csignal>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <gdcmDataSet.h>
 #include <gdcmImageReader.h>
 #include <gdcmTrace.h>
 #include "error.h"
+#include "file_input.h"
+#include "samples.h"
 #include "formats.h"
 
 namespace ctlab {
@@ -29,7 +32,6 @@ struct Slice {
     std::string file;
     double position = 0;   // along the normal
     double origin[3] = {0, 0, 0};
-    std::vector<char> pixels;
 };
 
 bool sample_type_of(const gdcm::PixelFormat& format, SampleType* type) {
@@ -45,6 +47,54 @@ bool sample_type_of(const gdcm::PixelFormat& format, SampleType* type) {
         case gdcm::PixelFormat::FLOAT32: *type = SampleType::float32; return true;
         case gdcm::PixelFormat::FLOAT64: *type = SampleType::float64; return true;
         default: return false;
+    }
+}
+
+// The attributes the pixel decoding relies on, checked before GDCM decodes (it asserts on
+// some: BitsAllocated 12 over 16-bit data). Plain (not encapsulated) PixelData must hold
+// every pixel: GDCM would fill a short one's tail with zeros. `expected`: the slice's bytes.
+void check_pixels(const gdcm::ImageReader& reader, const std::string& what, unsigned columns,
+                  unsigned rows, size_t expected) {
+    const gdcm::DataSet& data_set = reader.GetFile().GetDataSet();
+    const gdcm::Image& image = reader.GetImage();
+    const gdcm::PixelFormat& format = image.GetPixelFormat();
+    const unsigned allocated = format.GetBitsAllocated(), stored = format.GetBitsStored(),
+                   high = format.GetHighBit();
+    if (!(allocated == 8 || allocated == 16 || allocated == 32 || allocated == 64) ||
+        stored == 0 || stored > allocated || high >= allocated) {
+        throw InputError(what + ": BitsAllocated " + std::to_string(allocated) + ", BitsStored " +
+                         std::to_string(stored) + ", HighBit " + std::to_string(high) +
+                         " do not describe pixels ctlab can read (BitsAllocated 8, 16 or 32, "
+                         "BitsStored and HighBit within it)");
+    }
+    if (image.GetBufferLength() != expected) {
+        throw InputError(what + " holds " + std::to_string(image.GetBufferLength()) +
+                         " bytes of pixels, expected " + std::to_string(expected));
+    }
+    const gdcm::Tag pixel_data(0x7fe0, 0x0010);
+    if (!data_set.FindDataElement(pixel_data)) throw InputError(what + " has no PixelData");
+    if (const gdcm::ByteValue* value = data_set.GetDataElement(pixel_data).GetByteValue()) {
+        if (value->GetLength() < expected) {
+            throw InputError(what + ": its PixelData has " + std::to_string(value->GetLength()) +
+                             " bytes, " + std::to_string(columns) + " columns x " +
+                             std::to_string(rows) + " rows need " + std::to_string(expected));
+        }
+    }
+}
+
+// check_pixels, then the pixels decoded into `pixels` (what a library says on stderr, such as
+// libjpeg on a damaged JPEG slice, quoted in our line).
+void decode_pixels(const gdcm::ImageReader& reader, const std::string& what, unsigned columns,
+                   unsigned rows, SampleType type, std::vector<char>& pixels) {
+    const size_t expected = size_t(columns) * rows * sample_size(type);
+    check_pixels(reader, what, columns, rows, expected);
+    pixels.resize(expected);
+    bool decoded = false;
+    const std::string said =
+        capture_stderr([&] { decoded = reader.GetImage().GetBuffer(pixels.data()); });
+    if (!decoded) {
+        throw InputError(what + ": GDCM could not decode its pixels" +
+                         (said.empty() ? std::string() : " (it said: " + said + ")"));
     }
 }
 
@@ -80,7 +130,27 @@ rlim_t address_space_in_use() {
     return rlim_t(pages) * rlim_t(sysconf(_SC_PAGESIZE));
 }
 
-ChildRead read_in_child(const std::string& file, off_t file_bytes) {
+// The last line a library wrote into `sink` (the child's stderr), "" when none.
+std::string last_line(std::FILE* sink) {
+    if (!sink) return "";
+    std::rewind(sink);
+    std::string said;
+    char line[512];
+    while (std::fgets(line, sizeof line, sink)) {
+        std::string text = line;
+        for (char& c : text) {
+            if (static_cast<unsigned char>(c) < 32 || c == 127) c = ' ';
+        }
+        const size_t first = text.find_first_not_of(' ');
+        if (first != std::string::npos) said = text.substr(first, text.find_last_not_of(' ') - first + 1);
+    }
+    return said.size() > 160 ? said.substr(0, 160) + "..." : said;
+}
+
+// The child reads the file and decodes its pixels (GDCM's asserts sit in both: a
+// BitsAllocated of 12 over 16-bit data aborts in the decoding). Its stderr goes to `sink`,
+// so that what a library said (libjpeg on a damaged JPEG slice) can be quoted in our line.
+ChildRead read_in_child(const std::string& file, off_t file_bytes, std::FILE* sink) {
     const rlim_t memory = address_space_in_use() + child_memory_base +
                           child_memory_per_file_byte * rlim_t(std::max<off_t>(file_bytes, 0));
     std::fflush(nullptr);
@@ -88,7 +158,12 @@ ChildRead read_in_child(const std::string& file, off_t file_bytes) {
     if (child < 0) return ChildRead::ok;  // no child: read it here, as before
     if (child == 0) {
         const int null = open("/dev/null", O_WRONLY);
-        if (null >= 0) dup2(null, 2);
+        if (sink) {
+            dup2(fileno(sink), 2);
+        } else if (null >= 0) {
+            dup2(null, 2);
+        }
+        if (null >= 0) dup2(null, 1);
         // The child dies of the signal, whatever handler this process had installed: a
         // sanitizer's or libFuzzer's would turn the abort into an ordinary exit (that is how
         // `make fuzz` still crashed after the check first landed).
@@ -105,6 +180,17 @@ ChildRead read_in_child(const std::string& file, off_t file_bytes) {
             gdcm::ImageReader reader;
             reader.SetFileName(file.c_str());
             read = reader.Read();
+            SampleType type;
+            const gdcm::Image& image = reader.GetImage();
+            if (read && sample_type_of(image.GetPixelFormat(), &type)) {
+                const unsigned* dims = image.GetDimensions();
+                std::vector<char> pixels;
+                try {
+                    decode_pixels(reader, file, dims[0], dims[1], type, pixels);
+                } catch (const InputError&) {
+                    // Not decoded: attributes the parent refuses by name before decoding.
+                }
+            }
         } catch (...) {  // std::bad_alloc at the memory limit
         }
         _exit(read ? read_ok : read_failed);
@@ -126,6 +212,7 @@ std::string text_of(const gdcm::DataSet& data, uint16_t group, uint16_t element)
     while (!text.empty() && (text.back() == ' ' || text.back() == '\0')) text.pop_back();
     return text;
 }
+
 }  // namespace
 
 Volume load_dicom_series(const std::string& folder) {
@@ -161,21 +248,35 @@ Volume load_dicom_series(const std::string& folder) {
     double spacing[3] = {1, 1, 1};
     double slope = 1, intercept = 0;
     SampleType type = SampleType::int16;
+    ValueRange range;  // of the rescaled values, over every slice (for the volume's map)
+    std::vector<char> pixels;  // one slice at a time: nothing of a slice is kept but its place
+    // Pass 1: every file checked in a child, then read here; its place and its values' range.
     for (const std::string& file : files) {
         struct stat info {};
         stat(file.c_str(), &info);
-        const ChildRead first = read_in_child(file, info.st_size);
+        std::FILE* sink = std::tmpfile();
+        const ChildRead first = read_in_child(file, info.st_size, sink);
+        const std::string said = last_line(sink);
+        if (sink) std::fclose(sink);
+        const std::string quoted = said.empty() ? "" : " (it said: " + said + ")";
         if (first == ChildRead::damaged) {
-            throw InputError(prefix + "'" + file + "' is a damaged DICOM file (GDCM stops on it)");
+            throw InputError(prefix + "'" + file + "' is a damaged DICOM file (GDCM stops on it)" +
+                             quoted);
         }
         if (first == ChildRead::unreadable) {
-            throw InputError(prefix + "'" + file + "' is not a DICOM image GDCM can read");
+            throw InputError(prefix + "'" + file + "' is not a DICOM image GDCM can read" + quoted);
         }
         gdcm::ImageReader reader;
         reader.SetFileName(file.c_str());
-        if (!reader.Read()) throw InputError(prefix + "'" + file + "' is not a DICOM image GDCM can read");
+        bool read = false;
+        const std::string read_said = capture_stderr([&] { read = reader.Read(); });
+        if (!read) {
+            throw InputError(prefix + "'" + file + "' is not a DICOM image GDCM can read" +
+                             (read_said.empty() ? "" : " (it said: " + read_said + ")"));
+        }
         const gdcm::Image& image = reader.GetImage();
-        const std::string uid = text_of(reader.GetFile().GetDataSet(), 0x0020, 0x000e);
+        const gdcm::DataSet& data_set = reader.GetFile().GetDataSet();
+        const std::string uid = text_of(data_set, 0x0020, 0x000e);
         const unsigned* dims = image.GetDimensions();
         SampleType slice_type;
         const unsigned image_dims = image.GetNumberOfDimensions();
@@ -198,6 +299,9 @@ Volume load_dicom_series(const std::string& folder) {
             type = slice_type;
             slope = image.GetSlope();
             intercept = image.GetIntercept();
+            if (!(std::isfinite(slope) && slope != 0 && std::isfinite(intercept))) {
+                throw InputError(prefix + "RescaleSlope must be a number other than 0");
+            }
             for (int w = 0; w < 3; ++w) {
                 row_direction[w] = cosines[w];
                 column_direction[w] = cosines[3 + w];
@@ -226,20 +330,10 @@ Volume load_dicom_series(const std::string& folder) {
         slice.file = file;
         for (int w = 0; w < 3; ++w) slice.origin[w] = origin[w];
         slice.position = origin[0] * normal[0] + origin[1] * normal[1] + origin[2] * normal[2];
-        const size_t expected = size_t(columns) * rows * sample_size(type);
-        if (image.GetBufferLength() != expected) {
-            throw InputError(prefix + "'" + file + "' holds " +
-                             std::to_string(image.GetBufferLength()) + " bytes of pixels, expected " +
-                             std::to_string(expected));
-        }
-        slice.pixels.resize(expected);
-        if (!image.GetBuffer(slice.pixels.data())) {
-            throw InputError(prefix + "'" + file + "': GDCM could not decode its pixels");
-        }
+        decode_pixels(reader, prefix + "'" + file + "'", columns, rows, type, pixels);
+        scan_samples(range, reinterpret_cast<const unsigned char*>(pixels.data()),
+                     size_t(columns) * rows, type, host_endian(), slope, intercept);
         slices.push_back(std::move(slice));
-    }
-    if (!(std::isfinite(slope) && slope != 0 && std::isfinite(intercept))) {
-        throw InputError(prefix + "RescaleSlope must be a number other than 0");
     }
     std::stable_sort(slices.begin(), slices.end(),
                      [](const Slice& a, const Slice& b) { return a.position < b.position; });
@@ -249,6 +343,27 @@ Volume load_dicom_series(const std::string& folder) {
                              "' are at the same position: two series mixed, or a copy");
         }
     }
+    // Even steps from slice to slice: a missing slice (or two series' slices interleaved)
+    // would be stretched over its neighbours' spacing without a word.
+    if (slices.size() > 2) {
+        double smallest = slices[1].position - slices[0].position;
+        size_t widest = 1;
+        for (size_t n = 1; n < slices.size(); ++n) {
+            const double gap = slices[n].position - slices[n - 1].position;
+            smallest = std::min(smallest, gap);
+            if (gap > slices[widest].position - slices[widest - 1].position) widest = n;
+        }
+        const double widest_gap = slices[widest].position - slices[widest - 1].position;
+        constexpr double gap_tolerance = 0.01;  // relative: scanners' positions round to 0.01 mm
+        if (widest_gap > smallest * (1 + gap_tolerance) + 1e-4) {
+            char text[160];
+            std::snprintf(text, sizeof text, "%.4g mm apart, the others as close as %.4g mm",
+                          widest_gap, smallest);
+            throw InputError(prefix + "'" + slices[widest - 1].file + "' and '" +
+                             slices[widest].file + "' are " + text +
+                             ": a slice is missing (or the slices are unevenly spaced)");
+        }
+    }
     spacing[2] = slices.size() > 1 ? (slices.back().position - slices.front().position) /
                                          double(slices.size() - 1)
                                    : 1.0;
@@ -256,13 +371,7 @@ Volume load_dicom_series(const std::string& folder) {
         if (!(s > 0) || !std::isfinite(s)) throw InputError(prefix + "pixel or slice spacing is not positive");
     }
 
-    // One buffer of stored values in slice order, then int16 (with the rescale).
-    const size_t slice_bytes = slices[0].pixels.size();
-    std::vector<unsigned char> bytes(slice_bytes * slices.size());
-    for (size_t n = 0; n < slices.size(); ++n) {
-        std::memcpy(bytes.data() + n * slice_bytes, slices[n].pixels.data(), slice_bytes);
-        slices[n].pixels = {};
-    }
+    // Pass 2: each slice decoded again, in order, and converted into its place in the volume.
     Volume volume;
     volume.name = folder;
     volume.format = "dicom";
@@ -272,18 +381,31 @@ Volume load_dicom_series(const std::string& folder) {
     volume.sx = spacing[0];
     volume.sy = spacing[1];
     volume.sz = spacing[2];
+    volume.map = choose_map(range, folder);
     resize_dense(volume);
-    const uint16_t probe = 1;
-    const Endian host = *reinterpret_cast<const unsigned char*>(&probe) ? Endian::little
-                                                                        : Endian::big;
-    store_samples(volume, bytes.data(), volume.voxel_count(), type, host, slope, intercept);
-    bytes = {};
+    const size_t slice_values = size_t(columns) * rows;
+    for (size_t n = 0; n < slices.size(); ++n) {
+        gdcm::ImageReader reader;
+        reader.SetFileName(slices[n].file.c_str());
+        bool read = false;
+        capture_stderr([&] { read = reader.Read(); });
+        const gdcm::Image& image = reader.GetImage();
+        if (!read || image.GetDimensions()[0] != columns || image.GetDimensions()[1] != rows) {
+            throw InputError(prefix + "'" + slices[n].file + "' changed while it was read");
+        }
+        decode_pixels(reader, prefix + "'" + slices[n].file + "'", columns, rows, type, pixels);
+        convert_samples(volume.data.data() + n * slice_values,
+                        reinterpret_cast<const unsigned char*>(pixels.data()), slice_values, type,
+                        host_endian(), slope, intercept, volume.map);
+    }
+    update_range(volume);
     Directions directions{};
     for (int w = 0; w < 3; ++w) {
         directions.axis[0][w] = row_direction[w];
         directions.axis[1][w] = column_direction[w];
         directions.axis[2][w] = normal[w];
     }
+    check_axes_independent(directions, prefix, "its ImageOrientationPatient");
     reorient_to_lab(volume, directions, PatientFrame::lps);
     return volume;
 }

@@ -5,7 +5,6 @@
 // TransformMatrix lists each file axis's direction in turn (axis 0 first), in LPS, as ITK
 // writes it.
 #include <sys/stat.h>
-#include <zlib.h>
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -13,8 +12,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <sstream>
 #include "error.h"
+#include "file_input.h"
 #include "formats.h"
 
 namespace ctlab {
@@ -90,19 +91,22 @@ std::string folder_of(const std::string& path) {
 
 Volume load_metaimage(const std::string& path) {
     const std::string prefix = "'" + path + "' (MetaImage): ";
-    const std::vector<unsigned char> file = read_file_bytes(path);
-    // Header lines up to and including ElementDataFile.
+    const InputFile file(path);  // a FIFO, a device or a folder is refused here
+    // Header lines up to and including ElementDataFile, within the first 64 KiB: only those
+    // are read (a huge file without a newline is not read whole looking for one).
+    std::vector<char> head(size_t(std::min<uint64_t>(file.size(), max_header_bytes)));
+    if (file.read_at(0, head.data(), head.size()) != head.size()) {
+        throw InputError(prefix + "it changed while it was read");
+    }
     std::map<std::string, std::string> fields;  // lower-case key -> value
     size_t position = 0;
     bool found_data = false;
-    while (position < file.size() && !found_data) {
-        if (position > max_header_bytes) {
-            throw InputError(prefix + "no ElementDataFile line in the first 64 KiB");
-        }
+    while (position < head.size() && !found_data) {
         size_t end = position;
-        while (end < file.size() && file[end] != '\n') ++end;
-        const std::string line(file.begin() + long(position), file.begin() + long(end));
-        position = std::min(end + 1, file.size());
+        while (end < head.size() && head[end] != '\n') ++end;
+        if (end == head.size() && file.size() > head.size()) break;  // a line past 64 KiB
+        const std::string line(head.begin() + long(position), head.begin() + long(end));
+        position = std::min(end + 1, head.size());
         if (trim(line).empty()) continue;
         const size_t equals = line.find('=');
         if (equals == std::string::npos) {
@@ -112,7 +116,10 @@ Volume load_metaimage(const std::string& path) {
         fields[key] = trim(line.substr(equals + 1));
         found_data = key == "elementdatafile";
     }
-    if (!found_data) throw InputError(prefix + "no ElementDataFile line");
+    if (!found_data) {
+        throw InputError(prefix + "no ElementDataFile line" +
+                         (file.size() > head.size() ? " in the first 64 KiB" : ""));
+    }
     auto field = [&](const std::string& key) -> std::string {
         const auto it = fields.find(key);
         return it == fields.end() ? "" : it->second;
@@ -160,91 +167,48 @@ Volume load_metaimage(const std::string& path) {
 
     // The data: after the header (LOCAL) or in its own file beside the header.
     const std::string data_name = field("elementdatafile");
-    std::vector<unsigned char> external;
-    const unsigned char* data = nullptr;
-    size_t data_size = 0;
-    if (lower(data_name) == "local") {
-        data = file.data() + position;
-        data_size = file.size() - position;
-    } else {
+    std::unique_ptr<InputFile> external;
+    uint64_t offset = position;
+    std::string data_prefix = prefix;
+    if (lower(data_name) != "local") {
         if (data_name.empty() || lower(data_name) == "list" || data_name.find('%') != std::string::npos) {
             throw InputError(prefix + "ElementDataFile '" + shown(data_name) +
                              "': ctlab reads LOCAL or one data file");
         }
         const std::string data_path = data_name[0] == '/' ? data_name : folder_of(path) + data_name;
         try {
-            external = read_file_bytes(data_path);
+            external.reset(new InputFile(data_path));
         } catch (const InputError& error) {
             // The name came from the file: shown with its control characters replaced.
             const std::string why = error.what();
-            const size_t colon = why.rfind(": ");
+            const size_t is = why.rfind("' is ");
+            if (is != std::string::npos) {  // "'P' is a FIFO (named pipe), not an ordinary file"
+                throw InputError(prefix + "its ElementDataFile '" + shown(data_name) + "'" +
+                                 why.substr(is + 1));
+            }
+            const size_t colon = why.rfind("': ");  // "cannot open 'P': No such file..."
             throw InputError(prefix + "cannot read its ElementDataFile '" + shown(data_name) +
-                             "'" + (colon == std::string::npos ? "" : why.substr(colon)));
+                             "'" + (colon == std::string::npos ? "" : why.substr(colon + 1)));
         }
-        data = external.data();
-        data_size = external.size();
-        const std::string header_size = field("headersize");
-        if (!header_size.empty()) {
-            const double skip = numbers(prefix, "HeaderSize", header_size, 1)[0];
-            if (skip == -1 && !compressed) {  // -1: the data is at the end of the file
-                const uint64_t needed = voxels * sample_size(type);
-                if (data_size >= needed) {
-                    data += data_size - needed;
-                    data_size = needed;
-                }
-            } else if (skip >= 0 && skip <= double(data_size) && skip == std::floor(skip)) {
-                data += size_t(skip);
-                data_size -= size_t(skip);
-            } else {
-                throw InputError(prefix + "HeaderSize " + shown(header_size) + " is past the data");
-            }
-        }
+        data_prefix = prefix + "its ElementDataFile '" + shown(data_name) + "': ";
+        offset = 0;
     }
-
+    const InputFile& data_file = external ? *external : file;
     const uint64_t needed = voxels * sample_size(type);
-    std::vector<unsigned char> inflated;
-    if (compressed) {
-        // zlib (or gzip) stream of exactly `needed` bytes.
-        inflated.resize(size_t(needed));
-        z_stream stream{};
-        if (inflateInit2(&stream, 15 + 32) != Z_OK) throw InputError(prefix + "zlib failed to start");
-        stream.next_in = const_cast<unsigned char*>(data);
-        stream.avail_in = 0;
-        stream.next_out = inflated.data();
-        size_t in_left = data_size, out_left = inflated.size();
-        int status = Z_OK;
-        while (status == Z_OK) {
-            if (stream.avail_in == 0 && in_left > 0) {
-                stream.avail_in = uInt(std::min<size_t>(in_left, 1u << 30));
-                in_left -= stream.avail_in;
-            }
-            if (stream.avail_out == 0 && out_left > 0) {
-                stream.avail_out = uInt(std::min<size_t>(out_left, 1u << 30));
-                out_left -= stream.avail_out;
-            }
-            const uInt before_in = stream.avail_in, before_out = stream.avail_out;
-            status = inflate(&stream, Z_NO_FLUSH);
-            if (status == Z_BUF_ERROR || (status == Z_OK && before_in == stream.avail_in &&
-                                          before_out == stream.avail_out)) {
-                break;
-            }
+    const std::string header_size = field("headersize");
+    if (external && !header_size.empty()) {
+        const double skip = numbers(prefix, "HeaderSize", header_size, 1)[0];
+        if (skip == -1 && !compressed) {  // -1: the data is at the end of the file
+            offset = data_file.size() >= needed ? data_file.size() - needed : 0;
+        } else if (skip >= 0 && skip <= double(data_file.size()) && skip == std::floor(skip)) {
+            offset = uint64_t(skip);
+        } else {
+            throw InputError(prefix + "HeaderSize " + shown(header_size) + " is past the data");
         }
-        const bool complete = status == Z_STREAM_END && stream.total_out == needed;
-        const uint64_t got = stream.total_out;
-        inflateEnd(&stream);
-        if (!complete) {
-            throw InputError(prefix + "compressed data gives " +
-                             (status == Z_STREAM_END || status == Z_BUF_ERROR || status == Z_OK
-                                  ? std::to_string(got) + " bytes"
-                                  : std::string("a zlib error")) +
-                             ", expected exactly " + std::to_string(needed));
-        }
-        data = inflated.data();
-        data_size = inflated.size();
     }
-    if (data_size != needed) {
-        throw InputError(prefix + "the data has " + std::to_string(data_size) +
-                         " bytes, expected exactly " + std::to_string(needed) + " for " +
+    if (!compressed && data_file.size() - offset != needed) {
+        throw InputError(data_prefix + "the data has " + bytes_text(data_file.size() - offset) +
+                         ", expected exactly " + std::to_string(needed) + " for " +
                          std::to_string(nx) + "x" + std::to_string(ny) + "x" + std::to_string(nz) +
                          " " + sample_type_name(type) + " voxels");
     }
@@ -258,10 +222,15 @@ Volume load_metaimage(const std::string& path) {
     volume.sx = spacing[0];
     volume.sy = spacing[1];
     volume.sz = spacing[2];
-    resize_dense(volume);
-    store_samples(volume, data, size_t(voxels), type, endian);
-    external = {};
-    inflated = {};
+    {
+        // A zlib (or gzip) stream inflated straight into the volume, or the bytes themselves;
+        // either must hold exactly the volume's bytes.
+        const std::unique_ptr<ByteStream> stream = compressed
+                                                       ? ByteStream::inflated(data_file, offset)
+                                                       : ByteStream::plain(data_file, offset);
+        stream->prefix = data_prefix;
+        read_volume_samples(volume, *stream, type, endian);
+    }
 
     std::string matrix = field("transformmatrix");
     if (matrix.empty()) matrix = field("rotation");
@@ -274,6 +243,7 @@ Volume load_metaimage(const std::string& path) {
             for (size_t w = 0; w < dimensions; ++w) directions.axis[a][w] = values[a * dimensions + w];
         }
         if (dimensions == 2) directions.axis[2][2] = 1;
+        check_axes_independent(directions, prefix, "its TransformMatrix");
         reorient_to_lab(volume, directions, PatientFrame::lps);
     } else {
         volume.orientation = "none in the file: taken as stored";

@@ -1,17 +1,29 @@
-// format_nifti.cpp: NIfTI-1 through nifticlib (Debian libnifti2-dev: nifti1_io.h, -lniftiio).
+// format_nifti.cpp: NIfTI-1 (.nii, .nii.gz, .hdr + .img) with nifticlib (Debian
+// libnifti2-dev: nifti1_io.h, -lniftiio) for the header's meaning (qform quaternion, sform).
+// The 348-byte header and the data are read here, through common/file_input.h: the files are
+// opened without blocking and must be ordinary files, extensions are skipped without being
+// kept, a .nii.gz is inflated straight into the volume, and the data must be exactly what the
+// header promises. (nifticlib's own reading allocates whatever the header says first, reads
+// a FIFO, and fills a short file's tail with zeros.)
 #include <sys/stat.h>
-#include <unistd.h>
-#include <cstdio>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <memory>
 #include <nifti1_io.h>
 #include "error.h"
+#include "file_input.h"
 #include "formats.h"
 
 namespace ctlab {
 
 namespace {
+constexpr int nifti1_header_bytes = 348;
+constexpr uint64_t nifti1_single_offset = 352;  // header + 4 extension flag bytes
+// Deflate packs at most 1032 bytes into one: a .nii.gz of N bytes unpacks to at most 1032 N
+// (a 358-byte file asked for 1 GB: found by `make fuzz`).
+constexpr uint64_t deflate_max_ratio = 1032;
+
 struct NiftiFree {
     void operator()(nifti_image* image) const { nifti_image_free(image); }
 };
@@ -31,156 +43,216 @@ bool sample_type_of(int datatype, SampleType* type) {
     }
 }
 
-// nifticlib prints some of its errors on stderr whatever its debug level: they are caught
-// here (stderr goes to a temporary file during the call) and become part of our one line.
-template <typename Call>
-auto quietly(std::string* said, Call call) -> decltype(call()) {
-    std::fflush(stderr);
-    std::FILE* sink = std::tmpfile();
-    const int saved = sink ? dup(2) : -1;
-    if (saved >= 0) dup2(fileno(sink), 2);
-    auto result = call();
-    if (saved >= 0) {
-        std::fflush(stderr);
-        dup2(saved, 2);
-        close(saved);
-        std::rewind(sink);
-        char line[256];
-        while (std::fgets(line, sizeof line, sink)) {
-            std::string text = line;
-            while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
-            if (text.rfind("** ERROR: ", 0) == 0) text = text.substr(10);
-            for (char& c : text) {
-                if (static_cast<unsigned char>(c) < 32) c = ' ';
-            }
-            if (!text.empty()) *said = text;
-        }
+bool ends_with(const std::string& text, const std::string& end) {
+    if (text.size() < end.size()) return false;
+    for (size_t n = 0; n < end.size(); ++n) {
+        const char c = text[text.size() - end.size() + n];
+        if ((c >= 'A' && c <= 'Z' ? char(c - 'A' + 'a') : c) != end[n]) return false;
     }
-    if (sink) std::fclose(sink);
-    return result;
+    return true;
 }
 
-bool ends_with(const std::string& text, const std::string& end) {
-    return text.size() >= end.size() && text.compare(text.size() - end.size(), end.size(), end) == 0;
+bool is_gzip(const InputFile& file) {
+    unsigned char magic[2] = {0, 0};
+    return file.read_at(0, magic, 2) == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
+}
+
+std::unique_ptr<ByteStream> stream_of(const InputFile& file, const std::string& prefix) {
+    std::unique_ptr<ByteStream> stream =
+        is_gzip(file) ? ByteStream::inflated(file, 0) : ByteStream::plain(file, 0);
+    stream->prefix = prefix;
+    return stream;
+}
+
+// The data file of a header/image pair: NAME.img (or NAME.img.gz) beside NAME.hdr, whatever
+// it is (a FIFO is then refused by InputFile); "" when there is none.
+std::string image_file_of(const std::string& header_path) {
+    const std::string stem = header_path.substr(0, header_path.size() - 4);
+    const bool upper = header_path.back() == 'R';
+    for (const char* end : {".img", ".img.gz"}) {
+        std::string name = stem + end;
+        if (upper) {
+            for (size_t n = stem.size(); n < name.size(); ++n) name[n] = char(std::toupper(name[n]));
+        }
+        struct stat info {};
+        if (lstat(name.c_str(), &info) == 0) return name;
+    }
+    return "";
 }
 }  // namespace
 
 Volume load_nifti(const std::string& path) {
-    struct stat info {};
-    if (stat(path.c_str(), &info) != 0) {
-        throw InputError("cannot open '" + path + "': " + std::strerror(errno));
-    }
-    if (!S_ISREG(info.st_mode)) throw InputError("'" + path + "' is not an ordinary file");
-    nifti_set_debug_level(0);  // nifticlib's own messages would go to stderr: ours say it
-    std::string said;
-    NiftiImage image(quietly(&said, [&] { return nifti_image_read(path.c_str(), 0); }));  // header
-    if (!image) {
-        throw InputError("'" + path + "' is not a NIfTI-1 file nifticlib can read (" +
-                         (said.empty() ? std::string("bad header") : said) + ")");
-    }
     const std::string prefix = "'" + path + "' (NIfTI): ";
-    if (image->dim[0] < 1 || image->dim[0] > 7) {
-        throw InputError(prefix + "dim[0] = " + std::to_string(image->dim[0]) + ", expected 1 to 7");
+    const InputFile header_file(path);  // a FIFO, a device or a folder is refused here
+    const bool pair = ends_with(path, ".hdr");
+
+    // The header, byte-swapped when the file's order is not this machine's.
+    nifti_1_header header;
+    std::memset(&header, 0, sizeof header);
+    {
+        const std::unique_ptr<ByteStream> stream = stream_of(header_file, prefix);
+        const size_t got = stream->read_all(&header, nifti1_header_bytes);
+        if (got < size_t(nifti1_header_bytes)) {
+            throw InputError(prefix + "not a NIfTI-1 file: " + bytes_text(got) +
+                             ", shorter than the 348-byte header");
+        }
     }
-    for (int d = 4; d <= image->dim[0]; ++d) {
-        if (image->dim[d] > 1) {
-            throw InputError(prefix + "has " + std::to_string(image->dim[d]) +
+    bool swapped = false;
+    if (header.sizeof_hdr != nifti1_header_bytes) {
+        swap_nifti_header(&header, 1);
+        swapped = true;
+        if (header.sizeof_hdr != nifti1_header_bytes) {
+            throw InputError(prefix + "not a NIfTI-1 file (its first 4 bytes are not 348: " +
+                             "sizeof_hdr)");
+        }
+    }
+    const bool single = std::memcmp(header.magic, "n+1", 4) == 0;
+    if (!single && !pair) {
+        throw InputError(prefix + "not a NIfTI-1 file: its magic is not \"n+1\" (a .hdr/.img "
+                         "pair says \"ni1\")");
+    }
+    if (single && pair) {
+        throw InputError(prefix + "its magic \"n+1\" says the data is in this file, but a .hdr "
+                         "holds only a header");
+    }
+
+    // Dimensions: a zero or negative one is refused, not taken as 1.
+    const int dims = header.dim[0];
+    if (dims < 1 || dims > 7) {
+        throw InputError(prefix + "dim[0] = " + std::to_string(dims) + ", expected 1 to 7");
+    }
+    for (int d = 1; d <= dims; ++d) {
+        if (header.dim[d] < 1) {
+            throw InputError(prefix + "dim[" + std::to_string(d) + "] = " +
+                             std::to_string(header.dim[d]) + ": every size must be at least 1");
+        }
+        if (d >= 4 && header.dim[d] > 1) {
+            throw InputError(prefix + "has " + std::to_string(header.dim[d]) +
                              " volumes along dimension " + std::to_string(d) +
                              "; ctlab reads one 3-D volume");
         }
     }
+    const uint64_t nx = uint64_t(header.dim[1]), ny = dims >= 2 ? uint64_t(header.dim[2]) : 1,
+                   nz = dims >= 3 ? uint64_t(header.dim[3]) : 1;
     SampleType type;
-    if (!sample_type_of(image->datatype, &type)) {
-        throw InputError(prefix + "data type " + nifti_datatype_string(image->datatype) +
+    if (!sample_type_of(header.datatype, &type)) {
+        const char* name = nifti_datatype_string(header.datatype);
+        if (std::strcmp(name, "DT_UNKNOWN") == 0 || name[0] == '*') {
+            throw InputError(prefix + "bad datatype " + std::to_string(header.datatype) +
+                             ": no NIfTI-1 type has that code");
+        }
+        throw InputError(prefix + "data type " + name +
                          " is not read (uint8, int8, uint16, int16, uint32, int32, float32, "
                          "float64 are)");
     }
-    // nifticlib keeps the file's copy while it is converted: both must fit.
-    const uint64_t voxels = check_volume_size(prefix + "dims", uint64_t(std::max(image->nx, 0)),
-                                              uint64_t(std::max(image->ny, 0)),
-                                              uint64_t(std::max(image->nz, 0)),
-                                              2 + sample_size(type));
+    const uint64_t voxels = check_volume_size(prefix + "dims", nx, ny, nz);
+    const uint64_t data_bytes = voxels * sample_size(type);
+
+    // Scaling: slope 0 (or not a number) means none; with a slope, the intercept must be a
+    // number (nibabel refuses such a file too).
+    const double slope = header.scl_slope, inter = header.scl_inter;
+    const bool scaled = slope != 0 && std::isfinite(slope);
+    if (scaled && !std::isfinite(inter)) {
+        throw InputError(prefix + "scl_inter is " + (std::isnan(inter) ? "NaN" : "infinite") +
+                         " while scl_slope is " + std::to_string(slope) +
+                         ": the values' meaning is unknown");
+    }
+
+    // nifticlib turns the header into matrices (the qform's quaternion, the sform's rows).
+    NiftiImage image;
+    nifti_set_debug_level(0);
+    const std::string said = capture_stderr(
+        [&] { image.reset(nifti_convert_nhdr2nim(header, path.c_str())); });
+    if (!image) {
+        throw InputError(prefix + "nifticlib cannot read its header (" +
+                         (said.empty() ? std::string("bad header") : said) + ")");
+    }
     const double dx = std::fabs(image->dx), dy = std::fabs(image->dy), dz = std::fabs(image->dz);
     if (!(dx > 0 && dy > 0 && dz > 0) || !std::isfinite(dx + dy + dz)) {
         throw InputError(prefix + "pixdim spacing must be positive, got " + std::to_string(dx) +
                          "," + std::to_string(dy) + "," + std::to_string(dz));
     }
-    // A single file (.nii, .nii.gz) must be able to hold all its data: checked before
-    // nifticlib allocates what the header says. Uncompressed (zlib also reads a .nii.gz that
-    // is not gzip as it is): the bytes themselves. Gzip: deflate packs at most 1032 bytes into
-    // one, so a file of N bytes holds at most 1032 N (a 358-byte file asked for 1 GB: found by
-    // `make fuzz`).
-    if (ends_with(path, ".nii") || ends_with(path, ".nii.gz")) {
-        constexpr uint64_t deflate_max_ratio = 1032;
-        unsigned char magic[2] = {0, 0};
-        if (FILE* file = std::fopen(path.c_str(), "rb")) {
-            if (std::fread(magic, 1, 2, file) != 2) magic[0] = 0;
-            std::fclose(file);
-        }
-        const bool gzip = magic[0] == 0x1f && magic[1] == 0x8b;
-        const uint64_t needed = uint64_t(image->iname_offset) + voxels * sample_size(type);
-        const uint64_t most = uint64_t(info.st_size) * (gzip ? deflate_max_ratio : 1);
-        if (most < needed) {
-            throw InputError(prefix + "has " + std::to_string(info.st_size) + " bytes" +
-                             (gzip ? " of gzip (at most " + std::to_string(most) + " unpacked)"
-                                   : std::string()) +
-                             ", its header needs " + std::to_string(needed));
-        }
+
+    // Where the data starts: vox_offset, a whole number of bytes (at least 352 in a .nii).
+    const double offset_value = header.vox_offset;
+    if (!(offset_value >= 0) || offset_value != std::floor(offset_value) ||
+        offset_value > 1e15 || (single && offset_value < double(nifti1_header_bytes))) {
+        throw InputError(prefix + "vox_offset " + std::to_string(offset_value) +
+                         " is not where data can start");
     }
-    if (quietly(&said, [&] { return nifti_image_load(image.get()); }) != 0 || !image->data) {
-        throw InputError(prefix + "the data could not be read (" +
-                         (said.empty() ? std::string("the file ends early?") : said) + ")");
+    const uint64_t offset = uint64_t(offset_value);
+
+    // The data file: this one, or the .img beside the .hdr.
+    std::unique_ptr<InputFile> image_file;
+    if (pair) {
+        const std::string image_path = image_file_of(path);
+        if (image_path.empty()) {
+            throw InputError(prefix + "its data file '" + path.substr(0, path.size() - 4) +
+                             ".img' is missing (a .hdr holds only the header)");
+        }
+        image_file.reset(new InputFile(image_path));
+    }
+    const InputFile& data_file = pair ? *image_file : header_file;
+    const std::string data_prefix =
+        pair ? "'" + data_file.path() + "' (NIfTI data of '" + path + "'): " : prefix;
+    const bool gzip = is_gzip(data_file);
+    const uint64_t needed = offset + data_bytes;
+    if (!gzip && data_file.size() != needed) {
+        throw InputError(data_prefix + "has " + bytes_text(data_file.size()) +
+                         ", its header needs exactly " + std::to_string(needed) + " (" +
+                         std::to_string(offset) + " before the data, then " + std::to_string(nx) +
+                         "x" + std::to_string(ny) + "x" + std::to_string(nz) + " " +
+                         sample_type_name(type) + " voxels)");
+    }
+    if (gzip && data_file.size() * deflate_max_ratio < needed) {
+        throw InputError(data_prefix + "has " + bytes_text(data_file.size()) +
+                         " of gzip (at most " +
+                         std::to_string(data_file.size() * deflate_max_ratio) +
+                         " unpacked), its header needs " + std::to_string(needed));
     }
 
     Volume volume;
     volume.name = path;
     volume.format = "nifti";
-    volume.nx = image->nx;
-    volume.ny = image->ny;
-    volume.nz = image->nz;
+    volume.nx = int(nx);
+    volume.ny = int(ny);
+    volume.nz = int(nz);
     volume.sx = dx;
     volume.sy = dy;
     volume.sz = dz;
-    const bool scaled = image->scl_slope != 0 && std::isfinite(image->scl_slope) &&
-                        std::isfinite(image->scl_inter);
-    resize_dense(volume);
-    // nifticlib has swapped the data into this machine's byte order.
-    const uint16_t probe = 1;
-    const Endian host = *reinterpret_cast<const unsigned char*>(&probe) ? Endian::little
-                                                                        : Endian::big;
-    store_samples(volume, static_cast<const unsigned char*>(image->data), size_t(voxels), type,
-                  host, scaled ? image->scl_slope : 1.0, scaled ? image->scl_inter : 0.0);
+    {
+        const std::unique_ptr<ByteStream> stream = stream_of(data_file, data_prefix);
+        stream->skip_start(offset);  // the rest of the header and any extensions, not kept
+        const Endian endian = swapped ? (host_endian() == Endian::little ? Endian::big
+                                                                         : Endian::little)
+                                      : host_endian();
+        read_volume_samples(volume, *stream, type, endian, scaled ? slope : 1.0,
+                            scaled ? inter : 0.0);
+    }
+
     // Orientation: sform when its code is set, else qform, else none (taken as stored).
     const mat44* matrix = image->sform_code > 0   ? &image->sto_xyz
                           : image->qform_code > 0 ? &image->qto_xyz
                                                   : nullptr;
-    Directions directions{};
-    if (matrix) {
-        // The spacing is the length of each axis's column: pixdim may disagree with an sform.
-        double* spacing[3] = {&volume.sx, &volume.sy, &volume.sz};
-        for (int a = 0; a < 3; ++a) {
-            double length = 0;
-            for (int w = 0; w < 3; ++w) {
-                directions.axis[a][w] = matrix->m[w][a];
-                length += directions.axis[a][w] * directions.axis[a][w];
-            }
-            length = std::sqrt(length);
-            if (!(length > 0) || !std::isfinite(length)) {
-                throw InputError(prefix + "its " + (image->sform_code > 0 ? "sform" : "qform") +
-                                 " gives file axis " + std::to_string(a + 1) + " no length");
-            }
-            *spacing[a] = length;
-        }
-    }
     const char* source = image->sform_code > 0 ? "sform" : "qform";
-    const bool oriented = matrix != nullptr;
-    image.reset();  // the file's copy goes before the turn allocates its own
-    if (oriented) {
-        reorient_to_lab(volume, directions, PatientFrame::ras);
-        volume.orientation += std::string(" (") + source + ")";
-    } else {
+    if (!matrix) {
         volume.orientation = "none in the file: taken as stored";
+        return volume;
     }
+    Directions directions{};
+    // The spacing is the length of each axis's column: pixdim may disagree with an sform.
+    double* spacing[3] = {&volume.sx, &volume.sy, &volume.sz};
+    for (int a = 0; a < 3; ++a) {
+        double length = 0;
+        for (int w = 0; w < 3; ++w) {
+            directions.axis[a][w] = matrix->m[w][a];
+            length += directions.axis[a][w] * directions.axis[a][w];
+        }
+        *spacing[a] = std::sqrt(length);
+    }
+    check_axes_independent(directions, prefix, std::string("its ") + source);
+    reorient_to_lab(volume, directions, PatientFrame::ras);
+    volume.orientation += std::string(" (") + source + ")";
     return volume;
 }
 

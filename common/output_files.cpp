@@ -21,7 +21,11 @@ namespace {
 
 constexpr int max_pending = 64;       // files in one set: views, diffs, float images
 constexpr size_t max_path = 4096;     // bytes, with the terminating NUL (Linux PATH_MAX)
-const int cleanup_signals[] = {SIGINT, SIGTERM, SIGHUP};
+// Every signal a shell or the kernel can send that ends a process by default, but the ones
+// that cannot be caught (SIGKILL, SIGSTOP) and the faults (SIGSEGV...: a sanitizer reports
+// those). SIGPIPE: `step | head -c 1` closes our stdout while the pictures are being written.
+const int cleanup_signals[] = {SIGINT,  SIGTERM, SIGHUP,  SIGQUIT,   SIGPIPE, SIGALRM,
+                               SIGUSR1, SIGUSR2, SIGXCPU, SIGVTALRM, SIGPROF};
 constexpr int signal_count = sizeof cleanup_signals / sizeof cleanup_signals[0];
 
 char pending_paths[max_pending][max_path];  // the temporaries' names
@@ -31,6 +35,10 @@ std::vector<std::string> pending_targets;  // where each temporary goes at commi
 OutputFiles* active_set = nullptr;
 struct sigaction previous_actions[signal_count];
 bool installed[signal_count];
+// SIGXFSZ (a file over `ulimit -f`) is ignored while a set is open: the write then fails
+// with EFBIG, and the step says "cannot write 'F': File too large" and removes its files.
+struct sigaction previous_file_size_action;
+bool file_size_ignored = false;
 int files_written = 0;  // by this process, for CTLAB_TEST_FAIL_WRITE
 
 // Removes every live temporary, then lets the signal do what it would have done.
@@ -100,6 +108,10 @@ OutputFiles::OutputFiles() {
         for (int signal_number : cleanup_signals) sigaddset(&action.sa_mask, signal_number);
         installed[n] = sigaction(cleanup_signals[n], &action, &previous_actions[n]) == 0;
     }
+    struct sigaction ignore {};
+    ignore.sa_handler = SIG_IGN;
+    sigemptyset(&ignore.sa_mask);
+    file_size_ignored = sigaction(SIGXFSZ, &ignore, &previous_file_size_action) == 0;
 }
 
 OutputFiles::~OutputFiles() {
@@ -107,6 +119,7 @@ OutputFiles::~OutputFiles() {
     for (int n = 0; n < signal_count; ++n) {
         if (installed[n]) sigaction(cleanup_signals[n], &previous_actions[n], nullptr);
     }
+    if (file_size_ignored) sigaction(SIGXFSZ, &previous_file_size_action, nullptr);
     active_set = nullptr;
 }
 

@@ -1,8 +1,10 @@
 // output_files.h: all pictures or none. While an OutputFiles set is open, every output a step
 // writes (write_png, and any writer that goes through add()) lands in an exclusive temporary
 // file beside its target, ".NAME.tmpXXXXXX"; commit() renames them all into place only when
-// every one was written. An error (the set destroyed uncommitted) or SIGINT, SIGTERM or SIGHUP
-// removes the temporaries, so the output folder is exactly as it was before the run.
+// every one was written. An error (the set destroyed uncommitted) or a signal (SIGINT, SIGTERM,
+// SIGHUP, SIGQUIT, SIGPIPE, SIGALRM, SIGUSR1/2, SIGXCPU, SIGVTALRM, SIGPROF) removes the
+// temporaries, so the output folder is exactly as it was before the run; SIGXFSZ is ignored
+// meanwhile, so a file over `ulimit -f` fails as a write error (EFBIG) and is removed too.
 #pragma once
 #include <cstdio>
 #include <functional>

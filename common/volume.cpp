@@ -13,6 +13,8 @@
 #include <memory>
 #include <stdexcept>
 #include "error.h"
+#include "file_input.h"
+#include "samples.h"
 
 namespace ctlab {
 
@@ -241,16 +243,8 @@ static void for_each_sample(const unsigned char* bytes, size_t count, SampleType
     }
 }
 
-// The file values' range, gathered over one or more chunks.
-struct ValueRange {
-    double low = std::numeric_limits<double>::infinity();
-    double high = -std::numeric_limits<double>::infinity();
-    bool whole = true;   // every value a whole number
-    bool finite = true;  // no NaN, no infinity
-};
-
-static void scan_samples(ValueRange& range, const unsigned char* bytes, size_t count,
-                         SampleType type, Endian endian, double slope, double inter) {
+void scan_samples(ValueRange& range, const unsigned char* bytes, size_t count,
+                  SampleType type, Endian endian, double slope, double inter) {
     for_each_sample(bytes, count, type, endian, [&](size_t, double value) {
         const double file_value = value * slope + inter;
         if (!std::isfinite(file_value)) {
@@ -264,7 +258,7 @@ static void scan_samples(ValueRange& range, const unsigned char* bytes, size_t c
 }
 
 // The map from int16 volume values to file values (see ValueMap).
-static ValueMap choose_map(const ValueRange& range, const std::string& name) {
+ValueMap choose_map(const ValueRange& range, const std::string& name) {
     if (!range.finite) throw InputError("'" + name + "' holds NaN or infinite values");
     ValueMap map;
     if (!(range.low <= range.high)) return map;  // no samples
@@ -287,9 +281,9 @@ static ValueMap choose_map(const ValueRange& range, const std::string& name) {
     return map;
 }
 
-static void convert_samples(int16_t* out, const unsigned char* bytes, size_t count,
-                            SampleType type, Endian endian, double slope, double inter,
-                            const ValueMap& map) {
+void convert_samples(int16_t* out, const unsigned char* bytes, size_t count,
+                     SampleType type, Endian endian, double slope, double inter,
+                     const ValueMap& map) {
     for_each_sample(bytes, count, type, endian, [&](size_t n, double value) {
         const double mapped = std::round(map.to_volume(value * slope + inter));
         // NaN was refused by the scan; a NaN here (a value changed since) gives the lowest.
@@ -347,26 +341,9 @@ uint64_t check_volume_size(const std::string& what, uint64_t nx, uint64_t ny, ui
 }
 
 std::vector<unsigned char> read_file_bytes(const std::string& path) {
-    struct stat info {};
-    if (stat(path.c_str(), &info) != 0) {
-        throw InputError("cannot open '" + path + "': " + std::strerror(errno));
-    }
-    if (S_ISDIR(info.st_mode)) throw InputError("'" + path + "' is a folder, not a file");
-    // A device such as /dev/zero never ends: only ordinary files are read.
-    if (!S_ISREG(info.st_mode)) throw InputError("'" + path + "' is not an ordinary file");
-    std::FILE* file = std::fopen(path.c_str(), "rb");
-    if (!file) throw InputError("cannot open '" + path + "': " + std::strerror(errno));
-    std::vector<unsigned char> bytes;
-    bytes.reserve(size_t(info.st_size));  // one allocation, not a doubling series
-    unsigned char buffer[1 << 16];
-    size_t count;
-    while ((count = std::fread(buffer, 1, sizeof buffer, file)) > 0) {
-        bytes.insert(bytes.end(), buffer, buffer + count);
-    }
-    const bool failed = std::ferror(file);
-    std::fclose(file);
-    if (failed) throw InputError("cannot read '" + path + "'");
-    return bytes;
+    // Opened without blocking and checked with fstat first (common/file_input.cpp): a FIFO,
+    // a device such as /dev/zero or a folder is refused, never read.
+    return read_small_file(path, std::numeric_limits<uint64_t>::max());
 }
 
 static std::string dims_text(const RawFormat& format) {
@@ -428,81 +405,27 @@ Volume volume_from_bytes(const std::vector<unsigned char>& bytes, const RawForma
     return volume;
 }
 
-// Size first (stat), so a wrong file is refused without reading it.
-static void check_size(const std::string& path, uint64_t expected, const std::string& what) {
-    struct stat info {};
-    if (stat(path.c_str(), &info) != 0) {
-        throw InputError("cannot open '" + path + "': " + std::strerror(errno));
-    }
-    if (S_ISDIR(info.st_mode)) throw InputError("'" + path + "' is a folder, not a file");
-    if (uint64_t(info.st_size) != expected) {
-        throw InputError(size_mismatch(path, uint64_t(info.st_size), expected, what));
+// Size first (fstat of the open file), so a wrong file is refused without reading it.
+static void check_size(const InputFile& file, uint64_t expected, const std::string& what) {
+    if (file.size() != expected) {
+        throw InputError(size_mismatch(file.path(), file.size(), expected, what));
     }
 }
-
-namespace {
-struct FileCloser {
-    void operator()(std::FILE* file) const { std::fclose(file); }
-};
-using File = std::unique_ptr<std::FILE, FileCloser>;
-
-File open_for_reading(const std::string& path) {
-    File file(std::fopen(path.c_str(), "rb"));
-    if (!file) throw InputError("cannot open '" + path + "': " + std::strerror(errno));
-    return file;
-}
-
-void read_exactly(std::FILE* file, void* into, size_t count, const std::string& path) {
-    if (std::fread(into, 1, count, file) != count) {
-        throw InputError("cannot read '" + path + "': it ended early or changed while read");
-    }
-}
-}  // namespace
 
 Volume load_raw(const std::string& path, const RawFormat& format) {
     const uint64_t bytes = expected_bytes(format);
-    check_size(path, bytes, voxels_text(format));
+    const InputFile file(path);  // a FIFO, a device or a folder is refused here
+    check_size(file, bytes, voxels_text(format));
     Volume volume = empty_volume(format, path);
-    const size_t count = volume.voxel_count();
-    File file = open_for_reading(path);
-    if (format.type == SampleType::int16) {
-        // Straight into the volume: the file's bytes are the volume's, swapped when needed.
-        resize_dense(volume);
-        read_exactly(file.get(), volume.data.data(), count * 2, path);
-        if ((format.endian == Endian::little) != host_is_little()) {
-            for (int16_t& value : volume.data) {
-                const uint16_t bits = uint16_t(value);
-                value = int16_t(uint16_t((bits >> 8) | (bits << 8)));
-            }
-        }
-        update_range(volume);
-        return volume;
-    }
-    // Other types in chunks of one MiB: a pass for the range (the map), then one to store.
-    const size_t size = sample_size(format.type);
-    const size_t chunk = (size_t(1) << 20) / size;
-    std::vector<unsigned char> buffer(chunk * size);
-    ValueRange range;
-    for (size_t done = 0; done < count; done += chunk) {
-        const size_t n = std::min(chunk, count - done);
-        read_exactly(file.get(), buffer.data(), n * size, path);
-        scan_samples(range, buffer.data(), n, format.type, format.endian, 1.0, 0.0);
-    }
-    volume.map = choose_map(range, path);
-    resize_dense(volume);
-    std::rewind(file.get());
-    for (size_t done = 0; done < count; done += chunk) {
-        const size_t n = std::min(chunk, count - done);
-        read_exactly(file.get(), buffer.data(), n * size, path);
-        convert_samples(volume.data.data() + done, buffer.data(), n, format.type, format.endian,
-                        1.0, 0.0, volume.map);
-    }
-    update_range(volume);
+    // int16 straight into the volume; other types in two passes through a 1 MiB buffer.
+    const std::unique_ptr<ByteStream> stream = ByteStream::plain(file, 0);
+    stream->prefix = "'" + path + "': ";
+    read_volume_samples(volume, *stream, format.type, format.endian);
     return volume;
 }
 
 Volume load_cthead(const std::string& path) {
-    check_size(path, cthead_bytes, "CThead (256x256x113 int16)");
+    check_size(InputFile(path), cthead_bytes, "CThead (256x256x113 int16)");
     RawFormat format;
     format.nx = cthead_nx;
     format.ny = cthead_ny;

@@ -78,7 +78,7 @@ cat > "$work/table" << EOF
 02_threshold --volume $w/one_long
   says: '$w/one_long' has $((cthead_bytes + 1)) bytes, expected exactly $cthead_bytes for CThead
 02_threshold --volume /dev/zero
-  says: '/dev/zero' has 0 bytes
+  says: '/dev/zero' is a device, not an ordinary file
 02_threshold --volume ""
   says: --volume: expected a path or 'phantom'
 02_threshold --volume $w/raw48 --dims 0,3,2
@@ -200,7 +200,7 @@ cat > "$work/table" << EOF
 06_transfer_function --volume phantom --tf $w/a_folder
   says: --tf: '$w/a_folder' is a folder, not a file
 06_transfer_function --volume phantom --tf /dev/zero
-  says: --tf: '/dev/zero' is not an ordinary file
+  says: --tf: '/dev/zero' is a device, not an ordinary file
 02_threshold --volume phantom --out ""
   says: --out: expected a folder
 02_threshold --volume phantom --out $w/regular_file/out
@@ -240,7 +240,7 @@ check --submission $w/missing
 check --submission $w/notes.png
   says: submission folder '$w/notes.png' is not a folder
 check --submission $w/a_folder --reference $w/a_folder
-  says: reference folder '$w/a_folder' has no pictures named NN_name_top
+  says: --submission '$w/a_folder' is the reference folder '$w/a_folder': it would pass against itself
 EOF
 
 # --- Running it ---------------------------------------------------------------------------

@@ -13,7 +13,11 @@
 //     FROM_STEP's, and the rest of the file is untouched.
 // Prints one line per function it looked at. Exit 0, or 2 for bad input (no record, a step
 // that does not parse).
+#include <sys/stat.h>
+#include <unistd.h>
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
@@ -63,6 +67,24 @@ struct Line {
     std::string to, function, from, stub_hash;
 };
 
+// "03_depth_shading": two digits, '_', then lower-case letters, digits and '_'.
+bool step_name(const std::string& name) {
+    if (name.size() < 4 || !std::isdigit(static_cast<unsigned char>(name[0])) ||
+        !std::isdigit(static_cast<unsigned char>(name[1])) || name[2] != '_') {
+        return false;
+    }
+    return std::all_of(name.begin() + 3, name.end(), [](char c) {
+        return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
+    });
+}
+
+bool identifier(const std::string& name) {
+    if (name.empty() || std::isdigit(static_cast<unsigned char>(name[0]))) return false;
+    return std::all_of(name.begin(), name.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+    });
+}
+
 std::vector<Line> read_record(const fs::path& tree) {
     const fs::path path = tree / record_path;
     if (!fs::is_regular_file(path)) {
@@ -77,7 +99,15 @@ std::vector<Line> read_record(const fs::path& tree) {
         std::istringstream words(line);
         Line entry;
         if (!(words >> entry.to >> entry.function >> entry.from >> entry.stub_hash)) {
-            throw InputError(path.generic_string() + ": cannot read the line '" + line + "'");
+            throw InputError(path.generic_string() + ": cannot read the line '" +
+                             ctlab::printable(line) + "'");
+        }
+        // The steps are names, never paths: a line "../../victim" must not reach a file
+        // outside the tree's steps/ folder.
+        if (!step_name(entry.to) || !step_name(entry.from) || !identifier(entry.function)) {
+            throw InputError(path.generic_string() + ": '" + ctlab::printable(line) +
+                             "' is not 'NN_step FUNCTION NN_step HASH' (step names are two "
+                             "digits, '_' and lower-case letters, digits or '_')");
         }
         lines.push_back(entry);
     }
@@ -105,15 +135,33 @@ bool is_stub(const std::string& function_text) {
     return false;
 }
 
+// Through a new temporary beside it (O_EXCL: never an existing file or a link), renamed into
+// place: never a half-written step, never a write through a link.
 void write_text(const fs::path& path, const std::string& text) {
-    const fs::path temporary = path.string() + ".carry-tmp";
-    {
-        std::ofstream file(temporary, std::ios::binary);
-        file << text;
-        file.close();
-        if (!file) throw InputError("cannot write '" + temporary.string() + "'");
+    std::string temporary = path.string() + ".carry-XXXXXX";
+    const int fd = mkstemp(temporary.data());
+    if (fd < 0) throw InputError("cannot write '" + path.string() + "': " + std::strerror(errno));
+    size_t done = 0;
+    while (done < text.size()) {
+        const ssize_t wrote = write(fd, text.data() + done, text.size() - done);
+        if (wrote < 0 && errno == EINTR) continue;
+        if (wrote <= 0) break;
+        done += size_t(wrote);
     }
-    fs::rename(temporary, path);  // never a half-written step
+    const bool written = done == text.size() && fchmod(fd, 0644) == 0;
+    if (close(fd) != 0 || !written || std::rename(temporary.c_str(), path.c_str()) != 0) {
+        const int error = errno;
+        unlink(temporary.c_str());
+        throw InputError("cannot write '" + path.string() + "': " + std::strerror(error));
+    }
+}
+
+// A step file carry may read or write: an ordinary file, not a link, in the tree's steps/.
+bool plain_step_file(const fs::path& path) {
+    std::error_code error;
+    const fs::file_status status = fs::symlink_status(path, error);
+    return !error && fs::is_regular_file(status) &&
+           !fs::is_symlink(fs::symlink_status(path.parent_path(), error)) && !error;
 }
 
 int run(const Settings& settings) {
@@ -124,9 +172,9 @@ int run(const Settings& settings) {
         const std::string to_path = "steps/" + line.to + ".cpp";
         const std::string from_path = "steps/" + line.from + ".cpp";
         const std::string what = line.to + ": " + line.function + "()";
-        if (!fs::exists(tree / to_path) || !fs::exists(tree / from_path)) {
-            std::printf("%s: skipped, %s or %s is missing\n", what.c_str(), to_path.c_str(),
-                        from_path.c_str());
+        if (!plain_step_file(tree / to_path) || !plain_step_file(tree / from_path)) {
+            std::printf("%s: skipped, %s or %s is missing (or is a link)\n", what.c_str(),
+                        to_path.c_str(), from_path.c_str());
             continue;
         }
         const std::string from_source = lesson::read_text((tree / from_path).string());

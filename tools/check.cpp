@@ -204,6 +204,13 @@ Settings parse_arguments(int argc, char** argv) {
             throw InputError("--class needs --report OUT_DIR: the folder for the class's CSV, "
                              "summary and reports");
         }
+        // The same folder (by any name or link) would pass everything against itself.
+        struct stat a {}, b {};
+        if (stat(folder.c_str(), &a) == 0 && stat(settings.reference.c_str(), &b) == 0 &&
+            a.st_dev == b.st_dev && a.st_ino == b.st_ino) {
+            throw InputError(flag + " '" + printable(folder) + "' is the reference folder '" +
+                             printable(settings.reference) + "': it would pass against itself");
+        }
         return settings;
     }
     if (settings.has_reference || settings.has_report) {

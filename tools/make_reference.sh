@@ -118,10 +118,15 @@ while read -r name arguments; do
     [ -x "$build/$step" ] || fail "$build/$step is not built (make all)"
 
     rm -rf "$work/out"
-    # The arguments are split at spaces on purpose: they are flags and plain values.
+    # The arguments are split at spaces on purpose: they are flags and plain values, never
+    # file name patterns (set -f: ARGS='*' stays '*').
+    set -f
     # shellcheck disable=SC2086
-    if ! "$build/$step" --volume "$volume" $volume_flags --no-window --out "$work/out" \
-            $arguments $extra > "$work/log" 2>&1; then
+    "$build/$step" --volume "$volume" $volume_flags --no-window --out "$work/out" \
+        $arguments $extra > "$work/log" 2>&1
+    status=$?
+    set +f
+    if [ "$status" != 0 ]; then
         cat "$work/log" >&2
         fail "$name failed: $build/$step --volume $volume $volume_flags $arguments $extra"
     fi
@@ -159,10 +164,13 @@ if [ -f "$probes" ]; then
         view_flag="--view $view"
         [ "$view" != camera ] || view_flag=
         rm -rf "$work/out"
+        set -f
         # shellcheck disable=SC2086
-        if ! "$build/$step" --volume "$volume" $volume_flags --no-window --out "$work/out" \
-                $arguments $extra $view_flag --debug-pixel "$pixel" \
-                > "$work/log" 2>&1 < /dev/null; then
+        "$build/$step" --volume "$volume" $volume_flags --no-window --out "$work/out" \
+            $arguments $extra $view_flag --debug-pixel "$pixel" > "$work/log" 2>&1 < /dev/null
+        status=$?
+        set +f
+        if [ "$status" != 0 ]; then
             # The probes are chosen on the phantom: a smaller volume may not have the pixel.
             if grep -q -- "--debug-pixel $pixel is outside" "$work/log"; then
                 echo "make reference: probe $name $view $pixel skipped: outside this volume's image"

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <zlib.h>
 #include "common/args.h"
 #include "tools/compare.h"
 #include "common/error.h"
@@ -406,6 +407,204 @@ void dicom_file(const uint8_t* data, size_t size) {
     volume_file(data, size, "series/slice.dcm", ctlab::load_dicom_series, "series");
 }
 
+
+// --- The data paths: a valid header made from a few bytes, the rest of the input as data ----
+
+namespace {
+
+const char* const nrrd_types[] = {"uint8", "int8", "uint16", "int16", "uint32", "int32", "float",
+                                  "double"};
+const char* const meta_types[] = {"MET_UCHAR", "MET_CHAR", "MET_USHORT", "MET_SHORT",
+                                  "MET_UINT", "MET_INT", "MET_FLOAT", "MET_DOUBLE"};
+const char* const raw_types[] = {"uint8", "int8", "uint16", "int16", "uint32", "int32",
+                                 "float32", "float64"};
+const ctlab::SampleType sample_types[] = {
+    ctlab::SampleType::uint8,  ctlab::SampleType::int8,    ctlab::SampleType::uint16,
+    ctlab::SampleType::int16,  ctlab::SampleType::uint32,  ctlab::SampleType::int32,
+    ctlab::SampleType::float32, ctlab::SampleType::float64};
+const int16_t nifti_codes[] = {2, 256, 512, 4, 768, 8, 16, 64};  // DT_UINT8 ... DT_FLOAT64
+
+// zlib (gzip when `gzip`) of the bytes, made here so that the loaders' inflating path sees
+// well-formed streams as well as the fuzzer's own bytes.
+std::vector<unsigned char> deflated(const std::vector<unsigned char>& bytes, bool gzip) {
+    z_stream stream{};
+    require(deflateInit2(&stream, 1, Z_DEFLATED, gzip ? 15 + 16 : 15, 8,
+                         Z_DEFAULT_STRATEGY) == Z_OK, "deflateInit2 failed");
+    std::vector<unsigned char> out(deflateBound(&stream, uLong(bytes.size())) + 32);
+    stream.next_in = const_cast<unsigned char*>(bytes.data());
+    stream.avail_in = uInt(bytes.size());
+    stream.next_out = out.data();
+    stream.avail_out = uInt(out.size());
+    const int status = deflate(&stream, Z_FINISH);
+    out.resize(stream.total_out);
+    deflateEnd(&stream);
+    require(status == Z_STREAM_END, "deflate did not finish");
+    return out;
+}
+
+void append(std::vector<unsigned char>& bytes, const std::string& text) {
+    bytes.insert(bytes.end(), text.begin(), text.end());
+}
+
+template <typename T>
+void append_value(std::vector<unsigned char>& bytes, T value) {
+    unsigned char raw[sizeof(T)];
+    std::memcpy(raw, &value, sizeof(T));
+    bytes.insert(bytes.end(), raw, raw + sizeof(T));
+}
+
+// A 352-byte NIfTI-1 header (little-endian host) for the dims and type, no orientation.
+std::vector<unsigned char> nifti_header(int nx, int ny, int nz, int type_index) {
+    std::vector<unsigned char> h(352, 0);
+    const int32_t size = 348;
+    std::memcpy(h.data(), &size, 4);
+    const int16_t dims[8] = {3, int16_t(nx), int16_t(ny), int16_t(nz), 1, 1, 1, 1};
+    std::memcpy(h.data() + 40, dims, sizeof dims);
+    const int16_t code = nifti_codes[type_index];
+    const int16_t bits = int16_t(8 * ctlab::sample_size(sample_types[type_index]));
+    std::memcpy(h.data() + 70, &code, 2);
+    std::memcpy(h.data() + 72, &bits, 2);
+    const float pixdim[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+    std::memcpy(h.data() + 76, pixdim, sizeof pixdim);
+    const float offset = 352;
+    std::memcpy(h.data() + 108, &offset, 4);
+    std::memcpy(h.data() + 344, "n+1\0", 4);
+    return h;
+}
+
+}  // namespace
+
+void volume_data(const uint8_t* data, size_t size) {
+    // Byte 0: the container (below); byte 1: the sample type (of 8); byte 2: bit 0 big-endian
+    // (NRRD, MetaImage), bit 1 compress the data here (else the input's bytes are the
+    // compressed stream), bit 2 make the data exactly the size the header promises; bytes 3-5:
+    // nx, ny, nz (1..16); the rest: the data.
+    Bytes input{data, size};
+    const int container = input.byte() % 9;
+    const int type_index = input.byte() % 8;
+    const uint8_t flags = input.byte();
+    const bool big = flags & 1, compress_here = flags & 2, exact = flags & 4;
+    const int nx = input.byte() % 16 + 1, ny = input.byte() % 16 + 1, nz = input.byte() % 16 + 1;
+    const ctlab::SampleType type = sample_types[type_index];
+    const size_t needed = size_t(nx) * ny * nz * ctlab::sample_size(type);
+    std::vector<unsigned char> payload = input.rest();
+    if (exact) payload = repeated(payload, needed);
+    // 0 .nii, 1 .nii.gz, 2 NRRD raw, 3 NRRD gzip, 4 .mha raw, 5 .mha zlib, 6 raw by name,
+    // 7 .nhdr + raw data file, 8 .mhd + zlib data file.
+    const bool compressed = container == 1 || container == 3 || container == 5 || container == 8;
+    const std::string dims = std::to_string(nx) + " " + std::to_string(ny) + " " + std::to_string(nz);
+    const std::string folder = scratch_folder();
+    std::vector<unsigned char> file, data_file;
+    std::string name, data_name;
+    std::vector<unsigned char> stream = compressed && compress_here
+                                            ? deflated(payload, container == 1 || container == 3)
+                                            : payload;
+    switch (container) {
+        case 0:
+        case 1:
+            name = container == 0 ? "data.nii" : "data.nii.gz";
+            file = nifti_header(nx, ny, nz, type_index);
+            file.insert(file.end(), payload.begin(), payload.end());
+            if (container == 1) file = compress_here ? deflated(file, true) : stream;
+            break;
+        case 2:
+        case 3:
+        case 7: {
+            name = container == 7 ? "data.nhdr" : "data.nrrd";
+            append(file, std::string("NRRD0004\ntype: ") + nrrd_types[type_index] +
+                             "\ndimension: 3\nsizes: " + dims + "\nendian: " +
+                             (big ? "big" : "little") + "\nencoding: " +
+                             (container == 3 ? "gzip" : "raw") + "\n");
+            if (container == 7) {
+                append(file, "data file: data.bin\n");
+                data_name = "data.bin";
+                data_file = payload;
+            } else {
+                append(file, "\n");
+                file.insert(file.end(), stream.begin(), stream.end());
+            }
+            break;
+        }
+        case 4:
+        case 5:
+        case 8: {
+            name = container == 8 ? "data.mhd" : "data.mha";
+            append(file, "NDims = 3\nDimSize = " + dims + "\nElementType = " +
+                             meta_types[type_index] + "\nBinaryDataByteOrderMSB = " +
+                             (big ? "True" : "False") + "\nCompressedData = " +
+                             (compressed ? "True" : "False") + "\nElementDataFile = " +
+                             (container == 8 ? "data.zraw" : "LOCAL") + "\n");
+            if (container == 8) {
+                data_name = "data.zraw";
+                data_file = stream;
+            } else {
+                file.insert(file.end(), stream.begin(), stream.end());
+            }
+            break;
+        }
+        default:
+            name = "data_" + std::to_string(nx) + "x" + std::to_string(ny) + "x" +
+                   std::to_string(nz) + "_" + raw_types[type_index] + ".raw";
+            file = payload;
+            break;
+    }
+    write_file(folder + "/" + name, file, file.size());
+    if (!data_name.empty()) write_file(folder + "/" + data_name, data_file, data_file.size());
+    // Must load: the data exactly the header's size (compressed here when compressed at all),
+    // and every value a finite number.
+    bool finite = true;
+    if (type == ctlab::SampleType::float32 || type == ctlab::SampleType::float64) {
+        const size_t sample = ctlab::sample_size(type);
+        for (size_t n = 0; n + sample <= payload.size(); n += sample) {
+            unsigned char raw[8];
+            std::memcpy(raw, payload.data() + n, sample);
+            if (big && container >= 2 && container != 6) std::reverse(raw, raw + sample);
+            double value;
+            if (sample == 4) {
+                float single;
+                std::memcpy(&single, raw, 4);
+                value = single;
+            } else {
+                std::memcpy(&value, raw, 8);
+            }
+            finite = finite && std::isfinite(value);
+        }
+    }
+    const bool must_load = payload.size() == needed && (!compressed || compress_here) && finite;
+    const bool must_refuse = payload.size() != needed && (!compressed || compress_here);
+    const std::string path = folder + "/" + name;
+    try {
+        ctlab::Volume volume;
+        const std::string format = ctlab::volume_format_of(path);
+        if (format == "nifti") volume = ctlab::load_nifti(path);
+        else if (format == "nrrd") volume = ctlab::load_nrrd(path);
+        else if (format == "metaimage") volume = ctlab::load_metaimage(path);
+        else {
+            ctlab::RawFormat raw;
+            require(ctlab::raw_format_from_name(path, &raw), "a raw name not understood");
+            volume = ctlab::load_raw(path, raw);
+        }
+        require(!must_refuse, "data of the wrong size loaded: " + name);
+        check_loaded(volume);
+        require(volume.nx == nx && volume.ny == ny && volume.nz == nz,
+                "a volume of other dims than its header's");
+        // int16 little-endian data is the volume itself, value for value.
+        if (type == ctlab::SampleType::int16 && !big && volume.map.identity()) {
+            const std::vector<int16_t> values = ctlab::dense_values(volume);
+            for (size_t n = 0; n < values.size(); ++n) {
+                int16_t expected;
+                std::memcpy(&expected, payload.data() + 2 * n, 2);
+                require(values[n] == expected, "an int16 voxel differs from its data");
+            }
+        }
+    } catch (const ctlab::InputError& error) {
+        check_message(error);
+        require(!must_load, std::string("good data refused: ") + name + ": " + error.what());
+    }
+    std::remove(path.c_str());
+    if (!data_name.empty()) std::remove((folder + "/" + data_name).c_str());
+}
+
 const std::vector<Target>& targets() {
     static const std::vector<Target> all = {{"raw", raw_volume},
                                             {"cthead", cthead_file},
@@ -414,7 +613,8 @@ const std::vector<Target>& targets() {
                                             {"nifti", nifti_file},
                                             {"nrrd", nrrd_file},
                                             {"metaimage", metaimage_file},
-                                            {"dicom", dicom_file}};
+                                            {"dicom", dicom_file},
+                                            {"volume_data", volume_data}};
     return all;
 }
 

@@ -41,12 +41,20 @@ void nrrd_file(const uint8_t* data, size_t size);
 void metaimage_file(const uint8_t* data, size_t size);
 void dicom_file(const uint8_t* data, size_t size);
 
+// The data paths of every format (raw and compressed): a valid NIfTI, NRRD (inline or
+// detached), MetaImage (LOCAL or a data file) or raw-by-name header made from the first six
+// bytes (container, sample type, byte order, compress here or not, exact size or not, dims up
+// to 16^3), the rest of the input its data. Data of exactly the promised size loads (finite
+// values; int16 value for value), data of another size is refused.
+void volume_data(const uint8_t* data, size_t size);
+
 struct Target {
     const char* name;  // the harness: tests/fuzz/seeds/NAME/, tests/fuzz/regressions/NAME/
     void (*run)(const uint8_t* data, size_t size);
 };
 
-// Every target, by harness name: raw, cthead, tf, image, nifti, nrrd, metaimage, dicom.
+// Every target, by harness name: raw, cthead, tf, image, nifti, nrrd, metaimage, dicom,
+// volume_data.
 const std::vector<Target>& targets();
 
 // libFuzzer's entry for one target: a broken promise aborts, so the fuzzer keeps the input.
