@@ -181,22 +181,15 @@ reuse_objects() {
     for library in libctlab_tools.a ctlab_formats.so ctlab_window.so; do
         [ -f "$build/$library" ] && cp "$build/$library" "$student/$build/"
     done
-    if [ -d "$build/tools" ]; then
-        for object in $(find "$build/tools" -name '*.o'); do
+    for folder in tools tests; do
+        [ -d "$build/$folder" ] || continue
+        for object in $(find "$build/$folder" -name '*.o'); do
             depends=${object%.o}.d
             [ -f "$depends" ] && ! grep -q 'steps/' "$depends" || continue
             mkdir -p "$student/$(dirname "$object")"
             cp "$object" "$depends" "$student/$(dirname "$object")/"
         done
-    fi
-    if [ -d "$build/tests" ]; then
-        for object in $(find "$build/tests" -name '*.o'); do
-            depends=${object%.o}.d
-            [ -f "$depends" ] && ! grep -q 'steps/' "$depends" || continue
-            mkdir -p "$student/$(dirname "$object")"
-            cp "$object" "$depends" "$student/$(dirname "$object")/"
-        done
-    fi
+    done
     # One time for all of them (no object older than the flags it was built with), a second
     # after the kit's sources were written: newer than they are, and not in the future.
     sleep 1

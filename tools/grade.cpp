@@ -420,7 +420,7 @@ std::string copy_untrusted(const fs::path& from, const fs::path& to, size_t limi
     }
     if (static_cast<size_t>(info.st_size) > limit) {
         ::close(in);
-        return "is larger than " + bytes_text(limit);
+        return "is larger than " + readable_size(limit);
     }
     const int out = ::open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC,
                            0644);
@@ -434,7 +434,7 @@ std::string copy_untrusted(const fs::path& from, const fs::path& to, size_t limi
     for (ssize_t got; (got = ::read(in, buffer, sizeof buffer)) > 0;) {
         total += static_cast<size_t>(got);
         if (total > limit) {
-            problem = "is larger than " + bytes_text(limit);
+            problem = "is larger than " + readable_size(limit);
             break;
         }
         if (::write(out, buffer, static_cast<size_t>(got)) != got) {
@@ -845,7 +845,7 @@ Outcome Grader::execute(const Step& step, const std::vector<std::string>& argume
         if (::lstat(entry.path().c_str(), &info) != 0 || !S_ISREG(info.st_mode)) continue;
         bytes += static_cast<size_t>(info.st_size);
         if (bytes > max_run_folder_bytes) {
-            problem = "it left more than " + bytes_text(max_run_folder_bytes) +
+            problem = "it left more than " + readable_size(max_run_folder_bytes) +
                       " in its output folder";
             break;
         }
@@ -1236,7 +1236,7 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
         const std::string text = run.name + ": stopped: " +
             (outcome.err.rfind("grade: ", 0) == 0
                  ? outcome.err.substr(7, outcome.err.find('\n') - 7)
-                 : "it printed more than " + bytes_text(max_output_bytes)) +
+                 : "it printed more than " + readable_size(max_output_bytes)) +
             " (a print inside a loop?)";
         result.problems.push_back(text);
         result.look_at.push_back(text);

@@ -26,7 +26,7 @@ std::string ProcessResult::command() const {
     return text;
 }
 
-std::string bytes_text(size_t bytes) {
+std::string readable_size(size_t bytes) {
     const char* units[] = {"bytes", "KiB", "MiB", "GiB", "TiB"};
     double value = double(bytes);
     int unit = 0;

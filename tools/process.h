@@ -62,6 +62,6 @@ ProcessResult run_process(const std::string& program, const std::vector<std::str
                           const ProcessOptions& options = {});
 
 // "12 MiB", "1.5 GiB": a byte count for messages.
-std::string bytes_text(size_t bytes);
+std::string readable_size(size_t bytes);
 
 }  // namespace ctlab
