@@ -66,8 +66,7 @@ static Rgb composite_back_to_front(const Volume& volume, const View& view, int x
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", n,
-                                  voxel().i, voxel().j, voxel().k, value);
+            if (trace) trace->sample(TraceSample(n, voxel(), value).skipped());
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
@@ -75,9 +74,7 @@ static Rgb composite_back_to_front(const Volume& volume, const View& view, int x
         r = alpha * light * sample.r + (1 - alpha) * r;
         g = alpha * light * sample.g + (1 - alpha) * g;
         b = alpha * light * sample.b + (1 - alpha) * b;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
-                              "C=(%.6f, %.6f, %.6f)", n, voxel().i, voxel().j, voxel().k, value,
-                              sample.r, sample.g, sample.b, sample.a, r, g, b);
+        if (trace) trace->sample(TraceSample(n, voxel(), value).rgba(sample).colour(r, g, b));
     }
     return {float(r), float(g), float(b)};
 }

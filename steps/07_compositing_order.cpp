@@ -79,8 +79,7 @@ static Rgb composite_back_to_front(const Volume& volume, const View& view, int x
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", n,
-                                  voxel().i, voxel().j, voxel().k, value);
+            if (trace) trace->sample(TraceSample(n, voxel(), value).skipped());
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
@@ -88,9 +87,7 @@ static Rgb composite_back_to_front(const Volume& volume, const View& view, int x
         r = alpha * light * sample.r + (1 - alpha) * r;
         g = alpha * light * sample.g + (1 - alpha) * g;
         b = alpha * light * sample.b + (1 - alpha) * b;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
-                              "C=(%.6f, %.6f, %.6f)", n, voxel().i, voxel().j, voxel().k, value,
-                              sample.r, sample.g, sample.b, sample.a, r, g, b);
+        if (trace) trace->sample(TraceSample(n, voxel(), value).rgba(sample).colour(r, g, b));
     }
     return {float(r), float(g), float(b)};
 }
@@ -116,8 +113,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", n,
-                                  voxel().i, voxel().j, voxel().k, value);
+            if (trace) trace->sample(TraceSample(n, voxel(), value).skipped());
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
@@ -127,15 +123,13 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ray.g += weight * sample.g;
         ray.b += weight * sample.b;
         ray.transparency *= 1 - alpha;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
-                              "C=(%.6f, %.6f, %.6f) T=%.6g", n, voxel().i, voxel().j, voxel().k,
-                              value, sample.r, sample.g, sample.b, sample.a, ray.r, ray.g,
-                              ray.b, ray.transparency);
+        if (trace) {
+            trace->sample(TraceSample(n, voxel(), value).rgba(sample).colour(ray.r, ray.g, ray.b)
+                              .transparency(ray.transparency));
+        }
         if (ray.transparency < stop_below && n + 1 < view.ray_length) {
             ++work.terminated;
-            if (trace) trace->add("T=%.3g < %.3g: early ray termination at n=%d, %d samples "
-                                  "not visited", ray.transparency, stop_below, n,
-                                  view.ray_length - 1 - n);
+            if (trace) trace->stop(ray.transparency, stop_below, view.ray_length - 1 - n);
             break;
         }
     }
@@ -193,15 +187,16 @@ static Image compare_orders(const Options& options, const Volume& volume, const 
 // at the pixel). Its samples are not counted in the summary's work.
 static void trace_both_orders(const Volume& volume, const View& view, int x, int y,
                               const Lut& lut, const Rgb& f2b, Trace* trace) {
-    trace->add("the same ray back to front (--order both), from the background at n=%d to the "
-               "viewer:", view.ray_length - 1);
+    trace->back_to_front(view.ray_length - 1);
     Work b2f_work;
     const Rgb b2f = composite_back_to_front(volume, view, x, y, lut, b2f_work, trace);
     const double difference = std::max({std::abs(double(f2b.r) - b2f.r),
                                         std::abs(double(f2b.g) - b2f.g),
                                         std::abs(double(f2b.b) - b2f.b)});
-    trace->add("both orders: f2b rgb=(%.6f, %.6f, %.6f) b2f rgb=(%.6f, %.6f, %.6f), apart by %.3g",
-               f2b.r, f2b.g, f2b.b, b2f.r, b2f.g, b2f.b, difference);
+    trace->note({{"f2b.r", f2b.r}, {"f2b.g", f2b.g}, {"f2b.b", f2b.b}, {"b2f.r", b2f.r},
+                 {"b2f.g", b2f.g}, {"b2f.b", b2f.b}, {"apart", difference}},
+                "both orders: f2b rgb=(%.6f, %.6f, %.6f) b2f rgb=(%.6f, %.6f, %.6f), apart by %.3g",
+                f2b.r, f2b.g, f2b.b, b2f.r, b2f.g, b2f.b, difference);
 }
 
 // A number as the summary line shows it: "0.12", "1e-05".

@@ -218,7 +218,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("t=%7.2f value=%8.2f transparent: skipped", t(), value);
+            if (trace) trace->sample(TraceSample(t(), value).skipped());
             continue;
         }
         double light = 1.0;  // unlit
@@ -232,14 +232,13 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ray.g += weight * sample.g;
         ray.b += weight * sample.b;
         ray.transparency *= 1 - alpha;
-        if (trace) trace->add("t=%7.2f value=%8.2f rgba=(%.3f, %.3f, %.3f, %.4f) L=%.4f "
-                              "C=(%.6f, %.6f, %.6f) T=%.6g", t(), value, sample.r, sample.g,
-                              sample.b, sample.a, light, ray.r, ray.g, ray.b, ray.transparency);
+        if (trace) {
+            trace->sample(TraceSample(t(), value).rgba(sample).light(light)
+                              .colour(ray.r, ray.g, ray.b).transparency(ray.transparency));
+        }
         if (ray.transparency < stop_below && n + 1 < sample_count) {
             ++work.terminated;
-            if (trace) trace->add("T=%.3g < %.3g: early ray termination at t=%.2f, %d samples "
-                                  "not visited", ray.transparency, stop_below, t(),
-                                  sample_count - 1 - n);
+            if (trace) trace->stop(ray.transparency, stop_below, sample_count - 1 - n);
             break;
         }
     }

@@ -294,21 +294,14 @@ static float display_grey(const Volume& volume, double value) {
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
-    trace->add("ray origin=(%.6g, %.6g, %.6g) direction=(%.6g, %.6g, %.6g)", ray.origin.i,
-               ray.origin.j, ray.origin.k, ray.direction.i, ray.direction.j, ray.direction.k);
+    trace->ray(ray.origin, ray.direction);
     if (!span.hit) {
-        trace->add("box (0, 0, 0)..(%g, %g, %g): missed, the pixel shows the background",
-                   high.i, high.j, high.k);
+        trace->box_missed(high);
         return;
     }
     const Vec3d in = ray.origin + span.t_entry * ray.direction;
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
-    const char* through[] = {"the i face", "the j face", "the k face"};
-    trace->add("box (0, 0, 0)..(%g, %g, %g): entry t=%.6f at (%.4f, %.4f, %.4f) through %s, "
-               "exit t=%.6f at (%.4f, %.4f, %.4f), step %g", high.i, high.j, high.k,
-               span.t_entry, in.i, in.j, in.k,
-               span.entry_axis >= 0 ? through[span.entry_axis] : "none (starts inside)",
-               span.t_exit, out.i, out.j, out.k, step);
+    trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
 // --slab: the part of the span within slab / 2 of the plane through the box's centre at right
@@ -325,9 +318,12 @@ static Span within_slab(const Ray& ray, Span span, const Camera& camera, double 
     }
     span.t_exit = std::min(span.t_exit, t_far);
     if (span.hit && span.t_entry > span.t_exit) span.hit = false;
-    if (trace) trace->add("slab %g: t=%.6f..%.6f, %s", slab, t_near, t_far,
-                          span.hit ? "samples from the later entry to the earlier exit"
-                                   : "no part of the box within it");
+    if (trace) {
+        trace->note({{"slab", slab}, {"t", t_near}, {"t_end", t_far}}, "slab %g: t=%.6f..%.6f, %s",
+                    slab, t_near, t_far,
+                    span.hit ? "samples from the later entry to the earlier exit"
+                             : "no part of the box within it");
+    }
     return span;
 }
 
@@ -355,11 +351,12 @@ static Projection project_ray(const Volume& volume, const Camera& camera, int x,
         projection.lowest = std::min(projection.lowest, value);
         projection.sum += value;
         ++projection.count;
-        if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f max=%9.4f min=%9.4f "
-                              "mean=%9.4f", span.t_entry + n * params.step,
-                              q.i * volume.sx, q.j * volume.sy, q.k * volume.sz, value,
-                              projection.highest, projection.lowest,
-                              projection.sum / projection.count);
+        if (trace) {
+            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+            trace->sample(TraceSample(span.t_entry + n * params.step, p, value)
+                              .projection(projection.highest, projection.lowest,
+                                          projection.sum / projection.count));
+        }
     }
     return projection;
 }

@@ -256,13 +256,19 @@ static Span clip_span(const Ray& ray, Span span, const ClipPlane& clip, Trace* t
     if (span.t_entry > span.t_exit) span.hit = false;
     if (trace) {
         if (!span.hit) {
-            trace->add("clip n=(%.4g, %.4g, %.4g) d=%g keeps n.p <= d: the ray is cut away "
-                       "there, the pixel shows the background", clip.normal.i, clip.normal.j,
-                       clip.normal.k, clip.distance);
+            trace->note({{"normal.i", clip.normal.i}, {"normal.j", clip.normal.j},
+                         {"normal.k", clip.normal.k}, {"d", clip.distance}},
+                        "clip n=(%.4g, %.4g, %.4g) d=%g keeps n.p <= d: the ray is cut away "
+                        "there, the pixel shows the background", clip.normal.i, clip.normal.j,
+                        clip.normal.k, clip.distance);
         } else {
-            trace->add("clip n=(%.4g, %.4g, %.4g) d=%g keeps n.p <= d: t=%.6f..%.6f%s",
-                       clip.normal.i, clip.normal.j, clip.normal.k, clip.distance, span.t_entry,
-                       span.t_exit, span.clipped ? ", entering through the plane" : "");
+            trace->note({{"normal.i", clip.normal.i}, {"normal.j", clip.normal.j},
+                         {"normal.k", clip.normal.k}, {"d", clip.distance},
+                         {"t", span.t_entry}, {"t_end", span.t_exit}},
+                        "clip n=(%.4g, %.4g, %.4g) d=%g keeps n.p <= d: t=%.6f..%.6f%s",
+                        clip.normal.i, clip.normal.j, clip.normal.k, clip.distance,
+                        span.t_entry, span.t_exit,
+                        span.clipped ? ", entering through the plane" : "");
         }
     }
     return span;
@@ -604,21 +610,14 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
-    trace->add("ray origin=(%.6g, %.6g, %.6g) direction=(%.6g, %.6g, %.6g)", ray.origin.i,
-               ray.origin.j, ray.origin.k, ray.direction.i, ray.direction.j, ray.direction.k);
+    trace->ray(ray.origin, ray.direction);
     if (!span.hit) {
-        trace->add("box (0, 0, 0)..(%g, %g, %g): missed, the pixel shows the background",
-                   high.i, high.j, high.k);
+        trace->box_missed(high);
         return;
     }
     const Vec3d in = ray.origin + span.t_entry * ray.direction;
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
-    const char* through[] = {"the i face", "the j face", "the k face"};
-    trace->add("box (0, 0, 0)..(%g, %g, %g): entry t=%.6f at (%.4f, %.4f, %.4f) through %s, "
-               "exit t=%.6f at (%.4f, %.4f, %.4f), step %g", high.i, high.j, high.k,
-               span.t_entry, in.i, in.j, in.k,
-               span.entry_axis >= 0 ? through[span.entry_axis] : "none (starts inside)",
-               span.t_exit, out.i, out.j, out.k, step);
+    trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
@@ -648,9 +647,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         if (reach > 0) {
             const long long next = leap_past(walk, space.bricks, cell, reach, n);
             work.leapt += next - n;
-            if (trace) trace->add("t=%9.4f..%.4f empty bricks (reach %d): %lld samples leapt "
-                                  "over", t(), span.t_entry + (next - 1) * params.step, reach,
-                                  next - n);
+            if (trace) trace->leap(t(), span.t_entry + (next - 1) * params.step, next - n, reach);
             n = next - 1;
             continue;
         }
@@ -660,8 +657,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         auto point = [&] { return Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz}; };
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f transparent: "
-                                  "skipped", t(), point().i, point().j, point().k, value);
+            if (trace) trace->sample(TraceSample(t(), point(), value).skipped());
             continue;
         }
         double light = 1.0;  // unlit
@@ -674,16 +670,14 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         pixel.g += weight * sample.g;
         pixel.b += weight * sample.b;
         pixel.transparency *= 1 - alpha;
-        if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f rgba=(%.3f, %.3f, "
-                              "%.3f, %.4f) L=%.4f C=(%.6f, %.6f, %.6f) T=%.6g", t(),
-                              point().i, point().j, point().k, value, sample.r, sample.g,
-                              sample.b, sample.a, light, pixel.r, pixel.g, pixel.b,
-                              pixel.transparency);
+        if (trace) {
+            trace->sample(TraceSample(t(), point(), value).rgba(sample).light(light)
+                              .colour(pixel.r, pixel.g, pixel.b)
+                              .transparency(pixel.transparency));
+        }
         if (pixel.transparency < stop_below && n + 1 < walk.count) {
             ++work.terminated;
-            if (trace) trace->add("T=%.3g < %.3g: early ray termination at t=%.4f, %lld samples "
-                                  "not visited", pixel.transparency, stop_below, t(),
-                                  walk.count - 1 - n);
+            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
             break;
         }
     }
@@ -727,10 +721,10 @@ static double bisect(const Volume& volume, const Walk& walk, double below, doubl
         } else {
             below = middle;
         }
-        if (trace) trace->add("  bisection %2d: t=%.7f value=%9.4f %s iso: bracket t=%.7f.."
-                              "%.7f", iteration, t_entry + middle * step, value,
-                              is_above ? "> " : "<=", t_entry + below * step,
-                              t_entry + above * step);
+        if (trace) {
+            trace->bisection(iteration, t_entry + middle * step, value, is_above,
+                             t_entry + below * step, t_entry + above * step);
+        }
     }
     return 0.5 * (below + above);
 }
@@ -784,27 +778,31 @@ static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, 
         if (reach > 0) {  // samples n .. next - 1 are all at or below iso
             const long long next = leap_past(walk, space.bricks, cell, reach, n);
             work.leapt += next - n;
-            if (trace) trace->add("t=%9.4f..%.4f bricks at or below iso (reach %d): %lld "
-                                  "samples leapt over", t(n), t(next - 1), reach, next - n);
+            if (trace) trace->leap(t(n), t(next - 1), next - n, reach, true);
             n = next - 1;
             continue;
         }
         const float value = sample_value(volume, cell, params.nearest);
         ++work.samples;
-        if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f %s", t(n),
-                              q.i * volume.sx, q.j * volume.sy, q.k * volume.sz, value,
-                              value > params.iso ? "> iso" : "<= iso");
+        if (trace) {
+            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+            trace->sample(TraceSample(t(n), p, value).iso(value > params.iso));
+        }
         if (value <= params.iso) continue;
         hit.hit = true;
         double at = n;  // in samples
         if (n > 0) {
-            if (trace) trace->add("crossing between t=%.4f and t=%.4f: bisection to %g voxel",
-                                  t(n - 1), t(n), hit_tolerance);
+            if (trace) {
+                trace->note({{"t", t(n - 1)}, {"t_end", t(n)}, {"tolerance", hit_tolerance}},
+                            "crossing between t=%.4f and t=%.4f: bisection to %g voxel",
+                            t(n - 1), t(n), hit_tolerance);
+            }
             at = bisect(volume, walk, n - 1, n, params.iso,
                         hit_tolerance * smallest_spacing / params.step, params.nearest,
                         span.t_entry, params.step, trace);
         } else if (trace) {
-            trace->add("the first sample is above iso: the ray starts inside, hit at its entry");
+            trace->note({}, "the first sample is above iso: the ray starts inside, hit at its "
+                            "entry");
         }
         hit.along = at * params.step;
         hit.point = walk.first + at * walk.per_step;
@@ -812,7 +810,10 @@ static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, 
         if (n + 1 < walk.count) ++work.terminated;
         return hit;
     }
-    if (trace) trace->add("no crossing of iso %d: the pixel shows the background", params.iso);
+    if (trace) {
+        trace->note({{"iso", double(params.iso)}},
+                    "no crossing of iso %d: the pixel shows the background", params.iso);
+    }
     return hit;
 }
 
@@ -847,13 +848,11 @@ static Rgb isosurface_ray(const Volume& volume, const EmptySpace& space, const C
     if (length(normal) > 0.0f) terms = phong(normal, to_light, to_viewer, params.shininess);
     const Rgb colour = lit_colour(terms);
     if (trace) {
-        trace->add("hit t=%.7f p=(%.6f, %.6f, %.6f) normal=(%.6f, %.6f, %.6f) from %s",
-                   span.t_entry + hit.along, hit.point.i * volume.sx, hit.point.j * volume.sy,
-                   hit.point.k * volume.sz, normal.i, normal.j, normal.k, source);
-        trace->add("phong L=(%.6f, %.6f, %.6f) V=(%.6f, %.6f, %.6f) ambient=%.6f diffuse=%.6f "
-                   "specular=%.6f shininess=%g", to_light.i, to_light.j, to_light.k,
-                   to_viewer.i, to_viewer.j, to_viewer.k, terms.ambient, terms.diffuse,
-                   terms.specular, params.shininess);
+        const Vec3d p = {hit.point.i * volume.sx, hit.point.j * volume.sy,
+                         hit.point.k * volume.sz};
+        trace->surface_hit(span.t_entry + hit.along, p, normal, source);
+        trace->phong(to_light, to_viewer, terms.ambient, terms.diffuse, terms.specular,
+                     params.shininess);
     }
     return colour;
 }

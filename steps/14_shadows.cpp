@@ -694,21 +694,14 @@ static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching,
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
-    trace->add("ray origin=(%.6g, %.6g, %.6g) direction=(%.6g, %.6g, %.6g)", ray.origin.i,
-               ray.origin.j, ray.origin.k, ray.direction.i, ray.direction.j, ray.direction.k);
+    trace->ray(ray.origin, ray.direction);
     if (!span.hit) {
-        trace->add("box (0, 0, 0)..(%g, %g, %g): missed, the pixel shows the background",
-                   high.i, high.j, high.k);
+        trace->box_missed(high);
         return;
     }
     const Vec3d in = ray.origin + span.t_entry * ray.direction;
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
-    const char* through[] = {"the i face", "the j face", "the k face"};
-    trace->add("box (0, 0, 0)..(%g, %g, %g): entry t=%.6f at (%.4f, %.4f, %.4f) through %s, "
-               "exit t=%.6f at (%.4f, %.4f, %.4f), step %g", high.i, high.j, high.k,
-               span.t_entry, in.i, in.j, in.k,
-               span.entry_axis >= 0 ? through[span.entry_axis] : "none (starts inside)",
-               span.t_exit, out.i, out.j, out.k, step);
+    trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
@@ -742,9 +735,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         if (reach > 0) {
             const long long next = leap_past(walk, space.bricks, cell, reach, n);
             work.leapt += next - n;
-            if (trace) trace->add("t=%9.4f..%.4f empty bricks (reach %d): %lld samples leapt "
-                                  "over", t(), span.t_entry + (next - 1) * params.step, reach,
-                                  next - n);
+            if (trace) trace->leap(t(), span.t_entry + (next - 1) * params.step, next - n, reach);
             n = next - 1;
             continue;
         }
@@ -754,8 +745,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         auto point = [&] { return Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz}; };
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f transparent: "
-                                  "skipped", t(), point().i, point().j, point().k, value);
+            if (trace) trace->sample(TraceSample(t(), point(), value).skipped());
             continue;
         }
         double light = 1.0;  // unlit
@@ -778,19 +768,16 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         pixel.g += weight * sample.g;
         pixel.b += weight * sample.b;
         pixel.transparency *= 1 - alpha;
-        if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f rgba=(%.3f, %.3f, "
-                              "%.3f, %.4f) light_T=%.6f ao=%.6f (%llu shadow samples, %llu "
-                              "leapt) L=%.4f C=(%.6f, %.6f, %.6f) T=%.6g", t(), point().i,
-                              point().j, point().k, value, sample.r, sample.g, sample.b,
-                              sample.a, light_t, occlusion,
-                              (unsigned long long)(work.samples - samples_before),
-                              (unsigned long long)(work.leapt - leapt_before), light, pixel.r,
-                              pixel.g, pixel.b, pixel.transparency);
+        if (trace) {
+            trace->sample(TraceSample(t(), point(), value).rgba(sample)
+                              .shadow(light_t, occlusion, work.samples - samples_before,
+                                      work.leapt - leapt_before)
+                              .light(light).colour(pixel.r, pixel.g, pixel.b)
+                              .transparency(pixel.transparency));
+        }
         if (pixel.transparency < stop_below && n + 1 < walk.count) {
             ++work.terminated;
-            if (trace) trace->add("T=%.3g < %.3g: early ray termination at t=%.4f, %lld samples "
-                                  "not visited", pixel.transparency, stop_below, t(),
-                                  walk.count - 1 - n);
+            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
             break;
         }
     }
