@@ -13,6 +13,10 @@
 
 namespace ctlab {
 
+// --debug-pixel given again and again: at most this many pixels in one run (each writes a
+// ray picture and its numbers per view, and a run's files are written all or none).
+constexpr size_t max_debug_pixels = 64;
+
 struct Options {
     std::string step;                 // e.g. "03_depth_shading": names the PNGs and the summary
     std::string volume;               // "" = data/CThead when present, else the phantom
@@ -34,7 +38,8 @@ struct Options {
     std::string out = "out";          // folder for the PNGs
     bool no_window = false;
     bool has_debug_pixel = false;
-    int debug_x = 0, debug_y = 0;     // image column and row
+    int debug_x = 0, debug_y = 0;     // image column and row (the first --debug-pixel)
+    std::vector<std::pair<int, int>> debug_pixels;  // every --debug-pixel X,Y, in order
     int threads = 1;                  // resolved: --threads N, default all cores
     bool pfm = false;                 // --pfm: also write OUT/STEP_VIEW.pfm (float RGB)
     int repeat = 1;                   // --repeat N: render each view N times (timing)

@@ -820,6 +820,25 @@ TEST_CASE("args: every shared flag and a step's own, both --flag value and --fla
     CHECK(edges.light_angle == 180.0);
 }
 
+TEST_CASE("args: --debug-pixel given again traces every pixel, each once, at most 64") {
+    const Options two = parse({"--debug-pixel", "10,20", "--debug-pixel=30,40", "--debug-pixel",
+                               "10,20"});
+    CHECK(two.has_debug_pixel);
+    CHECK(two.debug_x == 10);  // the first
+    CHECK(two.debug_y == 20);
+    CHECK(two.debug_pixels ==
+          std::vector<std::pair<int, int>>{{10, 20}, {30, 40}});  // the repeat kept once
+    std::vector<std::string> words;
+    for (size_t n = 0; n <= max_debug_pixels; ++n) {
+        words.push_back("--debug-pixel");
+        words.push_back(std::to_string(n) + ",1");
+    }
+    const std::string message = input_error([&] { parse(words); });
+    CHECK_MESSAGE(contains(message, "--debug-pixel: at most 64 pixels"), message);
+    words.resize(2 * max_debug_pixels);
+    CHECK(parse(words).debug_pixels.size() == max_debug_pixels);
+}
+
 TEST_CASE("args: every bad flag throws an InputError naming the flag") {
     struct Case {
         std::vector<std::string> words;
