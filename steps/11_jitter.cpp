@@ -317,7 +317,7 @@ static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     low_corner(p.i, volume.nx, &cell.i, &cell.fi);
     low_corner(p.j, volume.ny, &cell.j, &cell.fj);
     low_corner(p.k, volume.nz, &cell.k, &cell.fk);
-    const size_t row = volume.row_stride, slice = volume.slice_stride;
+    const size_t row = size_t(volume.nx), slice = size_t(volume.nx) * volume.ny;
     cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
     cell.di = cell.i + 1 < volume.nx ? 1 : 0;
     cell.dj = cell.j + 1 < volume.ny ? row : 0;
@@ -486,7 +486,7 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
         return lerp_vector(lerp_vector(low_low, high_low, c.fj),
                            lerp_vector(low_high, high_high, c.fj), c.fk);
     }
-    const ptrdiff_t row = volume.row_stride, slice = volume.slice_stride;
+    const ptrdiff_t row = size_t(volume.nx), slice = size_t(volume.nx) * volume.ny;
     const int16_t* low = volume.data.data() + c.index;
     Corners along_i, along_j, along_k;  // differences at the corners, in CT units
     auto differences = [&](int n, ptrdiff_t offset) {

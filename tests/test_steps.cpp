@@ -60,7 +60,7 @@ Volume make_volume(int nx, int ny, int nz, const std::function<double(int, int, 
     volume.sy = sy;
     volume.sz = sz;
     volume.name = "test";
-    allocate_pitched(volume);
+    resize_dense(volume);
     for (int k = 0; k < nz; ++k)
         for (int j = 0; j < ny; ++j)
             for (int i = 0; i < nx; ++i) {
