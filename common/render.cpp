@@ -352,6 +352,40 @@ void Trace::phong(const Vec3& to_light, const Vec3& to_viewer, double ambient, d
     keep(std::move(line.record()));
 }
 
+void Trace::jitter(const std::string& mode, double u, double past_entry) {
+    RecordWriter line(TraceKind::note);
+    line.print("jitter %s: u=%.6f, the first sample %.6f units past the entry", mode.c_str(), u,
+               past_entry);
+    line.field("u", u);
+    line.field("past_entry", past_entry);
+    keep(std::move(line.record()));
+}
+
+void Trace::clip(const Vec3d& normal, double d, bool cut_away, double from, double to,
+                 bool entering) {
+    RecordWriter line(TraceKind::note);
+    line.print("clip n=(%.4g, %.4g, %.4g) d=%g keeps n.p <= d: ", normal.i, normal.j, normal.k, d);
+    line.vector("normal", normal.i, normal.j, normal.k);
+    line.field("d", d);
+    if (cut_away) {
+        line.print("the ray is cut away there, the pixel shows the background");
+    } else {
+        line.print("t=%.6f..%.6f%s", from, to, entering ? ", entering through the plane" : "");
+        line.field("t", from);
+        line.field("t_end", to);
+    }
+    keep(std::move(line.record()));
+}
+
+void Trace::bracket(double from, double to, double tolerance) {
+    RecordWriter line(TraceKind::note);
+    line.print("crossing between t=%.4f and t=%.4f: bisection to %g voxel", from, to, tolerance);
+    line.field("t", from);
+    line.field("t_end", to);
+    line.field("tolerance", tolerance);
+    keep(std::move(line.record()));
+}
+
 void Trace::note(std::vector<TraceField> fields, const char* format, ...) {
     TraceRecord record;
     record.kind = TraceKind::note;

@@ -167,6 +167,14 @@ public:
     // Step 13: the Phong terms at the hit (L and V unit vectors towards light and viewer).
     void phong(const Vec3& to_light, const Vec3& to_viewer, double ambient, double diffuse,
                double specular, double shininess);
+    // Step 11: the jitter's u (0..1) and how far past the entry the first sample lies.
+    void jitter(const std::string& mode, double u, double past_entry);
+    // Step 13: the clip plane n.p <= d; the ray's span left by it (from, to), entering
+    // through the plane or not, or (cut_away) none of it.
+    void clip(const Vec3d& normal, double d, bool cut_away, double from = 0, double to = 0,
+              bool entering = false);
+    // Step 13: the first crossing lies between t = from and t = to: bisection follows.
+    void bracket(double from, double to, double tolerance);
     // Anything else: the line printf-formatted, and its numbers named in `fields`.
     void note(std::vector<TraceField> fields, const char* format, ...)
         __attribute__((format(printf, 3, 4)));

@@ -71,15 +71,14 @@ static Lut build_lut(const TransferFunction& tf) {
 static Rgb composite_back_to_front(const Volume& volume, const View& view, int x, int y,
                                    const Lut& lut, Work& work, Trace* trace) {
     double r = background.r, g = background.g, b = background.b;  // C
-    const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
     for (int n = view.ray_length - 1; n >= 0; --n) {
-        auto voxel = [&] { return view.voxel(x, y, n); };  // its i, j, k: for traces only
-        const int value = voxels[n];  // volume.at() of voxel(), with no index sum per sample
+        const Voxel voxel = view.voxel(x, y, n);
+        const int value = volume.at(voxel.i, voxel.j, voxel.k);
         const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->sample(TraceSample(n, voxel(), value).skipped());
+            if (trace) trace->sample(TraceSample(n, voxel, value).skipped());
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
@@ -87,7 +86,7 @@ static Rgb composite_back_to_front(const Volume& volume, const View& view, int x
         r = alpha * light * sample.r + (1 - alpha) * r;
         g = alpha * light * sample.g + (1 - alpha) * g;
         b = alpha * light * sample.b + (1 - alpha) * b;
-        if (trace) trace->sample(TraceSample(n, voxel(), value).rgba(sample).colour(r, g, b));
+        if (trace) trace->sample(TraceSample(n, voxel, value).rgba(sample).colour(r, g, b));
     }
     return {float(r), float(g), float(b)};
 }
@@ -105,15 +104,14 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
                                            Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     Accumulated ray;
-    const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
     for (int n = 0; n < view.ray_length; ++n) {
-        auto voxel = [&] { return view.voxel(x, y, n); };  // its i, j, k: for traces only
-        const int value = voxels[n];  // volume.at() of voxel(), with no index sum per sample
+        const Voxel voxel = view.voxel(x, y, n);
+        const int value = volume.at(voxel.i, voxel.j, voxel.k);
         const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->sample(TraceSample(n, voxel(), value).skipped());
+            if (trace) trace->sample(TraceSample(n, voxel, value).skipped());
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
@@ -124,7 +122,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ray.b += weight * sample.b;
         ray.transparency *= 1 - alpha;
         if (trace) {
-            trace->sample(TraceSample(n, voxel(), value).rgba(sample).colour(ray.r, ray.g, ray.b)
+            trace->sample(TraceSample(n, voxel, value).rgba(sample).colour(ray.r, ray.g, ray.b)
                               .transparency(ray.transparency));
         }
         if (ray.transparency < stop_below && n + 1 < view.ray_length) {

@@ -211,13 +211,12 @@ struct Walk {
 };
 
 // The eight voxels around a point: the voxel at or below it (the low corner), how far the
-// point is past it along each axis (0..1), and the steps in memory from it to the next voxel
-// along i, j and k (0 at the last voxel of an axis: that voxel again).
+// point is past it along each axis (0..1), and the high corner, the next voxel along each
+// axis (at the last voxel of an axis: that voxel again).
 struct Cell {
     int i = 0, j = 0, k = 0;           // the low corner
     float fi = 0, fj = 0, fk = 0;      // the point's fractions past it
-    size_t index = 0;                  // the low corner's place in volume.data
-    size_t di = 0, dj = 0, dk = 0;     // memory steps to the next voxel along i, j, k, or 0
+    int i1 = 0, j1 = 0, k1 = 0;        // the high corner
 };
 
 //> lesson: trilinear
@@ -252,11 +251,9 @@ static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     low_corner(p.i, volume.nx, &cell.i, &cell.fi);
     low_corner(p.j, volume.ny, &cell.j, &cell.fj);
     low_corner(p.k, volume.nz, &cell.k, &cell.fk);
-    const size_t row = size_t(volume.nx), slice = size_t(volume.nx) * volume.ny;
-    cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
-    cell.di = cell.i + 1 < volume.nx ? 1 : 0;
-    cell.dj = cell.j + 1 < volume.ny ? row : 0;
-    cell.dk = cell.k + 1 < volume.nz ? slice : 0;
+    cell.i1 = std::min(cell.i + 1, volume.nx - 1);
+    cell.j1 = std::min(cell.j + 1, volume.ny - 1);
+    cell.k1 = std::min(cell.k + 1, volume.nz - 1);
     return cell;
 }
 
@@ -266,18 +263,17 @@ static float lerp(float a, float b, float f) { return a + f * (b - a); }
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
 static float trilinear(const Volume& volume, const Cell& c) {
-    const int16_t* v = volume.data.data() + c.index;
-    const float low_low = lerp(v[0], v[c.di], c.fi);
-    const float high_low = lerp(v[c.dj], v[c.dj + c.di], c.fi);
-    const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
-    const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
+    const float low_low = lerp(volume.at(c.i, c.j, c.k), volume.at(c.i1, c.j, c.k), c.fi);
+    const float high_low = lerp(volume.at(c.i, c.j1, c.k), volume.at(c.i1, c.j1, c.k), c.fi);
+    const float low_high = lerp(volume.at(c.i, c.j, c.k1), volume.at(c.i1, c.j, c.k1), c.fi);
+    const float high_high = lerp(volume.at(c.i, c.j1, c.k1), volume.at(c.i1, c.j1, c.k1), c.fi);
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
 }
 
 // A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
 // low corner on it), or trilinear, eight.
 static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
-    return nearest ? float(volume.data[c.index]) : trilinear(volume, c);
+    return nearest ? float(volume.at(c.i, c.j, c.k)) : trilinear(volume, c);
 }
 //< lesson: trilinear
 

@@ -255,21 +255,8 @@ static Span clip_span(const Ray& ray, Span span, const ClipPlane& clip, Trace* t
     }
     if (span.t_entry > span.t_exit) span.hit = false;
     if (trace) {
-        if (!span.hit) {
-            trace->note({{"normal.i", clip.normal.i}, {"normal.j", clip.normal.j},
-                         {"normal.k", clip.normal.k}, {"d", clip.distance}},
-                        "clip n=(%.4g, %.4g, %.4g) d=%g keeps n.p <= d: the ray is cut away "
-                        "there, the pixel shows the background", clip.normal.i, clip.normal.j,
-                        clip.normal.k, clip.distance);
-        } else {
-            trace->note({{"normal.i", clip.normal.i}, {"normal.j", clip.normal.j},
-                         {"normal.k", clip.normal.k}, {"d", clip.distance},
-                         {"t", span.t_entry}, {"t_end", span.t_exit}},
-                        "clip n=(%.4g, %.4g, %.4g) d=%g keeps n.p <= d: t=%.6f..%.6f%s",
-                        clip.normal.i, clip.normal.j, clip.normal.k, clip.distance,
-                        span.t_entry, span.t_exit,
-                        span.clipped ? ", entering through the plane" : "");
-        }
+        trace->clip(clip.normal, clip.distance, !span.hit, span.t_entry, span.t_exit,
+                    span.clipped);
     }
     return span;
 }
@@ -327,19 +314,12 @@ struct Walk {
 };
 
 // The eight voxels around a point: the voxel at or below it (the low corner), how far the
-// point is past it along each axis (0..1), and the steps in memory from it to the next voxel
-// along i, j and k (0 at the last voxel of an axis: that voxel again).
+// point is past it along each axis (0..1), and the high corner, the next voxel along each
+// axis (at the last voxel of an axis: that voxel again).
 struct Cell {
     int i = 0, j = 0, k = 0;           // the low corner
     float fi = 0, fj = 0, fk = 0;      // the point's fractions past it
-    size_t index = 0;                  // the low corner's place in volume.data
-    size_t di = 0, dj = 0, dk = 0;     // memory steps to the next voxel along i, j, k, or 0
-};
-
-// Eight numbers, one at each corner of a cell: corner n is n & 1 along i, n & 2 along j and
-// n & 4 along k.
-struct Corners {
-    float at[8];
+    int i1 = 0, j1 = 0, k1 = 0;        // the high corner
 };
 
 //> lesson: trilinear
@@ -374,11 +354,9 @@ static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     low_corner(p.i, volume.nx, &cell.i, &cell.fi);
     low_corner(p.j, volume.ny, &cell.j, &cell.fj);
     low_corner(p.k, volume.nz, &cell.k, &cell.fk);
-    const size_t row = size_t(volume.nx), slice = size_t(volume.nx) * volume.ny;
-    cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
-    cell.di = cell.i + 1 < volume.nx ? 1 : 0;
-    cell.dj = cell.j + 1 < volume.ny ? row : 0;
-    cell.dk = cell.k + 1 < volume.nz ? slice : 0;
+    cell.i1 = std::min(cell.i + 1, volume.nx - 1);
+    cell.j1 = std::min(cell.j + 1, volume.ny - 1);
+    cell.k1 = std::min(cell.k + 1, volume.nz - 1);
     return cell;
 }
 
@@ -388,18 +366,17 @@ static float lerp(float a, float b, float f) { return a + f * (b - a); }
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
 static float trilinear(const Volume& volume, const Cell& c) {
-    const int16_t* v = volume.data.data() + c.index;
-    const float low_low = lerp(v[0], v[c.di], c.fi);
-    const float high_low = lerp(v[c.dj], v[c.dj + c.di], c.fi);
-    const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
-    const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
+    const float low_low = lerp(volume.at(c.i, c.j, c.k), volume.at(c.i1, c.j, c.k), c.fi);
+    const float high_low = lerp(volume.at(c.i, c.j1, c.k), volume.at(c.i1, c.j1, c.k), c.fi);
+    const float low_high = lerp(volume.at(c.i, c.j, c.k1), volume.at(c.i1, c.j, c.k1), c.fi);
+    const float high_high = lerp(volume.at(c.i, c.j1, c.k1), volume.at(c.i1, c.j1, c.k1), c.fi);
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
 }
 
 // A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
 // low corner on it), or trilinear, eight.
 static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
-    return nearest ? float(volume.data[c.index]) : trilinear(volume, c);
+    return nearest ? float(volume.at(c.i, c.j, c.k)) : trilinear(volume, c);
 }
 //< lesson: trilinear
 
@@ -527,53 +504,19 @@ static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
 
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
-// Eight numbers at the cell's corners blended trilinearly, in trilinear()'s order.
-static float blend(const Corners& corners, const Cell& c) {
-    const float* v = corners.at;
-    return lerp(lerp(lerp(v[0], v[1], c.fi), lerp(v[2], v[3], c.fi), c.fj),
-                lerp(lerp(v[4], v[5], c.fi), lerp(v[6], v[7], c.fi), c.fj), c.fk);
-}
-
 // The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
 // values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
-// Off the volume's border (the usual case) the corners' central differences are read through
-// memory steps, and the division by 2 * spacing is one product after the blend (the same bits
-// when the spacing is a power of two, as CThead's 1, 1, 2).
 static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
     work.gradients += 8;
-    const bool inside = c.i > 0 && c.i + 2 < volume.nx && c.j > 0 && c.j + 2 < volume.ny &&
-                        c.k > 0 && c.k + 2 < volume.nz;  // every corner has both neighbours
-    if (!inside) {
-        auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
-            return gradient_at(volume, c.i + (a && c.di ? 1 : 0), c.j + (b && c.dj ? 1 : 0),
-                               c.k + (d && c.dk ? 1 : 0));
-        };
-        const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
-        const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
-        const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
-        const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
-        return lerp_vector(lerp_vector(low_low, high_low, c.fj),
-                           lerp_vector(low_high, high_high, c.fj), c.fk);
-    }
-    const ptrdiff_t row = size_t(volume.nx), slice = size_t(volume.nx) * volume.ny;
-    const int16_t* low = volume.data.data() + c.index;
-    Corners along_i, along_j, along_k;  // differences at the corners, in CT units
-    auto differences = [&](int n, ptrdiff_t offset) {
-        const int16_t* v = low + offset;
-        along_i.at[n] = float(v[1] - v[-1]);
-        along_j.at[n] = float(v[row] - v[-row]);
-        along_k.at[n] = float(v[slice] - v[-slice]);
+    auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
+        return gradient_at(volume, a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k);
     };
-    differences(0, 0);
-    differences(1, 1);
-    differences(2, row);
-    differences(3, row + 1);
-    differences(4, slice);
-    differences(5, slice + 1);
-    differences(6, slice + row);
-    differences(7, slice + row + 1);
-    return {blend(along_i, c) * float(0.5 / volume.sx), blend(along_j, c) * float(0.5 / volume.sy),
-            blend(along_k, c) * float(0.5 / volume.sz)};
+    const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
+    const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
+    const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
+    const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
+    return lerp_vector(lerp_vector(low_low, high_low, c.fj), lerp_vector(low_high, high_high, c.fj),
+                       c.fk);
 }
 
 // A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
@@ -642,22 +585,22 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
-        auto t = [&] { return span.t_entry + n * params.step; };  // for traces
+        const double t = span.t_entry + n * params.step;  // physical units along the ray
         const int reach = space.reach_at(cell);
         if (reach > 0) {
             const long long next = leap_past(walk, space.bricks, cell, reach, n);
             work.leapt += next - n;
-            if (trace) trace->leap(t(), span.t_entry + (next - 1) * params.step, next - n, reach);
+            if (trace) trace->leap(t, span.t_entry + (next - 1) * params.step, next - n, reach);
             n = next - 1;
             continue;
         }
         const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
-        auto point = [&] { return Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz}; };
+        const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->sample(TraceSample(t(), point(), value).skipped());
+            if (trace) trace->sample(TraceSample(t, point, value).skipped());
             continue;
         }
         double light = 1.0;  // unlit
@@ -671,7 +614,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         pixel.b += weight * sample.b;
         pixel.transparency *= 1 - alpha;
         if (trace) {
-            trace->sample(TraceSample(t(), point(), value).rgba(sample).light(light)
+            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
                               .colour(pixel.r, pixel.g, pixel.b)
                               .transparency(pixel.transparency));
         }
@@ -770,7 +713,7 @@ static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, 
     SurfaceHit hit;
     const Walk walk = walk_through(volume, ray, span, params.step);
     const double smallest_spacing = std::min({volume.sx, volume.sy, volume.sz});
-    auto t = [&](double n) { return span.t_entry + n * params.step; };  // for traces
+    auto t = [&](double n) { return span.t_entry + n * params.step; };  // physical units
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
@@ -792,11 +735,7 @@ static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, 
         hit.hit = true;
         double at = n;  // in samples
         if (n > 0) {
-            if (trace) {
-                trace->note({{"t", t(n - 1)}, {"t_end", t(n)}, {"tolerance", hit_tolerance}},
-                            "crossing between t=%.4f and t=%.4f: bisection to %g voxel",
-                            t(n - 1), t(n), hit_tolerance);
-            }
+            if (trace) trace->bracket(t(n - 1), t(n), hit_tolerance);
             at = bisect(volume, walk, n - 1, n, params.iso,
                         hit_tolerance * smallest_spacing / params.step, params.nearest,
                         span.t_entry, params.step, trace);
