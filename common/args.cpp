@@ -25,6 +25,15 @@ static bool is_file_units_flag(const std::string& flag);
 constexpr int max_threads = 256;
 constexpr int max_repeat = 1000;  // renders of one view for --repeat: enough for a median
 
+void parse_size(const std::string& text, int max_side, int* width, int* height) {
+    const size_t cross = text.find('x');
+    if (cross == std::string::npos) {
+        throw InputError("--size: expected WIDTHxHEIGHT such as 512x512, got '" + text + "'");
+    }
+    *width = parse_int("--size", text.substr(0, cross), 1, max_side);
+    *height = parse_int("--size", text.substr(cross + 1), 1, max_side);
+}
+
 int parse_int(const std::string& flag, const std::string& text, int min, int max) {
     errno = 0;
     char* end = nullptr;

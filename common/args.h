@@ -99,6 +99,10 @@ const std::string& switched_preset();
 // Strict number parsing: the whole text must be a number in [min, max]. Throw InputError
 // "FLAG: expected WHAT, got 'TEXT'".
 int parse_int(const std::string& flag, const std::string& text, int min, int max);
+
+// --size WIDTHxHEIGHT: "512x384" -> 512, 384, each side 1 .. max_side; anything else is
+// refused naming --size.
+void parse_size(const std::string& text, int max_side, int* width, int* height);
 double parse_double(const std::string& flag, const std::string& text, double min, double max);
 
 // Loads what --volume names: the phantom, a CThead file, a raw file (--dims or a name like

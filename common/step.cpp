@@ -327,4 +327,10 @@ int guarded_main(const char* step, const std::function<int()>& body) {
     }
 }
 
+std::string summary_number(double value) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", value);
+    return text;
+}
+
 }  // namespace ctlab

@@ -79,13 +79,6 @@ static Rgb composite_back_to_front(const Volume& volume, const View& view, int x
 }
 //< lesson: back_to_front
 
-// A number as the summary line shows it: "0.12", "1e-05".
-static std::string number(double value) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%g", value);
-    return text;
-}
-
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
@@ -124,7 +117,7 @@ int main(int argc, char** argv) {
                          },
                          [&] {
                              const TfRange* skin = find_range(tf, skin_label);
-                             return skin ? number(skin->start.a) : std::string("none");
+                             return skin ? summary_number(skin->start.a) : std::string("none");
                          }};
         renderer.settings = [&] { return "tf=" + tf.source; };
 

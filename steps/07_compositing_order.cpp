@@ -197,13 +197,6 @@ static void trace_both_orders(const Volume& volume, const View& view, int x, int
                 f2b.r, f2b.g, f2b.b, b2f.r, b2f.g, b2f.b, difference);
 }
 
-// A number as the summary line shows it: "0.12", "1e-05".
-static std::string number(double value) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%g", value);
-    return text;
-}
-
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
@@ -260,15 +253,15 @@ int main(int argc, char** argv) {
                          },
                          [&] {
                              const TfRange* skin = find_range(tf, skin_label);
-                             return skin ? number(skin->start.a) : std::string("none");
+                             return skin ? summary_number(skin->start.a) : std::string("none");
                          }};
         renderer.settings = [&] {
             std::string text = "tf=" + tf.source + " order=" + params.order +
-                               " ert=" + number(params.ert);
+                               " ert=" + summary_number(params.ert);
             if (params.order != "both") return text;
-            return text + " max_order_diff=" + number(comparison.max_diff) +
-                   " ert_skipped_fraction=" + number(comparison.ert_skipped_fraction) +
-                   " diff_scale=" + number(diff_scale);
+            return text + " max_order_diff=" + summary_number(comparison.max_diff) +
+                   " ert_skipped_fraction=" + summary_number(comparison.ert_skipped_fraction) +
+                   " diff_scale=" + summary_number(diff_scale);
         };
 
         // --- Output: a PNG and a summary line per view, then the preview window ---

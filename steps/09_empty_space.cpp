@@ -21,7 +21,6 @@ constexpr double unit_length = 1;     // physical length the TF opacities hold f
 constexpr double default_step = 1;    // physical units between two samples along a ray
 constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
 constexpr double step_key_factor = 2;            // Up doubles the step, Down halves it
-constexpr double max_samples_per_voxel = 64;  // a finer step against the spacing is refused
 constexpr double default_light_angle = 30;  // degrees to the right of the viewer
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
@@ -306,33 +305,6 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: front_to_back
 
-// Why `step` asks too much of a view's rays, or "": more than max_samples_per_voxel samples per
-// voxel (--spacing 1e6,1e6,1e6 at --step 1 would take a million, hours of work), or more
-// samples per ray than an int counts. Checked before any render, so the work stays bounded by
-// the volume's size.
-static std::string too_many_samples(const Volume& volume, double step) {
-    for (const View& view : views_named(volume, "all")) {
-        const double samples = view.ray_length * view.ray_spacing / step;
-        const double limit = std::min(max_samples_per_voxel * view.ray_length,
-                                      double(std::numeric_limits<int>::max()));
-        if (samples <= limit) continue;
-        char text[320];
-        std::snprintf(text, sizeof text, "--step %g with --spacing %g,%g,%g asks for %.4g "
-                      "samples per ray in the %s view, over the limit of %.0f (%g per voxel): "
-                      "raise --step or lower --spacing", step, volume.sx, volume.sy, volume.sz,
-                      samples, view.name.c_str(), limit, max_samples_per_voxel);
-        return text;
-    }
-    return "";
-}
-
-// A number as the summary line shows it: "0.12", "1e-05".
-static std::string number(double value) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%g", value);
-    return text;
-}
-
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
@@ -411,12 +383,12 @@ int main(int argc, char** argv) {
                              lut = build_lut(tf, opacity_ratio(params));
                              update_empty_space();
                          },
-                         [&] { return number(params.step); }};
+                         [&] { return summary_number(params.step); }};
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "tf=" + tf.source +
-                   " skin_opacity=" + (skin ? number(skin->start.a) : std::string("none")) +
-                   " ert=" + number(params.ert) +
+                   " skin_opacity=" + (skin ? summary_number(skin->start.a) : std::string("none")) +
+                   " ert=" + summary_number(params.ert) +
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +

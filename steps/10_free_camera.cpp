@@ -30,7 +30,6 @@ constexpr double unit_length = 1;     // physical length the TF opacities hold f
 constexpr double default_step = 1;    // physical units between two samples along a ray
 constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
 constexpr double step_key_factor = 2;            // Up doubles the step, Down halves it
-constexpr double max_samples_per_voxel = 64;  // a finer step against the spacing is refused
 constexpr double default_light_angle = 30;  // degrees to the right of the viewer
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
@@ -571,35 +570,6 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: front_to_back
 
-// Why `step` asks too much, or "": a ray crosses at most the box's diagonal, and more than
-// max_samples_per_voxel samples per voxel along it (e.g. --spacing 1e6,1e6,1e6) is refused.
-static std::string too_many_samples(const Volume& volume, double step) {
-    const double samples = length(box_high(volume)) / step;
-    const double limit = max_samples_per_voxel * (volume.nx + volume.ny + volume.nz);
-    if (samples <= limit) return "";
-    char text[320];
-    std::snprintf(text, sizeof text, "--step %g with --spacing %g,%g,%g asks for %.4g samples "
-                  "along the box's diagonal, over the limit of %.0f: raise --step or lower "
-                  "--spacing", step, volume.sx, volume.sy, volume.sz, samples, limit);
-    return text;
-}
-
-// "512x384" -> 512, 384; anything else is refused naming --size.
-static void parse_size(const std::string& text, int* width, int* height) {
-    const size_t cross = text.find('x');
-    if (cross == std::string::npos) {
-        throw InputError("--size: expected WIDTHxHEIGHT such as 512x512, got '" + text + "'");
-    }
-    *width = parse_int("--size", text.substr(0, cross), 1, max_image_side);
-    *height = parse_int("--size", text.substr(cross + 1), 1, max_image_side);
-}
-
-static std::string number(double value) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%g", value);
-    return text;
-}
-
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
@@ -641,11 +611,11 @@ int main(int argc, char** argv) {
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
-        parse_size(params.size, &width, &height);
+        parse_size(params.size, max_image_side, &width, &height);
 
         // --- Volume ---
         const Volume volume = load_volume(options);
-        const std::string refused = too_many_samples(volume, params.step);
+        const std::string refused = too_many_samples_along_box(volume, params.step);
         if (!refused.empty()) throw InputError(refused);
 
         // --- Transfer function: the file (in the file's units), its table for this step size ---
@@ -694,19 +664,19 @@ int main(int argc, char** argv) {
             return pixel(camera, light_towards(camera), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
-            return "samples " + number(params.step) + " physical units apart";
+            return "samples " + summary_number(params.step) + " physical units apart";
         };
         renderer.knob = {"step",
                          [&](const View&, int steps) {
                              const double step = std::clamp(
                                  params.step * std::pow(step_key_factor, steps), min_step,
                                  max_step);
-                             if (!too_many_samples(volume, step).empty()) return;  // keep it
+                             if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
                              update_empty_space();
                          },
-                         [&] { return number(params.step); }};
+                         [&] { return summary_number(params.step); }};
         renderer.orbit.turn = [&](double azimuth, double elevation) {
             params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
             params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
@@ -715,21 +685,21 @@ int main(int argc, char** argv) {
             params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
         };
         renderer.orbit.value = [&] {
-            return "azimuth=" + number(params.azimuth) + " elevation=" +
-                   number(params.elevation) + " zoom=" + number(params.zoom);
+            return "azimuth=" + summary_number(params.azimuth) + " elevation=" +
+                   summary_number(params.elevation) + " zoom=" + summary_number(params.zoom);
         };
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "tf=" + tf.source +
-                   " skin_opacity=" + (skin ? number(skin->start.a) : std::string("none")) +
-                   " ert=" + number(params.ert) +
+                   " skin_opacity=" + (skin ? summary_number(skin->start.a) : std::string("none")) +
+                   " ert=" + summary_number(params.ert) +
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
                    " leaping=" + (params.no_leaping ? "off" : "on") +
-                   " projection=" + params.projection + " azimuth=" + number(params.azimuth) +
-                   " elevation=" + number(params.elevation) + " zoom=" + number(params.zoom) +
-                   " fov=" + number(params.fov) + " interpolation=" + params.interpolation;
+                   " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
+                   " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
+                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation;
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---
