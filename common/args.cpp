@@ -27,6 +27,15 @@ static Volume load_volume_anew(const Options& options);
 constexpr int max_threads = 256;
 constexpr int max_repeat = 1000;  // renders of one view for --repeat: enough for a median
 
+void parse_size(const std::string& text, int max_side, int* width, int* height) {
+    const size_t cross = text.find('x');
+    if (cross == std::string::npos) {
+        throw InputError("--size: expected WIDTHxHEIGHT such as 512x512, got '" + text + "'");
+    }
+    *width = parse_int("--size", text.substr(0, cross), 1, max_side);
+    *height = parse_int("--size", text.substr(cross + 1), 1, max_side);
+}
+
 int parse_int(const std::string& flag, const std::string& text, int min, int max) {
     errno = 0;
     char* end = nullptr;
@@ -125,6 +134,7 @@ std::string Args::usage() const {
         "  --out DIR               folder for the PNGs (default out)\n"
         "  --no-window             render, write the PNGs and exit\n"
         "  --debug-pixel X,Y       print what happened along the ray of image column X, row Y\n"
+        "                          (given again: one trace and ray picture per pixel)\n"
         "  --threads N             render threads (default: all cores)\n"
         "  --pfm                   also write OUT/STEP_VIEW.pfm: the float RGB image before\n"
         "                          rounding to 8 bits (colour PFM, little-endian)\n"
@@ -448,9 +458,19 @@ Options Args::parse_words(int argc, char** argv) {
             options.no_window = true;
         } else if (flag == "--debug-pixel") {
             const auto parts = split_list(flag, take_value(), 2, "X,Y (image column, row)");
-            options.debug_x = parse_int(flag, parts[0], 0, INT_MAX);
-            options.debug_y = parse_int(flag, parts[1], 0, INT_MAX);
+            const int x = parse_int(flag, parts[0], 0, INT_MAX);
+            const int y = parse_int(flag, parts[1], 0, INT_MAX);
+            if (!options.has_debug_pixel) options.debug_x = x, options.debug_y = y;
             options.has_debug_pixel = true;
+            const std::pair<int, int> pixel(x, y);
+            const auto& pixels = options.debug_pixels;
+            if (std::find(pixels.begin(), pixels.end(), pixel) == pixels.end()) {
+                if (pixels.size() >= max_debug_pixels) {
+                    throw InputError(flag + ": at most " + std::to_string(max_debug_pixels) +
+                                     " pixels in one run");
+                }
+                options.debug_pixels.push_back(pixel);
+            }
         } else if (flag == "--threads") {
             options.threads = parse_int(flag, take_value(), 1, max_threads);
         } else if (flag == "--preset") {

@@ -27,6 +27,10 @@ struct FlagSpec {
     bool file_units = false;          // a value of the volume in its file's units (--threshold)
 };
 
+// --debug-pixel given again and again: at most this many pixels in one run (each writes a
+// ray picture and its numbers per view, and a run's files are written all or none).
+constexpr size_t max_debug_pixels = 64;
+
 struct Options {
     std::string step;                 // e.g. "03_depth_shading": names the PNGs and the summary
     std::string volume;               // "" = data/CThead when present, else the phantom
@@ -48,7 +52,8 @@ struct Options {
     std::string out = "out";          // folder for the PNGs
     bool no_window = false;
     bool has_debug_pixel = false;
-    int debug_x = 0, debug_y = 0;     // image column and row
+    int debug_x = 0, debug_y = 0;     // image column and row (the first --debug-pixel)
+    std::vector<std::pair<int, int>> debug_pixels;  // every --debug-pixel X,Y, in order
     int threads = 1;                  // resolved: --threads N, default all cores
     bool pfm = false;                 // --pfm: also write OUT/STEP_VIEW.pfm (float RGB)
     int repeat = 1;                   // --repeat N: render each view N times (timing)
@@ -123,6 +128,10 @@ bool rerunning();
 // Strict number parsing: the whole text must be a number in [min, max]. Throw InputError
 // "FLAG: expected WHAT, got 'TEXT'".
 int parse_int(const std::string& flag, const std::string& text, int min, int max);
+
+// --size WIDTHxHEIGHT: "512x384" -> 512, 384, each side 1 .. max_side; anything else is
+// refused naming --size.
+void parse_size(const std::string& text, int max_side, int* width, int* height);
 double parse_double(const std::string& flag, const std::string& text, double min, double max);
 
 // Loads what --volume names: the phantom, a CThead file, a raw file (--dims or a name like

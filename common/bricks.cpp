@@ -53,7 +53,7 @@ Bricks make_bricks(const Volume& volume, int size, int threads) {
         const int k_end = std::min((c + 1) * size, volume.nz - 1);  // included
         for (int k = c * size; k <= k_end; ++k) {
             for (int j = 0; j < volume.ny; ++j) {
-                const int16_t* row = volume.row(j, k);
+                const int16_t* row = &volume.data[volume.index(0, j, k)];
                 for (int a = 0; a < bricks.bx; ++a) {
                     const int from = a * size;
                     const int to = std::min(from + size, volume.nx - 1);  // included

@@ -50,7 +50,7 @@ static void write_bytes(void* context, void* data, int size) {
     std::fwrite(data, 1, static_cast<size_t>(size), file);
 }
 
-void write_png(const Image& image, const std::string& path) {
+void write_png(const Image& image, const std::string& path, int compression) {
     std::vector<unsigned char> bytes(static_cast<size_t>(image.width) * image.height * 3);
     for (size_t n = 0; n < image.pixels.size(); ++n) {
         bytes[3 * n + 0] = to_byte(image.pixels[n].r);
@@ -59,10 +59,14 @@ void write_png(const Image& image, const std::string& path) {
     }
     // Through a temporary renamed into place: the PNG appears whole or not at all (and, during
     // a step's run, only together with the other views: see output_files.h).
+    stbi_write_png_compression_level = compression;
+    stbi_write_force_png_filter = compression < default_png_compression ? 1 : -1;
     write_output_file(path, [&](std::FILE* file) {
         return stbi_write_png_to_func(write_bytes, file, image.width, image.height, 3,
                                       bytes.data(), image.width * 3) != 0;
     });
+    stbi_write_png_compression_level = default_png_compression;
+    stbi_write_force_png_filter = -1;
 }
 
 void write_pfm(const Image& image, const std::string& path) {

@@ -19,7 +19,9 @@ namespace ctlab {
 
 namespace {
 
-constexpr int max_pending = 64;       // files in one set: views, diffs, float images
+// Files in one set: views, diffs, float images, and two per ray traced in each view (up to
+// max_debug_pixels pixels, common/args.h). Only the names in use are ever touched.
+constexpr int max_pending = 512;
 constexpr size_t max_path = 4096;     // bytes, with the terminating NUL (Linux PATH_MAX)
 // Every signal a shell or the kernel can send that ends a process by default, but the ones
 // that cannot be caught (SIGKILL, SIGSTOP) and the faults (SIGSEGV...: a sanitizer reports

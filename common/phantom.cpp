@@ -588,7 +588,7 @@ Volume paint_phantom(int nx, int ny, int nz, int threads, const Variant* variant
     // (2u - 1) times the voxel's noise amplitude, u in [0, 1) a hash of (i, j, k); rounded.
     // Every row depends on its own (j, k) only, so slices are painted on `threads` threads,
     // each slice with rows of its own: the same voxels however many there are.
-    allocate_pitched(volume);
+    resize_dense(volume);
     constexpr double hash_scale = 1.0 / 16777216;  // 2^-24: the hash's top 24 bits to [0, 1)
     Work unused;  // parallel_rows counts work; painting counts none
     parallel_rows(nz, threads, unused, [&](int k, Work&) {
@@ -601,7 +601,7 @@ Volume paint_phantom(int nx, int ny, int nz, int threads, const Variant* variant
             const Row row{(j + 0.5) * volume.sy, (k + 0.5) * volume.sz, spacing, edge_spacing,
                           values.data(), noise.data(), labels.data(), nx};
             for (const Painter& painter : painters) paint_row(painter, row);
-            int16_t* out = volume.row(j, k);
+            int16_t* out = &volume.data[volume.index(0, j, k)];
             for (int i = 0; i < nx; ++i) {
                 const double u = (hash3(i + key[0], j + key[1], k + key[2]) >> 8) * hash_scale;
                 const double value = std::round(values[i] + (2 * u - 1) * noise[i]);

@@ -40,10 +40,6 @@ const Rgb leapt_colour = {0.82f, 0.9f, 1.0f}, outside_colour = {0.88f, 0.88f, 0.
 const Rgb first_order_colour = {0.85f, 0.2f, 0.1f}, second_order_colour = {0.0f, 0.5f, 0.55f};
 const Rgb entry_colour = {0.0f, 0.75f, 0.2f}, stop_colour = {1.0f, 0.85f, 0.0f};
 
-bool says(const TraceRecord& record, const char* word) {
-    return record.text.find(word) != std::string::npos;
-}
-
 Rgb mix(Rgb a, Rgb b, float f) {
     return {a.r + f * (b.r - a.r), a.g + f * (b.g - a.g), a.b + f * (b.b - a.b)};
 }
@@ -221,66 +217,72 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
         if (record.has("n") && !view.camera) return *t = record.number("n", 0) * plot.spacing, true;
         return false;
     };
-    bool second_order = false;  // after "the same ray": the samples go to plot.second
+    bool second_order = false;  // after an order record: the samples go to plot.second
     for (const TraceRecord& record : records) {
         double t = 0;
-        if (says(record, "the same ray")) {
-            second_order = true;
-            const bool back_to_front = says(record, "back to front");
-            plot.first_name = back_to_front ? "C F2B" : "C 1ST";
-            plot.second_name = back_to_front ? "C B2F" : "C 2ND";
-            continue;
+        switch (record.kind) {
+            case TraceKind::order:
+                second_order = true;
+                plot.first_name = record.back_to_front ? "C F2B" : "C 1ST";
+                plot.second_name = record.back_to_front ? "C B2F" : "C 2ND";
+                continue;
+            case TraceKind::ray:
+                plot.has_ray = true;
+                plot.origin = {record.number("origin.i", 0), record.number("origin.j", 0),
+                               record.number("origin.k", 0)};
+                plot.direction = {record.number("direction.i", 0),
+                                  record.number("direction.j", 0),
+                                  record.number("direction.k", 0)};
+                continue;
+            case TraceKind::sample:
+            case TraceKind::bisection:  // step 13's halvings are samples of the ray too
+                break;
+            default:
+                if (second_order) continue;  // its marks are the first order's
+                break;
         }
-        if (record.has("origin.i") && record.has("direction.k")) {
-            plot.has_ray = true;
-            plot.origin = {record.number("origin.i", 0), record.number("origin.j", 0),
-                           record.number("origin.k", 0)};
-            plot.direction = {record.number("direction.i", 0), record.number("direction.j", 0),
-                              record.number("direction.k", 0)};
-            continue;
-        }
-        if (second_order && !record.has("value")) continue;  // its marks are the first's
-        if (record.text.rfind("hit t=", 0) == 0 && record.has("t") && !record.has("value")) {
-            // part 2's surface hit (step 13): "hit t=... p=(...) normal=(...)"
-            t = record.number("t", 0);
-            plot.marks.push_back({RayMark::hit, t, t});
-            continue;
-        }
-        if (says(record, "missed")) plot.missed = true;
-        if (says(record, "entry") && record.has("t") && record.has("t#2")) {
-            RayMark box;
-            box.kind = RayMark::box;
-            box.from = record.number("t", 0), box.to = record.number("t#2", 0);
-            plot.marks.push_back(box);
-            plot.t_end = std::max(plot.t_end, box.to);
-            continue;
-        }
-        if (says(record, "crossing")) {
-            // "hit at N + F": the crossing, a fraction F past sample N (its last two numbers).
-            std::vector<double> numbers;
-            for (const TraceField& field : record.fields) {
-                if (!field.is_text) numbers.push_back(field.number);
-            }
-            if (numbers.size() >= 2 && !view.camera) {
-                const double at = (numbers[numbers.size() - 2] + numbers.back()) * plot.spacing;
-                if (!plot.marks.empty() && plot.marks.back().kind == RayMark::hit) {
-                    plot.marks.back().from = plot.marks.back().to = at;  // the interpolated hit
-                } else {
-                    plot.marks.push_back({RayMark::hit, at, at});
+        switch (record.kind) {
+            case TraceKind::hit:
+                if (record.has("t")) {
+                    // part 2's surface hit (step 13)
+                    t = record.number("t", 0);
+                    plot.marks.push_back({RayMark::hit, t, t});
+                } else if (!view.camera) {
+                    // step 05's crossing: a fraction past sample n
+                    const double at =
+                        (record.number("n", 0) + record.number("fraction", 0)) * plot.spacing;
+                    if (!plot.marks.empty() && plot.marks.back().kind == RayMark::hit) {
+                        plot.marks.back().from = plot.marks.back().to = at;  // interpolated
+                    } else {
+                        plot.marks.push_back({RayMark::hit, at, at});
+                    }
                 }
-            }
-            continue;
+                continue;
+            case TraceKind::box:
+                if (record.missed) {
+                    plot.missed = true;
+                } else {
+                    RayMark box;
+                    box.kind = RayMark::box;
+                    box.from = record.number("t", 0), box.to = record.number("t_exit", 0);
+                    plot.marks.push_back(box);
+                    plot.t_end = std::max(plot.t_end, box.to);
+                }
+                continue;
+            case TraceKind::stop:
+                if (where(record, &t)) plot.marks.push_back({RayMark::terminated, t, t});
+                continue;
+            case TraceKind::leap:
+                plot.marks.push_back(
+                    {RayMark::leapt, record.number("t", 0), record.number("t_end", 0)});
+                continue;
+            case TraceKind::sample:
+            case TraceKind::bisection:
+                break;
+            default:
+                continue;  // notes, shading: no mark
         }
-        if (says(record, "termination")) {
-            if (where(record, &t)) plot.marks.push_back({RayMark::terminated, t, t});
-            continue;
-        }
-        if (says(record, "leapt") && record.has("t") && record.has("t_end")) {
-            plot.marks.push_back(
-                {RayMark::leapt, record.number("t", 0), record.number("t_end", 0)});
-            continue;
-        }
-        if (!record.has("value") || !where(record, &t)) continue;
+        if (!where(record, &t)) continue;  // step 00's voxel: no place along a ray
         RaySample sample;
         sample.t = t;
         sample.n = view.camera       ? -1
@@ -303,7 +305,7 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
             plot.second.push_back(sample);
             continue;
         }
-        sample.hit = says(record, "hit");
+        sample.hit = record.hit;
         if (sample.hit) plot.marks.push_back({RayMark::hit, t, t});
         plot.samples.push_back(sample);
         plot.t_end = std::max(plot.t_end, t);
@@ -350,7 +352,6 @@ std::string ray_plot_text(const RayPlot& plot) {
         text += "record\t" + record.text + "\t";
         for (size_t n = 0; n < record.fields.size(); ++n) {
             const TraceField& field = record.fields[n];
-            if (field.is_text) continue;  // words, not numbers: the text has them
             std::snprintf(line, sizeof line, "%s%s=%.9g", n ? " " : "", field.name.c_str(),
                           field.number);
             text += line;

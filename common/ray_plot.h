@@ -6,19 +6,20 @@
 // its ray drawn in the other views. OUT/NN_name_<view>_ray_X_Y.txt holds the numbers it was
 // drawn from.
 //
-// Nothing here knows a step: the picture is made from the Trace records' fields (render.h),
-// by their names, so a step that prints "t=" or "n=", "value=", "rgba=(...)", "L=", "C=(...)",
-// "T=" gets the panels for what it prints:
-//   a sample   a line with "value" and "t" (physical units) or "n" (sample index, one per voxel)
-//   hit        a sample line whose text says "hit"; "crossing ... hit at N + F" marks N + F
-//   terminated a line saying "termination" at its "t" or "n"
-//   leapt      a line saying "leapt": from "t" to "t_end"
-//   the box    part 2: a line with "entry t=... exit t=..." marks where the ray is in the box
-//   the ray    part 2: "origin=(...) direction=(...)" (physical units): the camera ray, drawn
-//              through the box in the axis views beside the plot (views of the volume: mip_views)
-//   2nd order  a line saying "the same ray": the samples after it are the same ray composited
-//              the other way (step 07's --order both: back to front), drawn beside the first
-//              (C of both orders, meeting at the pixel)
+// Nothing here knows a step: the picture is made from the trace's typed records (render.h),
+// by their kind and their fields' names, so a step gets the panels for what it records:
+//   a sample   a sample record (or a bisection's) at "t" (physical units) or "n" (sample
+//              index, one per voxel), with "value" and what it has of "rgba.a", "L", "C.r..b",
+//              "T", "max"; a sample that hit the threshold is marked as a hit
+//   hit        a hit record: step 05's crossing at n + fraction, step 13's hit point at "t"
+//   terminated a stop record, at the last sample's "t" or "n"
+//   leapt      a leap record: from "t" to "t_end"
+//   the box    part 2: a box record, entry "t" to "t_exit" (or that the ray missed the box)
+//   the ray    part 2: a ray record, "origin" and "direction" (physical units): the camera
+//              ray, drawn through the box in the axis views beside the plot (mip_views)
+//   2nd order  an order record: the samples after it are the same ray composited the other
+//              way (step 07's --order both: back to front), drawn beside the first (C of both
+//              orders, meeting at the pixel)
 #pragma once
 #include <string>
 #include <vector>

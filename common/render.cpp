@@ -13,176 +13,173 @@ namespace ctlab {
 
 namespace {
 
-bool is_name_char(char c) {
-    return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
-}
+// A record being made: its line printed piece by piece, its numbers named as they go.
+class RecordWriter {
+public:
+    explicit RecordWriter(TraceKind kind) { record_.kind = kind; }
 
-// The identifier that ends `text` at position end (exclusive), or "".
-std::string name_before(const std::string& text, size_t end) {
-    size_t begin = end;
-    while (begin > 0 && is_name_char(text[begin - 1])) --begin;
-    return text.substr(begin, end - begin);
-}
-
-// What the literal text before a conversion says its name is. Updates the open tuple.
-struct Namer {
-    std::string tuple;      // the open tuple's base name ("" when unnamed)
-    bool in_tuple = false;
-    int tuple_index = 0;
-    int tuple_id = 0;       // counts tuples, to tell them apart when named alike
-
-    // Returns the name, or "" (unnamed); sets *component to the tuple index or -1.
-    std::string name(const std::string& literal, int* component) {
-        *component = -1;
-        if (in_tuple && literal.find(')') != std::string::npos) in_tuple = false;
-        if (in_tuple) {
-            ++tuple_index;
-            *component = tuple_index;
-            return tuple;
-        }
-        const size_t size = literal.size();
-        if (size >= 1 && literal[size - 1] == '=') return name_before(literal, size - 1);
-        if (size >= 1 && literal[size - 1] == '(') {
-            // "C=(" or "voxel (" name a tuple; "..(" or "(" alone leave it unnamed.
-            size_t end = size - 1;
-            if (end > 0 && (literal[end - 1] == '=' || literal[end - 1] == ' ')) --end;
-            tuple = name_before(literal, end);
-            in_tuple = true;
-            tuple_index = 0;
-            ++tuple_id;
-            *component = 0;
-            return tuple;
-        }
-        if (size >= 2 && literal.compare(size - 2, 2, "..") == 0) {
-            const std::string before = previous_name;
-            return before.empty() ? "" : before + "_end";
-        }
-        return "";
+    void print(const char* format, ...) __attribute__((format(printf, 2, 3))) {
+        char piece[512];
+        va_list arguments;
+        va_start(arguments, format);
+        std::vsnprintf(piece, sizeof piece, format, arguments);
+        va_end(arguments);
+        record_.text += piece;
     }
-    std::string previous_name;  // the last named scalar, for "t=%f..%f"
-};
+    void field(const std::string& name, double number) {
+        record_.fields.push_back({name, number});
+    }
+    void vector(const std::string& name, double i, double j, double k) {
+        field(name + ".i", i);
+        field(name + ".j", j);
+        field(name + ".k", k);
+    }
+    TraceRecord& record() { return record_; }
 
-struct PendingField {
-    TraceField field;
-    std::string base;  // tuple base ("" for a scalar)
-    int component = -1;
-    int tuple_id = 0;
+private:
+    TraceRecord record_;
 };
-
-std::string component_name(const std::string& base, int index, int count) {
-    static const char* rgba[] = {"r", "g", "b", "a"};
-    static const char* ijk[] = {"i", "j", "k"};
-    const bool colour = base == "C" || base == "rgb" || base == "colour" || base == "color";
-    if (count == 4) return rgba[index];
-    if (count == 3) return colour ? rgba[index] : ijk[index];
-    return std::to_string(index);
-}
 
 }  // namespace
 
-std::vector<TraceField> trace_fields(const char* format, va_list arguments) {
-    std::vector<PendingField> pending;
-    Namer namer;
-    std::string literal;
-    int conversions = 0;
-    for (const char* c = format; *c; ++c) {
-        if (*c != '%') {
-            literal += *c;
-            continue;
-        }
-        ++c;
-        if (*c == '%') {
-            literal += '%';
-            continue;
-        }
-        while (*c && std::strchr("-+ #0'", *c)) ++c;  // flags
-        if (*c == '*') {
-            (void)va_arg(arguments, int);
-            ++c;
-        }
-        while (std::isdigit(static_cast<unsigned char>(*c))) ++c;  // width
-        if (*c == '.') {
-            ++c;
-            if (*c == '*') {
-                (void)va_arg(arguments, int);
-                ++c;
-            }
-            while (std::isdigit(static_cast<unsigned char>(*c))) ++c;
-        }
-        int longs = 0;
-        bool size_t_length = false, long_double = false;
-        while (*c && std::strchr("hlLzjt", *c)) {
-            if (*c == 'l') ++longs;
-            if (*c == 'z' || *c == 'j' || *c == 't') size_t_length = true;
-            if (*c == 'L') long_double = true;
-            ++c;
-        }
-        if (!*c) break;
-        ++conversions;
-        PendingField entry;
-        int component = -1;
-        std::string name = namer.name(literal, &component);
-        literal.clear();
-        entry.component = component;
-        entry.tuple_id = namer.tuple_id;
-        if (component >= 0) entry.base = name;
-        TraceField& field = entry.field;
-        switch (*c) {
-            case 'd': case 'i':
-                field.number = longs >= 2 ? double(va_arg(arguments, long long))
-                               : longs == 1 || size_t_length ? double(va_arg(arguments, long))
-                                                             : double(va_arg(arguments, int));
-                break;
-            case 'u': case 'o': case 'x': case 'X':
-                field.number =
-                    longs >= 2 ? double(va_arg(arguments, unsigned long long))
-                    : longs == 1 || size_t_length ? double(va_arg(arguments, unsigned long))
-                                                  : double(va_arg(arguments, unsigned));
-                break;
-            case 'c': field.number = va_arg(arguments, int); break;
-            case 'f': case 'F': case 'e': case 'E': case 'g': case 'G': case 'a': case 'A':
-                field.number = long_double ? double(va_arg(arguments, long double))
-                                           : va_arg(arguments, double);
-                break;
-            case 's': {
-                const char* text = va_arg(arguments, const char*);
-                field.text = text ? text : "";
-                field.is_text = true;
-                break;
-            }
-            case 'p': (void)va_arg(arguments, void*); continue;
-            default: continue;  // %n and unknown conversions: nothing read, nothing kept
-        }
-        if (component < 0 && !name.empty()) namer.previous_name = name;
-        field.name = name.empty() && component < 0 ? "#" + std::to_string(conversions) : name;
-        pending.push_back(entry);
+TraceSample::TraceSample(const Voxel& voxel, double value)
+    : place_(Place::voxel), voxel_(voxel), value_(value) {}
+TraceSample::TraceSample(int n, const Voxel& voxel, double value)
+    : place_(Place::index), n_(n), voxel_(voxel), value_(value) {}
+TraceSample::TraceSample(double t, double value) : place_(Place::axis_t), t_(t), value_(value) {}
+TraceSample::TraceSample(double t, const Vec3d& point, double value)
+    : place_(Place::camera_t), t_(t), point_(point), value_(value) {}
+
+TraceSample& TraceSample::grey(double grey) {
+    has_grey_ = true, grey_ = grey;
+    return *this;
+}
+TraceSample& TraceSample::max(double highest) {
+    has_max_ = true, highest_ = highest;
+    return *this;
+}
+TraceSample& TraceSample::projection(double highest, double lowest, double mean) {
+    has_projection_ = true, highest_ = highest, lowest_ = lowest, mean_ = mean;
+    return *this;
+}
+TraceSample& TraceSample::threshold_hit(bool above) {
+    verdict_ = above ? Verdict::threshold_hit : Verdict::none;
+    return *this;
+}
+TraceSample& TraceSample::skipped() {
+    verdict_ = Verdict::skipped;
+    return *this;
+}
+TraceSample& TraceSample::iso(bool above) {
+    verdict_ = above ? Verdict::above_iso : Verdict::at_or_below_iso;
+    return *this;
+}
+TraceSample& TraceSample::rgba(const Rgba& colour) {
+    has_rgba_ = true, rgba_ = colour;
+    return *this;
+}
+TraceSample& TraceSample::shadow(double light_transmittance, double occlusion,
+                                 unsigned long long samples, unsigned long long leapt) {
+    has_shadow_ = true;
+    light_transmittance_ = light_transmittance, occlusion_ = occlusion;
+    shadow_samples_ = samples, shadow_leapt_ = leapt;
+    return *this;
+}
+TraceSample& TraceSample::light(double light) {
+    has_light_ = true, light_ = light;
+    return *this;
+}
+TraceSample& TraceSample::colour(double r, double g, double b) {
+    has_colour_ = true, r_ = r, g_ = g, b_ = b;
+    return *this;
+}
+TraceSample& TraceSample::transparency(double transparency) {
+    has_transparency_ = true, transparency_ = transparency;
+    return *this;
+}
+
+TraceRecord TraceSample::record() const {
+    RecordWriter line(TraceKind::sample);
+    // Where: the place, then the value, printed as the lesson's samples are (a part 1 value
+    // is a whole CT number; an interpolated one has decimals).
+    switch (place_) {
+        case Place::voxel:
+            line.print("voxel (i=%d, j=%d, k=%d) value=%d", voxel_.i, voxel_.j, voxel_.k,
+                       int(value_));
+            line.vector("voxel", voxel_.i, voxel_.j, voxel_.k);
+            break;
+        case Place::index:
+            line.print("n=%3d voxel (%d, %d, %d) value=%5d", n_, voxel_.i, voxel_.j, voxel_.k,
+                       int(value_));
+            line.field("n", n_);
+            line.vector("voxel", voxel_.i, voxel_.j, voxel_.k);
+            break;
+        case Place::axis_t:
+            line.print("t=%7.2f value=%8.2f", t_, value_);
+            line.field("t", t_);
+            break;
+        case Place::camera_t:
+            line.print("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f", t_, point_.i, point_.j,
+                       point_.k, value_);
+            line.field("t", t_);
+            line.vector("p", point_.i, point_.j, point_.k);
+            break;
     }
-    // Tuple components get their names once each tuple's size is known.
-    std::vector<TraceField> fields;
-    for (size_t n = 0; n < pending.size(); ++n) {
-        PendingField& entry = pending[n];
-        if (entry.component >= 0) {
-            int count = 0;
-            for (const PendingField& other : pending) {
-                if (other.component >= 0 && other.tuple_id == entry.tuple_id) ++count;
-            }
-            const std::string suffix = component_name(entry.base, entry.component, count);
-            entry.field.name = entry.base.empty() ? "#(" + std::to_string(entry.tuple_id) + ")." +
-                                                        suffix
-                                                  : entry.base + "." + suffix;
-        }
-        // A name already used in this line: "n", then "n#2".
-        int seen = 1;
-        for (const TraceField& earlier : fields) {
-            const std::string& e = earlier.name;
-            if (e == entry.field.name || e.rfind(entry.field.name + "#", 0) == 0) ++seen;
-        }
-        if (seen > 1 && entry.field.name[0] != '#') {
-            entry.field.name += "#" + std::to_string(seen);
-        }
-        fields.push_back(entry.field);
+    line.field("value", value_);
+    if (has_grey_) {
+        line.print(" grey=%.6f", grey_);
+        line.field("grey", grey_);
     }
-    return fields;
+    if (has_max_) {
+        line.print(" max=%5d", int(highest_));
+        line.field("max", highest_);
+    }
+    if (has_projection_) {
+        line.print(" max=%9.4f min=%9.4f mean=%9.4f", highest_, lowest_, mean_);
+        line.field("max", highest_);
+        line.field("min", lowest_);
+        line.field("mean", mean_);
+    }
+    switch (verdict_) {
+        case Verdict::none: break;
+        case Verdict::threshold_hit:
+            line.print("  > threshold: hit");
+            line.record().hit = true;
+            break;
+        case Verdict::skipped: line.print(" transparent: skipped"); break;
+        case Verdict::above_iso: line.print(" > iso"); break;
+        case Verdict::at_or_below_iso: line.print(" <= iso"); break;
+    }
+    if (has_rgba_) {
+        line.print(" rgba=(%.3f, %.3f, %.3f, %.4f)", rgba_.r, rgba_.g, rgba_.b, rgba_.a);
+        line.field("rgba.r", rgba_.r);
+        line.field("rgba.g", rgba_.g);
+        line.field("rgba.b", rgba_.b);
+        line.field("rgba.a", rgba_.a);
+    }
+    if (has_shadow_) {
+        line.print(" light_T=%.6f ao=%.6f (%llu shadow samples, %llu leapt)",
+                   light_transmittance_, occlusion_, shadow_samples_, shadow_leapt_);
+        line.field("light_T", light_transmittance_);
+        line.field("ao", occlusion_);
+        line.field("shadow_samples", double(shadow_samples_));
+        line.field("shadow_leapt", double(shadow_leapt_));
+    }
+    if (has_light_) {
+        line.print(" L=%.4f", light_);
+        line.field("L", light_);
+    }
+    if (has_colour_) {
+        line.print(" C=(%.6f, %.6f, %.6f)", r_, g_, b_);
+        line.field("C.r", r_);
+        line.field("C.g", g_);
+        line.field("C.b", b_);
+    }
+    if (has_transparency_) {
+        line.print(" T=%.6g", transparency_);
+        line.field("T", transparency_);
+    }
+    return line.record();
 }
 
 const TraceField* TraceRecord::field(const std::string& name) const {
@@ -194,21 +191,10 @@ const TraceField* TraceRecord::field(const std::string& name) const {
 
 double TraceRecord::number(const std::string& name, double otherwise) const {
     const TraceField* f = field(name);
-    return f && !f->is_text ? f->number : otherwise;
+    return f ? f->number : otherwise;
 }
 
-void Trace::add(const char* format, ...) {
-    char line[512];
-    va_list arguments;
-    va_start(arguments, format);
-    va_list again;
-    va_copy(again, arguments);
-    std::vsnprintf(line, sizeof line, format, arguments);
-    va_end(arguments);
-    TraceRecord record;
-    record.text = line;
-    record.fields = trace_fields(format, again);
-    va_end(again);
+void Trace::keep(TraceRecord record) {
     ++added_;
     if (first_.size() < max_first_lines) {
         first_.push_back(std::move(record));
@@ -218,6 +204,199 @@ void Trace::add(const char* format, ...) {
         last_[last_next_] = std::move(record);
         last_next_ = (last_next_ + 1) % max_last_lines;
     }
+}
+
+void Trace::sample(const TraceSample& sample) {
+    TraceRecord record = sample.record();
+    last_place_ = record;
+    keep(std::move(record));
+}
+
+void Trace::crossing(int n, double fraction) {
+    RecordWriter line(TraceKind::hit);
+    line.print("crossing between n=%d and n=%d: hit at %d + %.6f", n, n + 1, n, fraction);
+    line.field("n", n);
+    line.field("fraction", fraction);
+    keep(std::move(line.record()));
+}
+
+void Trace::surface_hit(double t, const Vec3d& point, const Vec3& normal, const char* from) {
+    RecordWriter line(TraceKind::hit);
+    line.print("hit t=%.7f p=(%.6f, %.6f, %.6f) normal=(%.6f, %.6f, %.6f) from %s", t, point.i,
+               point.j, point.k, normal.i, normal.j, normal.k, from);
+    line.field("t", t);
+    line.vector("p", point.i, point.j, point.k);
+    line.vector("normal", normal.i, normal.j, normal.k);
+    keep(std::move(line.record()));
+}
+
+void Trace::leap_to_voxel(double from, double to, long long samples, int last_voxel) {
+    RecordWriter line(TraceKind::leap);
+    line.print("t=%7.2f..%.2f empty bricks up to voxel %d: %lld samples leapt over", from, to,
+               last_voxel, samples);
+    line.field("t", from);
+    line.field("t_end", to);
+    line.field("voxel", last_voxel);
+    line.field("leapt", double(samples));
+    keep(std::move(line.record()));
+}
+
+void Trace::leap(double from, double to, long long samples, int reach, bool below_iso) {
+    RecordWriter line(TraceKind::leap);
+    line.print("t=%9.4f..%.4f %s (reach %d): %lld samples leapt over", from, to,
+               below_iso ? "bricks at or below iso" : "empty bricks", reach, samples);
+    line.field("t", from);
+    line.field("t_end", to);
+    line.field("reach", reach);
+    line.field("leapt", double(samples));
+    keep(std::move(line.record()));
+}
+
+void Trace::stop(double transparency, double threshold, long long not_visited) {
+    RecordWriter line(TraceKind::stop);
+    line.print("T=%.3g < %.3g: early ray termination at ", transparency, threshold);
+    line.field("T", transparency);
+    line.field("ert", threshold);
+    // Where the last sample was, printed as it printed its place.
+    if (const TraceField* n = last_place_.field("n")) {
+        line.print("n=%d", int(n->number));
+        line.field("n", n->number);
+    } else if (const TraceField* t = last_place_.field("t")) {
+        line.print(last_place_.has("p.i") ? "t=%.4f" : "t=%.2f", t->number);
+        line.field("t", t->number);
+    }
+    line.print(", %lld samples not visited", not_visited);
+    line.field("not_visited", double(not_visited));
+    keep(std::move(line.record()));
+}
+
+void Trace::ray(const Vec3d& origin, const Vec3d& direction) {
+    RecordWriter line(TraceKind::ray);
+    line.print("ray origin=(%.6g, %.6g, %.6g) direction=(%.6g, %.6g, %.6g)", origin.i,
+               origin.j, origin.k, direction.i, direction.j, direction.k);
+    line.vector("origin", origin.i, origin.j, origin.k);
+    line.vector("direction", direction.i, direction.j, direction.k);
+    keep(std::move(line.record()));
+}
+
+void Trace::box_missed(const Vec3d& high) {
+    RecordWriter line(TraceKind::box);
+    line.print("box (0, 0, 0)..(%g, %g, %g): missed, the pixel shows the background", high.i,
+               high.j, high.k);
+    line.vector("box", high.i, high.j, high.k);
+    line.record().missed = true;
+    keep(std::move(line.record()));
+}
+
+void Trace::box(const Vec3d& high, double t_entry, const Vec3d& entry, int entry_axis,
+                double t_exit, const Vec3d& exit, double step) {
+    static const char* through[] = {"the i face", "the j face", "the k face"};
+    RecordWriter line(TraceKind::box);
+    line.print("box (0, 0, 0)..(%g, %g, %g): entry t=%.6f at (%.4f, %.4f, %.4f) through %s, "
+               "exit t=%.6f at (%.4f, %.4f, %.4f), step %g", high.i, high.j, high.k, t_entry,
+               entry.i, entry.j, entry.k,
+               entry_axis >= 0 && entry_axis < 3 ? through[entry_axis] : "none (starts inside)",
+               t_exit, exit.i, exit.j, exit.k, step);
+    line.vector("box", high.i, high.j, high.k);
+    line.field("t", t_entry);
+    line.vector("entry", entry.i, entry.j, entry.k);
+    line.field("t_exit", t_exit);
+    line.vector("exit", exit.i, exit.j, exit.k);
+    line.field("step", step);
+    keep(std::move(line.record()));
+}
+
+void Trace::bisection(int iteration, double t, double value, bool above, double from,
+                      double to) {
+    RecordWriter line(TraceKind::bisection);
+    line.print("  bisection %2d: t=%.7f value=%9.4f %s iso: bracket t=%.7f..%.7f", iteration, t,
+               value, above ? "> " : "<=", from, to);
+    line.field("bisection", iteration);
+    line.field("t", t);
+    line.field("value", value);
+    line.field("t_below", from);
+    line.field("t_above", to);
+    keep(std::move(line.record()));
+}
+
+void Trace::back_to_front(int background_n) {
+    RecordWriter line(TraceKind::order);
+    line.print("the same ray back to front (--order both), from the background at n=%d to the "
+               "viewer:", background_n);
+    line.field("background_n", background_n);
+    line.record().back_to_front = true;
+    keep(std::move(line.record()));
+}
+
+void Trace::gradient(const Vec3& gradient, double shade) {
+    RecordWriter line(TraceKind::shade);
+    line.print("gradient=(%.2f, %.2f, %.2f) shade=%.6f", gradient.i, gradient.j, gradient.k,
+               shade);
+    line.vector("gradient", gradient.i, gradient.j, gradient.k);
+    line.field("shade", shade);
+    keep(std::move(line.record()));
+}
+
+void Trace::phong(const Vec3& to_light, const Vec3& to_viewer, double ambient, double diffuse,
+                  double specular, double shininess) {
+    RecordWriter line(TraceKind::shade);
+    line.print("phong L=(%.6f, %.6f, %.6f) V=(%.6f, %.6f, %.6f) ambient=%.6f diffuse=%.6f "
+               "specular=%.6f shininess=%g", to_light.i, to_light.j, to_light.k, to_viewer.i,
+               to_viewer.j, to_viewer.k, ambient, diffuse, specular, shininess);
+    line.vector("L", to_light.i, to_light.j, to_light.k);
+    line.vector("V", to_viewer.i, to_viewer.j, to_viewer.k);
+    line.field("ambient", ambient);
+    line.field("diffuse", diffuse);
+    line.field("specular", specular);
+    line.field("shininess", shininess);
+    keep(std::move(line.record()));
+}
+
+void Trace::jitter(const std::string& mode, double u, double past_entry) {
+    RecordWriter line(TraceKind::note);
+    line.print("jitter %s: u=%.6f, the first sample %.6f units past the entry", mode.c_str(), u,
+               past_entry);
+    line.field("u", u);
+    line.field("past_entry", past_entry);
+    keep(std::move(line.record()));
+}
+
+void Trace::clip(const Vec3d& normal, double d, bool cut_away, double from, double to,
+                 bool entering) {
+    RecordWriter line(TraceKind::note);
+    line.print("clip n=(%.4g, %.4g, %.4g) d=%g keeps n.p <= d: ", normal.i, normal.j, normal.k, d);
+    line.vector("normal", normal.i, normal.j, normal.k);
+    line.field("d", d);
+    if (cut_away) {
+        line.print("the ray is cut away there, the pixel shows the background");
+    } else {
+        line.print("t=%.6f..%.6f%s", from, to, entering ? ", entering through the plane" : "");
+        line.field("t", from);
+        line.field("t_end", to);
+    }
+    keep(std::move(line.record()));
+}
+
+void Trace::bracket(double from, double to, double tolerance) {
+    RecordWriter line(TraceKind::note);
+    line.print("crossing between t=%.4f and t=%.4f: bisection to %g voxel", from, to, tolerance);
+    line.field("t", from);
+    line.field("t_end", to);
+    line.field("tolerance", tolerance);
+    keep(std::move(line.record()));
+}
+
+void Trace::note(std::vector<TraceField> fields, const char* format, ...) {
+    TraceRecord record;
+    record.kind = TraceKind::note;
+    char text[512];
+    va_list arguments;
+    va_start(arguments, format);
+    std::vsnprintf(text, sizeof text, format, arguments);
+    va_end(arguments);
+    record.text = text;
+    record.fields = std::move(fields);
+    keep(std::move(record));
 }
 
 std::vector<TraceRecord> Trace::last_records() const {

@@ -10,6 +10,8 @@
 #include <thread>
 #include <vector>
 #include "image.h"
+#include "transfer_function.h"
+#include "vec3.h"
 #include "view.h"
 
 namespace ctlab {
@@ -45,34 +47,91 @@ private:
     std::chrono::steady_clock::time_point start_;
 };
 
-// One number (or string) a trace line printed, named by the label before it in the format:
-// "value=%5d" gives "value"; a tuple "C=(%.6f, %.6f, %.6f)" gives "C.r", "C.g", "C.b" (four
-// components: .r .g .b .a; three: .r .g .b for a colour named C, rgb or colour, else .i .j .k;
-// other counts .0 .1 ...); "t=%7.2f..%.2f" gives "t" and "t_end"; a conversion without a label
-// is "#N" (its place among the line's conversions, from 1). A name repeated in one line gets
-// "#2", "#3" ... appended ("n", "n#2"). The number is the argument itself, at full precision,
-// not the text printed.
-struct TraceField {
-    std::string name;
-    double number = 0;  // numeric conversions (d i u x c f e g ...)
-    std::string text;   // %s conversions (number stays 0)
-    bool is_text = false;
+// A trace is a list of typed records, one per event along one ray: a sample, a hit, a leap,
+// a stop, ... A lesson records each event with its numbers (trace->sample(...), below); the
+// printed line, the ray picture (common/ray_plot.h) and make check's ray comparison are all
+// made from the records. Nothing reads a printed line back.
+enum class TraceKind {
+    sample,     // one sample along the ray: where it is, its value, what it gave
+    hit,        // the ray met the surface: step 05's crossing, step 13's hit point
+    leap,       // samples leapt over (bricks known to be empty)
+    stop,       // early ray termination: the samples left are not visited
+    ray,        // part 2: the camera ray, origin and direction
+    box,        // part 2: where the ray enters and leaves the volume's box, or that it missed
+    bisection,  // step 13: one halving of the bracket around the crossing
+    order,      // step 07's --order both: the samples after it are the same ray, other order
+    shade,      // the light at a hit: gradient and shade, Phong's terms
+    note,       // anything else a lesson says, with its numbers named
 };
 
-// One line of a trace: its text as printed, and the fields it was printed from. The ray
-// picture (common/ray_plot.h) and the checker's trace comparison read the fields, never the
-// text.
+// One number of a record, by name: "t", "value", "rgba.a", "C.r", "voxel.i" ... at full
+// precision (the argument itself, not the text printed).
+struct TraceField {
+    std::string name;
+    double number = 0;
+};
+
+// One event of a trace: its kind, its numbers, and its line as printed (made from them).
 struct TraceRecord {
+    TraceKind kind = TraceKind::note;
     std::string text;
     std::vector<TraceField> fields;
+    bool hit = false;            // sample: it hit the threshold (steps 02-05)
+    bool missed = false;         // box: the ray missed the box
+    bool back_to_front = false;  // order: the second order is back to front
 
     const TraceField* field(const std::string& name) const;  // nullptr when absent
     bool has(const std::string& name) const { return field(name) != nullptr; }
     double number(const std::string& name, double otherwise) const;
 };
 
-// What one ray did, sample by sample: filled only when a pixel is being debugged.
-// A long ray (a tall volume, a tiny step) could add millions of lines: the trace keeps the
+// One sample as a lesson records it: where it is (one of four places), its value, and what
+// it gave (each optional, printed in this order):
+//   trace->sample(TraceSample(n, voxel, value).rgba(sample).colour(r, g, b));
+class TraceSample {
+public:
+    TraceSample(const Voxel& voxel, double value);               // step 00: one voxel
+    TraceSample(int n, const Voxel& voxel, double value);        // part 1: sample n, its voxel
+    TraceSample(double t, double value);                         // steps 08-09: t on the axis
+    TraceSample(double t, const Vec3d& point, double value);     // part 2: t from the camera
+
+    TraceSample& grey(double grey);                          // step 00's grey level
+    TraceSample& max(double highest);                        // step 01: the maximum so far
+    TraceSample& projection(double highest, double lowest, double mean);  // step 12
+    TraceSample& threshold_hit(bool above);                  // "> threshold: hit" when above
+    TraceSample& skipped();                                  // "transparent: skipped"
+    TraceSample& iso(bool above);                            // step 13: "> iso" or "<= iso"
+    TraceSample& rgba(const Rgba& colour);                   // the table's colour and alpha
+    // Step 14: light reaching the sample, ambient occlusion, the shadow ray's work.
+    TraceSample& shadow(double light_transmittance, double occlusion,
+                        unsigned long long samples, unsigned long long leapt);
+    TraceSample& light(double light);                        // L
+    TraceSample& colour(double r, double g, double b);       // C, accumulated so far
+    TraceSample& transparency(double transparency);          // T, after this sample
+
+    TraceRecord record() const;  // its fields and its line
+
+private:
+    enum class Place { voxel, index, axis_t, camera_t } place_;
+    enum class Verdict { none, threshold_hit, skipped, above_iso, at_or_below_iso };
+    int n_ = 0;
+    double t_ = 0;
+    Voxel voxel_{0, 0, 0};
+    Vec3d point_;
+    double value_ = 0;
+    Verdict verdict_ = Verdict::none;
+    bool has_grey_ = false, has_max_ = false, has_projection_ = false, has_rgba_ = false;
+    bool has_shadow_ = false, has_light_ = false, has_colour_ = false;
+    bool has_transparency_ = false;
+    double grey_ = 0, highest_ = 0, lowest_ = 0, mean_ = 0;
+    Rgba rgba_;
+    double light_transmittance_ = 0, occlusion_ = 0;
+    unsigned long long shadow_samples_ = 0, shadow_leapt_ = 0;
+    double light_ = 1, r_ = 0, g_ = 0, b_ = 0, transparency_ = 1;
+};
+
+// What one ray did, event by event: filled only when a pixel is being debugged.
+// A long ray (a tall volume, a tiny step) could add millions of records: the trace keeps the
 // first max_first_lines and the last max_last_lines, and counts the ones in between, so its
 // memory and output stay bounded whatever the request.
 class Trace {
@@ -80,28 +139,67 @@ public:
     static constexpr size_t max_first_lines = 1000;
     static constexpr size_t max_last_lines = 20;
 
-    // printf-like; besides the text it keeps each conversion's value as a TraceField.
-    void add(const char* format, ...) __attribute__((format(printf, 2, 3)));
+    // --- The events a lesson records ---
+    void sample(const TraceSample& sample);
+    // Step 05: the threshold crossed between samples n and n + 1, a fraction of the way.
+    void crossing(int n, double fraction);
+    // Step 13: the surface's hit point, its normal, and where the normal came from.
+    void surface_hit(double t, const Vec3d& point, const Vec3& normal, const char* from);
+    // Step 09: samples from t = from to t = to leapt over, empty bricks up to voxel last_voxel.
+    void leap_to_voxel(double from, double to, long long samples, int last_voxel);
+    // Part 2: samples from t = from to t = to leapt over, empty bricks of reach `reach`
+    // (below_iso: step 13's bricks whose values are all at or below the iso value).
+    void leap(double from, double to, long long samples, int reach, bool below_iso = false);
+    // Early ray termination at the last sample recorded: T fell below `threshold`.
+    void stop(double transparency, double threshold, long long not_visited);
+    void ray(const Vec3d& origin, const Vec3d& direction);          // part 2's camera ray
+    void box_missed(const Vec3d& high);                              // box (0,0,0)..high
+    // Where the ray enters (through face entry_axis: 0 i, 1 j, 2 k, -1 it starts inside)
+    // and leaves the box (0,0,0)..high, and the step along it.
+    void box(const Vec3d& high, double t_entry, const Vec3d& entry, int entry_axis,
+             double t_exit, const Vec3d& exit, double step);
+    // Step 13: one halving of the bracket [from, to] around the crossing.
+    void bisection(int iteration, double t, double value, bool above, double from, double to);
+    // Step 07: the samples after this are the same ray back to front, from sample
+    // background_n.
+    void back_to_front(int background_n);
+    void gradient(const Vec3& gradient, double shade);  // steps 04-05: the light at the hit
+    // Step 13: the Phong terms at the hit (L and V unit vectors towards light and viewer).
+    void phong(const Vec3& to_light, const Vec3& to_viewer, double ambient, double diffuse,
+               double specular, double shininess);
+    // Step 11: the jitter's u (0..1) and how far past the entry the first sample lies.
+    void jitter(const std::string& mode, double u, double past_entry);
+    // Step 13: the clip plane n.p <= d; the ray's span left by it (from, to), entering
+    // through the plane or not, or (cut_away) none of it.
+    void clip(const Vec3d& normal, double d, bool cut_away, double from = 0, double to = 0,
+              bool entering = false);
+    // Step 13: the first crossing lies between t = from and t = to: bisection follows.
+    void bracket(double from, double to, double tolerance);
+    // Anything else: the line printf-formatted, and its numbers named in `fields`.
+    void note(std::vector<TraceField> fields, const char* format, ...)
+        __attribute__((format(printf, 3, 4)));
+
+    // --- What was recorded ---
     // The lines kept: the first ones, then the last ones (in order) when lines were dropped.
     std::vector<std::string> lines() const;
     std::vector<std::string> first_lines() const;
     std::vector<std::string> last_lines() const;  // empty unless more than max_first_lines
-    // The same lines with their fields.
+    // The same, as records.
     const std::vector<TraceRecord>& first_records() const { return first_; }
     std::vector<TraceRecord> last_records() const;
     std::vector<TraceRecord> records() const;  // first, then last
     uint64_t not_shown() const { return added_ - first_.size() - last_.size(); }
 
 private:
+    void keep(TraceRecord record);
+
     std::vector<TraceRecord> first_;
     std::vector<TraceRecord> last_;  // a ring of up to max_last_lines, oldest at last_next_
     size_t last_next_ = 0;
     uint64_t added_ = 0;
+    // The last sample's place, for a stop: "at n=50" or "at t=44.00" as its samples print.
+    TraceRecord last_place_;
 };
-
-// The fields of one printf call: `format` and its arguments (the parser behind Trace::add;
-// public for the tests).
-std::vector<TraceField> trace_fields(const char* format, va_list arguments);
 
 // Prints once per process "note: only STARTED of WANTED render threads could be started ...".
 void note_fewer_threads(int started, int wanted);

@@ -191,14 +191,13 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
     if (options.rerun && window_open()) return show_window(options, volume, renderer, views);
 
     // Refuse bad requests before any work, so nothing is half done.
-    if (options.has_debug_pixel) {
+    for (const auto& [x, y] : options.debug_pixels) {
         bool anywhere = false;
-        for (const View& view : views) anywhere = anywhere || inside(view, options.debug_x,
-                                                                     options.debug_y);
+        for (const View& view : views) anywhere = anywhere || inside(view, x, y);
         if (!anywhere) {
-            throw InputError("--debug-pixel " + std::to_string(options.debug_x) + "," +
-                             std::to_string(options.debug_y) + " is outside the " +
-                             views[0].name + " image (" + std::to_string(views[0].width) + "x" +
+            throw InputError("--debug-pixel " + std::to_string(x) + "," + std::to_string(y) +
+                             " is outside the " + views[0].name + " image (" +
+                             std::to_string(views[0].width) + "x" +
                              std::to_string(views[0].height) + "); X is the column, Y the row");
         }
     }
@@ -219,7 +218,12 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
     // time_ms= of the first render is the render alone.
     warmup_ms = warm_up(views, options.threads, &volume);
     std::vector<RayPlotView> rendered;  // for the ray pictures of --debug-pixel
-    std::vector<std::pair<View, RayPlot>> plots;
+    struct TracedRay {
+        View view;
+        int x, y;
+        RayPlot plot;
+    };
+    std::vector<TracedRay> plots;
     for (const View& view : views) {
         Work work;
         const Timer timer;
@@ -236,14 +240,12 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         if (options.pfm) write_pfm(image, pfm_path(options, view));
         print_summary(options, view, renderer, work, ms, warm_ms);
         if (options.has_debug_pixel) rendered.push_back({view, image});
-        if (options.has_debug_pixel) {
-            if (inside(view, options.debug_x, options.debug_y)) {
-                plots.emplace_back(view, print_trace(options, view, renderer, options.debug_x,
-                                                     options.debug_y));
+        for (const auto& [x, y] : options.debug_pixels) {
+            if (inside(view, x, y)) {
+                plots.push_back({view, x, y, print_trace(options, view, renderer, x, y)});
             } else {
-                std::printf("note: debug pixel %d,%d is outside the %s image (%dx%d)\n",
-                            options.debug_x, options.debug_y, view.name.c_str(), view.width,
-                            view.height);
+                std::printf("note: debug pixel %d,%d is outside the %s image (%dx%d)\n", x, y,
+                            view.name.c_str(), view.width, view.height);
             }
         }
     }
@@ -261,14 +263,14 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
             rendered.push_back({other, render_view(options, other, renderer, work)});
         }
     }
-    for (const auto& [view, plot] : plots) {
-        write_png(ray_picture(options, renderer, plot, view, rendered, options.debug_x,
-                              options.debug_y),
-                  ray_plot_path(options.out, options.step, view, options.debug_x,
-                                options.debug_y, ".png"));
-        const std::string text = ray_plot_text(plot);
-        write_output_file(ray_plot_path(options.out, options.step, view, options.debug_x,
-                                        options.debug_y, ".txt"),
+    for (const TracedRay& traced : plots) {
+        const View& view = traced.view;
+        write_png(ray_picture(options, renderer, traced.plot, view, rendered, traced.x, traced.y),
+                  ray_plot_path(options.out, options.step, view, traced.x, traced.y, ".png"),
+                  fast_png_compression);
+        const std::string text = ray_plot_text(traced.plot);
+        write_output_file(ray_plot_path(options.out, options.step, view, traced.x, traced.y,
+                                        ".txt"),
                           [&](std::FILE* file) {
                               return std::fwrite(text.data(), 1, text.size(), file) ==
                                      text.size();
@@ -382,6 +384,12 @@ int guarded_main(const char* step, const std::function<int()>& body) {
         std::fprintf(stderr, "%s: %s: %s\n", step, kind.c_str(), printable(message).c_str());
         return status;
     }
+}
+
+std::string summary_number(double value) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", value);
+    return text;
 }
 
 }  // namespace ctlab

@@ -57,6 +57,9 @@ struct Renderer {
 // display. Returns 0.
 int run_views(const Options& options, const Volume& volume, const Renderer& renderer);
 
+// A number as a summary line shows it (%g): "0.12", "1e-05", "30".
+std::string summary_number(double value);
+
 // The image of one view, as run_views renders it (used by tests, the window and tools).
 Image render_view(const Options& options, const View& view, const Renderer& renderer,
                   Work& work);

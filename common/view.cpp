@@ -1,6 +1,10 @@
 // view.cpp: image size and ray axis for each of the three views.
 #include "view.h"
 #include "error.h"
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
 
 namespace ctlab {
 
@@ -73,6 +77,35 @@ std::vector<View> views_named(const Volume& volume, const std::string& which) {
                 make_view(volume, ViewAxis::side)};
     }
     throw InputError("--view: expected top, front, side or all, got '" + which + "'");
+}
+
+std::string too_many_samples(const Volume& volume, double step) {
+    for (const View& view : views_named(volume, "all")) {
+        const double samples = view.ray_length * view.ray_spacing / step;
+        const double limit = std::min(max_samples_per_voxel * view.ray_length,
+                                      double(std::numeric_limits<int>::max()));
+        if (samples <= limit) continue;
+        char text[320];
+        std::snprintf(text, sizeof text, "--step %g with --spacing %g,%g,%g asks for %.4g "
+                      "samples per ray in the %s view, over the limit of %.0f (%g per voxel): "
+                      "raise --step or lower --spacing", step, volume.sx, volume.sy, volume.sz,
+                      samples, view.name.c_str(), limit, max_samples_per_voxel);
+        return text;
+    }
+    return "";
+}
+
+std::string too_many_samples_along_box(const Volume& volume, double step) {
+    const double di = (volume.nx - 1) * volume.sx, dj = (volume.ny - 1) * volume.sy;
+    const double dk = (volume.nz - 1) * volume.sz;
+    const double samples = std::sqrt(di * di + dj * dj + dk * dk) / step;
+    const double limit = max_samples_per_voxel * (volume.nx + volume.ny + volume.nz);
+    if (samples <= limit) return "";
+    char text[320];
+    std::snprintf(text, sizeof text, "--step %g with --spacing %g,%g,%g asks for %.4g samples "
+                  "along the box's diagonal, over the limit of %.0f: raise --step or lower "
+                  "--spacing", step, volume.sx, volume.sy, volume.sz, samples, limit);
+    return text;
 }
 
 }  // namespace ctlab

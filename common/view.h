@@ -70,4 +70,18 @@ View make_camera_view(int width, int height);
 // "top", "front", "side" -> views; "all" -> all three. Throws InputError otherwise.
 std::vector<View> views_named(const Volume& volume, const std::string& which);
 
+// A sample step finer than this against the voxel spacing is refused (--step): the work of a
+// render stays bounded by the volume's size.
+constexpr double max_samples_per_voxel = 64;
+
+// Why `step` (physical units, steps 08-09) asks too much of the axis views' rays, or "": more
+// than max_samples_per_voxel samples per voxel (--spacing 1e6,1e6,1e6 at --step 1 would take
+// a million, hours of work), or more samples per ray than an int counts. Checked before any
+// render.
+std::string too_many_samples(const Volume& volume, double step);
+
+// The same for a free camera's rays (part 2): a ray crosses at most the box's diagonal, and
+// more than max_samples_per_voxel samples per voxel along it is refused.
+std::string too_many_samples_along_box(const Volume& volume, double step);
+
 }  // namespace ctlab

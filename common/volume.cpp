@@ -1,7 +1,6 @@
 // volume.cpp: raw and CThead loading, sample types, value maps and the turn into the lab frame.
 // All checks happen before any large allocation; a raw file is read straight into the volume.
 #include "volume.h"
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <algorithm>
 #include <cerrno>
@@ -20,128 +19,20 @@ namespace ctlab {
 
 // --- Layout (volume.h) ----------------------------------------------------------------------
 
-constexpr size_t cache_line_values = 64 / sizeof(int16_t);
-constexpr size_t min_padded_slice_bytes = 4096;  // smaller slices stay dense (above)
-
-size_t pitched_slice_stride(int nx, int ny) {
-    const size_t dense = size_t(nx) * size_t(ny);
-    // A slice under 4 KiB stays dense: its padding (up to two lines) would be a large share of
-    // it (a 1x1 slice would take 32 times its size), and such slices do not all land in one set.
-    if (dense * sizeof(int16_t) < min_padded_slice_bytes) return dense;
-    size_t lines = (dense + cache_line_values - 1) / cache_line_values;
-    if (lines % 2 == 0) ++lines;  // odd: consecutive slices start in different cache sets
-    return lines * cache_line_values;
-}
-
-size_t pitched_size(int nx, int ny, int nz) {
-    return pitched_slice_stride(nx, ny) * size_t(nz);
-}
-
-// Transparent huge pages: 2 MiB of memory per address translation instead of 4 KiB. A top-view
-// ray reads one value per slice, each slice in a page of its own, and a 512^3 volume has 65536
-// pages of 4 KiB: far more than the processor keeps translations for (1.5-2 thousand), so
-// many samples of a large volume wait for a page-table walk. In 2 MiB pages the same volume
-// is 128 translations. Measured on the phantom at 512^3, top view, 1 thread, against 4 KiB
-// pages: step 01 1.09-1.19x faster, step 08 1.04x; at 256^2 the difference is within noise.
-constexpr size_t huge_page_bytes = size_t(2) << 20;
-
-// Room for `count` values in `data`, emptied, its 2 MiB-aligned interior asked for huge pages
-// before anything is written there (the kernel then maps it 2 MiB at a time). Best effort: a
-// kernel without transparent huge pages, or with them off, keeps 4 KiB pages, and the volume
-// works as before; a vector already that large is reused.
-static void reserve_values(std::vector<int16_t>& data, size_t count) {
-    if (data.capacity() < count) std::vector<int16_t>().swap(data);  // no copy of old values
-    data.clear();
-    data.reserve(count);
-#ifdef MADV_HUGEPAGE
-    const uintptr_t start = reinterpret_cast<uintptr_t>(data.data());
-    const uintptr_t end = start + count * sizeof(int16_t);
-    const uintptr_t first = (start + huge_page_bytes - 1) / huge_page_bytes * huge_page_bytes;
-    const uintptr_t last = end / huge_page_bytes * huge_page_bytes;
-    if (last > first) madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
-#endif
-}
-
-void Volume::strides_not_set(int i, int j, int k) const {
-    throw std::logic_error("Volume::index(" + std::to_string(i) + ", " + std::to_string(j) +
-                           ", " + std::to_string(k) + ") on a " + std::to_string(nx) + "x" +
-                           std::to_string(ny) + "x" + std::to_string(nz) +
-                           " volume whose slices were never laid out: call update_range or "
-                           "allocate_pitched first");
-}
-
 void resize_dense(Volume& volume) {
-    volume.row_stride = volume.slice_stride = 0;
-    reserve_values(volume.data, pitched_size(volume.nx, volume.ny, volume.nz));
-    volume.data.resize(volume.voxel_count());
+    volume.data.assign(volume.voxel_count(), 0);
 }
 
-// The padding after slice k's last voxel: copies of that voxel, so no value outside the
-// volume's range ever sits in data.
-static void fill_padding(Volume& volume, int k) {
-    const size_t dense = size_t(volume.nx) * size_t(volume.ny);
-    int16_t* first = volume.data.data() + size_t(k) * volume.slice_stride;
-    std::fill(first + dense, first + volume.slice_stride, first[dense - 1]);
-}
-
-void allocate_pitched(Volume& volume) {
-    volume.row_stride = size_t(volume.nx);
-    volume.slice_stride = pitched_slice_stride(volume.nx, volume.ny);
-    reserve_values(volume.data, pitched_size(volume.nx, volume.ny, volume.nz));
-    volume.data.resize(pitched_size(volume.nx, volume.ny, volume.nz));  // every value 0
-}
-
-void lay_out_slices(Volume& volume) {
-    // Told apart by size: when the two sizes are equal, so are the two layouts.
-    const size_t pitched = pitched_size(volume.nx, volume.ny, volume.nz);
-    const size_t dense = size_t(volume.nx) * size_t(volume.ny);
-    const bool was_dense = volume.data.size() != pitched;
-    if (was_dense && volume.data.size() != volume.voxel_count()) {
-        throw std::logic_error("lay_out_slices: data holds " + std::to_string(volume.data.size()) +
-                               " values, neither nx*ny*nz = " +
-                               std::to_string(volume.voxel_count()) + " nor the pitched " +
-                               std::to_string(pitched));
-    }
-    volume.row_stride = size_t(volume.nx);
-    volume.slice_stride = pitched_slice_stride(volume.nx, volume.ny);
-    if (!was_dense) {  // written through index(): only the padding to fill
-        for (int k = 0; k < volume.nz; ++k) fill_padding(volume, k);
-        return;
-    }
-    volume.data.resize(pitched_size(volume.nx, volume.ny, volume.nz));  // reserved: no copy
-    // Backwards, so a slice moves up before the one below it is overwritten.
-    int16_t* base = volume.data.data();
-    for (int k = volume.nz - 1; k >= 0; --k) {
-        std::memmove(base + size_t(k) * volume.slice_stride, base + size_t(k) * dense,
-                     dense * sizeof(int16_t));
-        fill_padding(volume, k);
-    }
-}
-
-std::vector<int16_t> dense_values(const Volume& volume) {
-    if (volume.data.size() != pitched_size(volume.nx, volume.ny, volume.nz)) return volume.data;
-    std::vector<int16_t> values;
-    values.reserve(volume.voxel_count());
-    const size_t dense = size_t(volume.nx) * size_t(volume.ny);
-    for (int k = 0; k < volume.nz; ++k) {
-        values.insert(values.end(), volume.slice(k), volume.slice(k) + dense);
-    }
-    return values;
-}
+std::vector<int16_t> dense_values(const Volume& volume) { return volume.data; }
 
 void update_range(Volume& volume) {
     if (volume.data.empty()) return;
-    lay_out_slices(volume);
-    const size_t dense = size_t(volume.nx) * size_t(volume.ny);
     // A plain loop of min and max: std::minmax_element branches on every value, and
     // update_range took 15-19 ms on the phantom with it, 6.4 ms with this loop.
     int16_t low = volume.data[0], high = volume.data[0];
-    for (int k = 0; k < volume.nz; ++k) {
-        const int16_t* slice = volume.slice(k);
-        for (size_t n = 0; n < dense; ++n) {
-            low = std::min(low, slice[n]);
-            high = std::max(high, slice[n]);
-        }
+    for (const int16_t value : volume.data) {
+        low = std::min(low, value);
+        high = std::max(high, value);
     }
     volume.min_value = low;
     volume.max_value = high;
@@ -538,8 +429,7 @@ void reorient_to_lab(Volume& volume, const Directions& directions, PatientFrame 
     // Reorder: lab axis l reads file axis from[l], backwards when flipped.
     const int file_n[3] = {volume.nx, volume.ny, volume.nz};
     const double file_s[3] = {volume.sx, volume.sy, volume.sz};
-    lay_out_slices(volume);  // (a no-op after store_samples) so the strides are known
-    const int64_t file_stride[3] = {1, int64_t(volume.row_stride), int64_t(volume.slice_stride)};
+    const int64_t file_stride[3] = {1, int64_t(volume.nx), int64_t(volume.nx) * volume.ny};
     int lab_n[3];
     double lab_s[3];
     int64_t stride[3];
@@ -550,9 +440,7 @@ void reorient_to_lab(Volume& volume, const Directions& directions, PatientFrame 
         stride[to[a]] = flip[a] ? -file_stride[a] : file_stride[a];
         if (flip[a]) base += int64_t(file_n[a] - 1) * file_stride[a];
     }
-    std::vector<int16_t> out;  // dense, then laid out in place (room reserved)
-    reserve_values(out, pitched_size(lab_n[0], lab_n[1], lab_n[2]));
-    out.resize(volume.voxel_count());
+    std::vector<int16_t> out(volume.voxel_count());
     size_t n = 0;
     for (int k = 0; k < lab_n[2]; ++k) {
         for (int j = 0; j < lab_n[1]; ++j) {
@@ -567,8 +455,6 @@ void reorient_to_lab(Volume& volume, const Directions& directions, PatientFrame 
     volume.sx = lab_s[0];
     volume.sy = lab_s[1];
     volume.sz = lab_s[2];
-    volume.row_stride = volume.slice_stride = 0;
-    lay_out_slices(volume);
 }
 
 std::string volume_line(const Volume& volume) {

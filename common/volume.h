@@ -1,20 +1,10 @@
 // volume.h: a CT volume in memory and the loaders for it.
 //
 // Layout convention used everywhere in ctlab: value(i, j, k) = cthead[k][j][i], i fastest,
-// k the slice (k = 0 at the crown for CThead). In memory the slices are padded ("pitched"):
-// value(i, j, k) = data[k*slice_stride + j*row_stride + i] = data[volume.index(i, j, k)],
-// with row_stride = nx and slice_stride = nx*ny rounded up to a whole, odd number of 64-byte
-// cache lines. Why: a dense CThead slice is 128 KiB, a multiple of 4 KiB, so every sample of a
-// top-view ray (one per slice) falls in the same set of the 48 KiB, 12-way L1 cache and the
-// ray misses L1 at each sample; an odd number of lines from slice to slice spreads a ray over
-// every set (CThead: 64 bytes more per slice, 7 KiB in all). Read values through at() or
-// index(), never through a hand-made (k*ny + j)*nx + i. The padding is never a voxel: it holds
-// copies of its row's last value and is left out of min/max, histograms and files written.
-// Loaders and tests may fill data densely (nx*ny*nz values, i fastest: resize_dense) and call
-// update_range, which lays the slices out in place at that one point. resize_dense and
-// allocate_pitched ask the kernel for 2 MiB ("huge") pages for data, where it has them: a
-// top-view ray steps from slice to slice, a page apart, and a large volume's 4 KiB pages are
-// more than the processor keeps address translations for (common/volume.cpp).
+// k the slice (k = 0 at the crown for CThead). In memory the volume is dense, exactly as the
+// coursework indexes it: value(i, j, k) = data[(k*ny + j)*nx + i] = volume.at(i, j, k), for
+// every volume (loaded, converted, the phantom, built by a test). No padding, no strides:
+// speed tricks on the layout belong to part 3's own steps.
 // Files of other formats (NIfTI, NRRD, MetaImage, DICOM: common/formats.h) and raw files of
 // other sample types end up in the same int16 layout, turned into the lab's anatomical frame.
 #pragma once
@@ -39,57 +29,27 @@ struct ValueMap {
 struct Volume {
     int nx = 0, ny = 0, nz = 0;                 // voxels along i, j, k
     double sx = 1.0, sy = 1.0, sz = 1.0;        // voxel spacing along i, j, k (CThead: 1, 1, 2)
-    std::vector<int16_t> data;                  // signed 16-bit CT values, pitched (above)
-    size_t row_stride = 0;                      // values from (i, j, k) to (i, j + 1, k)
-    size_t slice_stride = 0;                    // values from (i, j, k) to (i, j, k + 1);
-                                                // both 0 while data is still dense
+    std::vector<int16_t> data;                  // signed 16-bit CT values, dense (above)
     int16_t min_value = 0, max_value = 0;       // over the whole volume
     std::string name;                           // "phantom", or the file it came from
     ValueMap map;                               // volume value -> file value
     std::string format = "raw";                 // raw, nifti, nrrd, metaimage, dicom, phantom
     std::string orientation;                    // what was done to reach the lab frame ("" = none)
 
+    // (k*ny + j)*nx + i: where voxel (i, j, k) is in data.
     size_t index(int i, int j, int k) const {
-#ifdef __SANITIZE_ADDRESS__
-        // SAN=1 builds (every test runs under one in CI): a volume whose slices were never laid
-        // out (no update_range or allocate_pitched) has zero strides, and every (i, j, k) would
-        // silently read row 0 of slice 0. The release build leaves the check out of its loops.
-        if (row_stride == 0 && (j != 0 || k != 0)) strides_not_set(i, j, k);
-#endif
-        return static_cast<size_t>(k) * slice_stride + static_cast<size_t>(j) * row_stride +
+        return (static_cast<size_t>(k) * ny + static_cast<size_t>(j)) * nx +
                static_cast<size_t>(i);
     }
     int16_t at(int i, int j, int k) const { return data[index(i, j, k)]; }
-    const int16_t* slice(int k) const { return data.data() + static_cast<size_t>(k) * slice_stride; }
-    const int16_t* row(int j, int k) const { return data.data() + index(0, j, k); }
-    int16_t* row(int j, int k) { return data.data() + index(0, j, k); }
     size_t voxel_count() const { return static_cast<size_t>(nx) * ny * nz; }
-
-    // Throws std::logic_error naming the voxel: index() was asked for one before the strides
-    // were set (see index()).
-    [[noreturn]] void strides_not_set(int i, int j, int k) const;
 };
 
-// The padded slice stride (in int16 values) for slices of nx*ny values: a whole, odd number
-// of 64-byte cache lines at least nx*ny values long (see the layout comment above); nx*ny
-// itself for a slice under 4 KiB, whose padding would cost more than 3% of it.
-size_t pitched_slice_stride(int nx, int ny);
-// The number of values data holds once laid out: nz slice strides.
-size_t pitched_size(int nx, int ny, int nz);
-
-// Sizes data for nx*ny*nz values written densely (i fastest), with room reserved for the
-// padding, so that laying the slices out later (update_range) needs no second allocation.
+// Sizes data for nx*ny*nz values, every one 0: for loaders and tests that write the voxels.
+// Call update_range when done.
 void resize_dense(Volume& volume);
 
-// Sizes data for the pitched layout and sets the strides: for code that writes voxels through
-// index() or row(). Values are 0 until written; call update_range when done.
-void allocate_pitched(Volume& volume);
-
-// Dense data (nx*ny*nz values, i fastest) -> the pitched layout, in place; the strides set.
-// A volume already laid out is left as it is.
-void lay_out_slices(Volume& volume);
-
-// The values without padding, i fastest: (k*ny + j)*nx + i. For writing files and hashing.
+// The values as a file holds them, i fastest: (k*ny + j)*nx + i, that is volume.data.
 std::vector<int16_t> dense_values(const Volume& volume);
 
 // CThead facts: 256 x 256 x 113, signed 16-bit little-endian, no header.
@@ -119,8 +79,8 @@ struct RawFormat {
     SampleType type = SampleType::int16;
 };
 
-// Lays dense data out (lay_out_slices), then sets min_value and max_value over the voxels
-// (padding left out). Every loader, the phantom and hand-built test volumes end with it.
+// Sets min_value and max_value over the voxels. Every loader, the phantom and hand-built test
+// volumes end with it.
 void update_range(Volume& volume);
 
 // Checks dims against max_voxels and the free memory, before anything is allocated.
@@ -151,7 +111,7 @@ bool raw_format_from_name(const std::string& path, RawFormat* format);
 // --- For the format loaders (common/format_*.cpp) -------------------------------------------
 
 // Stores `count` samples of `type` (byte order `endian`), each times slope plus inter, into
-// volume.data (already sized densely: resize_dense), choosing volume.map: identity when every value is a whole
+// volume.data (already sized: resize_dense), choosing volume.map: identity when every value is a whole
 // number in int16's range, else a linear map onto the whole int16 range. Refuses NaN and
 // infinities. Sets min_value and max_value.
 void store_samples(Volume& volume, const unsigned char* bytes, size_t count, SampleType type,

@@ -67,7 +67,7 @@ static float slice_pixel(const Volume& volume, const View& view, int x, int y, i
     const int16_t value = volume.at(i, j, k);
     const float grey = display.grey_of[value - display.min_value];
     ++work.samples;
-    if (trace) trace->add("voxel (i=%d, j=%d, k=%d) value=%d grey=%.6f", i, j, k, value, grey);
+    if (trace) trace->sample(TraceSample(Voxel{i, j, k}, value).grey(grey));
     return grey;
 }
 //< lesson: slice_pixel

@@ -26,8 +26,7 @@ static int mip_top(const Volume& volume, int x, int y, Work& work, Trace* trace)
         const int value = volume.at(i, j, k);
         highest = std::max(highest, value);
         ++work.samples;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d max=%5d", k, i, j, k, value,
-                              highest);
+        if (trace) trace->sample(TraceSample(k, Voxel{i, j, k}, value).max(highest));
     }
     return highest;
 }
@@ -40,8 +39,7 @@ static int mip_front(const Volume& volume, int x, int y, Work& work, Trace* trac
         const int value = volume.at(i, j, k);
         highest = std::max(highest, value);
         ++work.samples;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d max=%5d", j, i, j, k, value,
-                              highest);
+        if (trace) trace->sample(TraceSample(j, Voxel{i, j, k}, value).max(highest));
     }
     return highest;
 }
@@ -54,8 +52,7 @@ static int mip_side(const Volume& volume, int x, int y, Work& work, Trace* trace
         const int value = volume.at(i, j, k);
         highest = std::max(highest, value);
         ++work.samples;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d max=%5d", i, i, j, k, value,
-                              highest);
+        if (trace) trace->sample(TraceSample(i, Voxel{i, j, k}, value).max(highest));
     }
     return highest;
 }

@@ -30,8 +30,7 @@ static Hit first_hit(const Volume& volume, const View& view, int x, int y, int t
         const int value = volume.at(voxel.i, voxel.j, voxel.k);
         ++work.samples;
         const bool above = value > threshold;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d%s", n, voxel.i, voxel.j,
-                              voxel.k, value, above ? "  > threshold: hit" : "");
+        if (trace) trace->sample(TraceSample(n, voxel, value).threshold_hit(above));
         if (above) {
             ++work.hits;
             if (n + 1 < view.ray_length) ++work.terminated;

@@ -36,8 +36,7 @@ static Hit first_hit(const Volume& volume, const View& view, int x, int y, int t
         const int value = volume.at(voxel.i, voxel.j, voxel.k);
         ++work.samples;
         const bool above = value > threshold;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d%s", n, voxel.i, voxel.j,
-                              voxel.k, value, above ? "  > threshold: hit" : "");
+        if (trace) trace->sample(TraceSample(n, voxel, value).threshold_hit(above));
         if (above) {
             ++work.hits;
             if (n + 1 < view.ray_length) ++work.terminated;
@@ -112,8 +111,7 @@ int main(int argc, char** argv) {
             if (!hit.found) return grey(0.0f);
             const Vec3 gradient = gradient_at(volume, view.voxel(x, y, hit.n), work);
             const float light = shade(gradient, light_direction(view, params.light_angle));
-            if (trace) trace->add("gradient=(%.2f, %.2f, %.2f) shade=%.6f", gradient.i,
-                                  gradient.j, gradient.k, light);
+            if (trace) trace->gradient(gradient, light);
             return grey(light);
         };
         renderer.knob = {"light_angle",

@@ -41,15 +41,13 @@ static Hit first_hit(const Volume& volume, const View& view, int x, int y, int t
         const int value = volume.at(voxel.i, voxel.j, voxel.k);
         ++work.samples;
         const bool above = value > threshold;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d%s", n, voxel.i, voxel.j,
-                              voxel.k, value, above ? "  > threshold: hit" : "");
+        if (trace) trace->sample(TraceSample(n, voxel, value).threshold_hit(above));
         if (above) {
             ++work.hits;
             if (n + 1 < view.ray_length) ++work.terminated;
             if (n == 0) return {true, 0, 0.0f};  // already inside at the volume's edge
             const float fraction = float(threshold - previous) / float(value - previous);
-            if (trace) trace->add("crossing between n=%d and n=%d: hit at %d + %.6f", n - 1, n,
-                                  n - 1, fraction);
+            if (trace) trace->crossing(n - 1, fraction);
             return {true, n - 1, fraction};
         }
         previous = value;
@@ -135,8 +133,7 @@ int main(int argc, char** argv) {
             const Vec3 gradient = gradient_along_ray(volume, view, x, y, hit.n, hit.fraction,
                                                      work);
             const float light = shade(gradient, light_direction(view, params.light_angle));
-            if (trace) trace->add("gradient=(%.2f, %.2f, %.2f) shade=%.6f", gradient.i,
-                                  gradient.j, gradient.k, light);
+            if (trace) trace->gradient(gradient, light);
             return grey(light);
         };
         renderer.knob = {"threshold",

@@ -58,16 +58,14 @@ static Lut build_lut(const TransferFunction& tf) {
 static Rgb composite_back_to_front(const Volume& volume, const View& view, int x, int y,
                                    const Lut& lut, Work& work, Trace* trace) {
     double r = background.r, g = background.g, b = background.b;  // C
-    const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
     for (int n = view.ray_length - 1; n >= 0; --n) {
-        auto voxel = [&] { return view.voxel(x, y, n); };  // its i, j, k: for traces only
-        const int value = voxels[n];  // volume.at() of voxel(), with no index sum per sample
+        const Voxel voxel = view.voxel(x, y, n);
+        const int value = volume.at(voxel.i, voxel.j, voxel.k);
         const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", n,
-                                  voxel().i, voxel().j, voxel().k, value);
+            if (trace) trace->sample(TraceSample(n, voxel, value).skipped());
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
@@ -75,20 +73,11 @@ static Rgb composite_back_to_front(const Volume& volume, const View& view, int x
         r = alpha * light * sample.r + (1 - alpha) * r;
         g = alpha * light * sample.g + (1 - alpha) * g;
         b = alpha * light * sample.b + (1 - alpha) * b;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
-                              "C=(%.6f, %.6f, %.6f)", n, voxel().i, voxel().j, voxel().k, value,
-                              sample.r, sample.g, sample.b, sample.a, r, g, b);
+        if (trace) trace->sample(TraceSample(n, voxel, value).rgba(sample).colour(r, g, b));
     }
     return {float(r), float(g), float(b)};
 }
 //< lesson: back_to_front
-
-// A number as the summary line shows it: "0.12", "1e-05".
-static std::string number(double value) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%g", value);
-    return text;
-}
 
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
@@ -128,7 +117,7 @@ int main(int argc, char** argv) {
                          },
                          [&] {
                              const TfRange* skin = find_range(tf, skin_label);
-                             return skin ? number(skin->start.a) : std::string("none");
+                             return skin ? summary_number(skin->start.a) : std::string("none");
                          }};
         renderer.settings = [&] { return "tf=" + tf.source; };
 

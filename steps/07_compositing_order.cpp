@@ -71,16 +71,14 @@ static Lut build_lut(const TransferFunction& tf) {
 static Rgb composite_back_to_front(const Volume& volume, const View& view, int x, int y,
                                    const Lut& lut, Work& work, Trace* trace) {
     double r = background.r, g = background.g, b = background.b;  // C
-    const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
     for (int n = view.ray_length - 1; n >= 0; --n) {
-        auto voxel = [&] { return view.voxel(x, y, n); };  // its i, j, k: for traces only
-        const int value = voxels[n];  // volume.at() of voxel(), with no index sum per sample
+        const Voxel voxel = view.voxel(x, y, n);
+        const int value = volume.at(voxel.i, voxel.j, voxel.k);
         const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", n,
-                                  voxel().i, voxel().j, voxel().k, value);
+            if (trace) trace->sample(TraceSample(n, voxel, value).skipped());
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
@@ -88,9 +86,7 @@ static Rgb composite_back_to_front(const Volume& volume, const View& view, int x
         r = alpha * light * sample.r + (1 - alpha) * r;
         g = alpha * light * sample.g + (1 - alpha) * g;
         b = alpha * light * sample.b + (1 - alpha) * b;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
-                              "C=(%.6f, %.6f, %.6f)", n, voxel().i, voxel().j, voxel().k, value,
-                              sample.r, sample.g, sample.b, sample.a, r, g, b);
+        if (trace) trace->sample(TraceSample(n, voxel, value).rgba(sample).colour(r, g, b));
     }
     return {float(r), float(g), float(b)};
 }
@@ -108,16 +104,14 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
                                            Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     Accumulated ray;
-    const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
     for (int n = 0; n < view.ray_length; ++n) {
-        auto voxel = [&] { return view.voxel(x, y, n); };  // its i, j, k: for traces only
-        const int value = voxels[n];  // volume.at() of voxel(), with no index sum per sample
+        const Voxel voxel = view.voxel(x, y, n);
+        const int value = volume.at(voxel.i, voxel.j, voxel.k);
         const Rgba& sample = lut.entries[value - lowest_ct_value];  // the TF
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d transparent: skipped", n,
-                                  voxel().i, voxel().j, voxel().k, value);
+            if (trace) trace->sample(TraceSample(n, voxel, value).skipped());
             continue;
         }
         const double light = 1.0;  // unlit: step 08 lights the samples
@@ -127,15 +121,13 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ray.g += weight * sample.g;
         ray.b += weight * sample.b;
         ray.transparency *= 1 - alpha;
-        if (trace) trace->add("n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, %.4f) "
-                              "C=(%.6f, %.6f, %.6f) T=%.6g", n, voxel().i, voxel().j, voxel().k,
-                              value, sample.r, sample.g, sample.b, sample.a, ray.r, ray.g,
-                              ray.b, ray.transparency);
+        if (trace) {
+            trace->sample(TraceSample(n, voxel, value).rgba(sample).colour(ray.r, ray.g, ray.b)
+                              .transparency(ray.transparency));
+        }
         if (ray.transparency < stop_below && n + 1 < view.ray_length) {
             ++work.terminated;
-            if (trace) trace->add("T=%.3g < %.3g: early ray termination at n=%d, %d samples "
-                                  "not visited", ray.transparency, stop_below, n,
-                                  view.ray_length - 1 - n);
+            if (trace) trace->stop(ray.transparency, stop_below, view.ray_length - 1 - n);
             break;
         }
     }
@@ -193,22 +185,16 @@ static Image compare_orders(const Options& options, const Volume& volume, const 
 // at the pixel). Its samples are not counted in the summary's work.
 static void trace_both_orders(const Volume& volume, const View& view, int x, int y,
                               const Lut& lut, const Rgb& f2b, Trace* trace) {
-    trace->add("the same ray back to front (--order both), from the background at n=%d to the "
-               "viewer:", view.ray_length - 1);
+    trace->back_to_front(view.ray_length - 1);
     Work b2f_work;
     const Rgb b2f = composite_back_to_front(volume, view, x, y, lut, b2f_work, trace);
     const double difference = std::max({std::abs(double(f2b.r) - b2f.r),
                                         std::abs(double(f2b.g) - b2f.g),
                                         std::abs(double(f2b.b) - b2f.b)});
-    trace->add("both orders: f2b rgb=(%.6f, %.6f, %.6f) b2f rgb=(%.6f, %.6f, %.6f), apart by %.3g",
-               f2b.r, f2b.g, f2b.b, b2f.r, b2f.g, b2f.b, difference);
-}
-
-// A number as the summary line shows it: "0.12", "1e-05".
-static std::string number(double value) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%g", value);
-    return text;
+    trace->note({{"f2b.r", f2b.r}, {"f2b.g", f2b.g}, {"f2b.b", f2b.b}, {"b2f.r", b2f.r},
+                 {"b2f.g", b2f.g}, {"b2f.b", b2f.b}, {"apart", difference}},
+                "both orders: f2b rgb=(%.6f, %.6f, %.6f) b2f rgb=(%.6f, %.6f, %.6f), apart by %.3g",
+                f2b.r, f2b.g, f2b.b, b2f.r, b2f.g, b2f.b, difference);
 }
 
 int main(int argc, char** argv) {
@@ -267,15 +253,15 @@ int main(int argc, char** argv) {
                          },
                          [&] {
                              const TfRange* skin = find_range(tf, skin_label);
-                             return skin ? number(skin->start.a) : std::string("none");
+                             return skin ? summary_number(skin->start.a) : std::string("none");
                          }};
         renderer.settings = [&] {
             std::string text = "tf=" + tf.source + " order=" + params.order +
-                               " ert=" + number(params.ert);
+                               " ert=" + summary_number(params.ert);
             if (params.order != "both") return text;
-            return text + " max_order_diff=" + number(comparison.max_diff) +
-                   " ert_skipped_fraction=" + number(comparison.ert_skipped_fraction) +
-                   " diff_scale=" + number(diff_scale);
+            return text + " max_order_diff=" + summary_number(comparison.max_diff) +
+                   " ert_skipped_fraction=" + summary_number(comparison.ert_skipped_fraction) +
+                   " diff_scale=" + summary_number(diff_scale);
         };
 
         // --- Output: a PNG and a summary line per view, then the preview window ---

@@ -21,7 +21,6 @@ constexpr double unit_length = 1;     // physical length the TF opacities hold f
 constexpr double default_step = 1;    // physical units between two samples along a ray
 constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
 constexpr double step_key_factor = 2;            // Up doubles the step, Down halves it
-constexpr double max_samples_per_voxel = 64;  // a finer step against the spacing is refused
 constexpr double default_light_angle = 30;  // degrees to the right of the viewer
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
@@ -95,20 +94,22 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 //< lesson: lookup_table
 
 //> lesson: sample_along_ray
-// The CT value `position` voxels along the ray (fractional): linear between the two voxels on
-// the ray axis around it. `voxels` are the ray's voxels (voxels[n]: the one at n, common/view.h),
-// `ray_length` of them. Past the last voxel it stays at the last one: nothing outside is read.
-static float value_along_ray(const RayVoxels& voxels, int ray_length, double position) {
-    const int before = std::min(int(position), ray_length - 1);
-    const int after = std::min(before + 1, ray_length - 1);
+// The CT value `position` voxels along the ray of pixel (x, y) (fractional): linear between
+// the two voxels on the ray axis around it. Past the last voxel it stays at the last one:
+// nothing outside is read.
+static float value_along_ray(const Volume& volume, const View& view, int x, int y,
+                             double position) {
+    const int before = std::min(int(position), view.ray_length - 1);
+    const int after = std::min(before + 1, view.ray_length - 1);
     const float fraction = float(position - before);
-    const float value_before = voxels[before];
-    const float value_after = voxels[after];
+    const Voxel voxel_before = view.voxel(x, y, before), voxel_after = view.voxel(x, y, after);
+    const float value_before = volume.at(voxel_before.i, voxel_before.j, voxel_before.k);
+    const float value_after = volume.at(voxel_after.i, voxel_after.j, voxel_after.k);
     return value_before + fraction * (value_after - value_before);
 }
 //< lesson: sample_along_ray
 
-// The empty bricks one ray crosses, as RayVoxels gives its voxels: where the ray's first
+// The empty bricks one ray crosses: where the ray's first
 // brick lies and how far apart its bricks lie, worked out once per ray. Each brick holds the
 // length of the run of empty bricks that starts there along the ray (0: not empty), so one
 // leap passes a whole run.
@@ -165,13 +166,6 @@ static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& l
 }
 //< lesson: empty_space
 
-// The gradients one ray computed last: of an even and an odd voxel along it (n along the ray).
-// A sample between voxels needs one of each; a ray starts with none.
-struct KeptGradients {
-    int n[2] = {-1, -1};  // the ray's voxel each slot holds, slot n % 2; -1: none yet
-    Vec3 gradient[2];     // gradient_at() of that voxel
-};
-
 //> lesson: gradient
 // The derivative along one axis at index n (of count samples, spacing apart); sample(m) reads
 // the volume at index m on that axis. Central inside, one-sided at the border: never outside.
@@ -195,29 +189,15 @@ static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
             derivative(along_k, k, volume.nz, volume.sz)};
 }
 
-// The gradient at the ray's voxel n, computed once per ray: neighbouring samples share voxels
-// (in the top view at --step 1 two samples fall between each pair of slices), so the last two
-// computed along the ray are kept and reused. Samples only move on along the ray: a voxel
-// whose slot the next but one takes is never needed again.
-static Vec3 gradient_on_ray(const Volume& volume, const View& view, int x, int y, int n,
-                            KeptGradients& kept, Work& work) {
-    const int slot = n % 2;  // a voxel and the next never share a slot
-    if (kept.n[slot] != n) {
-        kept.gradient[slot] = gradient_at(volume, view.voxel(x, y, n), work);
-        kept.n[slot] = n;
-    }
-    return kept.gradient[slot];
-}
-
 // The gradient a fraction (0..1) of the way from the ray's voxel `before` to the next one:
 // interpolated between the two, as the CT values were. The index stays an int: a float holds
 // every integer only up to 2^24, and int(float(16777219)) would be one past the last voxel.
 static Vec3 gradient_along_ray(const Volume& volume, const View& view, int x, int y, int before,
-                               float fraction, KeptGradients& kept, Work& work) {
+                               float fraction, Work& work) {
     const int after = std::min(before + 1, view.ray_length - 1);
-    const Vec3 gradient_before = gradient_on_ray(volume, view, x, y, before, kept, work);
+    const Vec3 gradient_before = gradient_at(volume, view.voxel(x, y, before), work);
     if (fraction == 0.0f) return gradient_before;
-    const Vec3 gradient_after = gradient_on_ray(volume, view, x, y, after, kept, work);
+    const Vec3 gradient_after = gradient_at(volume, view.voxel(x, y, after), work);
     return (1.0f - fraction) * gradient_before + fraction * gradient_after;
 }
 //< lesson: gradient
@@ -267,12 +247,10 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
     const double stop_below = std::max(params.ert, min_transparency);
     const int sample_count = samples_along_ray(view, params.step);
     const double voxels_per_sample = params.step / view.ray_spacing;
-    const RayVoxels voxels = ray_voxels(volume, view, x, y);  // where they lie: once per ray
-    const RayBricks bricks = space.along_ray(view, x, y);     // the same for its bricks
-    KeptGradients kept;  // none yet: the first lit sample computes its own
+    const RayBricks bricks = space.along_ray(view, x, y);  // its bricks, found once per ray
     Accumulated ray;
     for (int n = 0; n < sample_count; ++n) {
-        auto t = [&] { return n * params.step; };  // physical units from the first voxel: traces
+        const double t = n * params.step;  // physical units from the first voxel
         const double position = n * voxels_per_sample;  // the same in voxels, fractional
         const int before = std::min(int(position), view.ray_length - 1);  // voxel at or before
         const float fraction = float(position - before);  // of the way to the next voxel, 0..1
@@ -281,24 +259,23 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
             const int next = std::min(sample_count,
                                       std::max(n + 1, int(empty_end / voxels_per_sample)));
             work.leapt += next - n;
-            if (trace) trace->add("t=%7.2f..%.2f empty bricks up to voxel %d: %d samples leapt "
-                                  "over", t(), (next - 1) * params.step, empty_end - 1, next - n);
+            if (trace) trace->leap_to_voxel(t, (next - 1) * params.step, next - n, empty_end - 1);
             n = next - 1;
             continue;
         }
-        const float value = value_along_ray(voxels, view.ray_length, position);
+        const float value = value_along_ray(volume, view, x, y, position);
         // The entry of the whole value at or below it (the range [from, to) it falls into):
         // value - lowest_ct_value >= 0, so int() rounds down.
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("t=%7.2f value=%8.2f transparent: skipped", t(), value);
+            if (trace) trace->sample(TraceSample(t, value).skipped());
             continue;
         }
         double light = 1.0;  // unlit
         if (!params.unlit) {
-            light = shade(gradient_along_ray(volume, view, x, y, before, fraction, kept, work),
+            light = shade(gradient_along_ray(volume, view, x, y, before, fraction, work),
                           to_light);
         }
         const double alpha = sample.a;  // the opacity, after the TF
@@ -307,14 +284,13 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         ray.g += weight * sample.g;
         ray.b += weight * sample.b;
         ray.transparency *= 1 - alpha;
-        if (trace) trace->add("t=%7.2f value=%8.2f rgba=(%.3f, %.3f, %.3f, %.4f) L=%.4f "
-                              "C=(%.6f, %.6f, %.6f) T=%.6g", t(), value, sample.r, sample.g,
-                              sample.b, sample.a, light, ray.r, ray.g, ray.b, ray.transparency);
+        if (trace) {
+            trace->sample(TraceSample(t, value).rgba(sample).light(light)
+                              .colour(ray.r, ray.g, ray.b).transparency(ray.transparency));
+        }
         if (ray.transparency < stop_below && n + 1 < sample_count) {
             ++work.terminated;
-            if (trace) trace->add("T=%.3g < %.3g: early ray termination at t=%.2f, %d samples "
-                                  "not visited", ray.transparency, stop_below, t(),
-                                  sample_count - 1 - n);
+            if (trace) trace->stop(ray.transparency, stop_below, sample_count - 1 - n);
             break;
         }
     }
@@ -328,33 +304,6 @@ static Rgb over_background(const Accumulated& ray) {
             float(ray.b + ray.transparency * background.b)};
 }
 //< lesson: front_to_back
-
-// Why `step` asks too much of a view's rays, or "": more than max_samples_per_voxel samples per
-// voxel (--spacing 1e6,1e6,1e6 at --step 1 would take a million, hours of work), or more
-// samples per ray than an int counts. Checked before any render, so the work stays bounded by
-// the volume's size.
-static std::string too_many_samples(const Volume& volume, double step) {
-    for (const View& view : views_named(volume, "all")) {
-        const double samples = view.ray_length * view.ray_spacing / step;
-        const double limit = std::min(max_samples_per_voxel * view.ray_length,
-                                      double(std::numeric_limits<int>::max()));
-        if (samples <= limit) continue;
-        char text[320];
-        std::snprintf(text, sizeof text, "--step %g with --spacing %g,%g,%g asks for %.4g "
-                      "samples per ray in the %s view, over the limit of %.0f (%g per voxel): "
-                      "raise --step or lower --spacing", step, volume.sx, volume.sy, volume.sz,
-                      samples, view.name.c_str(), limit, max_samples_per_voxel);
-        return text;
-    }
-    return "";
-}
-
-// A number as the summary line shows it: "0.12", "1e-05".
-static std::string number(double value) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%g", value);
-    return text;
-}
 
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
@@ -434,12 +383,12 @@ int main(int argc, char** argv) {
                              lut = build_lut(tf, opacity_ratio(params));
                              update_empty_space();
                          },
-                         [&] { return number(params.step); }};
+                         [&] { return summary_number(params.step); }};
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "tf=" + tf.source +
-                   " skin_opacity=" + (skin ? number(skin->start.a) : std::string("none")) +
-                   " ert=" + number(params.ert) +
+                   " skin_opacity=" + (skin ? summary_number(skin->start.a) : std::string("none")) +
+                   " ert=" + summary_number(params.ert) +
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +

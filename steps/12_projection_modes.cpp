@@ -19,7 +19,6 @@ constexpr Rgb background = {0, 0, 0};  // a ray that meets no sample: black
 constexpr double default_step = 1;    // physical units between two samples along a ray
 constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
 constexpr double step_key_factor = 2;            // Up doubles the step, Down halves it
-constexpr double max_samples_per_voxel = 64;  // a finer step against the spacing is refused
 constexpr double degrees = 3.14159265358979323846 / 180;
 constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
 constexpr double default_elevation = 20;  // degrees above the i-j plane
@@ -211,13 +210,12 @@ struct Walk {
 };
 
 // The eight voxels around a point: the voxel at or below it (the low corner), how far the
-// point is past it along each axis (0..1), and the steps in memory from it to the next voxel
-// along i, j and k (0 at the last voxel of an axis: that voxel again).
+// point is past it along each axis (0..1), and the high corner, the next voxel along each
+// axis (at the last voxel of an axis: that voxel again).
 struct Cell {
     int i = 0, j = 0, k = 0;           // the low corner
     float fi = 0, fj = 0, fk = 0;      // the point's fractions past it
-    size_t index = 0;                  // the low corner's place in volume.data
-    size_t di = 0, dj = 0, dk = 0;     // memory steps to the next voxel along i, j, k, or 0
+    int i1 = 0, j1 = 0, k1 = 0;        // the high corner
 };
 
 //> lesson: trilinear
@@ -252,11 +250,9 @@ static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     low_corner(p.i, volume.nx, &cell.i, &cell.fi);
     low_corner(p.j, volume.ny, &cell.j, &cell.fj);
     low_corner(p.k, volume.nz, &cell.k, &cell.fk);
-    const size_t row = volume.row_stride, slice = volume.slice_stride;
-    cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
-    cell.di = cell.i + 1 < volume.nx ? 1 : 0;
-    cell.dj = cell.j + 1 < volume.ny ? row : 0;
-    cell.dk = cell.k + 1 < volume.nz ? slice : 0;
+    cell.i1 = std::min(cell.i + 1, volume.nx - 1);
+    cell.j1 = std::min(cell.j + 1, volume.ny - 1);
+    cell.k1 = std::min(cell.k + 1, volume.nz - 1);
     return cell;
 }
 
@@ -266,18 +262,17 @@ static float lerp(float a, float b, float f) { return a + f * (b - a); }
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
 static float trilinear(const Volume& volume, const Cell& c) {
-    const int16_t* v = volume.data.data() + c.index;
-    const float low_low = lerp(v[0], v[c.di], c.fi);
-    const float high_low = lerp(v[c.dj], v[c.dj + c.di], c.fi);
-    const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
-    const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
+    const float low_low = lerp(volume.at(c.i, c.j, c.k), volume.at(c.i1, c.j, c.k), c.fi);
+    const float high_low = lerp(volume.at(c.i, c.j1, c.k), volume.at(c.i1, c.j1, c.k), c.fi);
+    const float low_high = lerp(volume.at(c.i, c.j, c.k1), volume.at(c.i1, c.j, c.k1), c.fi);
+    const float high_high = lerp(volume.at(c.i, c.j1, c.k1), volume.at(c.i1, c.j1, c.k1), c.fi);
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
 }
 
 // A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
 // low corner on it), or trilinear, eight.
 static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
-    return nearest ? float(volume.data[c.index]) : trilinear(volume, c);
+    return nearest ? float(volume.at(c.i, c.j, c.k)) : trilinear(volume, c);
 }
 //< lesson: trilinear
 
@@ -294,21 +289,14 @@ static float display_grey(const Volume& volume, double value) {
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
-    trace->add("ray origin=(%.6g, %.6g, %.6g) direction=(%.6g, %.6g, %.6g)", ray.origin.i,
-               ray.origin.j, ray.origin.k, ray.direction.i, ray.direction.j, ray.direction.k);
+    trace->ray(ray.origin, ray.direction);
     if (!span.hit) {
-        trace->add("box (0, 0, 0)..(%g, %g, %g): missed, the pixel shows the background",
-                   high.i, high.j, high.k);
+        trace->box_missed(high);
         return;
     }
     const Vec3d in = ray.origin + span.t_entry * ray.direction;
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
-    const char* through[] = {"the i face", "the j face", "the k face"};
-    trace->add("box (0, 0, 0)..(%g, %g, %g): entry t=%.6f at (%.4f, %.4f, %.4f) through %s, "
-               "exit t=%.6f at (%.4f, %.4f, %.4f), step %g", high.i, high.j, high.k,
-               span.t_entry, in.i, in.j, in.k,
-               span.entry_axis >= 0 ? through[span.entry_axis] : "none (starts inside)",
-               span.t_exit, out.i, out.j, out.k, step);
+    trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
 // --slab: the part of the span within slab / 2 of the plane through the box's centre at right
@@ -325,9 +313,12 @@ static Span within_slab(const Ray& ray, Span span, const Camera& camera, double 
     }
     span.t_exit = std::min(span.t_exit, t_far);
     if (span.hit && span.t_entry > span.t_exit) span.hit = false;
-    if (trace) trace->add("slab %g: t=%.6f..%.6f, %s", slab, t_near, t_far,
-                          span.hit ? "samples from the later entry to the earlier exit"
-                                   : "no part of the box within it");
+    if (trace) {
+        trace->note({{"slab", slab}, {"t", t_near}, {"t_end", t_far}}, "slab %g: t=%.6f..%.6f, %s",
+                    slab, t_near, t_far,
+                    span.hit ? "samples from the later entry to the earlier exit"
+                             : "no part of the box within it");
+    }
     return span;
 }
 
@@ -355,11 +346,12 @@ static Projection project_ray(const Volume& volume, const Camera& camera, int x,
         projection.lowest = std::min(projection.lowest, value);
         projection.sum += value;
         ++projection.count;
-        if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f max=%9.4f min=%9.4f "
-                              "mean=%9.4f", span.t_entry + n * params.step,
-                              q.i * volume.sx, q.j * volume.sy, q.k * volume.sz, value,
-                              projection.highest, projection.lowest,
-                              projection.sum / projection.count);
+        if (trace) {
+            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+            trace->sample(TraceSample(span.t_entry + n * params.step, p, value)
+                              .projection(projection.highest, projection.lowest,
+                                          projection.sum / projection.count));
+        }
     }
     return projection;
 }
@@ -374,35 +366,6 @@ static Rgb projection_grey(const Volume& volume, const Projection& projection,
     return grey(display_grey(volume, value));
 }
 //< lesson: projection
-
-// Why `step` asks too much, or "": a ray crosses at most the box's diagonal, and more than
-// max_samples_per_voxel samples per voxel along it (e.g. --spacing 1e6,1e6,1e6) is refused.
-static std::string too_many_samples(const Volume& volume, double step) {
-    const double samples = length(box_high(volume)) / step;
-    const double limit = max_samples_per_voxel * (volume.nx + volume.ny + volume.nz);
-    if (samples <= limit) return "";
-    char text[320];
-    std::snprintf(text, sizeof text, "--step %g with --spacing %g,%g,%g asks for %.4g samples "
-                  "along the box's diagonal, over the limit of %.0f: raise --step or lower "
-                  "--spacing", step, volume.sx, volume.sy, volume.sz, samples, limit);
-    return text;
-}
-
-// "512x384" -> 512, 384; anything else is refused naming --size.
-static void parse_size(const std::string& text, int* width, int* height) {
-    const size_t cross = text.find('x');
-    if (cross == std::string::npos) {
-        throw InputError("--size: expected WIDTHxHEIGHT such as 512x512, got '" + text + "'");
-    }
-    *width = parse_int("--size", text.substr(0, cross), 1, max_image_side);
-    *height = parse_int("--size", text.substr(cross + 1), 1, max_image_side);
-}
-
-static std::string number(double value) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%g", value);
-    return text;
-}
 
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
@@ -437,11 +400,11 @@ int main(int argc, char** argv) {
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
-        parse_size(params.size, &width, &height);
+        parse_size(params.size, max_image_side, &width, &height);
 
         // --- Volume ---
         const Volume volume = load_volume(options);
-        const std::string refused = too_many_samples(volume, params.step);
+        const std::string refused = too_many_samples_along_box(volume, params.step);
         if (!refused.empty()) throw InputError(refused);
 
         // --- View: the camera's image (its camera is made for each render: the window turns
@@ -464,17 +427,17 @@ int main(int argc, char** argv) {
             return pixel(make_camera(volume, params, view), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
-            return "samples " + number(params.step) + " physical units apart";
+            return "samples " + summary_number(params.step) + " physical units apart";
         };
         renderer.knob = {"step",
                          [&](const View&, int steps) {
                              const double step = std::clamp(
                                  params.step * std::pow(step_key_factor, steps), min_step,
                                  max_step);
-                             if (!too_many_samples(volume, step).empty()) return;  // keep it
+                             if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
                          },
-                         [&] { return number(params.step); }};
+                         [&] { return summary_number(params.step); }};
         renderer.orbit.turn = [&](double azimuth, double elevation) {
             params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
             params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
@@ -483,14 +446,14 @@ int main(int argc, char** argv) {
             params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
         };
         renderer.orbit.value = [&] {
-            return "azimuth=" + number(params.azimuth) + " elevation=" +
-                   number(params.elevation) + " zoom=" + number(params.zoom);
+            return "azimuth=" + summary_number(params.azimuth) + " elevation=" +
+                   summary_number(params.elevation) + " zoom=" + summary_number(params.zoom);
         };
         renderer.settings = [&] {
-            return "mode=" + params.mode + " slab=" + number(params.slab) +
-                   " projection=" + params.projection + " azimuth=" + number(params.azimuth) +
-                   " elevation=" + number(params.elevation) + " zoom=" + number(params.zoom) +
-                   " fov=" + number(params.fov) + " interpolation=" + params.interpolation;
+            return "mode=" + params.mode + " slab=" + summary_number(params.slab) +
+                   " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
+                   " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
+                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation;
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

@@ -28,7 +28,6 @@ constexpr double unit_length = 1;     // physical length the TF opacities hold f
 constexpr double default_step = 1;    // physical units between two samples along a ray
 constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
 constexpr double step_key_factor = 2;            // Up doubles the step, Down halves it
-constexpr double max_samples_per_voxel = 64;  // a finer step against the spacing is refused
 constexpr double default_light_angle = 30;  // degrees to the right of the viewer
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
@@ -269,19 +268,12 @@ struct Walk {
 };
 
 // The eight voxels around a point: the voxel at or below it (the low corner), how far the
-// point is past it along each axis (0..1), and the steps in memory from it to the next voxel
-// along i, j and k (0 at the last voxel of an axis: that voxel again).
+// point is past it along each axis (0..1), and the high corner, the next voxel along each
+// axis (at the last voxel of an axis: that voxel again).
 struct Cell {
     int i = 0, j = 0, k = 0;           // the low corner
     float fi = 0, fj = 0, fk = 0;      // the point's fractions past it
-    size_t index = 0;                  // the low corner's place in volume.data
-    size_t di = 0, dj = 0, dk = 0;     // memory steps to the next voxel along i, j, k, or 0
-};
-
-// Eight numbers, one at each corner of a cell: corner n is n & 1 along i, n & 2 along j and
-// n & 4 along k.
-struct Corners {
-    float at[8];
+    int i1 = 0, j1 = 0, k1 = 0;        // the high corner
 };
 
 //> lesson: trilinear
@@ -316,11 +308,9 @@ static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     low_corner(p.i, volume.nx, &cell.i, &cell.fi);
     low_corner(p.j, volume.ny, &cell.j, &cell.fj);
     low_corner(p.k, volume.nz, &cell.k, &cell.fk);
-    const size_t row = volume.row_stride, slice = volume.slice_stride;
-    cell.index = size_t(cell.k) * slice + size_t(cell.j) * row + size_t(cell.i);
-    cell.di = cell.i + 1 < volume.nx ? 1 : 0;
-    cell.dj = cell.j + 1 < volume.ny ? row : 0;
-    cell.dk = cell.k + 1 < volume.nz ? slice : 0;
+    cell.i1 = std::min(cell.i + 1, volume.nx - 1);
+    cell.j1 = std::min(cell.j + 1, volume.ny - 1);
+    cell.k1 = std::min(cell.k + 1, volume.nz - 1);
     return cell;
 }
 
@@ -330,18 +320,17 @@ static float lerp(float a, float b, float f) { return a + f * (b - a); }
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
 static float trilinear(const Volume& volume, const Cell& c) {
-    const int16_t* v = volume.data.data() + c.index;
-    const float low_low = lerp(v[0], v[c.di], c.fi);
-    const float high_low = lerp(v[c.dj], v[c.dj + c.di], c.fi);
-    const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
-    const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
+    const float low_low = lerp(volume.at(c.i, c.j, c.k), volume.at(c.i1, c.j, c.k), c.fi);
+    const float high_low = lerp(volume.at(c.i, c.j1, c.k), volume.at(c.i1, c.j1, c.k), c.fi);
+    const float low_high = lerp(volume.at(c.i, c.j, c.k1), volume.at(c.i1, c.j, c.k1), c.fi);
+    const float high_high = lerp(volume.at(c.i, c.j1, c.k1), volume.at(c.i1, c.j1, c.k1), c.fi);
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
 }
 
 // A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
 // low corner on it), or trilinear, eight.
 static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
-    return nearest ? float(volume.data[c.index]) : trilinear(volume, c);
+    return nearest ? float(volume.at(c.i, c.j, c.k)) : trilinear(volume, c);
 }
 //< lesson: trilinear
 
@@ -457,53 +446,19 @@ static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
 
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
-// Eight numbers at the cell's corners blended trilinearly, in trilinear()'s order.
-static float blend(const Corners& corners, const Cell& c) {
-    const float* v = corners.at;
-    return lerp(lerp(lerp(v[0], v[1], c.fi), lerp(v[2], v[3], c.fi), c.fj),
-                lerp(lerp(v[4], v[5], c.fi), lerp(v[6], v[7], c.fi), c.fj), c.fk);
-}
-
 // The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
 // values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
-// Off the volume's border (the usual case) the corners' central differences are read through
-// memory steps, and the division by 2 * spacing is one product after the blend (the same bits
-// when the spacing is a power of two, as CThead's 1, 1, 2).
 static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
     work.gradients += 8;
-    const bool inside = c.i > 0 && c.i + 2 < volume.nx && c.j > 0 && c.j + 2 < volume.ny &&
-                        c.k > 0 && c.k + 2 < volume.nz;  // every corner has both neighbours
-    if (!inside) {
-        auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
-            return gradient_at(volume, c.i + (a && c.di ? 1 : 0), c.j + (b && c.dj ? 1 : 0),
-                               c.k + (d && c.dk ? 1 : 0));
-        };
-        const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
-        const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
-        const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
-        const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
-        return lerp_vector(lerp_vector(low_low, high_low, c.fj),
-                           lerp_vector(low_high, high_high, c.fj), c.fk);
-    }
-    const ptrdiff_t row = volume.row_stride, slice = volume.slice_stride;
-    const int16_t* low = volume.data.data() + c.index;
-    Corners along_i, along_j, along_k;  // differences at the corners, in CT units
-    auto differences = [&](int n, ptrdiff_t offset) {
-        const int16_t* v = low + offset;
-        along_i.at[n] = float(v[1] - v[-1]);
-        along_j.at[n] = float(v[row] - v[-row]);
-        along_k.at[n] = float(v[slice] - v[-slice]);
+    auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
+        return gradient_at(volume, a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k);
     };
-    differences(0, 0);
-    differences(1, 1);
-    differences(2, row);
-    differences(3, row + 1);
-    differences(4, slice);
-    differences(5, slice + 1);
-    differences(6, slice + row);
-    differences(7, slice + row + 1);
-    return {blend(along_i, c) * float(0.5 / volume.sx), blend(along_j, c) * float(0.5 / volume.sy),
-            blend(along_k, c) * float(0.5 / volume.sz)};
+    const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
+    const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
+    const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
+    const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
+    return lerp_vector(lerp_vector(low_low, high_low, c.fj), lerp_vector(low_high, high_high, c.fj),
+                       c.fk);
 }
 
 // A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
@@ -590,7 +545,7 @@ static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
                                const Vec3d& to_light, bool corrected, int threads, Work& work) {
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
-    const size_t strides[3] = {1, volume.row_stride, volume.slice_stride};  // as volume.data
+    const size_t strides[3] = {1, size_t(volume.nx), size_t(volume.nx) * volume.ny};  // as volume.data
     int a = 0;
     for (int axis = 1; axis < 3; ++axis) {
         if (std::fabs(to_light[axis]) / spacing[axis] > std::fabs(to_light[a]) / spacing[a]) {
@@ -641,12 +596,12 @@ static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
 
 // T_light at a sample from the light-transmittance volume: a trilinear read through the
 // sample's cell, as trilinear() reads the values.
-static double light_from_volume(const LightVolume& light, const Cell& c) {
-    const float* v = light.data() + c.index;
-    const float low_low = lerp(v[0], v[c.di], c.fi);
-    const float high_low = lerp(v[c.dj], v[c.dj + c.di], c.fi);
-    const float low_high = lerp(v[c.dk], v[c.dk + c.di], c.fi);
-    const float high_high = lerp(v[c.dk + c.dj], v[c.dk + c.dj + c.di], c.fi);
+static double light_from_volume(const Volume& volume, const LightVolume& light, const Cell& c) {
+    auto at = [&](int i, int j, int k) { return light[volume.index(i, j, k)]; };
+    const float low_low = lerp(at(c.i, c.j, c.k), at(c.i1, c.j, c.k), c.fi);
+    const float high_low = lerp(at(c.i, c.j1, c.k), at(c.i1, c.j1, c.k), c.fi);
+    const float low_high = lerp(at(c.i, c.j, c.k1), at(c.i1, c.j, c.k1), c.fi);
+    const float high_high = lerp(at(c.i, c.j1, c.k1), at(c.i1, c.j1, c.k1), c.fi);
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
 }
 
@@ -694,21 +649,14 @@ static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching,
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
-    trace->add("ray origin=(%.6g, %.6g, %.6g) direction=(%.6g, %.6g, %.6g)", ray.origin.i,
-               ray.origin.j, ray.origin.k, ray.direction.i, ray.direction.j, ray.direction.k);
+    trace->ray(ray.origin, ray.direction);
     if (!span.hit) {
-        trace->add("box (0, 0, 0)..(%g, %g, %g): missed, the pixel shows the background",
-                   high.i, high.j, high.k);
+        trace->box_missed(high);
         return;
     }
     const Vec3d in = ray.origin + span.t_entry * ray.direction;
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
-    const char* through[] = {"the i face", "the j face", "the k face"};
-    trace->add("box (0, 0, 0)..(%g, %g, %g): entry t=%.6f at (%.4f, %.4f, %.4f) through %s, "
-               "exit t=%.6f at (%.4f, %.4f, %.4f), step %g", high.i, high.j, high.k,
-               span.t_entry, in.i, in.j, in.k,
-               span.entry_axis >= 0 ? through[span.entry_axis] : "none (starts inside)",
-               span.t_exit, out.i, out.j, out.k, step);
+    trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
@@ -737,25 +685,22 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
-        auto t = [&] { return span.t_entry + n * params.step; };  // for traces
+        const double t = span.t_entry + n * params.step;  // physical units along the ray
         const int reach = space.reach_at(cell);
         if (reach > 0) {
             const long long next = leap_past(walk, space.bricks, cell, reach, n);
             work.leapt += next - n;
-            if (trace) trace->add("t=%9.4f..%.4f empty bricks (reach %d): %lld samples leapt "
-                                  "over", t(), span.t_entry + (next - 1) * params.step, reach,
-                                  next - n);
+            if (trace) trace->leap(t, span.t_entry + (next - 1) * params.step, next - n, reach);
             n = next - 1;
             continue;
         }
         const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
-        auto point = [&] { return Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz}; };
+        const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f transparent: "
-                                  "skipped", t(), point().i, point().j, point().k, value);
+            if (trace) trace->sample(TraceSample(t, point, value).skipped());
             continue;
         }
         double light = 1.0;  // unlit
@@ -763,10 +708,10 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         const uint64_t samples_before = work.samples, leapt_before = work.leapt;
         if (!params.unlit) {
             if (shadow_rays) {
-                light_t = light_transmittance(volume, lut, space, point(), towards,
+                light_t = light_transmittance(volume, lut, space, point, towards,
                                                      params.step, work);
             } else if (light_volume) {
-                light_t = light_from_volume(blocking.light, cell);
+                light_t = light_from_volume(volume, blocking.light, cell);
             }
             if (occlusion_on) occlusion = ambient_occlusion(volume, blocking.occlusion_lut, q, work);
             light = shade_blocked(sample_gradient(volume, cell, params.nearest, work),
@@ -778,19 +723,16 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         pixel.g += weight * sample.g;
         pixel.b += weight * sample.b;
         pixel.transparency *= 1 - alpha;
-        if (trace) trace->add("t=%9.4f p=(%.6f, %.6f, %.6f) value=%9.4f rgba=(%.3f, %.3f, "
-                              "%.3f, %.4f) light_T=%.6f ao=%.6f (%llu shadow samples, %llu "
-                              "leapt) L=%.4f C=(%.6f, %.6f, %.6f) T=%.6g", t(), point().i,
-                              point().j, point().k, value, sample.r, sample.g, sample.b,
-                              sample.a, light_t, occlusion,
-                              (unsigned long long)(work.samples - samples_before),
-                              (unsigned long long)(work.leapt - leapt_before), light, pixel.r,
-                              pixel.g, pixel.b, pixel.transparency);
+        if (trace) {
+            trace->sample(TraceSample(t, point, value).rgba(sample)
+                              .shadow(light_t, occlusion, work.samples - samples_before,
+                                      work.leapt - leapt_before)
+                              .light(light).colour(pixel.r, pixel.g, pixel.b)
+                              .transparency(pixel.transparency));
+        }
         if (pixel.transparency < stop_below && n + 1 < walk.count) {
             ++work.terminated;
-            if (trace) trace->add("T=%.3g < %.3g: early ray termination at t=%.4f, %lld samples "
-                                  "not visited", pixel.transparency, stop_below, t(),
-                                  walk.count - 1 - n);
+            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
             break;
         }
     }
@@ -803,35 +745,6 @@ static Rgb over_background(const Accumulated& ray) {
             float(ray.b + ray.transparency * background.b)};
 }
 //< lesson: front_to_back
-
-// Why `step` asks too much, or "": a ray crosses at most the box's diagonal, and more than
-// max_samples_per_voxel samples per voxel along it (e.g. --spacing 1e6,1e6,1e6) is refused.
-static std::string too_many_samples(const Volume& volume, double step) {
-    const double samples = length(box_high(volume)) / step;
-    const double limit = max_samples_per_voxel * (volume.nx + volume.ny + volume.nz);
-    if (samples <= limit) return "";
-    char text[320];
-    std::snprintf(text, sizeof text, "--step %g with --spacing %g,%g,%g asks for %.4g samples "
-                  "along the box's diagonal, over the limit of %.0f: raise --step or lower "
-                  "--spacing", step, volume.sx, volume.sy, volume.sz, samples, limit);
-    return text;
-}
-
-// "512x384" -> 512, 384; anything else is refused naming --size.
-static void parse_size(const std::string& text, int* width, int* height) {
-    const size_t cross = text.find('x');
-    if (cross == std::string::npos) {
-        throw InputError("--size: expected WIDTHxHEIGHT such as 512x512, got '" + text + "'");
-    }
-    *width = parse_int("--size", text.substr(0, cross), 1, max_image_side);
-    *height = parse_int("--size", text.substr(cross + 1), 1, max_image_side);
-}
-
-static std::string number(double value) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%g", value);
-    return text;
-}
 
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
@@ -880,11 +793,11 @@ int main(int argc, char** argv) {
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
-        parse_size(params.size, &width, &height);
+        parse_size(params.size, max_image_side, &width, &height);
 
         // --- Volume ---
         const Volume volume = load_volume(options);
-        const std::string refused = too_many_samples(volume, params.step);
+        const std::string refused = too_many_samples_along_box(volume, params.step);
         if (!refused.empty()) throw InputError(refused);
 
         // --- Transfer function: the file (in the file's units), its table for this step size ---
@@ -954,19 +867,19 @@ int main(int argc, char** argv) {
             return pixel(camera, light_towards(camera), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
-            return "samples " + number(params.step) + " physical units apart";
+            return "samples " + summary_number(params.step) + " physical units apart";
         };
         renderer.knob = {"step",
                          [&](const View&, int steps) {
                              const double step = std::clamp(
                                  params.step * std::pow(step_key_factor, steps), min_step,
                                  max_step);
-                             if (!too_many_samples(volume, step).empty()) return;  // keep it
+                             if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
                              update_empty_space();
                          },
-                         [&] { return number(params.step); }};
+                         [&] { return summary_number(params.step); }};
         renderer.orbit.turn = [&](double azimuth, double elevation) {
             params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
             params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
@@ -975,21 +888,21 @@ int main(int argc, char** argv) {
             params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
         };
         renderer.orbit.value = [&] {
-            return "azimuth=" + number(params.azimuth) + " elevation=" +
-                   number(params.elevation) + " zoom=" + number(params.zoom);
+            return "azimuth=" + summary_number(params.azimuth) + " elevation=" +
+                   summary_number(params.elevation) + " zoom=" + summary_number(params.zoom);
         };
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "tf=" + tf.source +
-                   " skin_opacity=" + (skin ? number(skin->start.a) : std::string("none")) +
-                   " ert=" + number(params.ert) +
+                   " skin_opacity=" + (skin ? summary_number(skin->start.a) : std::string("none")) +
+                   " ert=" + summary_number(params.ert) +
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
                    " leaping=" + (params.no_leaping ? "off" : "on") +
-                   " projection=" + params.projection + " azimuth=" + number(params.azimuth) +
-                   " elevation=" + number(params.elevation) + " zoom=" + number(params.zoom) +
-                   " fov=" + number(params.fov) + " interpolation=" + params.interpolation +
+                   " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
+                   " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
+                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +
                    " shadows=" + params.shadows +
                    " ao=" + params.ao;
         };

@@ -299,7 +299,7 @@ TEST_CASE("free camera: trilinear samples of a linear ramp equal the closed form
     volume.sx = 1;
     volume.sy = 0.5;
     volume.sz = 2;
-    allocate_pitched(volume);
+    resize_dense(volume);
     for (int k = 0; k < volume.nz; ++k)
         for (int j = 0; j < volume.ny; ++j)
             for (int i = 0; i < volume.nx; ++i)
@@ -332,7 +332,7 @@ TEST_CASE("free camera: a sphere has the same silhouette radius from every direc
     constexpr double radius = 20;
     Volume volume;
     volume.nx = volume.ny = volume.nz = n;
-    allocate_pitched(volume);
+    resize_dense(volume);
     const double centre = (n - 1) / 2.0;
     for (int k = 0; k < n; ++k)
         for (int j = 0; j < n; ++j)

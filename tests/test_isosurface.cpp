@@ -43,7 +43,7 @@ Volume analytic_volume(int nx, int ny, int nz, const std::function<double(int, i
     volume.nx = nx;
     volume.ny = ny;
     volume.nz = nz;
-    allocate_pitched(volume);
+    resize_dense(volume);
     for (int k = 0; k < nz; ++k)
         for (int j = 0; j < ny; ++j)
             for (int i = 0; i < nx; ++i) {
@@ -229,18 +229,21 @@ TEST_CASE("isosurface: rays grazing a sphere hit it on its surface or miss it, n
     const TempFolder folder("isosurface_grazing");
     const std::vector<std::string> raw = write_raw_volume(volume, folder.path("sphere.raw"));
     for (const char* step : {"0.25", "1"}) {
-        for (const char* pixel : {"51,31", "51,30", "12,31", "31,12"}) {
+        // The four grazing pixels traced in one run.
+        const char* pixels[] = {"51,31", "51,30", "12,31", "31,12"};
+        std::vector<std::string> flags = {"--azimuth", "0",  "--elevation", "0",  "--size",
+                                          "64x64",     "--step", step,     "--iso", "300"};
+        for (const char* pixel : pixels) flags.insert(flags.end(), {"--debug-pixel", pixel});
+        const RunResult run = run_iso(raw, flags, folder);
+        REQUIRE(run.traces.size() == 4);
+        CHECK(run.out.find("nan") == std::string::npos);
+        CHECK(non_finite_pixels(picture(folder)) == 0);
+        for (int p = 0; p < 4; ++p) {
+            const char* pixel = pixels[p];
             CAPTURE(std::string(step));
             CAPTURE(std::string(pixel));
-            const RunResult run = run_iso(raw,
-                                          {"--azimuth", "0", "--elevation", "0", "--size",
-                                           "64x64", "--step", step, "--iso", "300",
-                                           "--debug-pixel", pixel},
-                                          folder);
-            REQUIRE(run.traces.size() == 1);
-            const PixelTrace& trace = run.traces[0];
-            CHECK(run.out.find("nan") == std::string::npos);
-            CHECK(non_finite_pixels(picture(folder)) == 0);
+            const PixelTrace& trace = run.traces[p];
+            CHECK(std::to_string(trace.x) + "," + std::to_string(trace.y) == pixel);
             Point origin, direction;
             REQUIRE(traced_ray(trace, &origin, &direction));
             // The ray's closest distance to the centre, from its origin and unit direction.

@@ -104,7 +104,7 @@ std::vector<std::string> ball(const TempFolder& folder) {
     constexpr double radius = 24;
     Volume volume;
     volume.nx = volume.ny = volume.nz = n;
-    allocate_pitched(volume);
+    resize_dense(volume);
     const double centre = (n - 1) / 2.0;
     for (int k = 0; k < n; ++k)
         for (int j = 0; j < n; ++j)

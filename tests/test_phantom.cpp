@@ -34,7 +34,7 @@ TEST_CASE("phantom: CThead's dims and spacing, named phantom") {
     CHECK(volume.sy == 1.0);
     CHECK(volume.sz == 2.0);
     CHECK(volume.name == "phantom");
-    CHECK(volume.data.size() == pitched_size(volume.nx, volume.ny, volume.nz));
+    CHECK(volume.data.size() == volume.voxel_count());  // dense
 }
 
 TEST_CASE("phantom: deterministic, and make_phantom is make_phantom_sized(256, 256, 113)") {
@@ -196,7 +196,7 @@ TEST_CASE("phantom: other sizes keep the head's physical size and never crash") 
         CHECK(v.nx == size[0]);
         CHECK(v.ny == size[1]);
         CHECK(v.nz == size[2]);
-        CHECK(v.data.size() == pitched_size(v.nx, v.ny, v.nz));
+        CHECK(v.data.size() == v.voxel_count());
         CHECK(v.nx * v.sx == doctest::Approx(256));
         CHECK(v.ny * v.sy == doctest::Approx(256));
         CHECK(v.nz * v.sz == doctest::Approx(226));

@@ -37,7 +37,7 @@ Volume make_volume(int nx, int ny, int nz, const std::function<int(int, int, int
     volume.nx = nx;
     volume.ny = ny;
     volume.nz = nz;
-    allocate_pitched(volume);
+    resize_dense(volume);
     for (int k = 0; k < nz; ++k)
         for (int j = 0; j < ny; ++j)
             for (int i = 0; i < nx; ++i)

@@ -1,5 +1,5 @@
-// test_ray_plot.cpp: the ray picture of --debug-pixel (common/ray_plot.h). The trace's fields
-// are the printf arguments by name; the plotted numbers (the .txt sidecar the picture is drawn
+// test_ray_plot.cpp: the ray picture of --debug-pixel (common/ray_plot.h). The trace's records
+// are typed events with their numbers by name; the plotted numbers (the .txt sidecar the picture is drawn
 // from) equal the numbers of the text trace; the pictures of the probe rays equal the golden
 // ones in data/reference/rays/ (make reference writes them, data/reference/probes.txt says
 // which); a run that fails writes no ray picture either.
@@ -26,14 +26,6 @@ using namespace ctlab;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::vector<TraceField> fields_of(const char* format, ...) {
-    va_list arguments;
-    va_start(arguments, format);
-    std::vector<TraceField> fields = trace_fields(format, arguments);
-    va_end(arguments);
-    return fields;
-}
 
 std::string read_text(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
@@ -90,38 +82,66 @@ void check_equal_to_text(double plotted, const std::string& line, const std::str
 
 }  // namespace
 
-TEST_CASE("trace fields: each printf argument by the label before it, at full precision") {
+TEST_CASE("trace records: typed events, their numbers at full precision, their lines made") {
     const double third = 1.0 / 3.0;
-    const auto fields = fields_of(
-        "n=%3d voxel (%d, %d, %d) value=%5d rgba=(%.3f, %.3f, %.3f, "
-        "%.4f) C=(%.6f, %.6f, %.6f) T=%.6g%s",
-        43, 128, 43, 30, 10, 1.0, 0.79, 0.6, 0.12, third, 0.5, 0.25, 0.7744, "  > threshold: hit");
+    Trace trace;
+    trace.sample(TraceSample(43, Voxel{128, 43, 30}, 10).threshold_hit(true));
+    trace.crossing(42, 0.25);
+    trace.sample(TraceSample(44, Voxel{128, 44, 30}, 10)
+                     .rgba(Rgba{1.0f, 0.79f, 0.6f, 0.12f})
+                     .colour(third, 0.5, 0.25)
+                     .transparency(0.7744));
+    trace.stop(0.00422, 0.01, 205);
+    trace.leap_to_voxel(8.0, 15.0, 8, 15);
+    trace.sample(TraceSample(37.25, Vec3d{1, 2, 3}, 400.5).skipped());
+    trace.stop(0.004, 0.01, 7);
+    const std::vector<TraceRecord> records = trace.records();
+    REQUIRE(records.size() == 7);
+
+    CHECK(records[0].kind == TraceKind::sample);
+    CHECK(records[0].hit);
+    CHECK(records[0].text == "n= 43 voxel (128, 43, 30) value=   10  > threshold: hit");
     std::vector<std::string> names;
-    for (const TraceField& f : fields) names.push_back(f.name);
-    CHECK(names == std::vector<std::string>{"n", "voxel.i", "voxel.j", "voxel.k", "value", "rgba.r",
-                                            "rgba.g", "rgba.b", "rgba.a", "C.r", "C.g", "C.b", "T",
-                                            "#14"});
-    CHECK(fields[9].number == third);  // the argument, not the 6 decimals printed
-    CHECK(fields[13].is_text);
-    CHECK(fields[13].text == "  > threshold: hit");
+    for (const TraceField& f : records[2].fields) names.push_back(f.name);
+    CHECK(names == std::vector<std::string>{"n", "voxel.i", "voxel.j", "voxel.k", "value",
+                                            "rgba.r", "rgba.g", "rgba.b", "rgba.a", "C.r",
+                                            "C.g", "C.b", "T"});
+    CHECK(records[2].number("C.r", 0) == third);  // the number, not the 6 decimals printed
+    CHECK(records[2].text == "n= 44 voxel (128, 44, 30) value=   10 rgba=(1.000, 0.790, 0.600, "
+                             "0.1200) C=(0.333333, 0.500000, 0.250000) T=0.7744");
+    CHECK(!records[2].hit);
 
-    const auto leap =
-        fields_of("t=%7.2f..%.2f empty brick up to voxel %d: %d samples leapt", 8.0, 15.0, 15, 8);
-    REQUIRE(leap.size() == 4);
-    CHECK(leap[0].name == "t");
-    CHECK(leap[1].name == "t_end");
-    CHECK(leap[1].number == 15.0);
-    CHECK(leap[2].name == "#3");
+    CHECK(records[1].kind == TraceKind::hit);
+    CHECK(records[1].text == "crossing between n=42 and n=43: hit at 42 + 0.250000");
+    CHECK(records[1].number("fraction", 0) == 0.25);
 
-    const auto repeated = fields_of("crossing between n=%d and n=%d: hit at %d + %.6f %lld %zu", 46,
-                                    47, 46, 0.25, 12345678901LL, size_t(7));
-    REQUIRE(repeated.size() == 6);
-    CHECK(repeated[0].name == "n");
-    CHECK(repeated[1].name == "n#2");
-    CHECK(repeated[3].number == 0.25);
-    CHECK(repeated[4].number == 12345678901.0);
-    CHECK(repeated[5].number == 7.0);
-    CHECK(fields_of("100%% sure x=%d", 3)[0].name == "x");
+    // A stop is where the last sample was, in the place that sample printed.
+    CHECK(records[3].kind == TraceKind::stop);
+    CHECK(records[3].text == "T=0.00422 < 0.01: early ray termination at n=44, 205 samples not "
+                             "visited");
+    CHECK(records[3].number("n", -1) == 44);
+    CHECK(records[6].text == "T=0.004 < 0.01: early ray termination at t=37.2500, 7 samples not "
+                             "visited");
+    CHECK(records[6].number("t", -1) == 37.25);
+
+    CHECK(records[4].kind == TraceKind::leap);
+    CHECK(records[4].text == "t=   8.00..15.00 empty bricks up to voxel 15: 8 samples leapt over");
+    CHECK(records[4].number("t_end", 0) == 15.0);
+    CHECK(records[5].text == "t=  37.2500 p=(1.000000, 2.000000, 3.000000) value= 400.5000 "
+                             "transparent: skipped");
+
+    // The plot reads the kinds: the hit moved to the crossing, the stop, the leap.
+    View view;
+    view.ray_length = 100, view.ray_spacing = 2;
+    const RayPlot plot = ray_plot_from_trace(records, view, {}, Rgb{}, "records");
+    CHECK(plot.samples.size() == 3);
+    std::vector<RayMark::Kind> kinds;
+    for (const RayMark& mark : plot.marks) kinds.push_back(mark.kind);
+    CHECK(kinds == std::vector<RayMark::Kind>{RayMark::hit, RayMark::terminated, RayMark::leapt,
+                                              RayMark::terminated});
+    CHECK(plot.marks[0].from == doctest::Approx((42 + 0.25) * 2));
+    CHECK(plot.marks[1].from == 44 * 2);
+    CHECK(plot.marks[3].from == 37.25);
 }
 
 TEST_CASE("the ray picture's numbers are the text trace's, for every kind of step") {
@@ -361,12 +381,14 @@ TEST_CASE("a camera ray is drawn through the box in the volume's axis views") {
     };
     auto picture_of = [&](Vec3d origin, Vec3d direction, double entry, double exit) {
         TraceRecord ray, box;
+        ray.kind = TraceKind::ray;
+        box.kind = TraceKind::box;
         ray.text = "ray origin=(...) direction=(...)";
         ray.fields = {field("origin.i", origin.i),       field("origin.j", origin.j),
                       field("origin.k", origin.k),       field("direction.i", direction.i),
                       field("direction.j", direction.j), field("direction.k", direction.k)};
         box.text = "box (0, 0, 0)..(63, 47, 62): entry t=... exit t=...";
-        box.fields = {field("t", entry), field("t#2", exit)};
+        box.fields = {field("t", entry), field("t_exit", exit)};
         const RayPlot plot =
             ray_plot_from_trace({ray, box}, views[0].view, {}, Rgb{}, "camera ray");
         REQUIRE(plot.has_ray);

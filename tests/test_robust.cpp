@@ -86,7 +86,7 @@ TEST_CASE("transfer-function text: a BOM, a non-breaking space and CR-only lines
 
 TEST_CASE("Trace: the first 1000 and the last 20 lines, the rest counted") {
     Trace trace;
-    for (int n = 0; n < 5000; ++n) trace.add("sample %d", n);
+    for (int n = 0; n < 5000; ++n) trace.note({{"n", double(n)}}, "sample %d", n);
     REQUIRE(trace.first_lines().size() == Trace::max_first_lines);
     CHECK(trace.first_lines().front() == "sample 0");
     CHECK(trace.first_lines().back() == "sample 999");
@@ -96,9 +96,14 @@ TEST_CASE("Trace: the first 1000 and the last 20 lines, the rest counted") {
     CHECK(last.back() == "sample 4999");
     CHECK(trace.not_shown() == 5000 - 1000 - 20);
     CHECK(trace.lines().size() == 1020);
+    const std::vector<TraceRecord> records = trace.records();  // the same, as records
+    REQUIRE(records.size() == 1020);
+    CHECK(records[999].number("n", -1) == 999);
+    CHECK(records[1000].number("n", -1) == 4980);
+    CHECK(records.back().text == "sample 4999");
 
     Trace short_trace;  // below the cap: every line, nothing counted as dropped
-    for (int n = 0; n < 7; ++n) short_trace.add("s%d", n);
+    for (int n = 0; n < 7; ++n) short_trace.note({}, "s%d", n);
     CHECK(short_trace.lines().size() == 7);
     CHECK(short_trace.last_lines().empty());
     CHECK(short_trace.not_shown() == 0);

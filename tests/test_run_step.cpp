@@ -53,7 +53,7 @@ TEST_CASE("run_step: --pfm writes the float image, its PNG is the same rounded; 
     volume.ny = 4;
     volume.nz = 31;
     volume.sz = 2;
-    allocate_pitched(volume);
+    resize_dense(volume);
     for (int k = 0; k < volume.nz; ++k)
         for (int j = 0; j < volume.ny; ++j)
             for (int i = 0; i < volume.nx; ++i) volume.data[volume.index(i, j, k)] = 10 * k;

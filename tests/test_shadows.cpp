@@ -38,7 +38,7 @@ Volume filled_volume(int nx, int ny, int nz, const std::function<int(int, int, i
     volume.nx = nx;
     volume.ny = ny;
     volume.nz = nz;
-    allocate_pitched(volume);
+    resize_dense(volume);
     for (int k = 0; k < nz; ++k)
         for (int j = 0; j < ny; ++j)
             for (int i = 0; i < nx; ++i) volume.data[volume.index(i, j, k)] = int16_t(value(i, j, k));

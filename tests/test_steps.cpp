@@ -15,6 +15,7 @@
 #include <functional>
 #include <string>
 #include <vector>
+#include "args.h"
 #include "harness.h"
 #include "vec3.h"
 #include "view.h"
@@ -62,7 +63,7 @@ Volume make_volume(int nx, int ny, int nz, const std::function<double(int, int, 
     volume.sy = sy;
     volume.sz = sz;
     volume.name = "test";
-    allocate_pitched(volume);
+    resize_dense(volume);
     for (int k = 0; k < nz; ++k)
         for (int j = 0; j < ny; ++j)
             for (int i = 0; i < nx; ++i) {
@@ -281,10 +282,9 @@ TEST_CASE("ramp: step 05's crossing is the analytic one; steps 02/03 stop at the
         const std::vector<std::string> flags = {"--threshold", std::to_string(threshold)};
         const StepRender r2 = render("02_threshold", flags, volume);
         const StepRender r3 = render("03_depth_shading", flags, volume);
-        const StepRender r5 = render("05_interpolated_hits", joined(flags, debug_pixel(1, 2)),
-                                     volume);
-        const StepRender r5b = render("05_interpolated_hits", joined(flags, debug_pixel(9, 0)),
-                                      volume);
+        const StepRender r5 = render(
+            "05_interpolated_hits", joined(joined(flags, debug_pixel(1, 2)), debug_pixel(9, 0)),
+            volume);
         int crossings = 0, misses = 0, at_edge = 0, traced = 0;
         for (ViewAxis axis : all_axes) {
             const View view = make_view(volume, axis);
@@ -331,7 +331,7 @@ TEST_CASE("ramp: step 05's crossing is the analytic one; steps 02/03 stop at the
                 CHECK(summary_count(summary, "terminated") == terminated);
             }
             // Step 05's sub-voxel t of the traced rays.
-            for (const StepRender* run : {&r5, &r5b}) {
+            for (const StepRender* run : {&r5}) {  // both traced pixels, in one run
                 for (const PixelTrace& trace : run->run.traces) {
                     if (trace.view != view.name) continue;
                     const Voxel first = view.voxel(trace.x, trace.y, 0);
@@ -389,6 +389,8 @@ TEST_CASE("sphere: hits, depth and normals of steps 03/04/05 against the closed 
     const ctlab_test::TempFolder folder("sphere");
     const std::vector<std::string> volume_flags =
         write_raw_volume(volume, folder.path("sphere.raw"));
+    // The wanted pixels traced a few dozen to a run (--debug-pixel given once per pixel).
+    std::vector<std::vector<std::string>> runs(1);  // each run's --debug-pixel flags
     for (int y = 1; y < 64; y += grid) {
         for (int x = 1; x < 64; x += grid) {
             bool wanted = false;  // a measured ray (rho <= 0.8 R) in some view
@@ -399,21 +401,26 @@ TEST_CASE("sphere: hits, depth and normals of steps 03/04/05 against the closed 
                                         0.8 * sphere.radius);
             }
             if (!wanted) continue;
-            for (const char* step : {"04_gradient_lighting", "05_interpolated_hits"}) {
-                const RunResult run = run_step(
-                    step, joined(joined(volume_flags, {"--out", folder.path()}), debug_pixel(x, y)));
-                REQUIRE(run.status == 0);
-                for (const PixelTrace& trace : run.traces) {
-                    for (int v = 0; v < 3; ++v) {
-                        if (trace.view != axis_view[v]) continue;
-                        Traced& entry = traced[v][y * 64 + x];
-                        if (step[1] == '4') {
-                            entry.step4 = trace;
-                            entry.has4 = true;
-                        } else {
-                            entry.step5 = trace;
-                            entry.has5 = true;
-                        }
+            if (runs.back().size() == 2 * max_debug_pixels) runs.emplace_back();
+            runs.back() = joined(runs.back(), debug_pixel(x, y));
+        }
+    }
+    REQUIRE(!runs[0].empty());
+    for (const std::vector<std::string>& pixel_flags : runs) {
+        for (const char* step : {"04_gradient_lighting", "05_interpolated_hits"}) {
+            const RunResult run = run_step(
+                step, joined(joined(volume_flags, {"--out", folder.path()}), pixel_flags));
+            REQUIRE_MESSAGE(run.status == 0, run.err);
+            for (const PixelTrace& trace : run.traces) {
+                for (int v = 0; v < 3; ++v) {
+                    if (trace.view != axis_view[v]) continue;
+                    Traced& entry = traced[v][trace.y * 64 + trace.x];
+                    if (step[1] == '4') {
+                        entry.step4 = trace;
+                        entry.has4 = true;
+                    } else {
+                        entry.step5 = trace;
+                        entry.has5 = true;
                     }
                 }
             }
@@ -839,20 +846,25 @@ TEST_CASE("debug trace: the traced ray gives the image's pixel, and prints it") 
     const std::vector<std::string> phantom = {"--volume", "phantom", "--dims", "48,48,22"};
     for (const std::string& step : step_names()) {
         CAPTURE(step);
+        // The three pixels in one run: one trace per pixel and view, in the order given.
+        const std::vector<std::pair<int, int>> pixels = {{24, 11}, {0, 0}, {47, 21}};
         // Part 2's camera picture at the size of the phantom's top view, 48x48.
-        const std::vector<std::string> size =
-            is_camera_step(step) ? std::vector<std::string>{"--size", "48x48"}
-                                 : std::vector<std::string>{};
-        for (const auto& pixel : {std::pair<int, int>{24, 11}, {0, 0}, {47, 21}}) {
-            const StepRender run = render(
-                step, joined(joined(joined(phantom, size), {"--threads", "2"}),
-                             debug_pixel(pixel.first, pixel.second)));
+        std::vector<std::string> flags = joined(phantom, {"--threads", "2"});
+        if (is_camera_step(step)) flags = joined(flags, {"--size", "48x48"});
+        for (const auto& pixel : pixels) {
+            flags = joined(flags, debug_pixel(pixel.first, pixel.second));
+        }
+        const StepRender run = render(step, flags);
+        for (const PixelTrace& trace : run.run.traces) {  // every trace is of a pixel asked for
+            const std::pair<int, int> pixel(trace.x, trace.y);
+            CHECK(std::find(pixels.begin(), pixels.end(), pixel) != pixels.end());
+        }
+        for (const auto& pixel : pixels) {
             int traced = 0;
             for (const PixelTrace& trace : run.run.traces) {
+                if (trace.x != pixel.first || trace.y != pixel.second) continue;
                 CAPTURE(trace.view);
                 CHECK(trace.complete);
-                CHECK(trace.x == pixel.first);
-                CHECK(trace.y == pixel.second);
                 CHECK(trace.header.rfind("debug pixel x=" + std::to_string(pixel.first) +
                                              " y=" + std::to_string(pixel.second) +
                                              " view=" + trace.view,

@@ -6,6 +6,8 @@
 #include <climits>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <functional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -346,129 +348,91 @@ static Volume dense_ramp(int nx, int ny, int nz) {
     return volume;
 }
 
-TEST_CASE("layout: padded slices; at() and index() agree with the dense logical layout") {
+// Voxel (i, j, k) of a volume in memory, by the coursework's own index: checks `volume`
+// against value(i, j, k) at data[(k*ny + j)*nx + i]; returns the voxels that differ.
+static int dense_mismatches(const Volume& volume,
+                            const std::function<int(int, int, int)>& value) {
+    int wrong = volume.data.size() == volume.voxel_count() ? 0 : 1;
+    if (wrong) return wrong;
+    for (int k = 0; k < volume.nz; ++k)
+        for (int j = 0; j < volume.ny; ++j)
+            for (int i = 0; i < volume.nx; ++i) {
+                const size_t n = (size_t(k) * volume.ny + j) * volume.nx + i;
+                if (volume.index(i, j, k) != n || volume.at(i, j, k) != volume.data[n] ||
+                    volume.data[n] != value(i, j, k)) {
+                    ++wrong;
+                }
+            }
+    return wrong;
+}
+
+TEST_CASE("layout: every volume in memory is dense, voxel (i, j, k) at (k*ny + j)*nx + i") {
     const int dims[][3] = {{256, 256, 113}, {7, 5, 3}, {1, 1, 1},  {5, 4, 3},
                            {33, 1, 9},      {64, 64, 4}, {64, 32, 3}, {65, 32, 2}};
+    auto ramp = [](int i, int j, int k) { return 3 * i + 5 * j + 7 * k - 1000; };
     for (const auto& d : dims) {
         CAPTURE(d[0]);
         CAPTURE(d[1]);
         CAPTURE(d[2]);
+        // Built densely by hand, then update_range: nothing moves.
         Volume volume = dense_ramp(d[0], d[1], d[2]);
         const std::vector<int16_t> dense = volume.data;
-        update_range(volume);  // lays the slices out
-        const size_t slice_bytes = volume.slice_stride * sizeof(int16_t);
-        CHECK(volume.row_stride == size_t(d[0]));
-        CHECK(volume.slice_stride >= size_t(d[0]) * size_t(d[1]));
-        const size_t dense_bytes = size_t(d[0]) * size_t(d[1]) * sizeof(int16_t);
-        if (dense_bytes < 4096) {
-            CHECK(slice_bytes == dense_bytes);  // a small slice stays dense
-        } else {
-            CHECK(slice_bytes % 64 == 0);
-            CHECK((slice_bytes / 64) % 2 == 1);      // an odd number of cache lines
-            CHECK(slice_bytes - dense_bytes < 128);  // at most 2 lines more
-        }
-        CHECK(volume.data.size() == pitched_size(d[0], d[1], d[2]));
-        int wrong = 0;
-        for (int k = 0; k < volume.nz; ++k)
-            for (int j = 0; j < volume.ny; ++j)
-                for (int i = 0; i < volume.nx; ++i) {
-                    const size_t n = volume.index(i, j, k);
-                    if (n != size_t(k) * volume.slice_stride + size_t(j) * size_t(d[0]) + size_t(i) ||
-                        volume.at(i, j, k) != 3 * i + 5 * j + 7 * k - 1000 ||
-                        volume.at(i, j, k) != dense[(size_t(k) * d[1] + j) * d[0] + i] ||
-                        volume.row(j, k)[i] != volume.at(i, j, k) ||
-                        volume.slice(k)[size_t(j) * d[0] + i] != volume.at(i, j, k)) {
-                        ++wrong;
-                    }
-                }
-        CHECK(wrong == 0);
-        CHECK(dense_values(volume) == dense);  // files and hashes see no padding
-        // The range is the ramp's: its first and last voxel, padding left out.
+        update_range(volume);
+        CHECK(volume.data == dense);
+        CHECK(dense_mismatches(volume, ramp) == 0);
+        CHECK(dense_values(volume) == dense);
         CHECK(volume.min_value == -1000);
         CHECK(volume.max_value == 3 * (d[0] - 1) + 5 * (d[1] - 1) + 7 * (d[2] - 1) - 1000);
-        // The padding holds only values of the volume's range.
-        for (int16_t value : volume.data) {
-            if (value < volume.min_value || value > volume.max_value) ++wrong;
-        }
-        CHECK(wrong == 0);
-        // A second update_range changes nothing; writing through index() gives the same data.
-        const std::vector<int16_t> laid_out = volume.data;
-        update_range(volume);
-        CHECK(volume.data == laid_out);
+        // Written voxel by voxel through index() after resize_dense: the same data.
         Volume written;
         written.nx = d[0], written.ny = d[1], written.nz = d[2];
-        allocate_pitched(written);
+        resize_dense(written);
+        CHECK(written.data.size() == written.voxel_count());
         for (int k = 0; k < d[2]; ++k)
             for (int j = 0; j < d[1]; ++j)
-                for (int i = 0; i < d[0]; ++i)
-                    written.data[written.index(i, j, k)] = int16_t(3 * i + 5 * j + 7 * k - 1000);
-        update_range(written);
-        CHECK(written.data == laid_out);
-    }
-    // CThead's slices: 128 KiB dense, a multiple of 4 KiB; padded by one cache line.
-    CHECK(pitched_slice_stride(256, 256) * 2 == 131072 + 64);
-    CHECK(pitched_slice_stride(512, 512) * 2 == 524288 + 64);
-}
-
-TEST_CASE("layout: the padding never shows: not in min/max, not along any view's ray") {
-    Volume volume = dense_ramp(64, 40, 5);  // 5 KiB slices: padded
-    update_range(volume);
-    REQUIRE(volume.slice_stride > size_t(volume.nx) * size_t(volume.ny));
-    // Poison the padding with values far outside the ramp: rays and update_range skip it.
-    const size_t dense = size_t(volume.nx) * size_t(volume.ny);
-    for (int k = 0; k < volume.nz; ++k) {
-        int16_t* slice = volume.data.data() + size_t(k) * volume.slice_stride;
-        std::fill(slice + dense, slice + volume.slice_stride, int16_t(32767));
-    }
-    for (ViewAxis axis : {ViewAxis::top, ViewAxis::front, ViewAxis::side}) {
-        const View view = make_view(volume, axis);
-        CAPTURE(view.name);
-        int wrong = 0;
-        for (int y = 0; y < view.height; ++y)
-            for (int x = 0; x < view.width; ++x) {
-                const RayVoxels ray = ray_voxels(volume, view, x, y);
-                int highest = -32768;
-                for (int n = 0; n < view.ray_length; ++n) {
-                    const Voxel v = view.voxel(x, y, n);
-                    if (ray[n] != volume.at(v.i, v.j, v.k)) ++wrong;
-                    highest = std::max(highest, int(ray[n]));
+                for (int i = 0; i < d[0]; ++i) {
+                    written.data[written.index(i, j, k)] = int16_t(ramp(i, j, k));
                 }
-                if (highest == 32767) ++wrong;
-            }
-        CHECK(wrong == 0);
+        update_range(written);
+        CHECK(written.data == dense);
     }
-    update_range(volume);
-    CHECK(volume.min_value == -1000);
-    CHECK(volume.max_value == 3 * 63 + 5 * 39 + 7 * 4 - 1000);
 }
 
-TEST_CASE("layout: a raw file's volume keeps the padding out of a file written back") {
+TEST_CASE("layout: a raw file and the phantom are dense in memory, as the file's bytes") {
     TempFolder folder("layout");
-    Volume volume = dense_ramp(64, 33, 4);  // slices over 4 KiB: padded
-    update_range(volume);
-    REQUIRE(volume.slice_stride > size_t(volume.nx) * size_t(volume.ny));
-    const std::vector<std::string> flags = write_raw_volume(volume, folder.path("ramp.raw"));
-    RawFormat format = format_of(64, 33, 4);
-    const Volume loaded = load_raw(folder.path("ramp.raw"), format);
-    CHECK(loaded.data == volume.data);
-    CHECK(dense_values(loaded) == dense_values(volume));
-    CHECK(loaded.min_value == volume.min_value);
-    CHECK(loaded.max_value == volume.max_value);
+    // A raw int16 file of odd size, written here byte by byte (little-endian), then loaded.
+    const int nx = 13, ny = 7, nz = 5;
+    std::vector<unsigned char> bytes;
+    auto ramp = [](int i, int j, int k) { return 3 * i + 5 * j + 7 * k - 1000; };
+    for (int k = 0; k < nz; ++k)
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i) {
+                const uint16_t v = uint16_t(int16_t(ramp(i, j, k)));
+                bytes.push_back(uint8_t(v & 0xff));
+                bytes.push_back(uint8_t(v >> 8));
+            }
+    const std::string path = folder.path("ramp.raw");
+    {
+        FILE* file = std::fopen(path.c_str(), "wb");
+        REQUIRE(file != nullptr);
+        REQUIRE(std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size());
+        std::fclose(file);
+    }
+    const Volume loaded = load_raw(path, format_of(nx, ny, nz));
+    CHECK(dense_mismatches(loaded, ramp) == 0);
+    // The phantom, and a small one of odd size: written to a raw file and read back, its
+    // bytes at 2 * ((k*ny + j)*nx + i) are voxel (i, j, k).
+    for (const Volume& phantom : {make_phantom(), make_phantom_sized(17, 9, 5)}) {
+        CAPTURE(phantom.nx);
+        write_raw_volume(phantom, folder.path("phantom.raw"));
+        const std::vector<unsigned char> file = read_file_bytes(folder.path("phantom.raw"));
+        REQUIRE(file.size() == 2 * phantom.voxel_count());
+        CHECK(dense_mismatches(phantom, [&](int i, int j, int k) {
+                  const size_t n = 2 * ((size_t(k) * phantom.ny + j) * phantom.nx + i);
+                  return int(int16_t(uint16_t(file[n] | (file[n + 1] << 8))));
+              }) == 0);
+    }
 }
-
-#ifdef __SANITIZE_ADDRESS__
-// Only SAN=1 builds check (the release build keeps index() to its arithmetic).
-TEST_CASE("layout: under SAN, index() refuses a volume whose slices were never laid out") {
-    Volume volume = dense_ramp(64, 33, 4);  // dense values, strides still 0
-    CHECK(volume.index(5, 0, 0) == 5);     // row 0 of slice 0 is the same in both layouts
-    CHECK_THROWS_WITH_AS(volume.at(5, 1, 0), doctest::Contains("never laid out"),
-                         std::logic_error);
-    CHECK_THROWS_AS(volume.index(0, 0, 3), std::logic_error);
-    update_range(volume);
-    CHECK(volume.index(5, 1, 0) == volume.row_stride + 5);
-    CHECK(volume.at(5, 1, 3) == 3 * 5 + 5 * 1 + 7 * 3 - 1000);  // the ramp's value there
-}
-#endif
 
 TEST_CASE("update_range: min and max over the whole volume") {
     Volume volume;
@@ -818,6 +782,25 @@ TEST_CASE("args: every shared flag and a step's own, both --flag value and --fla
     parse({"--threshold", "-32768", "--light-angle=180"}, &edges);
     CHECK(edges.threshold == -32768);
     CHECK(edges.light_angle == 180.0);
+}
+
+TEST_CASE("args: --debug-pixel given again traces every pixel, each once, at most 64") {
+    const Options two = parse({"--debug-pixel", "10,20", "--debug-pixel=30,40", "--debug-pixel",
+                               "10,20"});
+    CHECK(two.has_debug_pixel);
+    CHECK(two.debug_x == 10);  // the first
+    CHECK(two.debug_y == 20);
+    CHECK(two.debug_pixels ==
+          std::vector<std::pair<int, int>>{{10, 20}, {30, 40}});  // the repeat kept once
+    std::vector<std::string> words;
+    for (size_t n = 0; n <= max_debug_pixels; ++n) {
+        words.push_back("--debug-pixel");
+        words.push_back(std::to_string(n) + ",1");
+    }
+    const std::string message = input_error([&] { parse(words); });
+    CHECK_MESSAGE(contains(message, "--debug-pixel: at most 64 pixels"), message);
+    words.resize(2 * max_debug_pixels);
+    CHECK(parse(words).debug_pixels.size() == max_debug_pixels);
 }
 
 TEST_CASE("args: every bad flag throws an InputError naming the flag") {

@@ -274,7 +274,7 @@ Volume shape_volume(const Ellipsoid& shape) {
     volume.nx = cthead_nx, volume.ny = cthead_ny, volume.nz = cthead_nz;
     volume.sx = cthead_sx, volume.sy = cthead_sy, volume.sz = cthead_sz;
     volume.name = shape.name;
-    allocate_pitched(volume);
+    resize_dense(volume);
     for (int k = 0; k < volume.nz; ++k)
         for (int j = 0; j < volume.ny; ++j)
             for (int i = 0; i < volume.nx; ++i) {
@@ -326,7 +326,7 @@ Volume finer_shape_volume(const Ellipsoid& shape, double h) {
     volume.nz = int(std::lround((cthead_nz - 1) / h)) + 1;
     volume.sx = cthead_sx, volume.sy = cthead_sy, volume.sz = cthead_sz * h;
     volume.name = shape.name;
-    allocate_pitched(volume);
+    resize_dense(volume);
     for (int k = 0; k < volume.nz; ++k)
         for (int j = 0; j < volume.ny; ++j)
             for (int i = 0; i < volume.nx; ++i) {
@@ -1009,7 +1009,7 @@ Volume make_volume(int nx, int ny, int nz, const std::function<double(int, int, 
     Volume volume;
     volume.nx = nx, volume.ny = ny, volume.nz = nz;
     volume.sx = sx, volume.sy = sy, volume.sz = sz;
-    allocate_pitched(volume);
+    resize_dense(volume);
     for (int k = 0; k < nz; ++k)
         for (int j = 0; j < ny; ++j)
             for (int i = 0; i < nx; ++i) {

@@ -79,8 +79,7 @@ NOT_FUZZED void check_volume(const ctlab::Volume& volume, const ctlab::RawFormat
             "the volume's dims differ from the format's");
     require(volume.sx == format.sx && volume.sy == format.sy && volume.sz == format.sz,
             "the volume's spacing differs from the format's");
-    require(volume.data.size() == ctlab::pitched_size(volume.nx, volume.ny, volume.nz),
-            "data size != the pitched layout's");
+    require(volume.data.size() == volume.voxel_count(), "data size != nx*ny*nz (dense)");
     const std::vector<int16_t> values = ctlab::dense_values(volume);
     require(values.size() * 2 == bytes.size(), "voxel count != bytes / 2");
     int low = 32767, high = -32768;
@@ -356,8 +355,7 @@ void image_file(const uint8_t* data, size_t size) {
 NOT_FUZZED void check_loaded(const ctlab::Volume& volume) {
     require(volume.nx >= 1 && volume.ny >= 1 && volume.nz >= 1, "a volume without voxels");
     require(volume.voxel_count() <= ctlab::max_voxels, "a volume over the voxel limit");
-    require(volume.data.size() == ctlab::pitched_size(volume.nx, volume.ny, volume.nz),
-            "data size != the pitched layout's");
+    require(volume.data.size() == volume.voxel_count(), "data size != nx*ny*nz (dense)");
     require(std::isfinite(volume.sx) && std::isfinite(volume.sy) && std::isfinite(volume.sz) &&
                 volume.sx > 0 && volume.sy > 0 && volume.sz > 0,
             "a spacing that is not a positive number");
