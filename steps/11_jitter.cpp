@@ -796,7 +796,14 @@ int main(int argc, char** argv) {
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
-            if (params.show_jitter) return grey(jitter_offset(jitter, x, y));
+            if (params.show_jitter) {  // the offset itself, no ray: the trace says so
+                const double u = jitter_offset(jitter, x, y);
+                if (trace) {
+                    trace->note({{"u", u}}, "shows the jitter offset u=%.6f (--show-jitter): "
+                                "no ray is cast", u);
+                }
+                return grey(u);
+            }
             return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
                                                            to_light, params, jitter, work, trace));
         };

@@ -107,6 +107,7 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     if (step.rfind("11", 0) == 0) {
         all.push_back({"--jitter", "blue"});
         all.push_back({"--jitter", "hash", "--zoom", "0.01"});
+        all.push_back({"--jitter", "hash", "--show-jitter"});  // a trace with no ray
     }
     if (projection_modes) {
         all.push_back({"--mode", "minip", "--slab", "2"});

@@ -43,8 +43,8 @@ constexpr bool can_limit_memory = true;
 
 constexpr uint64_t buffer_allowance = uint64_t(12) << 20;  // bytes beyond the volume
 constexpr uint64_t big_voxels = 256 * 256 * 64;
-// The int16 volume, laid out with its padded slices (volume.h) and reserved in one piece.
-const uint64_t big_volume_bytes = pitched_size(256, 256, 64) * sizeof(int16_t);
+// The int16 volume, dense (volume.h) and reserved in one piece.
+const uint64_t big_volume_bytes = big_voxels * sizeof(int16_t);
 
 Volume load_any(const std::string& path) {
     const std::string format = volume_format_of(path);
