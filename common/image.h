@@ -25,10 +25,12 @@ struct Image {
 unsigned char to_byte(float value);
 
 // zlib's compression levels for write_png: the pictures a step renders get stb's default;
-// the ray pictures of --debug-pixel, which a test or a student opens at most once, the fast
-// level (a 700x400 ray picture compressed in about a tenth of the time, some 30% bigger).
+// the ray pictures of --debug-pixel, which a test or a student opens at most once, are
+// stored uncompressed (level 0: no compression at all, several times bigger, a copy's cost;
+// stb's own fastest level still took most of a --debug-pixel run).
 constexpr int default_png_compression = 8;
-constexpr int fast_png_compression = 1;
+constexpr int stored_png_compression = 0;
+constexpr int fast_png_compression = stored_png_compression;
 
 // Writes an 8-bit RGB PNG through a temporary file renamed into place, so a reader never
 // sees a half-written PNG. Throws InputError when the folder cannot be written. Not for two

@@ -12,6 +12,7 @@
 #include "image.h"
 #include "output_files.h"
 #include "render.h"
+#include "tools/image_read.h"
 #include "transfer_function.h"
 
 using namespace ctlab;
@@ -144,4 +145,32 @@ TEST_CASE("OutputFiles: renamed together at commit, removed when not committed")
     CHECK(OutputFiles::active() == nullptr);
     write_png(image, folder.path() + "/c.png");
     CHECK(names_in(folder.path()).size() == 3);
+}
+
+TEST_CASE("write_png: a stored PNG (the ray pictures' level) reads back as the same pixels") {
+    // 300 x 250 RGB: more than one stored block of 65535 bytes, an odd row length.
+    Image image(300, 250);
+    for (int y = 0; y < image.height; ++y) {
+        for (int x = 0; x < image.width; ++x) {
+            image.at(x, y) = {float((x * 7 + y) % 256) / 255, float((x ^ y) % 256) / 255,
+                              float((3 * x + 5 * y) % 256) / 255};
+        }
+    }
+    const ctlab_test::TempFolder folder("stored_png");
+    write_png(image, folder.path("stored.png"), stored_png_compression);
+    write_png(image, folder.path("compressed.png"));
+    // Read by tools/image_read (stb_image, after checking every CRC and the Adler-32).
+    const Image stored = read_image(folder.path("stored.png"));
+    const Image compressed = read_image(folder.path("compressed.png"));
+    REQUIRE(stored.width == image.width);
+    REQUIRE(stored.height == image.height);
+    int differing = 0;
+    for (size_t n = 0; n < image.pixels.size(); ++n) {
+        const Rgb& a = stored.pixels[n];
+        const Rgb& b = compressed.pixels[n];
+        differing += a.r != b.r || a.g != b.g || a.b != b.b ||
+                     to_byte(a.r) != to_byte(image.pixels[n].r);
+    }
+    CHECK(differing == 0);
+    CHECK(std::filesystem::file_size(folder.path("stored.png")) > 300 * 250 * 3);
 }
