@@ -33,7 +33,12 @@ if [ "${1:-}" = "--xdotool" ]; then
     while [ -z "$window" ]; do
         window=$(xdotool search --name "^$name [|]" 2>/dev/null | head -n 1)
         tries=$((tries + 1))
-        [ "$tries" -gt 100 ] && { echo "xdotool: no window named $name"; finish; }
+        if ! kill -0 "$pid" 2>/dev/null; then  # the step ended before its window showed
+            echo "xdotool: $name ended without a window: $(tail -n 3 "$log" | tr '\n' ' ')"
+            finish
+        fi
+        # about 60 s: a machine busy with the other suites of make test
+        [ "$tries" -gt 300 ] && { echo "xdotool: no window named $name"; finish; }
         [ -z "$window" ] && sleep 0.2
     done
     wait_for '^window: widget ' || finish

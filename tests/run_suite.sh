@@ -15,7 +15,11 @@ mkdir -p "$logs" || exit 2
 log=$logs/$name.log
 started=$(date +%s)
 if [ -f "tests/${name}_test.sh" ]; then
-    sh "tests/${name}_test.sh" "$build" > "$log" 2>&1
+    case $name in
+        window|panel)  # real windows on virtual X displays: one such suite at a time
+            flock "$logs/x_display.lock" sh "tests/${name}_test.sh" "$build" > "$log" 2>&1 ;;
+        *) sh "tests/${name}_test.sh" "$build" > "$log" 2>&1 ;;
+    esac
 elif [ -f "tests/$name.cpp" ]; then
     # -sf: the test cases written in that file; a crash still ends the log with its message.
     "$build/ctlab_tests" --source-file="*tests/$name.cpp" --no-version=true > "$log" 2>&1
