@@ -340,8 +340,13 @@ BUILD_FLAGS := $(CXX) $(CPPFLAGS) $(CXXFLAGS) | $(LDFLAGS) $(LDLIBS) | $(FORMAT_
                $(IMGUI_LIBS) \
                | $(MODULE_LDFLAGS) | $(PROGRAM_LIB)
 FLAGS_STAMP := $(BUILD)/flags.txt
+# Only a make that builds may rewrite it: a test's `make reference STEP_BINARIES=` or
+# `make carry` given other flags must not mark the whole build folder out of date.
+STAMP_GOALS := $(filter-out reference carry diff help clean run,$(or $(MAKECMDGOALS),all))
+ifneq ($(STAMP_GOALS),)
 ifneq ($(BUILD_FLAGS),$(shell cat $(FLAGS_STAMP) 2>/dev/null))
 $(shell mkdir -p $(BUILD) && printf '%s\n' '$(BUILD_FLAGS)' > $(FLAGS_STAMP))
+endif
 endif
 
 $(BUILD)/%.o: %.cpp $(FLAGS_STAMP)

@@ -390,8 +390,10 @@ public:
         shots_ = session.shots;
     }
 
-    // ... and hands it on.
+    // ... and hands it on, unless the session was closed first (quit, another preset): then
+    // session_ is gone and there is nothing to hand on to (only its address is compared).
     ~PreviewWindow() {
+        if (open_session.get() != &session_) return;
         session_.view = preview_.current;
         session_.has_ray = has_ray_;
         session_.ray_x = ray_x_;

@@ -332,7 +332,8 @@ for k in range(nz):
             values.append(-1000 if r > 30 else 0 if r > 24 else 1200)  # air, skin, bone
 open(sys.argv[1], 'wb').write(struct.pack('<%dh' % len(values), *values))
 EOF
-make --no-print-directory reference BUILD="$build" VOLUME="$work/sphere.raw" DIMS=64,80,40 \
+make --no-print-directory reference STEP_BINARIES= BUILD="$build" VOLUME="$work/sphere.raw" \
+    DIMS=64,80,40 \
     REFERENCE="$work/ref64" > "$work/reference.out" 2>&1
 status=$?
 [ $status -eq 0 ] && [ "$(png_width "$work/ref64/02_threshold_front.png")" -eq 64 ] &&

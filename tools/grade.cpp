@@ -391,6 +391,11 @@ Outcome run_step_process(const fs::path& program, const std::vector<std::string>
 //   STAGE/run/                                              one run's output folder
 // No reference folder, no other student, no home: the sandbox sees /usr and these.
 
+#ifdef __SANITIZE_ADDRESS__
+constexpr bool lab_has_sanitizers = true;  // this grader, and so the lab's library, is SAN=1
+#else
+constexpr bool lab_has_sanitizers = false;
+#endif
 // The lab's modules beside its library (common/module.h): staged with it, never rebuilt.
 constexpr const char* lab_modules[] = {"ctlab_formats.so", "ctlab_window.so"};
 constexpr size_t max_source_bytes = 4 << 20;        // one step's .cpp
@@ -761,7 +766,10 @@ Limits sandbox_limits(double wall_s, bool build) {
     Limits limits;
     limits.wall_s = wall_s;
     limits.cpu_s = build ? build_cpu_s : wall_s;
-    limits.address_space = build ? build_memory : run_memory;
+    // ASan reserves terabytes of address space for its shadow: a sanitizer build's programs
+    // cannot start under any limit of it (their memory is still bounded by the build's own
+    // checks); the other limits hold.
+    limits.address_space = lab_has_sanitizers ? 0 : build ? build_memory : run_memory;
     limits.file_size = build ? build_file_bytes : run_file_bytes;
     limits.open_files = sandbox_open_files;
     limits.processes = sandbox_processes;
@@ -940,6 +948,9 @@ void Grader::stage_and_build(const std::vector<std::string>& names) {
     for (const char* module : lab_modules) {
         arguments.insert(arguments.end(), {"-o", std::string("build/") + module});
     }
+    // A sanitizer build of the lab (make SAN=1) has an instrumented library: the students'
+    // steps are built the same way, or they would not link against it.
+    if (lab_has_sanitizers) arguments.push_back("SAN=1");
     arguments.insert(arguments.end(), targets.begin(), targets.end());
     options.stop = &interrupted;
     const Outcome outcome = checked(run_process("/usr/bin/make", arguments, options));
