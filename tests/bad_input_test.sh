@@ -558,7 +558,7 @@ fi
 ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
 export ASAN_OPTIONS
 if command -v Xvfb > /dev/null 2>&1; then
-    Xvfb -displayfd 3 -nolisten tcp 3> "$work/xdisplay" > /dev/null 2>&1 &
+    Xvfb -displayfd 3 -nolisten tcp -noreset 3> "$work/xdisplay" > /dev/null 2>&1 &
     xvfb=$!
     helpers="$helpers $xvfb"
     if wait_until 20 test -s "$work/xdisplay"; then
