@@ -109,12 +109,17 @@ LIBTOOLS       := $(BUILD)/libctlab_tools.a
 .PHONY: carry  # in a student tree: your functions forward into later steps
 .PHONY: check check-steps san  # grading this tree's programs, and one step with the sanitizers
 .PHONY: fuzz fuzz-build
-.PHONY: bench study  # measuring: speed, and error against run time
+.PHONY: bench study peers  # measuring: speed, and error against run time
 .PHONY: screenshots  # the README's pictures of the window's control panel
 .DEFAULT_GOAL := all
 
+# make bench's peers (tools/peer_volpack.c, tools/peer_vtk.py): VolPack's program is built
+# only where libvolpack1-dev is installed (`make bench PEERS=1` installs the peers).
+VOLPACK_HEADER := $(wildcard /usr/include/volpack.h)
+PEER_BINARIES  := $(if $(VOLPACK_HEADER),$(BUILD)/peer_volpack)
+
 # Build every step and tool, and the modules they open (common/module.h).
-all: $(STEP_BINARIES) $(TOOL_BINARIES) $(MODULES)
+all: $(STEP_BINARIES) $(TOOL_BINARIES) $(MODULES) $(PEER_BINARIES)
 
 help:
 	@echo "make            build every step into $(BUILD)/NN_name, and the tools"
@@ -146,6 +151,7 @@ help:
 	@echo "make study      error against run time of the methods (depth, step size, early"
 	@echo "                termination, float/double): out/study/ and the handouts' tables"
 	@echo "make bench QUICK=1, make study QUICK=1   a quick run that checks they work (CI)"
+	@echo "make bench PEERS=1   install the peers first (VolPack, VTK, xvfb): the peer table"
 
 # Install missing Debian packages (as root: apt-get; otherwise prints the one sudo command).
 deps:
@@ -222,13 +228,21 @@ clean:
 # QUICK=1 (CI): a small volume and one render per case, to check the tool still works.
 # A full run then copies its figures into the handouts' <!-- measured: bench:... --> blocks
 # (tools/measured.cpp), so a handout's speed table is always the last `make bench`.
-bench: $(BUILD)/bench $(BUILD)/measured $(STEP_BINARIES)
+bench: $(if $(filter 1,$(PEERS)),peers) $(BUILD)/bench $(BUILD)/measured $(STEP_BINARIES) \
+       $(PEER_BINARIES)
+ifeq ($(PEERS),1)
+	@$(MAKE) --no-print-directory $(BUILD)/peer_volpack
+endif
 ifeq ($(QUICK),1)
 	$(BUILD)/bench --quick --out out/bench_quick.md
 else
 	$(BUILD)/bench --out out/bench.md
 	$(BUILD)/measured out/bench.md
 endif
+
+# The peers for make bench (PEERS=1): VolPack, VTK, a virtual X display for VTK (as root).
+peers:
+	@sh tools/install-deps.sh peers
 
 # Error against run time of each method and parameter, and the stiff numerical cases
 # (tools/study.cpp): out/study/error_vs_time.csv, .png and .md, out/study/numerics.md.
@@ -377,6 +391,11 @@ $(BUILD)/%: $(BUILD)/steps/%.o $(LIBCTLAB) $(FLAGS_STAMP) | $(MODULES)
 
 $(BUILD)/%: $(BUILD)/tools/%.o $(LIBTOOLS) $(LIBCTLAB) $(FLAGS_STAMP) | $(MODULES)
 	$(CXX) $(LDFLAGS) $< $(LIBTOOLS) $(PROGRAM_LIB) $(LDLIBS) -o $@
+
+# VolPack's peer: C, its own small program (libvolpack.a, static).
+$(BUILD)/peer_volpack: tools/peer_volpack.c $(FLAGS_STAMP)
+	@mkdir -p $(dir $@)
+	$(CC) -std=c11 $(OPT) -g -Wall -Wextra $(if $(filter 1,$(WERROR)),-Werror) $< -lvolpack -lm -o $@
 
 $(BUILD)/fuzz_%: $(BUILD)/tests/fuzz/fuzz_%.o $(BUILD)/tests/fuzz/targets.o $(FORMAT_OBJECTS) \
                  $(LIBTOOLS) $(LIBCTLAB)
