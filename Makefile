@@ -225,6 +225,8 @@ clean:
 # and every step's top view on the phantom at 512^3 (time per visited sample against the
 # 256x256 view's, peak memory against the volume's size). Each target: met or missed.
 # Timing needs an idle machine: check `uptime`.
+# With the peers installed (PEERS=1 installs them: VolPack, VTK), a table of them against ctlab's
+# fastest step per case, interleaved in the same run (tools/bench.cpp, peers_section).
 # QUICK=1 (CI): a small volume and one render per case, to check the tool still works.
 # A full run then copies its figures into the handouts' <!-- measured: bench:... --> blocks
 # (tools/measured.cpp), so a handout's speed table is always the last `make bench`.

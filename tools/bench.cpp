@@ -1,7 +1,7 @@
 // bench.cpp: how fast every step renders, with one thread and with two.
 //
 //   build/bench [--volume phantom|PATH] [--runs N] [--out FILE] [--steps NN,NN]
-//               [--flags "FLAGS"] [--quick]                                    (make bench)
+//               [--flags "FLAGS"] [--quick] [--peers]                          (make bench)
 //
 // Each step runs as its own program (tools/run_step.h), as a student runs it, at its default
 // settings, with --repeat N: every view is rendered N times, and its summary line gives the
@@ -31,6 +31,12 @@
 // timed step 04's top view at 7.4 ms on 2 threads, the next at 17.1). So a full run makes
 // `passes` passes over every step, one after the other, and each figure is the median of the
 // passes' figures: a burst spoils one pass of one step, not the figure.
+//
+// The peers (a run at the defaults, and --quick): VolPack and VTK, when installed, time the
+// four cases of ../shared/performance.md on the phantom at spacing 1,1,1 (--quick: the small
+// phantom) interleaved with ctlab's candidate steps for each case; a table of ratios peer ms /
+// ctlab ms, first renders, and issue #30's targets met or missed (see peers_section).
+// --peers makes that table alone.
 //
 // A full run on the phantom at default settings also writes each step's figures as a section
 // "bench:NN_name" for tools/measured.cpp (make bench copies them into the handouts' blocks).
@@ -717,16 +723,442 @@ bool file_exists(const std::string& path) {
     return stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
 }
 
+// --- The peers: VolPack and VTK against ctlab, case by case (../shared/performance.md) ---
+// Four cases on the phantom at spacing 1,1,1 with the classic table: a composite unlit top
+// view, b composite lit top view, c composite unlit oblique (azimuth 30, elevation 20, the
+// bounding sphere filling 512x512), d maximum intensity top view. Each pass runs, case by
+// case, every ctlab candidate (1 thread, then every core) and each installed peer (VolPack:
+// build/peer_volpack, 1 thread; VTK: tools/peer_vtk.py under xvfb-run, every core), each a
+// fresh process rendering `runs` times: its first render is the cold figure, the median of
+// the others the warm one. Odd passes run the case's programs in the other order, so that
+// a drift of the machine's speed hits ctlab and the peers alike; every figure is the median
+// over the passes. Ratios are peer ms / ctlab ms (above 1: ctlab is faster).
+struct PeerCase {
+    char id;           // 'a'..'d'
+    const char* what;  // for the tables
+    bool oblique;      // 512x512 (quick: 128x128), else one pixel per voxel, top view
+};
+const PeerCase peer_cases[] = {{'a', "composite unlit, top", false},
+                               {'b', "composite lit, top", false},
+                               {'c', "composite unlit, oblique", true},
+                               {'d', "maximum intensity, top", false}};
+constexpr int peer_case_count = 4;
+constexpr int oblique_side = 512, quick_oblique_side = 128;  // pixels, case c
+constexpr int first_part3_step = 30;  // steps numbered from here on are part 3's
+
+// Issue #30's targets for the last part-3 step, all cores: peer ms / ctlab ms at least this
+// (0: none; VolPack has no maximum intensity).
+constexpr double volpack_target[peer_case_count] = {2, 1.5, 1, 0};
+constexpr double vtk_target[peer_case_count] = {8, 6, 6, 5};
+constexpr double volpack_one_thread_goal = 1;   // cases a and b, ctlab on 1 thread
+constexpr double peer_cold_ratio_target = 3;    // first render (fresh process) / warm
+
+// ctlab's candidates for each case, by step name (the number may change): the flags that
+// make it render the case ("" when it cannot). Part-3 steps (number >= first_part3_step)
+// are candidates for every case with the camera flags of part 2's steps. ctlab's figure for
+// a case is its fastest candidate's (every core); the targets are about the last part-3 step.
+struct CandidateRule {
+    const char* name;  // the step's name after "NN_"
+    const char* flags[peer_case_count];
+};
+// "{top}" is the top camera (elevation 90, one pixel per voxel), "{oblique}" the oblique one.
+const CandidateRule candidate_rules[] = {
+    {"ray_loops", {"", "", "", "--view top"}},
+    {"empty_space", {"--view top --unlit", "--view top", "", ""}},
+    {"free_camera", {"{top} --unlit", "{top}", "{oblique} --unlit", ""}},
+    {"projection_modes", {"", "", "", "{top} --mode mip"}},
+};
+const CandidateRule part3_rule = {
+    "", {"{top} --unlit", "{top}", "{oblique} --unlit", "{top} --mode mip"}};
+
+struct PeerFigure {
+    std::vector<double> cold, warm, precompute;  // ms, one per pass
+    long rss_kib = 0;                            // the largest over the passes
+    std::string error;                           // why a run failed ("" when none did)
+    bool ran() const { return error.empty() && !warm.empty(); }
+    double cold_ms() const { return median_of(cold); }
+    double warm_ms() const { return median_of(warm); }
+};
+
+struct Candidate {
+    std::string step;
+    std::vector<std::string> flags[peer_case_count];  // empty: not a candidate for the case
+    PeerFigure one[peer_case_count], all[peer_case_count];  // 1 thread, every core
+};
+
+std::vector<std::string> words_of(const std::string& text) {
+    std::istringstream in(text);
+    std::vector<std::string> words;
+    for (std::string word; in >> word;) words.push_back(word);
+    return words;
+}
+
+// The flags of a rule for a case, the cameras filled in for an image of `side` (top) and
+// `oblique` pixels on a volume of `dims` voxels (spacing 1: the box spans dims - 1).
+std::vector<std::string> case_flags(const char* rule, int side, int oblique, const int dims[3]) {
+    std::vector<std::string> flags;
+    const double diagonal = std::sqrt(double(dims[0] - 1) * (dims[0] - 1) +
+                                      double(dims[1] - 1) * (dims[1] - 1) +
+                                      double(dims[2] - 1) * (dims[2] - 1));
+    for (const std::string& word : words_of(rule)) {
+        if (word == "{top}") {
+            for (const std::string& w : {std::string("--azimuth"), std::string("0"),
+                                         std::string("--elevation"), std::string("90"),
+                                         std::string("--zoom"), std::string("1"),
+                                         std::string("--size"), text_of("%dx%d", side, side)}) {
+                flags.push_back(w);
+            }
+        } else if (word == "{oblique}") {
+            for (const std::string& w :
+                 {std::string("--azimuth"), std::string("30"), std::string("--elevation"),
+                  std::string("20"), std::string("--zoom"), text_of("%.4f", oblique / diagonal),
+                  std::string("--size"), text_of("%dx%d", oblique, oblique)}) {
+                flags.push_back(w);
+            }
+        } else {
+            flags.push_back(word);
+        }
+    }
+    return flags;
+}
+
+std::vector<Candidate> ctlab_candidates(int side, int oblique, const int dims[3]) {
+    std::vector<Candidate> candidates;
+    for (const std::string& step : step_names()) {
+        const CandidateRule* rule = nullptr;
+        if (std::stoi(step.substr(0, 2)) >= first_part3_step) rule = &part3_rule;
+        for (const CandidateRule& r : candidate_rules) {
+            if (step.substr(3) == r.name) rule = &r;
+        }
+        if (!rule || !file_exists(step_binary(step))) continue;
+        Candidate candidate;
+        candidate.step = step;
+        for (int c = 0; c < peer_case_count; ++c) {
+            if (*rule->flags[c]) candidate.flags[c] = case_flags(rule->flags[c], side, oblique, dims);
+        }
+        candidates.push_back(candidate);
+    }
+    return candidates;
+}
+
+// Adds one run's figures (or its failure) to `figure`.
+void add_ctlab_run(PeerFigure& figure, const std::string& step,
+                   const std::vector<std::string>& flags) {
+    const RunResult run = run_step(step, flags, run_timeout_s);
+    if (run.status != 0 || run.summaries.empty()) {
+        const std::string why = run.err.substr(0, run.err.find('\n'));
+        figure.error = text_of("status %d: %s", run.status, why.c_str());
+        return;
+    }
+    const Summary& line = run.summaries.front();
+    figure.cold.push_back(summary_number(line, "time_ms"));
+    figure.warm.push_back(line.count("warm_ms") ? summary_number(line, "warm_ms")
+                                                : figure.cold.back());
+    if (line.count("precompute_ms")) {
+        figure.precompute.push_back(summary_number(line, "precompute_ms"));
+    }
+    figure.rss_kib = std::max(figure.rss_kib, run.max_rss_kib);
+}
+
+void add_peer_run(PeerFigure& figure, const std::string& program,
+                  const std::vector<std::string>& args) {
+    const RunResult run = run_program(program, args, run_timeout_s);
+    std::istringstream lines(run.out);
+    Summary line;
+    for (std::string text; std::getline(lines, text);) {
+        if (text.rfind("peer=", 0) == 0) line = parse_summary(text);
+    }
+    if (run.status != 0 || !line.count("warm_ms")) {
+        const std::string why = run.err.substr(0, run.err.find('\n'));
+        figure.error = text_of("status %d: %s", run.status, why.c_str());
+        return;
+    }
+    figure.cold.push_back(summary_number(line, "cold_ms"));
+    figure.warm.push_back(summary_number(line, "warm_ms"));
+    if (line.count("precompute_ms")) {
+        figure.precompute.push_back(summary_number(line, "precompute_ms"));
+    }
+    figure.rss_kib = std::max(figure.rss_kib, run.max_rss_kib);
+}
+
+bool vtk_installed() {
+    try {
+        return run_program("/usr/bin/python3", {"-c", "import vtk"}, 60).status == 0 &&
+               run_program("/bin/sh", {"-c", "command -v xvfb-run"}, 10).status == 0;
+    } catch (const std::exception&) {
+        return false;
+    }
+}
+
+std::string ms_text(const PeerFigure& figure) {
+    if (!figure.error.empty()) return "failed";
+    return figure.warm.empty() ? "-" : text_of("%.2f", figure.warm_ms());
+}
+
+std::string ratio_text(const PeerFigure& peer, const PeerFigure& ours) {
+    if (!peer.ran() || !ours.ran() || ours.warm_ms() <= 0) return "-";
+    return text_of("%.2fx", peer.warm_ms() / ours.warm_ms());
+}
+
+// The fastest candidate for case c on every core (nullptr: none ran).
+const Candidate* fastest_for(const std::vector<Candidate>& candidates, int c) {
+    const Candidate* best = nullptr;
+    for (const Candidate& candidate : candidates) {
+        if (!candidate.all[c].ran()) continue;
+        if (!best || candidate.all[c].warm_ms() < best->all[c].warm_ms()) best = &candidate;
+    }
+    return best;
+}
+
+// The peer section of the report: `raw` is the volume written as a raw file (spacing 1),
+// `dims` its size. `failed`: an installed peer or a candidate failed (the quick run's exit
+// status).
+std::string peers_section(const std::string& raw, const int dims[3], int runs, int pass_count,
+                          int cores, bool quick, bool* failed) {
+    const int side = dims[0];
+    const int oblique = quick ? quick_oblique_side : oblique_side;
+    const std::string volpack = build_folder() + "/peer_volpack";
+    const bool have_volpack = file_exists(volpack);
+    const bool have_vtk = vtk_installed();
+    std::vector<Candidate> candidates = ctlab_candidates(side, oblique, dims);
+    PeerFigure volpack_figures[peer_case_count], vtk_figures[peer_case_count];
+    const TempFolder folder("bench_peers");
+    const std::vector<std::string> volume_flags = {
+        "--volume", raw, "--dims", text_of("%d,%d,%d", dims[0], dims[1], dims[2]),
+        "--spacing", "1,1,1", "--no-window", "--out", folder.path("ctlab")};
+    const std::string peer_runs = std::to_string(std::max(runs, 2));
+    for (int pass = 0; pass < pass_count; ++pass) {
+        for (int c = 0; c < peer_case_count; ++c) {
+            const PeerCase& pc = peer_cases[c];
+            const int size = pc.oblique ? oblique : side;
+            const std::string picture = folder.path(text_of("%c.ppm", pc.id));
+            const std::vector<std::string> peer_args = {
+                raw, std::to_string(dims[0]), std::to_string(dims[1]), std::to_string(dims[2]),
+                std::string(1, pc.id), std::to_string(size), std::to_string(size), peer_runs,
+                picture};
+            // The case's programs, in this pass's order.
+            std::vector<std::function<void()>> programs;
+            for (Candidate& candidate : candidates) {
+                if (candidate.flags[c].empty()) continue;
+                for (int threads : {1, cores}) {
+                    programs.push_back([&, threads, c] {
+                        std::vector<std::string> flags = volume_flags;
+                        flags.insert(flags.end(), candidate.flags[c].begin(),
+                                     candidate.flags[c].end());
+                        flags.insert(flags.end(), {"--threads", std::to_string(threads),
+                                                   "--repeat", std::to_string(runs)});
+                        PeerFigure& figure = threads == 1 ? candidate.one[c] : candidate.all[c];
+                        if (figure.error.empty()) add_ctlab_run(figure, candidate.step, flags);
+                    });
+                    if (cores == 1) break;
+                }
+            }
+            if (have_volpack && pc.id != 'd') {
+                programs.push_back([&, c] {
+                    if (volpack_figures[c].error.empty()) {
+                        add_peer_run(volpack_figures[c], volpack, peer_args);
+                    }
+                });
+            }
+            if (have_vtk) {
+                programs.push_back([&, c] {
+                    std::vector<std::string> args = {"-a", "/usr/bin/python3",
+                                                     "tools/peer_vtk.py"};
+                    args.insert(args.end(), peer_args.begin(), peer_args.end());
+                    args.push_back(std::to_string(cores));
+                    if (vtk_figures[c].error.empty()) {
+                        add_peer_run(vtk_figures[c], "xvfb-run", args);
+                    }
+                });
+            }
+            if (pass % 2) std::reverse(programs.begin(), programs.end());
+            for (auto& program : programs) program();
+        }
+        std::printf("bench: peers, pass %d of %d done\n", pass + 1, pass_count);
+        std::fflush(stdout);
+    }
+
+    std::ostringstream out;
+    out << text_of("VolPack (build/peer_volpack, 1 thread): %s. VTK (tools/peer_vtk.py, "
+                   "vtkFixedPointVolumeRayCastMapper, %d threads): %s. Each program ran "
+                   "afresh per case and pass, rendering %s times: *warm* is the median of all "
+                   "but the first render, *first* the first (VolPack's includes its "
+                   "classification, VTK's its normals). Medians over %d pass%s, the programs "
+                   "of a case interleaved (reversed every other pass). Ratios: peer ms / "
+                   "ctlab ms, above 1 when ctlab is faster. The volume: %dx%dx%d, spacing "
+                   "1,1,1.\n\n",
+                   have_volpack ? "installed" : "**not installed** (make bench PEERS=1)", cores,
+                   have_vtk ? "installed" : "**not installed** (make bench PEERS=1)",
+                   peer_runs.c_str(), pass_count, pass_count == 1 ? "" : "es", dims[0],
+                   dims[1], dims[2]);
+    // Every candidate, every case: what ctlab's choice is made from.
+    out << "| case | ctlab step | 1 thread warm (first) ms | " << cores
+        << " threads warm (first) ms |\n|---|---|---:|---:|\n";
+    for (int c = 0; c < peer_case_count; ++c) {
+        for (const Candidate& candidate : candidates) {
+            if (candidate.flags[c].empty()) continue;
+            auto cell = [](const PeerFigure& f) {
+                return f.ran() ? text_of("%.2f (%.2f)", f.warm_ms(), f.cold_ms())
+                               : "failed: " + f.error;
+            };
+            std::string flags;
+            for (const std::string& w : candidate.flags[c]) flags += " " + w;
+            out << text_of("| %c | %s%s | %s | %s |\n", peer_cases[c].id, candidate.step.c_str(),
+                           flags.c_str(), cell(candidate.one[c]).c_str(),
+                           cell(candidate.all[c]).c_str());
+            if (!candidate.one[c].error.empty() || !candidate.all[c].error.empty()) {
+                // A part-3 step may not take part 2's flags for every case: noted, not fatal.
+                if (std::stoi(candidate.step.substr(0, 2)) < first_part3_step) *failed = true;
+            }
+        }
+    }
+    // The peer table: ctlab's fastest step per case against the peers.
+    out << "\n| case | ctlab's fastest (every core) | ctlab 1 thread ms | ctlab " << cores
+        << " threads ms | VolPack ms | VTK ms | VolPack / ctlab 1 thread | VolPack / ctlab "
+        << cores << " threads | VTK / ctlab " << cores << " threads |\n"
+        << "|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (int c = 0; c < peer_case_count; ++c) {
+        const Candidate* best = fastest_for(candidates, c);
+        const PeerFigure none;
+        const PeerFigure& one = best ? best->one[c] : none;
+        const PeerFigure& all = best ? best->all[c] : none;
+        out << text_of("| %c %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", peer_cases[c].id,
+                       peer_cases[c].what, best ? best->step.c_str() : "none ran",
+                       ms_text(one).c_str(), ms_text(all).c_str(),
+                       peer_cases[c].id == 'd' ? "none" : ms_text(volpack_figures[c]).c_str(),
+                       ms_text(vtk_figures[c]).c_str(),
+                       ratio_text(volpack_figures[c], one).c_str(),
+                       ratio_text(volpack_figures[c], all).c_str(),
+                       ratio_text(vtk_figures[c], all).c_str());
+    }
+    // First renders in a fresh process, with the precomputation inside them.
+    out << "\n| case | VolPack first ms (classification, memory) | VTK first ms (memory) |"
+        << " ctlab's fastest first ms, " << cores << " threads (memory) |\n"
+        << "|---|---:|---:|---:|\n";
+    for (int c = 0; c < peer_case_count; ++c) {
+        const Candidate* best = fastest_for(candidates, c);
+        const PeerFigure& vp = volpack_figures[c];
+        out << text_of("| %c | %s | %s | %s |\n", peer_cases[c].id,
+                       vp.ran() ? text_of("%.1f (%.1f, %.0f MiB)", vp.cold_ms(),
+                                          median_of(vp.precompute), vp.rss_kib / 1024.0).c_str()
+                                : ms_text(vp).c_str(),
+                       vtk_figures[c].ran() ? text_of("%.1f (%.0f MiB)", vtk_figures[c].cold_ms(),
+                                                      vtk_figures[c].rss_kib / 1024.0).c_str()
+                                            : ms_text(vtk_figures[c]).c_str(),
+                       best ? text_of("%.1f (%s, %.0f MiB)", best->all[c].cold_ms(),
+                                      best->step.c_str(), best->all[c].rss_kib / 1024.0).c_str()
+                            : "-");
+    }
+    // The targets: the last part-3 step's (the fastest step's until part 3 exists).
+    const Candidate* target_step = nullptr;
+    for (const Candidate& candidate : candidates) {
+        if (std::stoi(candidate.step.substr(0, 2)) >= first_part3_step) target_step = &candidate;
+    }
+    out << "\n### Issue #30's targets (reported, never enforced)\n\n"
+        << (target_step ? "For the last part-3 step, " + target_step->step + ". "
+                        : std::string("No part-3 step yet: shown for ctlab's fastest step "
+                                      "per case. "))
+        << "Each target is a ratio peer ms / ctlab ms, warm medians; in brackets the measured "
+           "ratio over the target (below 1: missed by that factor).\n\n"
+        << "| target | measured | verdict |\n|---|---:|---|\n";
+    auto verdict = [&](const std::string& what, double measured, double target) {
+        if (measured <= 0) {
+            out << "| " << what << " | - | not measured |\n";
+            return;
+        }
+        const bool met = measured >= target;
+        out << text_of("| %s | %.2fx | %s (%.2fx the target) |\n", what.c_str(), measured,
+                       met ? "met" : "**missed**", measured / target);
+    };
+    auto ratio = [](const PeerFigure& peer, const PeerFigure& ours) {
+        return peer.ran() && ours.ran() && ours.warm_ms() > 0 ? peer.warm_ms() / ours.warm_ms()
+                                                              : 0.0;
+    };
+    for (int c = 0; c < peer_case_count; ++c) {
+        const Candidate* ours = target_step ? target_step : fastest_for(candidates, c);
+        const PeerFigure none;
+        const PeerFigure& all = ours ? ours->all[c] : none;
+        const PeerFigure& one = ours ? ours->one[c] : none;
+        const std::string label = text_of("%c %s", peer_cases[c].id, peer_cases[c].what);
+        if (volpack_target[c] > 0) {
+            verdict(text_of("%s: VolPack (1 thread) / ctlab (%d threads) >= %.1fx", label.c_str(),
+                            cores, volpack_target[c]),
+                    ratio(volpack_figures[c], all), volpack_target[c]);
+        }
+        verdict(text_of("%s: VTK (%d threads) / ctlab (%d threads) >= %.1fx", label.c_str(),
+                        cores, cores, vtk_target[c]),
+                ratio(vtk_figures[c], all), vtk_target[c]);
+        if (peer_cases[c].id == 'a' || peer_cases[c].id == 'b') {
+            verdict(text_of("%s: VolPack / ctlab, both 1 thread >= %.0fx (the goal)",
+                            label.c_str(), volpack_one_thread_goal),
+                    ratio(volpack_figures[c], one), volpack_one_thread_goal);
+        }
+        if (all.ran() && all.warm_ms() > 0) {
+            const double cold_ratio = all.cold_ms() / all.warm_ms();
+            out << text_of("| %s: ctlab's first render (fresh process) <= %.0fx its warm one | "
+                           "%.2fx | %s |\n", label.c_str(), peer_cold_ratio_target, cold_ratio,
+                           cold_ratio <= peer_cold_ratio_target ? "met" : "**missed**");
+        }
+    }
+    if (have_volpack) {
+        for (const PeerFigure& f : volpack_figures) *failed = *failed || !f.error.empty();
+    }
+    if (have_vtk) {
+        for (const PeerFigure& f : vtk_figures) *failed = *failed || !f.error.empty();
+    }
+    return out.str();
+}
+
+// The peer section on the phantom at spacing 1,1,1 (quick: the small phantom), written to a
+// raw file the peers and ctlab's steps read alike.
+std::string peers_on_phantom(int cores, bool quick, int runs, int pass_count, bool* failed) {
+    const int dims[3] = {quick ? quick_dims[0] : cthead_nx, quick ? quick_dims[1] : cthead_ny,
+                         quick ? quick_dims[2] : cthead_nz};
+    const TempFolder folder("bench_peer_volume");
+    const std::string raw = folder.path("phantom.raw");
+    {
+        Volume phantom = make_phantom_sized(dims[0], dims[1], dims[2], cores);
+        phantom.sx = phantom.sy = phantom.sz = 1;
+        write_raw_volume(phantom, raw);
+    }
+    std::printf("bench: the peers, phantom %dx%dx%d at spacing 1,1,1\n", dims[0], dims[1],
+                dims[2]);
+    std::fflush(stdout);
+    return peers_section(raw, dims, runs, pass_count, cores, quick, failed);
+}
+
+// --peers: the peer table alone, written to `out_path` (exit status 1 when a run failed).
+int peers_report(int cores, bool quick, int runs, int pass_count, const std::string& out_path) {
+    bool failed = false;
+    const std::string load_before = load_average();
+    const std::string peers = peers_on_phantom(cores, quick, quick ? 2 : runs, pass_count, &failed);
+    std::ostringstream report;
+    report << "# ctlab against its peers\n\nWritten by `build/bench --peers` (tools/bench.cpp), "
+           << utc_now() << ". Machine: " << cores << " cores, "
+           << first_line_of("/proc/cpuinfo", "model name") << ". Load average before: "
+           << load_before << ", after: " << load_average() << ".\n\n" << peers;
+    const size_t slash = out_path.rfind('/');
+    if (slash != std::string::npos) make_folder(out_path.substr(0, slash));
+    std::ofstream file(out_path);
+    if (!file) throw InputError("--out: cannot write '" + out_path + "'");
+    file << report.str();
+    std::printf("\n%s\nbench: wrote %s\n", peers.c_str(), out_path.c_str());
+    return failed ? 1 : 0;
+}
+
 int run(int argc, char** argv) {
     std::string volume_name = "phantom", out_path = "out/bench.md", only;
     std::vector<std::string> extra_flags;  // --flags: given to every step, after its defaults
     int runs = default_runs;
     bool quick = false;
+    bool peers_only = false;  // --peers: the peer table alone
     for (int n = 1; n < argc; ++n) {
         const std::string flag = argv[n];
         const bool has_value = n + 1 < argc;
         if (flag == "--quick") {
             quick = true;
+        } else if (flag == "--peers") {
+            peers_only = true;
         } else if (flag == "--volume" && has_value) {
             volume_name = argv[++n];
         } else if (flag == "--runs" && has_value) {
@@ -740,7 +1172,7 @@ int run(int argc, char** argv) {
             for (std::string word; words >> word;) extra_flags.push_back(word);
         } else {
             throw InputError("usage: bench [--volume phantom|PATH] [--runs N>=10] [--out FILE]"
-                             " [--steps NN,NN] [--flags \"FLAGS\"] [--quick], got '" + flag +
+                             " [--steps NN,NN] [--flags \"FLAGS\"] [--quick] [--peers], got '" + flag +
                              "'");
         }
     }
@@ -748,6 +1180,7 @@ int run(int argc, char** argv) {
     const int pass_count = quick ? 1 : passes;
     const unsigned hardware = std::thread::hardware_concurrency();
     const int cores = hardware > 0 ? int(hardware) : 1;
+    if (peers_only) return peers_report(cores, quick, runs, pass_count, out_path);
     // Each volume: its name in the report and the flags that load it.
     std::vector<std::pair<std::string, std::vector<std::string>>> volumes;
     const TempFolder quick_folder("bench_quick");
@@ -840,6 +1273,13 @@ int run(int argc, char** argv) {
                << " renders per run)\n\n"
                << growth_table(growth, volume_bytes, volumes[0].first) << "\n";
     }
+    // The peers (VolPack, VTK) against ctlab's steps, case by case: at the defaults.
+    bool peers_failed = false;
+    const std::string peers =
+        defaults || quick ? peers_on_phantom(cores, quick, quick ? 2 : runs, pass_count,
+                                             &peers_failed)
+                          : "Not run: the peer table needs the default settings.\n";
+    report << "## The peers: VolPack and VTK\n\n" << peers << "\n";
     std::printf("bench: start-up, %d processes per figure\n", quick ? 5 : startup_runs);
     bool startup_met = false;
     const std::string startup = startup_section(quick ? 5 : startup_runs, &startup_met);
@@ -887,6 +1327,11 @@ int run(int argc, char** argv) {
     std::printf("bench: other processes used %.0f%% of the cores during the run\n",
                 100 * others.share());
     std::printf("bench: wrote %s\n", out_path.c_str());
+    std::printf("\nbench: the peers\n%s", peers.c_str());
+    if (quick && peers_failed) {
+        std::printf("bench: a peer or a ctlab step failed in the peer table\n");
+        return 1;
+    }
     if (quick && differing > 0) {
         std::printf("bench: %d step views give different pictures with 1 and 2 threads\n",
                     differing);

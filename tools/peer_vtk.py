@@ -149,7 +149,8 @@ def main(argv):
         forward = numpy.array([numpy.sin(azimuth) * numpy.cos(elevation),
                                numpy.cos(azimuth) * numpy.cos(elevation), numpy.sin(elevation)])
         up = numpy.array([0.0, 0.0, -1.0])
-        scale = 0.5 * (nx * nx + ny * ny + nz * nz) ** 0.5  # the bounding sphere fills it
+        # The bounding sphere of the voxel centres (0..n-1) fills it, as ctlab's --zoom.
+        scale = 0.5 * ((nx - 1) ** 2 + (ny - 1) ** 2 + (nz - 1) ** 2) ** 0.5
     else:
         forward, up = numpy.array([0.0, 0.0, 1.0]), numpy.array([0.0, -1.0, 0.0])
         scale = 0.5 * height  # one pixel per voxel
