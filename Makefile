@@ -172,7 +172,7 @@ demo: deps
 # last line adds them all up: "test: N passed, M failed" (tests/test_summary.sh).
 # The slowest suites start first, so that the last one to finish is a short one.
 # SKIP_SUITES=NAMES leaves suites out, and the summary names them (CI: the sanitizer run).
-SLOW_SUITES := student test_extremes grade sandbox hostile_files bad_input test_steps cli check \
+SLOW_SUITES := student test_extremes grade sandbox hostile_files bad_input test_steps cli check peers \
                window panel
 ALL_SUITES  := $(SLOW_SUITES) $(filter-out $(SLOW_SUITES),\
                $(patsubst tests/%_test.sh,%,$(wildcard tests/*_test.sh)) \
