@@ -4,14 +4,13 @@
 // New here:   nothing to see: one program renders all four of part 3's bench cases, so that
 //             every later step can be timed and compared against it. Composite with the
 //             classic table, lit (step 10's light) or --unlit, or the maximum intensity
-//             (--mode mip, step 12's grey), from the orbit camera (orthographic: --azimuth,
-//             --elevation, --zoom, --size), trilinear samples every --step, early ray
-//             termination. The code is plain lesson code: the dense volume, every gradient
-//             from the voxels, every sample read, no caches. Each trick of steps 31 on is
-//             measured against this step and renders its pictures within the manifest's
-//             tolerance.
-// Builds on:  10_free_camera (camera, slab method, trilinear, lit compositing) and
-//             12_projection_modes (MIP); leaping, perspective and nearest samples go.
+//             (--mode mip, step 12's grey), from step 10's orbit camera and its flags,
+//             trilinear samples every --step, early ray termination. The code is plain lesson
+//             code, step 10's unchanged: the dense volume, every gradient from the voxels,
+//             every sample read, no caches. Each trick of steps 31 on is measured against
+//             this step and renders its pictures within the manifest's tolerance.
+// Builds on:  10_free_camera (camera, slab method, trilinear, lit compositing; its leaping
+//             over empty bricks goes, it is step 31's trick) and 12_projection_modes (MIP).
 // Handout:    handouts/30_speed_baseline.md
 // Run:        make run STEP=30 ARGS="--mode mip --azimuth 180 --elevation 90 --size 256x256"
 // Reference:  data/reference/30_speed_baseline_camera.png: the default run (lit composite,
@@ -28,12 +27,14 @@ constexpr double unit_length = 1;     // physical length the TF opacities hold f
 constexpr double default_step = 1;    // physical units between two samples along a ray
 constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
 constexpr double step_key_factor = 2;            // Up doubles the step, Down halves it
-constexpr double light_angle = 30;          // degrees to the right of the viewer (step 10's)
+constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
+constexpr double default_light_angle = 30;  // degrees to the right of the viewer
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
 constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
 constexpr double default_elevation = 20;  // degrees above the i-j plane
+constexpr double default_fov = 30;        // degrees, the perspective image's height
 constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
 constexpr const char* default_size = "512x512";  // pixels, columns x rows
 constexpr int max_image_side = 8192;             // pixels, --size limit per side
@@ -44,12 +45,19 @@ constexpr double sample_count_slack = 1e-9;
 struct Params {
     std::string mode = "composite";  // "composite" or "mip"
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
+    double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
     double ert = default_ert;  // early ray termination threshold for T
     double step = default_step;  // physical units between samples
+    double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
+    bool no_correction = false;  // use the TF opacities as they are, whatever the step
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
-    double zoom = 1;                       // pixels per voxel
+    double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
+    std::string projection = "ortho";      // "ortho" or "perspective"
+    std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
+    bool nearest = false;                     // interpolation == "nearest"
+    double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
 };
 
@@ -63,8 +71,11 @@ struct Accumulated {
 struct Camera {
     Vec3d centre;              // the centre of the volume's box: what the camera looks at
     Vec3d forward, right, up;  // the view direction; image x (to the right); image -y (up)
-    double distance = 0;       // how far before the centre the rays start
-    double pixel_size = 1;     // physical units per pixel
+    bool perspective = false;
+    Vec3d eye;                 // perspective: where every ray starts
+    double distance = 0;       // ortho: how far before the centre the rays start
+    double pixel_size = 1;     // ortho: physical units per pixel
+    double pixel_angle = 0;    // perspective: tan(fov / 2) / (height / 2), per pixel
     int width = 0, height = 0;
 };
 
@@ -86,9 +97,9 @@ static Vec3d box_high(const Volume& volume) {
     return {(volume.nx - 1) * volume.sx, (volume.ny - 1) * volume.sy, (volume.nz - 1) * volume.sz};
 }
 
-// --- Part 2's renderer, plain (steps 10 and 12; no lesson here: part 3's lessons are the
-// tricks that make it fast) ---
+// --- Part 2's renderer: step 10's lessons, unchanged (make carry brings a student's own) ---
 
+//> lesson: camera
 // sin and cos of an angle in degrees, exact at multiples of 90: std::sin(180 * pi / 180) is
 // 1.2e-16, not 0, and a camera meant to look along an axis would look a hair past it, its
 // samples a hair off the voxel centres.
@@ -105,7 +116,7 @@ static double cos_degrees(double angle) { return sin_degrees(angle + 90); }
 // The orbit camera looks at the centre of the box from `azimuth` degrees around the vertical
 // and `elevation` degrees above the i-j plane. Up is -k (k runs from the crown down). Azimuth
 // 0, elevation 0 stands in front of the face (small j) looking along +j; azimuth 90 looks along
-// +i. right = forward x up makes it a proper camera. Orthographic: parallel rays.
+// +i. right = forward x up makes it a proper camera (part 1's front view is its mirror).
 static Camera make_camera(const Volume& volume, const Params& params, const View& view) {
     const double sin_a = sin_degrees(params.azimuth), cos_a = cos_degrees(params.azimuth);
     const double sin_e = sin_degrees(params.elevation), cos_e = cos_degrees(params.elevation);
@@ -116,14 +127,21 @@ static Camera make_camera(const Volume& volume, const Params& params, const View
     camera.forward = {sin_a * cos_e, cos_a * cos_e, sin_e};
     camera.up = {sin_a * sin_e, cos_a * sin_e, -cos_e};  // at right angles to forward
     camera.right = cross(camera.forward, camera.up);
+    camera.perspective = params.projection == "perspective";
     camera.width = view.width;
     camera.height = view.height;
-    // Zoom 1 is one pixel per voxel (the smallest spacing), as in part 1's views; the rays
-    // start on a plane outside the box's sphere. A view of coarser pixels (the window's
-    // preview while it turns: view.pixel_width 2 or 4) covers the same field with fewer rays.
+    // Ortho: zoom 1 is one pixel per voxel (the smallest spacing), as in part 1's views; the
+    // rays start on a plane outside the box's sphere. Perspective: at zoom 1 the eye is just
+    // far enough for the fov to hold the whole sphere; zoom > 1 walks it in, into the box.
+    // A view of coarser pixels (the window's preview while it turns: view.pixel_width 2 or 4)
+    // covers the same field with fewer rays.
     const double smallest_spacing = std::min({volume.sx, volume.sy, volume.sz});
     camera.pixel_size = smallest_spacing / params.zoom * view.pixel_width;
     camera.distance = radius;
+    const double half_fov = params.fov / 2;
+    camera.pixel_angle = std::tan(half_fov * degrees) / (view.height / 2.0);
+    const double eye_distance = radius / std::sin(half_fov * degrees) / params.zoom;
+    camera.eye = camera.centre - eye_distance * camera.forward;
     return camera;
 }
 
@@ -131,12 +149,20 @@ static Camera make_camera(const Volume& volume, const Params& params, const View
 static Ray camera_ray(const Camera& camera, int x, int y) {
     const double across = x + 0.5 - camera.width / 2.0;  // pixels right of the image centre
     const double above = camera.height / 2.0 - (y + 0.5);  // pixels above it
+    if (camera.perspective) {
+        const Vec3d direction = camera.forward + (across * camera.pixel_angle) * camera.right +
+                                (above * camera.pixel_angle) * camera.up;
+        return {camera.eye, (1 / length(direction)) * direction};
+    }
     // The sum in this order keeps an axis-aligned camera exact: the zero terms add nothing.
     const Vec3d origin = camera.centre + (across * camera.pixel_size) * camera.right +
                          (above * camera.pixel_size) * camera.up -
                          camera.distance * camera.forward;
     return {origin, camera.forward};
 }
+//< lesson: camera
+
+//> lesson: slab
 // The slab method: along each axis the ray is between the two planes lo and hi for t from
 // (lo - o) / d to (hi - o) / d (swapped when d < 0). It is inside the box where it is inside
 // all three slabs: from the largest entry to the smallest exit. It misses when that interval
@@ -184,6 +210,9 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
     }
     return {on_face[0], on_face[1], on_face[2]};
 }
+//< lesson: slab
+
+//> lesson: opacity_correction
 // The opacity correction of step 08, unchanged.
 static float corrected_opacity(float alpha, double ratio) {
     if (alpha <= 0.0f) return 0.0f;
@@ -191,12 +220,17 @@ static float corrected_opacity(float alpha, double ratio) {
     return float(-std::expm1(ratio * std::log1p(-double(alpha))));
 }
 
-static double opacity_ratio(const Params& params) { return params.step / unit_length; }
-// Step 08's lookup table: one RGBA per CT value, opacities corrected for the step.
+static double opacity_ratio(const Params& params) {
+    return params.no_correction ? 1.0 : params.step / unit_length;
+}
+//< lesson: opacity_correction
+
+// Step 08's lookup table, unchanged: one RGBA per CT value, opacities corrected for the step.
 struct Lut {
     std::vector<Rgba> entries = std::vector<Rgba>(ct_value_end - lowest_ct_value);
 };
 
+//> lesson: lookup_table
 static Rgba mix(const Rgba& a, const Rgba& b, float f) {
     return {a.r + f * (b.r - a.r), a.g + f * (b.g - a.g), a.b + f * (b.b - a.b),
             a.a + f * (b.a - a.a)};
@@ -215,6 +249,8 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
     }
     return lut;
 }
+//< lesson: lookup_table
+
 // A ray's samples in voxel units, worked out once per ray: sample n is at first + n * per_step
 // (voxel coordinates: physical / spacing), for n = 0 .. count - 1.
 struct Walk {
@@ -236,6 +272,7 @@ struct Cell {
     int i1 = 0, j1 = 0, k1 = 0;        // the high corner
 };
 
+//> lesson: trilinear
 // The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
 // the divisions by the spacing are done here, once per ray, not at every sample.
 static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span, double step) {
@@ -257,8 +294,13 @@ static void low_corner(double u, int count, int* low, float* fraction) {
     *fraction = float(u - *low);
 }
 
-static Cell cell_at(const Volume& volume, const Vec3d& p) {
+static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     Cell cell;
+    // nearest: the point first moves to the nearest voxel centre (a half rounds up), so
+    // every fraction is 0 and the low corner is that voxel.
+    const Vec3d p = nearest ? Vec3d{std::floor(point.i + 0.5), std::floor(point.j + 0.5),
+                                    std::floor(point.k + 0.5)}
+                            : point;
     low_corner(p.i, volume.nx, &cell.i, &cell.fi);
     low_corner(p.j, volume.ny, &cell.j, &cell.fj);
     low_corner(p.k, volume.nz, &cell.k, &cell.fk);
@@ -281,6 +323,14 @@ static float trilinear(const Volume& volume, const Cell& c) {
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
 }
 
+// A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
+// low corner on it), or trilinear, eight.
+static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
+    return nearest ? float(volume.at(c.i, c.j, c.k)) : trilinear(volume, c);
+}
+//< lesson: trilinear
+
+//> lesson: gradient
 // Step 08's derivative and gradient at a voxel, unchanged.
 template <class Sample>
 static float derivative(Sample sample, int n, int count, double spacing) {
@@ -316,6 +366,16 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
                        c.fk);
 }
 
+// A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
+// differences), else trilinear.
+static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
+    if (!nearest) return gradient_trilinear(volume, c, work);
+    ++work.gradients;
+    return gradient_at(volume, c.i, c.j, c.k);
+}
+//< lesson: gradient
+
+//> lesson: shade
 // Step 08's diffuse shading, unchanged.
 static float shade(Vec3 gradient, Vec3 to_light) {
     const float size = length(gradient);
@@ -334,12 +394,15 @@ static Vec3 light_direction(const Camera& camera, double angle) {
     return along_x * axis(camera.right) + (-along_y) * axis(camera.up) +
            along_ray * axis(camera.forward);
 }
+//< lesson: shade
+
 // CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 12.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
 }
 
+//> lesson: ray_output
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
@@ -358,6 +421,7 @@ static Rgb over_background(const Accumulated& ray) {
             float(ray.g + ray.transparency * background.g),
             float(ray.b + ray.transparency * background.b)};
 }
+//< lesson: ray_output
 
 // Everything a ray needs that is the same for every ray of a render.
 struct Scene {
@@ -386,9 +450,9 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
     const Walk walk = walk_through(volume, ray, span, params.step);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
-        const Cell cell = cell_at(volume, q);
+        const Cell cell = cell_at(volume, q, params.nearest);
         const double t = span.t_entry + n * params.step;  // physical units along the ray
-        const float value = trilinear(volume, cell);
+        const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
@@ -398,7 +462,9 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
             continue;
         }
         double light = 1.0;  // unlit
-        if (!params.unlit) light = shade(gradient_trilinear(volume, cell, work), scene.to_light);
+        if (!params.unlit) {
+            light = shade(sample_gradient(volume, cell, params.nearest, work), scene.to_light);
+        }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
         pixel.r += weight * sample.r;
@@ -425,21 +491,23 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
 // values go below 0), shown as grey; a ray that misses the box shows the background.
 static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
+    const Params& params = scene.params;
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(scene.camera, x, y);
     const Span span = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, span, high, scene.params.step);
+    trace_ray(trace, ray, span, high, params.step);
     if (!span.hit) return background;
-    const Walk walk = walk_through(volume, ray, span, scene.params.step);
+    const Walk walk = walk_through(volume, ray, span, params.step);
     float highest = 0;
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
-        const float value = trilinear(volume, cell_at(volume, q));
+        const float value = sample_value(volume, cell_at(volume, q, params.nearest),
+                                         params.nearest);
         ++work.samples;
         highest = n == 0 ? value : std::max(highest, value);
         if (trace) {
             const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
-            trace->sample(TraceSample(span.t_entry + n * scene.params.step, p, value).max(highest));
+            trace->sample(TraceSample(span.t_entry + n * params.step, p, value).max(highest));
         }
     }
     return grey(display_grey(volume, highest));
@@ -456,18 +524,32 @@ int main(int argc, char** argv) {
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
+        args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
+                        "opacity of the range labelled skin (default: as the file says)");
         args.add_double("--ert", &params.ert, 0, 1,
                         "stop a ray once its transparency T is below this (0: never)");
         args.add_double("--step", &params.step, min_step, max_step,
                         "physical units between two samples along a ray");
+        args.add_double("--light-angle", &params.light_angle, -180, 180,
+                        "light direction, degrees to the right of the camera");
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
+        args.add_switch("--no-correction", &params.no_correction,
+                        "use the TF opacities unchanged, whatever the step");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
                         "degrees above the i-j plane; 90 looks down from the crown");
-        args.add_double("--zoom", &params.zoom, min_zoom, max_zoom, "pixels per voxel");
+        args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
+                        "ortho: pixels per voxel; perspective: walks the eye in (>1)");
+        args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
+                        "a sample's value: the eight voxels around it, or the nearest one");
+        args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
+                        "parallel rays (ortho) or rays from an eye (perspective)");
+        args.add_double("--fov", &params.fov, 1, 170,
+                        "perspective: the image's height as an angle, degrees");
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)");
         const Options options = args.parse(argc, argv);
+        params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
             throw InputError(std::string("--view: ") + step_name + " renders the camera's "
                              "view; turn it with --azimuth and --elevation instead");
@@ -482,6 +564,9 @@ int main(int argc, char** argv) {
 
         // --- Transfer function: the file (in the file's units), its table for this step size ---
         TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
+        if (params.skin_opacity >= 0) {
+            set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
+        }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
         // --- View: the camera's image (its camera is made for each render: the window turns
@@ -496,7 +581,7 @@ int main(int argc, char** argv) {
             return over_background(composite_ray(scene, x, y, work, trace));
         };
         auto scene_for = [&](const Camera& camera) {
-            const Vec3 to_light = params.unlit ? Vec3{} : light_direction(camera, light_angle);
+            const Vec3 to_light = params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
             return Scene{volume, camera, lut, to_light, params};
         };
         renderer.image = [&](const View& view, Work& work) {
@@ -535,12 +620,16 @@ int main(int argc, char** argv) {
                    summary_number(params.elevation) + " zoom=" + summary_number(params.zoom);
         };
         renderer.settings = [&] {
+            const TfRange* skin = find_range(tf, skin_label);
             return "mode=" + params.mode + " tf=" + tf.source +
+                   " skin_opacity=" + (skin ? summary_number(skin->start.a) : std::string("none")) +
                    " ert=" + summary_number(params.ert) +
+                   " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
-                   " azimuth=" + summary_number(params.azimuth) +
-                   " elevation=" + summary_number(params.elevation) +
-                   " zoom=" + summary_number(params.zoom);
+                   " correction=" + (params.no_correction ? "off" : "on") +
+                   " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
+                   " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
+                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation;
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

@@ -78,9 +78,8 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     }
     if (step >= "04" && step < "06") all.push_back({"--light-angle", "180"});
     const bool projection_modes = step.rfind("12", 0) == 0;  // grey: no transfer function
-    const bool part3 = step >= "30";  // orthographic, trilinear, the classic table's flags only
     if (step >= "06" && !projection_modes) {
-        if (!part3) all.push_back({"--skin-opacity", "1"});
+        all.push_back({"--skin-opacity", "1"});
         all.push_back({"--tf", "data/tf/transparent.tf"});
     }
     if (step.rfind("07", 0) == 0) {
@@ -98,20 +97,15 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     }
     // Part 2: the camera from straight above in perspective (rays along k), nearest samples
     // without leaping, the longest step unlit, and each step's own paths.
-    if (ctlab_test::is_camera_step(step) && !part3) {
+    if (ctlab_test::is_camera_step(step)) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
         std::vector<std::string> nearest = {"--interpolation", "nearest", "--azimuth", "-360"};
-        if (!projection_modes) nearest.push_back("--no-leaping");
+        const bool part3 = step >= "30";  // part 3 has no --no-leaping
+        if (!projection_modes && !part3) nearest.push_back("--no-leaping");
         all.push_back(nearest);
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
     }
-    // Part 3: maximum intensity straight down (rays along k), the camera far out, the
-    // longest step unlit.
-    if (part3) {
-        all.push_back({"--mode", "mip", "--elevation", "90", "--azimuth", "-360"});
-        all.push_back({"--zoom", "0.01", "--elevation", "-90"});
-        all.push_back({"--step", "4", "--ert", "0", "--unlit"});
-    }
+    if (step >= "30") all.push_back({"--mode", "mip", "--elevation", "-90"});  // part 3's MIP
     if (step.rfind("11", 0) == 0) {
         all.push_back({"--jitter", "blue"});
         all.push_back({"--jitter", "hash", "--zoom", "0.01"});

@@ -5,7 +5,7 @@
 #   sh tools/part3_gain.sh BUILD [OUT]       (OUT default out/part3_gain.md)
 #
 # Every part-3 step (steps/3N_*.cpp) renders each case on the phantom at spacing 1,1,1 on one
-# thread, once with --repeat 1 and once with --repeat REPEAT (default 7), and a render costs
+# thread, once with --repeat 1 and once with --repeat REPEAT (default 11), and a render costs
 # the difference of the two processes' CPU time (user + sys, /usr/bin/time) over REPEAT - 1:
 # loading the volume, the bricks and any table made once per process cancel out, and CPU
 # time, unlike wall time, hardly depends on what else the shared machine runs. Each figure is
@@ -14,7 +14,7 @@
 set -u
 build=${1:?usage: part3_gain.sh BUILD [OUT]}
 out=${2:-out/part3_gain.md}
-repeat=${REPEAT:-7}
+repeat=${REPEAT:-11}
 pairs=${PAIRS:-3}
 
 fail() { echo "part3_gain: $*" >&2; exit 2; }
@@ -65,7 +65,7 @@ per_render_ms() {
         one=$(cpu_of "$step" 1 $flags) || exit 2
         # shellcheck disable=SC2086
         many=$(cpu_of "$step" "$repeat" $flags) || exit 2
-        echo "$one $many" | awk -v r="$repeat" '{ printf "%.3f\n", 1000 * ($2 - $1) / (r - 1) }' \
+        echo "$one $many" | awk -v r="$repeat" '{ printf "%.1f\n", 1000 * ($2 - $1) / (r - 1) }' \
             >> "$work/pairs"
         p=$((p + 1))
     done
@@ -112,20 +112,31 @@ mkdir -p "$(dirname "$out")" || fail "cannot create $(dirname "$out")"
         else
             p_number=${previous%%_*}
             f_number=${first%%_*}
-            echo "| case | step $f_number ms | step $p_number ms | step $number ms | gain over step $p_number | over step $f_number |"
-            echo "|---|---|---|---|---|---|"
+            # The gain over the step before, and over the first (the same column for step 31).
+            if [ "$previous" = "$first" ]; then
+                echo "| case | step $p_number ms | step $number ms | gain over step $p_number |"
+                echo "|---|---|---|---|"
+            else
+                echo "| case | step $f_number ms | step $p_number ms | step $number ms | gain over step $p_number | over step $f_number |"
+                echo "|---|---|---|---|---|---|"
+            fi
+            short=
+            [ "$previous" != "$first" ] || short=1
             for c in a b c d; do
                 f=$(cat "$work/ms_${first}_$c")
                 p=$(cat "$work/ms_${previous}_$c")
                 t=$(cat "$work/ms_${step}_$c")
-                echo "$c $f $p $t" | awk -v name="$(case_name $c)" '{
+                echo "$c $f $p $t" | awk -v name="$(case_name $c)" -v short="$short" '{
                     gain_p = ($4 > 0) ? sprintf("%.2fx", $3 / $4) : "n/a";
                     gain_f = ($4 > 0) ? sprintf("%.2fx", $2 / $4) : "n/a";
-                    printf "| %s | %s | %s | %s | %s | %s |\n", name, $2, $3, $4, gain_p, gain_f }'
+                    if (short) printf "| %s | %s | %s | %s |\n", name, $3, $4, gain_p;
+                    else printf "| %s | %s | %s | %s | %s | %s |\n", name, $2, $3, $4, gain_p, gain_f }'
             done
         fi
         echo
-        echo "CPU time per render on 1 thread (\`make gain\`, $when; load average $load)."
+        echo "CPU ms per render on 1 thread (\`make gain\`, $when; load average $load; the median"
+        echo "of $pairs pairs of runs, \`--repeat 1\` and \`--repeat $repeat\`: the CPU clock counts in 10 ms,"
+        echo "so a figure is good to about $(awk -v r="$repeat" 'BEGIN { printf "%.0f", 10 / (r - 1) }') ms)."
         echo "<!-- end section -->"
         echo
         [ -n "$first" ] || first=$step
