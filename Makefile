@@ -110,6 +110,7 @@ LIBTOOLS       := $(BUILD)/libctlab_tools.a
 .PHONY: check check-steps san  # grading this tree's programs, and one step with the sanitizers
 .PHONY: fuzz fuzz-build
 .PHONY: bench study peers  # measuring: speed, and error against run time
+.PHONY: gain  # part 3: each trick's CPU time per render against the step before it
 .PHONY: screenshots  # the README's pictures of the window's control panel
 .DEFAULT_GOAL := all
 
@@ -152,6 +153,8 @@ help:
 	@echo "                termination, float/double): out/study/ and the handouts' tables"
 	@echo "make bench QUICK=1, make study QUICK=1   a quick run that checks they work (CI)"
 	@echo "make bench PEERS=1   install the peers first (VolPack, VTK, xvfb): the peer table"
+	@echo "make gain       part 3: CPU time per render of each part-3 step on the bench's four"
+	@echo "                cases (1 thread): out/part3_gain.md, and the handouts' gain blocks"
 
 # Install missing Debian packages (as root: apt-get; otherwise prints the one sudo command).
 deps:
@@ -260,6 +263,14 @@ else
 	$(BUILD)/measured out/study/numerics.md
 	cp out/study/error_vs_time.png handouts/error_vs_time.png
 endif
+
+# Part 3's gains: every part-3 step on the bench's four cases, CPU time per render on one
+# thread (tools/part3_gain.sh; CPU time, so a shared machine spoils it less than wall time):
+# out/part3_gain.md, copied into the handouts' <!-- measured: gain:NN_name --> blocks.
+PART3_BINARIES := $(filter $(BUILD)/3%,$(STEP_BINARIES))
+gain: $(BUILD)/measured $(PART3_BINARIES)
+	sh tools/part3_gain.sh '$(BUILD)' out/part3_gain.md
+	$(BUILD)/measured out/part3_gain.md
 
 # --- Instructor and student kit: references, student skeletons, handout listings ----------
 # Render every step and view, and the variants data/reference/manifest.txt lists, into

@@ -86,8 +86,10 @@ for handout in handouts/*.md; do
         case $name in
             bench:*) [ -f "steps/${name#bench:}.cpp" ] ;;
             study:*) grep -q "section(\"$name\"" tools/study.cpp ;;
+            # make gain (tools/part3_gain.sh) writes one section per part-3 step.
+            gain:*) [ -f "steps/${name#gain:}.cpp" ] && grep -q 'section: gain:' tools/part3_gain.sh ;;
             *) false ;;
-        esac || echo "$handout: block '$name' is no section bench or study writes"
+        esac || echo "$handout: block '$name' is no section bench, study or gain writes"
     done > "$work/names"
     check "every block in $handout names a section a tool writes: $(cat "$work/names")" \
         [ ! -s "$work/names" ]

@@ -100,10 +100,12 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     if (ctlab_test::is_camera_step(step)) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
         std::vector<std::string> nearest = {"--interpolation", "nearest", "--azimuth", "-360"};
-        if (!projection_modes) nearest.push_back("--no-leaping");
+        const bool part3 = step >= "30";  // part 3 has no --no-leaping
+        if (!projection_modes && !part3) nearest.push_back("--no-leaping");
         all.push_back(nearest);
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
     }
+    if (step >= "30") all.push_back({"--mode", "mip", "--elevation", "-90"});  // part 3's MIP
     if (step.rfind("11", 0) == 0) {
         all.push_back({"--jitter", "blue"});
         all.push_back({"--jitter", "hash", "--zoom", "0.01"});

@@ -1,0 +1,132 @@
+// test_part3.cpp: part 3's speed tricks change the time, not the picture. Every part-3 step
+// after the first renders the bench's four cases (handouts/30_speed_baseline.md) on the
+// phantom at a small size, and each picture is compared with step 30's, pixel by pixel, within
+// the tolerance data/reference/manifest.txt states for part 3. Every sample a trick does not
+// read it counts as leapt: samples + leapt is step 30's samples. And each trick's handout
+// quotes its measured gain in a block that make gain fills.
+#include <doctest/doctest.h>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include "harness.h"
+
+using namespace ctlab_test;
+
+namespace {
+
+constexpr const char* first_part3_step = "30_speed_baseline";
+// The manifest's tol=2 for part 3, in 8-bit units, as a float channel difference.
+constexpr double tolerance = 2.0 / 255;
+
+// The part-3 steps after the first: 31_... on.
+std::vector<std::string> trick_steps() {
+    std::vector<std::string> tricks;
+    for (const std::string& name : step_names()) {
+        if (name.compare(0, 1, "3") == 0 && name > first_part3_step) tricks.push_back(name);
+    }
+    return tricks;
+}
+
+// The bench's cases at test size: the top view at 64x64 (a quarter of 256, so zoom 1/4), the
+// oblique view at 96x96 with the sphere filling it (zoom 1.356 at 512 pixels, scaled).
+struct Case {
+    const char* name;
+    std::vector<std::string> flags;
+};
+const std::vector<Case>& cases() {
+    static const std::vector<Case> all = [] {
+        const std::vector<std::string> top = {"--azimuth", "180", "--elevation", "90",
+                                              "--size",    "64x64", "--zoom", "0.25"};
+        auto with = [](std::vector<std::string> flags, std::vector<std::string> more) {
+            flags.insert(flags.end(), more.begin(), more.end());
+            return flags;
+        };
+        const std::vector<std::string> phantom = {"--volume", "phantom", "--spacing", "1,1,1"};
+        return std::vector<Case>{
+            {"a composite unlit, top", with(with(phantom, top), {"--unlit"})},
+            {"b composite lit, top", with(phantom, top)},
+            {"c composite unlit, oblique",
+             with(phantom, {"--unlit", "--azimuth", "30", "--elevation", "20", "--size",
+                            "96x96", "--zoom", std::to_string(1.356 * 96 / 512)})},
+            {"d maximum intensity, top", with(with(phantom, top), {"--mode", "mip"})},
+        };
+    }();
+    return all;
+}
+
+double largest_difference(const ctlab::Image& a, const ctlab::Image& b) {
+    double largest = 0;
+    for (int y = 0; y < a.height; ++y) {
+        for (int x = 0; x < a.width; ++x) {
+            const ctlab::Rgb p = a.at(x, y), q = b.at(x, y);
+            largest = std::max({largest, double(std::fabs(p.r - q.r)),
+                                double(std::fabs(p.g - q.g)), double(std::fabs(p.b - q.b))});
+        }
+    }
+    return largest;
+}
+
+std::string read_text(const std::string& path) {
+    std::ifstream in(path);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+}  // namespace
+
+TEST_CASE("part 3: every trick renders step 30's pictures of the four bench cases") {
+    const std::vector<std::string> tricks = trick_steps();
+    REQUIRE_MESSAGE(!tricks.empty(), "no part-3 step after " << first_part3_step);
+    for (const Case& c : cases()) {
+        const StepRender plain = render(first_part3_step, c.flags);
+        const ctlab::Image& expected = plain.image("camera");
+        const unsigned long long plain_samples =
+            ctlab::summary_count(plain.summary("camera"), "samples");
+        REQUIRE(plain_samples > 0);
+        // The picture is not empty: the comparison below would pass on two black images.
+        double brightest = 0;
+        for (const ctlab::Rgb& p : expected.pixels) brightest = std::max(brightest, double(p.r));
+        CHECK_MESSAGE(brightest > 0.2, c.name << ": step 30 rendered a dark picture");
+        for (const std::string& step : tricks) {
+            INFO(step << ", case " << c.name);
+            const StepRender fast = render(step, c.flags);
+            const ctlab::Image& image = fast.image("camera");
+            REQUIRE(image.width == expected.width);
+            REQUIRE(image.height == expected.height);
+            CHECK(largest_difference(image, expected) <= tolerance);
+            // Work left out is counted: every sample step 30 read is read or leapt here.
+            const ctlab::Summary& summary = fast.summary("camera");
+            CHECK(ctlab::summary_count(summary, "samples") +
+                      ctlab::summary_count(summary, "leapt") ==
+                  plain_samples);
+        }
+    }
+}
+
+TEST_CASE("part 3: the manifest states the tolerance the comparison uses") {
+    const std::string manifest = read_text("data/reference/manifest.txt");
+    CHECK(manifest.find("Every later part-3 step renders step 30's pictures within tol=2") !=
+          std::string::npos);
+}
+
+TEST_CASE("part 3: each trick's handout has its generated gain block") {
+    for (const std::string& step : trick_steps()) {
+        INFO(step);
+        const std::string handout = read_text("handouts/" + step + ".md");
+        REQUIRE(!handout.empty());
+        const std::string open = "<!-- measured: gain:" + step + " -->";
+        const size_t at = handout.find(open);
+        REQUIRE_MESSAGE(at != std::string::npos, "no " << open << " block (make gain fills it)");
+        const size_t end = handout.find("<!-- end measured -->", at);
+        REQUIRE(end != std::string::npos);
+        // Filled, not empty: a table with a row per case, and the gain over the step before.
+        const std::string block = handout.substr(at, end - at);
+        for (const char* row : {"| a ", "| b ", "| c ", "| d "}) {
+            CHECK_MESSAGE(block.find(row) != std::string::npos, "the block has no row " << row);
+        }
+        CHECK(block.find("gain over step") != std::string::npos);
+    }
+}
