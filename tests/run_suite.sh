@@ -14,15 +14,19 @@ logs=$build/test-logs
 mkdir -p "$logs" || exit 2
 log=$logs/$name.log
 started=$(date +%s)
+# CPU time (user, system seconds) of the suite and every process it waited for: on a shared
+# machine the figure that says what a suite costs (wall time says how busy the machine was).
+cpu="/usr/bin/time -f %U_%S -o $logs/$name.cpu"
+[ -x /usr/bin/time ] || cpu=
 if [ -f "tests/${name}_test.sh" ]; then
     case $name in
         window|panel)  # real windows on virtual X displays: one such suite at a time
-            flock "$logs/x_display.lock" sh "tests/${name}_test.sh" "$build" > "$log" 2>&1 ;;
-        *) sh "tests/${name}_test.sh" "$build" > "$log" 2>&1 ;;
+            $cpu flock "$logs/x_display.lock" sh "tests/${name}_test.sh" "$build" > "$log" 2>&1 ;;
+        *) $cpu sh "tests/${name}_test.sh" "$build" > "$log" 2>&1 ;;
     esac
 elif [ -f "tests/$name.cpp" ]; then
     # -sf: the test cases written in that file; a crash still ends the log with its message.
-    "$build/ctlab_tests" --source-file="*tests/$name.cpp" --no-version=true > "$log" 2>&1
+    $cpu "$build/ctlab_tests" --source-file="*tests/$name.cpp" --no-version=true > "$log" 2>&1
 else
     echo "run_suite: no suite '$name' (tests/${name}_test.sh or tests/$name.cpp)" > "$log"
     false
