@@ -47,6 +47,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 #include "args.h"
+#include "ray_plot.h"
 #include "tools/compare.h"
 #include "error.h"
 #include "image.h"
@@ -629,23 +630,14 @@ struct TraceLine {
 
 std::vector<TraceLine> read_trace(const fs::path& path) {
     std::vector<TraceLine> lines;
-    std::istringstream in(read_bounded(path, max_trace_bytes));
-    for (std::string line; std::getline(in, line);) {
-        if (line.rfind("record\t", 0) != 0) continue;
-        const size_t tab = line.find('\t', 7);
-        TraceLine record;
-        record.text = line.substr(7, tab == std::string::npos ? std::string::npos : tab - 7);
-        if (tab != std::string::npos) {
-            for (const std::string& word : split_words(line.substr(tab + 1))) {
-                const size_t equals = word.rfind('=');
-                if (equals == std::string::npos || equals == 0) continue;
-                char* end = nullptr;
-                const double value = std::strtod(word.c_str() + equals + 1, &end);
-                if (end == word.c_str() + equals + 1) continue;
-                record.fields.emplace_back(word.substr(0, equals), value);
-            }
+    for (const TraceRecord& record :
+         trace_records_from_text(read_bounded(path, max_trace_bytes))) {
+        TraceLine line;
+        line.text = record.text;
+        for (const TraceField& field : record.fields) {
+            line.fields.emplace_back(field.name, field.number);
         }
-        lines.push_back(record);
+        lines.push_back(std::move(line));
     }
     return lines;
 }
@@ -716,6 +708,76 @@ std::string first_difference(const std::vector<TraceLine>& yours,
     return "";
 }
 
+// --- Per-ray work: the first ray whose counters differ -------------------------------------
+// A step run with --work-map writes each ray's counters (common/step.h, work_map_text):
+//   work W H samples,skipped,leapt,gradients,terminated,hits / total ... / "Y: [N*]a,b,c,d,e,f ..."
+
+constexpr size_t max_work_map_bytes = 64 << 20;
+constexpr int work_counter_count = 6;
+const char* const work_counter_names[work_counter_count] = {"samples",    "skipped",
+                                                            "leapt",      "gradients",
+                                                            "terminated", "hits"};
+using RayWork = std::array<unsigned long long, work_counter_count>;
+
+struct WorkMap {
+    int width = 0, height = 0;
+    std::vector<RayWork> rays;  // row by row
+};
+
+// False when the file is missing or not a whole work map.
+bool read_work_map(const fs::path& path, WorkMap& map) {
+    std::error_code error;
+    if (!fs::is_regular_file(fs::symlink_status(path, error))) return false;
+    std::istringstream in(read_bounded(path, max_work_map_bytes));
+    std::string line;
+    if (!std::getline(in, line)) return false;
+    const std::vector<std::string> head = split_words(line);
+    if (head.size() < 3 || head[0] != "work") return false;
+    map.width = std::atoi(head[1].c_str());
+    map.height = std::atoi(head[2].c_str());
+    constexpr int max_side = 1 << 14;
+    if (map.width <= 0 || map.height <= 0 || map.width > max_side || map.height > max_side) {
+        return false;
+    }
+    map.rays.clear();
+    map.rays.reserve(size_t(map.width) * map.height);
+    for (int y = 0; y < map.height;) {
+        if (!std::getline(in, line)) return false;
+        if (line.rfind("total ", 0) == 0) continue;
+        const std::vector<std::string> words = split_words(line);
+        if (words.empty() || words[0] != std::to_string(y) + ":") return false;
+        size_t row = 0;
+        for (size_t w = 1; w < words.size(); ++w) {
+            const std::string& word = words[w];
+            const size_t star = word.find('*');
+            const long long count = star == std::string::npos ? 1 : std::atoll(word.c_str());
+            RayWork ray{};
+            const char* text = word.c_str() + (star == std::string::npos ? 0 : star + 1);
+            for (int c = 0; c < work_counter_count; ++c) {
+                char* end = nullptr;
+                ray[c] = std::strtoull(text, &end, 10);
+                if (end == text || (c + 1 < work_counter_count && *end != ',')) return false;
+                text = end + 1;
+            }
+            if (count < 1 || row + size_t(count) > size_t(map.width)) return false;
+            for (long long n = 0; n < count; ++n) map.rays.push_back(ray);
+            row += size_t(count);
+        }
+        if (row != size_t(map.width)) return false;
+        ++y;
+    }
+    return true;
+}
+
+std::string ray_work_text(const RayWork& ray) {
+    std::string text;
+    for (int c = 0; c < work_counter_count; ++c) {
+        text += (c ? " " : "") + std::string(work_counter_names[c]) + "=" +
+                std::to_string(ray[c]);
+    }
+    return text;
+}
+
 class Grader {
 public:
     explicit Grader(Settings settings) : settings_(std::move(settings)) {}
@@ -727,8 +789,10 @@ private:
     void grade_run(const Step& step, const Run& run, StepResult& result);
     void grade_picture(const Step& step, const Run& run, const std::string& view,
                        const fs::path& folder, StepResult& result);
-    void grade_counters(const Run& run, const std::string& view, const Summary& student,
+    bool grade_counters(const Run& run, const std::string& view, const Summary& student,
                         StepResult& result);
+    void first_ray_apart(const Step& step, const Run& run, const std::string& view,
+                         const fs::path& folder, StepResult& result);
     void probe_rays(const Step& step, const Run& run, const std::string& view,
                     const fs::path& folder, StepResult& result);
     std::string command_for(const Step& step, const Run& run, const std::string& view,
@@ -751,6 +815,7 @@ private:
     fs::path cwd_;
     std::unique_ptr<Stage> stage_;
     fs::path kit_reference_;  // the kit's phantom references, when grading on another volume
+    fs::path reference_bin_;  // the solution's own step binaries, when this lab holds them
     std::map<std::string, std::string> not_built_;  // --build: step -> why it was not built
     double build_s_ = 0;  // --build: wall-clock seconds of the sandboxed build
     std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
@@ -989,17 +1054,20 @@ std::string Grader::command_for(const Step& step, const Run& run, const std::str
     if (!settings_.volume_args.empty()) text += " " + join(settings_.volume_args);
     const bool chooses_view = std::find(run.arguments.begin(), run.arguments.end(),
                                         "--view") != run.arguments.end();
-    if (!chooses_view && !view.empty()) text += " --view " + view;
+    // Only the axis views are chosen with --view; the free camera's picture is the one a
+    // part-2 step renders without it (it has no --view camera).
+    const bool axis_view = std::find(views.begin(), views.end(), view) != views.end();
+    if (!chooses_view && axis_view) text += " --view " + view;
     if (!run.arguments.empty()) text += " " + join(run.arguments);
     if (!settings_.extra_args.empty()) text += " " + join(settings_.extra_args);
     return text + more;
 }
 
-void Grader::grade_counters(const Run& run, const std::string& view, const Summary& student,
+bool Grader::grade_counters(const Run& run, const std::string& view, const Summary& student,
                             StepResult& result) {
-    if (!counters_ || run.counters.empty()) return;
+    if (!counters_ || run.counters.empty()) return false;
     const auto found = counters_->find({run.name, view});
-    if (found == counters_->end()) return;  // the reference run has no line for this view
+    if (found == counters_->end()) return false;  // the reference run has no line for this view
     const Summary& reference = found->second;
     std::vector<std::string> differ;
     ++result.counters;
@@ -1013,7 +1081,7 @@ void Grader::grade_counters(const Run& run, const std::string& view, const Summa
     }
     if (differ.empty()) {
         ++result.counters_passed;
-        return;
+        return false;
     }
     std::string text = "counter " + differ[0] + " (" + run.name + ", " + view + ")";
     if (differ.size() > 1) {
@@ -1038,13 +1106,102 @@ void Grader::grade_counters(const Run& run, const std::string& view, const Summa
         static const std::map<std::string, std::string> hints = {
             {"samples", "a loop's range, or where a ray stops"},
             {"skipped", "which samples count as transparent (opacity 0) and are skipped"},
-            {"leapt", "the bricks leapt over, and how far each leap goes"},
+            {"leapt", "the samples leapt over: where the ray's samples begin and end, the "
+                      "bricks, how far each leap goes"},
             {"gradients", "where a gradient is computed: only where the picture needs one"},
             {"terminated", "where a ray stops early: the test against --ert (default 0.01)"},
             {"hits", "the hit test: the threshold, > or >=, the loop's range"}};
         const std::string first = differ[0].substr(0, differ[0].find('='));
         const auto hint = hints.find(first);
         if (hint != hints.end()) text += ": look at " + hint->second;
+    }
+    result.problems.push_back(text);
+    result.look_at.push_back(text);
+    return true;
+}
+
+// The run again with --work-map, each ray's counters against the reference's (REFERENCE/work/
+// RUN_VIEW_work.txt, or the solution's binary run the same way when this lab has it): the first
+// ray, row by row, whose counts differ; with the solution's binary, both rays traced there and
+// the first record where they part.
+void Grader::first_ray_apart(const Step& step, const Run& run, const std::string& view,
+                             const fs::path& folder, StepResult& result) {
+    const bool axis_view = std::find(views.begin(), views.end(), view) != views.end();
+    auto arguments_for = [&](const fs::path& out, const std::vector<std::string>& more) {
+        std::vector<std::string> arguments = first_arguments(out);
+        arguments.insert(arguments.end(), run.arguments.begin(), run.arguments.end());
+        arguments.insert(arguments.end(), settings_.extra_args.begin(),
+                         settings_.extra_args.end());
+        if (axis_view) arguments.insert(arguments.end(), {"--view", view});
+        arguments.insert(arguments.end(), more.begin(), more.end());
+        return arguments;
+    };
+    auto fresh = [](const fs::path& path) {
+        std::error_code error;
+        fs::remove_all(path, error);
+        make_folder(path.string());
+        return path;
+    };
+    std::error_code error;
+    const fs::path reference_program = reference_bin_ / step.name;
+    const bool has_reference_program =
+        !reference_bin_.empty() && fs::is_regular_file(reference_program, error);
+    const std::string map_name = step.name + "_" + view + "_work.txt";
+
+    WorkMap reference;
+    bool have_reference =
+        read_work_map(settings_.reference / "work" / (run.name + "_" + view + "_work.txt"),
+                      reference);
+    if (!have_reference && has_reference_program) {
+        const fs::path out = fresh(folder / ("work_reference_" + view));
+        const Outcome outcome = run_step_process(reference_program,
+                                                 arguments_for(out, {"--work-map"}),
+                                                 settings_.tree, out, settings_.timeout_s);
+        have_reference = outcome.exit_status == 0 && read_work_map(out / map_name, reference);
+    }
+    if (!have_reference) return;  // nothing to compare the rays with
+    const fs::path yours_out = fresh(folder / ("work_" + view));
+    const Outcome outcome = execute(step, arguments_for(yours_out, {"--work-map"}), yours_out);
+    WorkMap yours;
+    if (outcome.timed_out || outcome.signal != 0 || outcome.exit_status != 0 ||
+        !read_work_map(yours_out / map_name, yours) || yours.width != reference.width ||
+        yours.height != reference.height) {
+        return;
+    }
+    size_t first = yours.rays.size();
+    size_t apart = 0;
+    for (size_t n = 0; n < yours.rays.size(); ++n) {
+        if (yours.rays[n] == reference.rays[n]) continue;
+        if (first == yours.rays.size()) first = n;
+        ++apart;
+    }
+    if (first == yours.rays.size()) return;  // each ray alone agrees: the sum differs elsewhere
+    const int x = static_cast<int>(first % size_t(yours.width));
+    const int y = static_cast<int>(first / size_t(yours.width));
+    const std::string pixel = std::to_string(x) + "," + std::to_string(y);
+    std::string text = run.name + " " + view + ": the first ray whose work differs is pixel " +
+        pixel + " (" + std::to_string(apart) + " of " + std::to_string(yours.rays.size()) +
+        " rays differ)\n        yours:     " + ray_work_text(yours.rays[first]) +
+        "\n        reference: " + ray_work_text(reference.rays[first]) +
+        "\n      trace it:     " + command_for(step, run, view, " --debug-pixel " + pixel);
+    if (has_reference_program) {  // where along the ray the two part
+        const std::string xy = std::to_string(x) + "_" + std::to_string(y);
+        const std::string sidecar = step.name + "_" + view + "_ray_" + xy + ".txt";
+        const fs::path traced_yours = fresh(folder / ("work_ray_" + view));
+        const fs::path traced_reference = fresh(folder / ("work_ray_reference_" + view));
+        const Outcome mine =
+            execute(step, arguments_for(traced_yours, {"--debug-pixel", pixel}), traced_yours);
+        const Outcome theirs = run_step_process(
+            reference_program, arguments_for(traced_reference, {"--debug-pixel", pixel}),
+            settings_.tree, traced_reference, settings_.timeout_s);
+        if (mine.exit_status == 0 && theirs.exit_status == 0 &&
+            fs::is_regular_file(traced_yours / sidecar, error) &&
+            fs::is_regular_file(traced_reference / sidecar, error)) {
+            const std::string difference = first_difference(
+                read_trace(traced_yours / sidecar), read_trace(traced_reference / sidecar));
+            if (!difference.empty()) text += "\n      its trace leaves the reference's at " +
+                                             difference;
+        }
     }
     result.problems.push_back(text);
     result.look_at.push_back(text);
@@ -1160,7 +1317,9 @@ void Grader::probe_rays(const Step& step, const Run& run, const std::string& vie
         arguments.insert(arguments.end(), run.arguments.begin(), run.arguments.end());
         arguments.insert(arguments.end(), settings_.extra_args.begin(),
                          settings_.extra_args.end());
-        if (view != "camera") arguments.insert(arguments.end(), {"--view", view});
+        if (std::find(views.begin(), views.end(), view) != views.end()) {
+            arguments.insert(arguments.end(), {"--view", view});
+        }
         const std::string pixel = std::to_string(probe.x) + "," + std::to_string(probe.y);
         arguments.insert(arguments.end(), {"--debug-pixel", pixel});
         const Outcome outcome = execute(step, arguments, probe_folder);
@@ -1256,12 +1415,12 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
     if (outcome.signal != 0) {
         if (result.status != Status::not_started) result.status = Status::crashed;
         const std::string text = run.name + ": crashed with " + signal_name(outcome.signal) +
-            "\n      to see the line: make san STEP=" + step.name.substr(0, 2) +
+            "\n      to see the line (this step with AddressSanitizer and UBSan): make san STEP=" +
+            step.name.substr(0, 2) +
             (run.arguments.empty() && settings_.extra_args.empty() ? std::string()
                  : " ARGS='" + join(run.arguments) +
                        (settings_.extra_args.empty() ? "" : " " + join(settings_.extra_args)) +
-                       "'") +
-            " (this step with AddressSanitizer and UBSan)";
+                       "'");
         result.problems.push_back(text);
         result.look_at.insert(result.look_at.begin(), text);
         return;
@@ -1317,7 +1476,11 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
             result.problems.push_back(text);
             result.look_at.push_back(text);
         } else {
-            grade_counters(run, view, summary->second, result);
+            // Pictures right, work not: name the ray whose work differs.
+            const bool pictures_fine = result.problems.size() == problems_of_view;
+            if (grade_counters(run, view, summary->second, result) && pictures_fine) {
+                first_ray_apart(step, run, view, folder, result);
+            }
         }
         if (result.problems.size() > problems_of_view) probe_rays(step, run, view, folder, result);
     }
@@ -1454,6 +1617,17 @@ int Grader::run() {
                              "reference";
         if (fs::is_directory(kit, error) && !fs::equivalent(kit, settings_.reference, error)) {
             kit_reference_ = kit;
+        }
+    }
+    // The solution's own steps, beside this program in a lab (not a student kit): the rays of
+    // a run whose work differs are compared with theirs. Not when they are the steps graded.
+    {
+        const fs::path own = fs::path(build_folder());
+        const fs::path graded = settings_.build ? fs::path() : settings_.bin;
+        if (!fs::exists(own.parent_path() / ".ctlab-student", error) &&
+            fs::is_directory(own.parent_path() / "steps", error) &&
+            (graded.empty() || !fs::equivalent(own, graded, error))) {
+            reference_bin_ = own;
         }
     }
     make_folder(settings_.out.string());
