@@ -98,6 +98,7 @@ const char* const usage_text =
     "  --budget S          --class: wall-clock seconds for one student tree, its build and\n"
     "                      all its runs (default 600)\n"
     "  --timeout S         --class: seconds one run of a step may take (default 120)\n"
+    "  --step NN           --class: build and grade only step NN (again for more steps)\n"
     "  --regrade           --class: grade again the students a stopped run had finished\n"
     "                      (otherwise their reports are kept and they are skipped)\n"
     "  --no-sandbox        --class: where bubblewrap cannot run, build and run the trees'\n"
@@ -121,6 +122,7 @@ struct Settings {
     int jobs = 1;                           // --class: students graded at once
     double budget_s = default_budget_s;     // --class: wall-clock seconds per student tree
     std::string timeout;                    // --class: build/grade's --timeout (per run)
+    std::vector<std::string> steps;         // --class: only these steps (--step NN, repeated)
     bool no_sandbox = false, regrade = false, has_class_flag = false;
 };
 
@@ -160,6 +162,9 @@ Settings parse_arguments(int argc, char** argv) {
             settings.has_class_flag = true;
         } else if (arg == "--timeout") {
             settings.timeout = std::to_string(parse_double(arg, take_value(), 0.1, 24 * 3600));
+            settings.has_class_flag = true;
+        } else if (arg == "--step") {
+            settings.steps.push_back(take_value());
             settings.has_class_flag = true;
         } else if (arg == "--no-sandbox") {
             settings.no_sandbox = true;
@@ -915,6 +920,8 @@ void grade_program_tree(const std::string& grade, const std::string& tree,
     if (settings.no_sandbox) arguments.push_back("--no-sandbox");
     if (!settings.timeout.empty()) arguments.insert(arguments.end(), {"--timeout",
                                                                       settings.timeout});
+    for (const std::string& step : settings.steps) arguments.insert(arguments.end(),
+                                                                    {"--step", step});
     ProcessOptions options;
     options.limits.wall_s = settings.budget_s + budget_margin_s;
     options.stop = &stop_requested;
