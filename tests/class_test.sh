@@ -1,6 +1,6 @@
 #!/bin/sh
 # class_test.sh: a generated class (tools/make_class.sh: the solution, trees with one mistake
-# of tests/grade_mistakes.txt each, hostile trees) graded in one command, build/check --class,
+# of tests/check_mistakes.txt each, hostile trees) graded in one command, build/grade --class,
 # on steps 01 and 02 (--step: a small class for make test; the whole lab and 200 trees are the
 # README's timing). Every student's result, the steps it fails, and summary.md's figures
 # (students passing, and per step) must be what the mistakes give.
@@ -14,7 +14,7 @@ failed=0
 ok() { passed=$((passed + 1)); }
 bad() { echo "class test: FAILED: $*"; failed=$((failed + 1)); }
 
-if [ -f .ctlab-student ] || [ ! -f tests/grade_mistakes.txt ]; then
+if [ -f .ctlab-student ] || [ ! -f tests/check_mistakes.txt ]; then
     echo "class test: 0 passed, 0 failed (skipped: a student tree)"
     exit 0
 fi
@@ -30,15 +30,15 @@ sh tools/make_class.sh "$work/class" 6 '0[12]' 4 > "$work/make_class.log" 2>&1 |
     { bad "make_class: $(cat "$work/make_class.log")"; echo "class test: $passed passed, $failed failed"; exit 1; }
 [ "$(wc -l < "$work/class.expected.txt")" -eq 6 ] && ok || bad "make_class made no 6 trees"
 
-"$build/check" --class "$work/class" --reference data/reference --report "$work/report" \
+"$build/grade" --class "$work/class" --reference data/reference --report "$work/report" \
     --jobs 2 --timeout 5 --budget 120 --step 01 --step 02 > "$work/class.log" 2>&1
 status=$?
-if grep -q '^check: no sandbox' "$work/class.log"; then
+if grep -q '^grade: no sandbox' "$work/class.log"; then
     echo "class test: no sandbox here: the class's programs are not run; skipped"
     echo "class test: $passed passed, $failed failed"
     [ "$failed" -eq 0 ]; exit
 fi
-[ "$status" -eq 1 ] && ok || bad "check --class exited with $status, expected 1: $(cat "$work/class.log")"
+[ "$status" -eq 1 ] && ok || bad "grade --class exited with $status, expected 1: $(cat "$work/class.log")"
 
 # Each student as expected, and summary.md's figures (python3: a CSV with quoted notes).
 python3 - "$work/class.expected.txt" "$work/report/class.csv" "$work/report/summary.md" \

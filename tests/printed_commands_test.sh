@@ -1,5 +1,5 @@
 #!/bin/sh
-# printed_commands_test.sh: every command build/grade prints in its failure reports runs as
+# printed_commands_test.sh: every command build/check prints in its failure reports runs as
 # printed. Mistakes are patched into copies of the solution's steps (a part-1 step, the first
 # step holding the slab method, found by its lesson marker, and a crash), each graded as
 # make check grades a tree; then every command line of the reports ("trace it:", "run it
@@ -19,7 +19,7 @@ if [ -f .ctlab-student ]; then  # the mistakes patch solution lines
     echo "printed_commands test: 0 passed, 0 failed (skipped: a student tree)"
     exit 0
 fi
-[ -x "$build/grade" ] || { echo "printed_commands test: $build/grade is not built"; exit 1; }
+[ -x "$build/check" ] || { echo "printed_commands test: $build/check is not built"; exit 1; }
 work=$(mktemp -d) || exit 1
 if [ -n "${KEEP:-}" ]; then echo "kept $work"; else trap 'rm -rf "$work"' EXIT INT TERM; fi
 case "$build" in *san*) san=SAN=1 ;; *) san= ;; esac
@@ -71,7 +71,7 @@ run_printed() {
 # A part-1 picture that differs (the threshold moved): "trace it" and the probe ray.
 mutant threshold_401 steps/02_threshold.cpp \
     's/bone_threshold = 400;/bone_threshold = 401;/' &&
-    { "$build/grade" --bin "$work/bin/threshold_401" --step 02 --out "$work/out/t" \
+    { "$build/check" --bin "$work/bin/threshold_401" --step 02 --out "$work/out/t" \
           > "$work/t.log" 2>&1
       [ $? -eq 1 ] || bad "threshold_401: grade did not fail"
       run_printed threshold_401 "$work/t.log"; }
@@ -79,7 +79,7 @@ mutant threshold_401 steps/02_threshold.cpp \
 # A crash: "to see the line: make san ...".
 mutant crash steps/03_depth_shading.cpp \
     '/for (int [nt] = 0; [nt] < view.ray_length; ++[nt]) {/i\    if (x == 9) *static_cast<volatile int*>(nullptr) = 0;' &&
-    { "$build/grade" --bin "$work/bin/crash" --step 03 --view top --out "$work/out/c" \
+    { "$build/check" --bin "$work/bin/crash" --step 03 --view top --out "$work/out/c" \
           > "$work/c.log" 2>&1
       [ $? -eq 1 ] || bad "crash: grade did not fail"
       run_printed crash "$work/c.log"; }
@@ -91,7 +91,7 @@ if [ -z "$slab" ]; then
 else
     number=$(basename "$slab" | cut -c1-2)
     mutant slab_parallel "$slab" '/if (d == 0) {  \/\/ true for -0 too/,/^        }$/d' &&
-        { "$build/grade" --bin "$work/bin/slab_parallel" --step "$number" --out "$work/out/s" \
+        { "$build/check" --bin "$work/bin/slab_parallel" --step "$number" --out "$work/out/s" \
               > "$work/s.log" 2>&1
           [ $? -eq 1 ] || { bad "slab_parallel: grade did not fail"; sed 's/^/    /' "$work/s.log"; }
           run_printed slab_parallel "$work/s.log"; }

@@ -1,7 +1,7 @@
 #!/bin/sh
 # make_class.sh: a class of generated student trees, for trying the class grader at scale
-# (build/check --class). Each tree holds the solution's steps with one mistake of
-# tests/grade_mistakes.txt (the rows taken in turn), or, every HOSTILE-th tree, step 02 with
+# (build/grade --class). Each tree holds the solution's steps with one mistake of
+# tests/check_mistakes.txt (the rows taken in turn), or, every HOSTILE-th tree, step 02 with
 # one of the hostile programs of tests/hostile/ appended; the first tree is the solution as
 # it is. CLASS.expected.txt (beside the class folder) says what each tree must get:
 #   NAME RESULT STEP WHAT      RESULT pass or fail; STEP the step that decides it (- : none)
@@ -16,7 +16,7 @@ count=${2:?usage: sh tools/make_class.sh CLASS N [STEPS_REGEX [HOSTILE]]}
 only=${3:-.*}
 every=${4:-10}
 fail() { echo "make_class: error: $*" >&2; exit 2; }
-[ -f tests/grade_mistakes.txt ] && [ -d steps ] || fail "run it from the lab's root"
+[ -f tests/check_mistakes.txt ] && [ -d steps ] || fail "run it from the lab's root"
 [ -e "$class" ] && fail "'$class' exists already"
 mkdir -p "$class" || fail "cannot create '$class'"
 expected=${class%/}.expected.txt
@@ -25,7 +25,7 @@ work=$(mktemp -d) || exit 2
 trap 'rm -rf "$work"' EXIT INT TERM
 
 # The mistakes that apply here: NAME|STEP|SCRIPT|EXPECT, one per line.
-grep -v '^#' tests/grade_mistakes.txt | grep -v '^[[:space:]]*$' |
+grep -v '^#' tests/check_mistakes.txt | grep -v '^[[:space:]]*$' |
 while IFS='|' read -r name step view script expect shows; do
     step=$(echo $step)
     echo "$step" | grep -Eq "^($only)\$" || continue
@@ -33,7 +33,7 @@ while IFS='|' read -r name step view script expect shows; do
     printf '%s|%s|%s|%s\n' "$(echo $name)" "$step" \
         "$(printf '%s\n' "$script" | sed 's/^ *//; s/ *$//')" "$(echo $expect)"
 done > "$work/mistakes"
-[ -s "$work/mistakes" ] || fail "no mistake of tests/grade_mistakes.txt matches '$only'"
+[ -s "$work/mistakes" ] || fail "no mistake of tests/check_mistakes.txt matches '$only'"
 rows=$(wc -l < "$work/mistakes")
 # Hostile programs whose verdict does not depend on the volume graded or on a server:
 # NAME RESULT (the one that writes elsewhere is contained, and renders right: it passes).
