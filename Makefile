@@ -65,7 +65,7 @@ endif
 ifeq ($(SAN),1)
 BUILD    ?= build-san
 CXXFLAGS += -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
-# GCC 12 with the sanitizers warns falsely inside <regex> (tools/check.cpp): maybe-uninitialized.
+# GCC 12 with the sanitizers warns falsely inside <regex> (tools/grade.cpp): maybe-uninitialized.
 CXXFLAGS += -Wno-maybe-uninitialized
 LDFLAGS  += -fsanitize=address,undefined
 # Stricter than the defaults, for every test run (the tests add to these, never replace them).
@@ -304,15 +304,15 @@ reference: $(STEP_BINARIES)
 student: $(BUILD)/make_student
 	$(BUILD)/make_student --to student $(if $(filter 1,$(FORCE)),--force)
 
-# Grade this tree's programs (tools/grade.cpp), in the lab or in a student tree: build every
+# Grade this tree's programs (tools/check.cpp), in the lab or in a student tree: build every
 # step (or STEP=NN; one that does not compile is graded "not built"), run each with every run
 # of data/reference/manifest.txt on the phantom into out/check/, compare every picture and the
 # work counters with the reference run's, and print a progress table with what to look at.
 CHECK_STEPS = $(if $(STEP),$(filter $(STEP) $(STEP)_%,$(STEP_NAMES)),$(STEP_NAMES))
-check: $(BUILD)/grade
+check: $(BUILD)/check
 	@$(MAKE) --no-print-directory -k $(PARALLEL) check-steps || \
 	    echo "make check: a step does not compile (the compiler's errors are above)"
-	@$(BUILD)/grade --bin $(BUILD) $(if $(STEP),--step $(STEP))
+	@$(BUILD)/check --bin $(BUILD) $(if $(STEP),--step $(STEP))
 check-steps: $(addprefix $(BUILD)/,$(CHECK_STEPS))
 	@:
 

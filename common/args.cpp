@@ -138,6 +138,8 @@ std::string Args::usage() const {
         "  --threads N             render threads (default: all cores)\n"
         "  --pfm                   also write OUT/STEP_VIEW.pfm: the float RGB image before\n"
         "                          rounding to 8 bits (colour PFM, little-endian)\n"
+        "  --work-map              also write OUT/STEP_VIEW_work.txt: each ray's work counters\n"
+        "                          (make check finds the first ray whose work differs)\n"
         "  --repeat N              render each view N times [1 .. 1000]: time_ms= is the\n"
         "                          first (cold) render, warm_ms= the median of the others\n"
         "  --help                  this text\n";
@@ -478,6 +480,9 @@ Options Args::parse_words(int argc, char** argv) {
         } else if (flag == "--pfm") {
             if (has_value) throw InputError(flag + ": takes no value");
             options.pfm = true;
+        } else if (flag == "--work-map") {
+            if (has_value) throw InputError(flag + ": takes no value");
+            options.work_map = true;
         } else if (flag == "--repeat") {
             options.repeat = parse_int(flag, take_value(), 1, max_repeat);
         } else if (flag == "--window-script") {

@@ -4,6 +4,7 @@
 //   --type uint8|int8|uint16|int16|float32
 //   --view top|front|side|all  --out DIR  --no-window  --debug-pixel X,Y  --threads N  --help
 //   --pfm  --repeat N   (for tests and measurements: float images, repeated timing)
+//   --work-map          (for make check: every ray's work counters, common/step.h)
 // A step adds its own (--threshold, --slice, ...) before parse(). Any bad flag or number
 // throws InputError naming the flag and what was expected.
 #pragma once
@@ -56,6 +57,7 @@ struct Options {
     std::vector<std::pair<int, int>> debug_pixels;  // every --debug-pixel X,Y, in order
     int threads = 1;                  // resolved: --threads N, default all cores
     bool pfm = false;                 // --pfm: also write OUT/STEP_VIEW.pfm (float RGB)
+    bool work_map = false;            // --work-map: also write OUT/STEP_VIEW_work.txt
     int repeat = 1;                   // --repeat N: render each view N times (timing)
     std::string window_script;        // tests only: events to inject into the preview window
     std::string preset;               // --preset NAME ("" = none)

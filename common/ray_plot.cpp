@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
+#include <sstream>
 
 #include "plot.h"
 
@@ -356,9 +358,80 @@ std::string ray_plot_text(const RayPlot& plot) {
                           field.number);
             text += line;
         }
+        // The record's kind and flags last: a reader of the first three columns (older
+        // reference traces have only those) sees words without '=' and passes them by.
+        text += std::string("\t") + trace_kind_name(record.kind);
+        if (record.hit) text += " hit";
+        if (record.missed) text += " missed";
+        if (record.back_to_front) text += " back_to_front";
         text += "\n";
     }
     return text;
+}
+
+const char* trace_kind_name(TraceKind kind) {
+    switch (kind) {
+        case TraceKind::sample: return "sample";
+        case TraceKind::hit: return "hit";
+        case TraceKind::leap: return "leap";
+        case TraceKind::stop: return "stop";
+        case TraceKind::ray: return "ray";
+        case TraceKind::box: return "box";
+        case TraceKind::bisection: return "bisection";
+        case TraceKind::order: return "order";
+        case TraceKind::shade: return "shade";
+        case TraceKind::note: return "note";
+    }
+    return "note";
+}
+
+std::vector<TraceRecord> trace_records_from_text(const std::string& sidecar) {
+    static const TraceKind kinds[] = {TraceKind::sample, TraceKind::hit,   TraceKind::leap,
+                                      TraceKind::stop,   TraceKind::ray,   TraceKind::box,
+                                      TraceKind::bisection, TraceKind::order, TraceKind::shade,
+                                      TraceKind::note};
+    std::vector<TraceRecord> records;
+    size_t start = 0;
+    while (start < sidecar.size()) {
+        size_t end = sidecar.find('\n', start);
+        if (end == std::string::npos) end = sidecar.size();
+        const std::string line = sidecar.substr(start, end - start);
+        start = end + 1;
+        if (line.rfind("record\t", 0) != 0) continue;
+        // Columns: "record", the text, the fields, the kind and its flags (absent: a note).
+        std::vector<std::string> columns;
+        for (size_t from = 0;;) {
+            const size_t tab = line.find('\t', from);
+            columns.push_back(line.substr(from, tab == std::string::npos ? tab : tab - from));
+            if (tab == std::string::npos) break;
+            from = tab + 1;
+        }
+        TraceRecord record;
+        record.text = columns.size() > 1 ? columns[1] : "";
+        std::istringstream fields(columns.size() > 2 ? columns[2] : "");
+        for (std::string word; fields >> word;) {
+            const size_t equals = word.rfind('=');
+            if (equals == std::string::npos || equals == 0) continue;
+            char* after = nullptr;
+            const double value = std::strtod(word.c_str() + equals + 1, &after);
+            if (after == word.c_str() + equals + 1 || *after != '\0') continue;
+            record.fields.push_back({word.substr(0, equals), value});
+        }
+        std::istringstream kind(columns.size() > 3 ? columns[3] : "");
+        std::string word;
+        if (kind >> word) {
+            for (TraceKind k : kinds) {
+                if (word == trace_kind_name(k)) record.kind = k;
+            }
+            while (kind >> word) {
+                record.hit = record.hit || word == "hit";
+                record.missed = record.missed || word == "missed";
+                record.back_to_front = record.back_to_front || word == "back_to_front";
+            }
+        }
+        records.push_back(std::move(record));
+    }
+    return records;
 }
 
 std::string ray_plot_marks(const RayPlot& plot) {

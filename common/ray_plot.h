@@ -107,7 +107,15 @@ std::vector<RayPlotView> mip_views(const Volume& volume);
 // then every trace line, its text and its fields (make check compares these with the
 // reference's, data/reference/traces/):
 //   record<TAB>n= 43 voxel (128, 43, 30) value=   10 ...<TAB>n=43 voxel.i=128 ... value=10 ...
+// Each record line ends with a fourth column, its kind and flags: "<TAB>sample hit".
 std::string ray_plot_text(const RayPlot& plot);
+
+// The records of a sidecar, read back from its record lines (the machine form: the text column
+// is kept as it is, never parsed; a line without the kind column reads as a note).
+std::vector<TraceRecord> trace_records_from_text(const std::string& sidecar);
+
+// "sample", "hit", "leap", ...: the kind's name in the sidecar.
+const char* trace_kind_name(TraceKind kind);
 
 // Where the marks are, in one line: "hit t=47.2857 stop t=50" ("" when none).
 std::string ray_plot_marks(const RayPlot& plot);

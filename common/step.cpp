@@ -41,6 +41,53 @@ std::string pfm_path(const Options& options, const View& view) {
     return options.out + "/" + options.step + "_" + view.name + ".pfm";
 }
 
+std::string work_map_path(const Options& options, const View& view) {
+    return options.out + "/" + options.step + "_" + view.name + "_work.txt";
+}
+
+std::string work_map_text(const Options& options, const View& view, const Renderer& renderer) {
+    std::vector<Work> rays(size_t(view.width) * view.height);
+    Work total;
+    render_image(view, options.threads, total, [&](int x, int y, Work& row_work) {
+        Work& one = rays[size_t(y) * view.width + x];
+        const Rgb colour = renderer.ray(view, x, y, one, nullptr);
+        row_work.add(one);
+        return colour;
+    });
+    auto counts = [](const Work& w) {
+        char text[160];
+        std::snprintf(text, sizeof text, "%llu,%llu,%llu,%llu,%llu,%llu",
+                      static_cast<unsigned long long>(w.samples),
+                      static_cast<unsigned long long>(w.skipped),
+                      static_cast<unsigned long long>(w.leapt),
+                      static_cast<unsigned long long>(w.gradients),
+                      static_cast<unsigned long long>(w.terminated),
+                      static_cast<unsigned long long>(w.hits));
+        return std::string(text);
+    };
+    std::string text = "work " + std::to_string(view.width) + " " +
+                       std::to_string(view.height) +
+                       " samples,skipped,leapt,gradients,terminated,hits\ntotal " +
+                       counts(total) + "\n";
+    for (int y = 0; y < view.height; ++y) {
+        text += std::to_string(y) + ":";
+        for (int x = 0; x < view.width;) {
+            const Work& here = rays[size_t(y) * view.width + x];
+            auto same = [&](const Work& w) {
+                return w.samples == here.samples && w.skipped == here.skipped &&
+                       w.leapt == here.leapt && w.gradients == here.gradients &&
+                       w.terminated == here.terminated && w.hits == here.hits;
+            };
+            int run = 1;
+            while (x + run < view.width && same(rays[size_t(y) * view.width + x + run])) ++run;
+            text += " " + (run > 1 ? std::to_string(run) + "*" : std::string()) + counts(here);
+            x += run;
+        }
+        text += "\n";
+    }
+    return text;
+}
+
 Image render_view(const Options& options, const View& view, const Renderer& renderer,
                   Work& work) {
     if (renderer.image) return renderer.image(view, work);
@@ -238,6 +285,12 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         }
         write_png(image, output_path(options, view));
         if (options.pfm) write_pfm(image, pfm_path(options, view));
+        if (options.work_map) {
+            const std::string text = work_map_text(options, view, renderer);
+            write_output_file(work_map_path(options, view), [&](std::FILE* file) {
+                return std::fwrite(text.data(), 1, text.size(), file) == text.size();
+            });
+        }
         print_summary(options, view, renderer, work, ms, warm_ms);
         if (options.has_debug_pixel) rendered.push_back({view, image});
         for (const auto& [x, y] : options.debug_pixels) {

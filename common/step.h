@@ -84,6 +84,15 @@ Image ray_picture(const Options& options, const Renderer& renderer, const RayPlo
 // "out/03_depth_shading_front.png"
 std::string output_path(const Options& options, const View& view);
 
+// --work-map: every ray's work, one line per image row (OUT/STEP_VIEW_work.txt), each ray
+// traced again alone through the renderer's ray function (the same counts as the picture's
+// render: the totals line says so, and make check compares them with the summary line's):
+//   work WIDTH HEIGHT samples,skipped,leapt,gradients,terminated,hits
+//   total 4123,0,0,0,0,0
+//   0: 200*0,0,0,0,0,0 113,0,0,0,1,1 ...     (N*COUNTS: N rays in a row with these counts)
+std::string work_map_path(const Options& options, const View& view);
+std::string work_map_text(const Options& options, const View& view, const Renderer& renderer);
+
 // "out/03_depth_shading_front.pfm": the float image --pfm writes beside the PNG.
 std::string pfm_path(const Options& options, const View& view);
 

@@ -209,37 +209,37 @@ cat > "$work/table" << EOF
   says: --out: cannot create folder '/proc/ctlab_out'
 02_threshold --volume phantom --out /proc/self
   says: --out: cannot write to folder '/proc/self'
-check $w/two.ppm $w/one.ppm --diff $w/out/diff.png
+grade $w/two.ppm $w/one.ppm --diff $w/out/diff.png
   says: $w/two.ppm is 2x1 but $w/one.ppm is 1x1
-check $w/notes.png $w/one.ppm
+grade $w/notes.png $w/one.ppm
   says: '$w/notes.png': is not a PNG or PPM (P6/P3) image
-check $w/one.ppm $w/empty.png
+grade $w/one.ppm $w/empty.png
   says: '$w/empty.png': is empty (0 bytes), not an image
-check $w/cut.png $w/one.ppm
+grade $w/cut.png $w/one.ppm
   says: '$w/cut.png': is a damaged or truncated PNG
-check $w/short.ppm $w/one.ppm
+grade $w/short.ppm $w/one.ppm
   says: '$w/short.ppm': is truncated: 3 bytes of pixel data, expected at least 12
-check $w/header_only.ppm $w/one.ppm
+grade $w/header_only.ppm $w/one.ppm
   says: '$w/header_only.ppm': is truncated
-check $w/one.ppm $w/missing.png
+grade $w/one.ppm $w/missing.png
   says: '$w/missing.png': no such file
-check $w/a_folder $w/one.ppm
+grade $w/a_folder $w/one.ppm
   says: '$w/a_folder': is a folder, not an image file
-check /dev/zero $w/one.ppm
+grade /dev/zero $w/one.ppm
   says: '/dev/zero': is not an ordinary file
-check $w/one.ppm
+grade $w/one.ppm
   says: expected STUDENT.png REFERENCE.png or --submission DIR, got 1 file names
-check $w/one.ppm $w/one.ppm --tol two
+grade $w/one.ppm $w/one.ppm --tol two
   says: --tol: expected a number, got 'two'
-check $w/one.ppm $w/one.ppm --tol 300
+grade $w/one.ppm $w/one.ppm --tol 300
   says: --tol: expected a number from 0 to 255, got 300
-check $w/one.ppm $w/one.ppm --tolerance 3
-  says: unknown flag '--tolerance' (see check --help)
-check --submission $w/missing
+grade $w/one.ppm $w/one.ppm --tolerance 3
+  says: unknown flag '--tolerance' (see grade --help)
+grade --submission $w/missing
   says: submission folder '$w/missing' does not exist
-check --submission $w/notes.png
+grade --submission $w/notes.png
   says: submission folder '$w/notes.png' is not a folder
-check --submission $w/a_folder --reference $w/a_folder
+grade --submission $w/a_folder --reference $w/a_folder
   says: --submission '$w/a_folder' is the reference folder '$w/a_folder': it would pass against itself
 EOF
 

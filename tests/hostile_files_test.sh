@@ -241,12 +241,12 @@ mkdir -p "$work/same"
 cp data/reference/02_threshold_top.png "$work/same/"
 ln -s "$work/same" "$work/same_link"
 for other in "$work/same" "$work/same_link" "$work/same/"; do
-    "$build/check" --submission "$work/same" --reference "$other" > "$work/check.log" 2>&1
+    "$build/grade" --submission "$work/same" --reference "$other" > "$work/check.log" 2>&1
     status=$?
     if [ "$status" -eq 2 ] && grep -q "is the reference folder" "$work/check.log"; then
         pass
     else
-        fail "check --submission DIR --reference $other: exit status $status:" \
+        fail "grade --submission DIR --reference $other: exit status $status:" \
              "$(head -c 200 "$work/check.log")"
     fi
 done

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 # make_bomb_png.py OUT.png WIDTH HEIGHT INFLATED: an 8-bit RGB PNG whose one IDAT inflates to
-# INFLATED zero bytes (exactly), for tests/check_test.sh:
+# INFLATED zero bytes (exactly), for tests/grade_test.sh:
 # a decompression bomb, or with INFLATED = the declared size a valid black picture. The MiBs are
 # one compressed MiB repeated, so a 2 GiB bomb takes a second to make.
 import struct, sys, zlib

@@ -1,6 +1,6 @@
 #!/bin/sh
 # sandbox_test.sh: a class of hostile and careless student trees, graded in one command
-# (build/check --class: each tree's step 02 built from source and run in the sandbox, against
+# (build/grade --class: each tree's step 02 built from source and run in the sandbox, against
 # the lab's common/). Each gets its verdict with one line of reason (tests/hostile/*.inc say
 # what each program does), and nothing outside the students' output folders changes: the
 # class, the lab's steps and references and a home folder are hashed before and after; a
@@ -45,15 +45,15 @@ echo "02_threshold:" > "$ref/manifest.txt"
 sed -n 's/^step=/02_threshold: step=/p' "$work/ref.log" > "$ref/counters.txt"
 echo "volume: phantom:$seed" > "$ref/volume.txt"
 # The variant's pictures are not the kit's.
-"$build/check" "$ref/02_threshold_top.png" data/reference/02_threshold_top.png > /dev/null
+"$build/grade" "$ref/02_threshold_top.png" data/reference/02_threshold_top.png > /dev/null
 [ $? -eq 1 ] && ok || bad "phantom:$seed renders step 02's top view as the kit's phantom does"
 
 # --- Without a sandbox, programs are not run unless the instructor says so -------------------
 mkdir -p "$work/one/steps"
 cp steps/02_threshold.cpp "$work/one/steps/"
-if ! "$build/grade" --build --tree "$work/one" --reference "$ref" --out "$work/one_out" \
+if ! "$build/check" --build --tree "$work/one" --reference "$ref" --out "$work/one_out" \
         > "$work/one.log" 2>&1; then
-    if grep -q '^grade: error: no sandbox: ' "$work/one.log"; then
+    if grep -q '^check: error: no sandbox: ' "$work/one.log"; then
         ok
         echo "sandbox test: no sandbox here ($(cat "$work/one.log")): the rest is skipped"
         finish
@@ -132,10 +132,10 @@ fingerprint() {
 }
 fingerprint > "$work/before.txt"
 
-HOME=$home "$build/check" --class "$class" --reference "$ref" --report "$work/report" \
+HOME=$home "$build/grade" --class "$class" --reference "$ref" --report "$work/report" \
     --jobs 2 --timeout 3 --budget 60 > "$work/class.log" 2>&1
 status=$?
-[ "$status" -eq 1 ] || bad "check --class exited with $status, expected 1: $(cat "$work/class.log")"
+[ "$status" -eq 1 ] || bad "grade --class exited with $status, expected 1: $(cat "$work/class.log")"
 
 fingerprint > "$work/after.txt"
 if cmp -s "$work/before.txt" "$work/after.txt"; then ok; else
@@ -178,12 +178,12 @@ verdict connects fail "exited with status 3: connect 127.0.0.1:$port: Connection
 
 # --- A rerun keeps every finished student (as after an interrupted run) --------------------
 students=$(ls -d "$class"/*/ | wc -l)
-HOME=$home "$build/check" --class "$class" --reference "$ref" --report "$work/report" \
+HOME=$home "$build/grade" --class "$class" --reference "$ref" --report "$work/report" \
     --jobs 2 --timeout 3 --budget 60 > "$work/rerun.log" 2>&1
 status=$?
 kept=$(grep -c '(graded before: kept)$' "$work/rerun.log")
 if [ "$status" -eq 1 ] && [ "$kept" -eq "$students" ] &&
-        grep -q "^check: $students students graded by an earlier run were kept" "$work/rerun.log"
+        grep -q "^grade: $students students graded by an earlier run were kept" "$work/rerun.log"
 then ok; else bad "the rerun kept $kept of $students students (status $status):" \
     "$(cat "$work/rerun.log")"; fi
 finish

@@ -259,7 +259,7 @@ if [ -n "$step02" ] && grep -q '^0[3-9]_[a-z_]* first_hit 02_' "$student/.ctlab/
         ok
         "$student/$build/$(basename "$step02" .cpp)" --volume phantom --view front --no-window \
             --out "$work/carry_out" > /dev/null 2>&1
-        expect "the student's step 02 passes the checker" "$build/check" \
+        expect "the student's step 02 passes the checker" "$build/grade" \
             "$work/carry_out/$(basename "$step02" .cpp)_front.png" \
             "data/reference/$(basename "$step02" .cpp)_front.png" > /dev/null
         "$student/$build/$first_carried" --volume phantom --view front --no-window \
@@ -376,12 +376,12 @@ for step in $chosen; do
         bad "no $reference: run make reference"
         continue
     fi
-    "$build/check" "$work/student_out/${step}_$view.png" "$reference" > /dev/null
+    "$build/grade" "$work/student_out/${step}_$view.png" "$reference" > /dev/null
     expect "the stubbed $step fails the checker (exit 1)" [ $? -eq 1 ]
     # shellcheck disable=SC2086
     "$build/$step" --volume phantom $view_flags --no-window --out "$work/lab_out" > /dev/null
     expect "the lab's $step renders" [ $? -eq 0 ]
-    "$build/check" "$work/lab_out/${step}_$view.png" "$reference" > /dev/null
+    "$build/grade" "$work/lab_out/${step}_$view.png" "$reference" > /dev/null
     expect "the lab's $step passes the checker (exit 0)" [ $? -eq 0 ]
 done
 

@@ -2,7 +2,7 @@
 // against data/reference/NN_name_<view>.png; and no NaN or infinity in any pixel before the
 // PNG conversion (which would hide it as black).
 //
-// Tolerance (8-bit units, both pictures quantised as build/check does): every channel within
+// Tolerance (8-bit units, both pictures quantised as build/grade does): every channel within
 // 2, and at most 0.1% of the pixels with a channel more than 1 off. New references after an
 // intended change: make reference (tools/make_reference.sh).
 #include <doctest/doctest.h>

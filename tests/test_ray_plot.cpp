@@ -144,6 +144,47 @@ TEST_CASE("trace records: typed events, their numbers at full precision, their l
     CHECK(plot.marks[3].from == 37.25);
 }
 
+TEST_CASE("the sidecar's records read back: kinds, flags, numbers; the text never parsed") {
+    Trace trace;
+    trace.sample(TraceSample(0, Voxel{3, 4, 0}, 500).threshold_hit(true));
+    trace.crossing(7, 0.125);
+    trace.gradient(Vec3{0.5f, -0.25f, 2.0f}, 0.75);
+    trace.sample(TraceSample(9, Voxel{3, 4, 9}, 10).transparency(1.0 / 3.0));
+    trace.box_missed(Vec3d{255, 255, 224});
+    const std::vector<TraceRecord> records = trace.records();
+    View view;
+    view.ray_length = 100, view.ray_spacing = 1;
+    const RayPlot plot = ray_plot_from_trace(records, view, {}, Rgb{}, "sidecar");
+    const std::vector<TraceRecord> read = trace_records_from_text(ray_plot_text(plot));
+    REQUIRE(read.size() == records.size());
+    for (size_t n = 0; n < records.size(); ++n) {
+        CAPTURE(n);
+        CHECK(read[n].kind == records[n].kind);
+        CHECK(read[n].text == records[n].text);
+        CHECK(read[n].hit == records[n].hit);
+        CHECK(read[n].missed == records[n].missed);
+        REQUIRE(read[n].fields.size() == records[n].fields.size());
+        for (size_t f = 0; f < records[n].fields.size(); ++f) {
+            CHECK(read[n].fields[f].name == records[n].fields[f].name);
+            // %.9g: nine significant digits survive
+            CHECK(read[n].fields[f].number ==
+                  doctest::Approx(records[n].fields[f].number).epsilon(1e-8));
+        }
+    }
+    CHECK(read[0].hit);
+    CHECK(read[1].kind == TraceKind::hit);
+    CHECK(read[1].number("fraction", 0) == 0.125);
+    CHECK(read[2].kind == TraceKind::shade);
+    CHECK(read[2].number("gradient.k", 0) == 2.0);
+    CHECK(read[4].missed);
+    // A record line of an older sidecar, without the kind column, reads as a note.
+    const std::vector<TraceRecord> old =
+        trace_records_from_text("pixel 0 0 0\nrecord\tn=  1 value=5\tn=1 value=5\n");
+    REQUIRE(old.size() == 1);
+    CHECK(old[0].kind == TraceKind::note);
+    CHECK(old[0].number("value", 0) == 5);
+}
+
 TEST_CASE("the ray picture's numbers are the text trace's, for every kind of step") {
     struct Case {
         std::string step;

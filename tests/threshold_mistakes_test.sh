@@ -3,7 +3,7 @@
 # of steps 02-05 by more than the checker's tolerance, so such a submission fails.
 # The phantom's edges are blurred (handouts/phantom.md), so every value near 400 occurs.
 # Each step renders its default run, then with --threshold 399 (in steps 02-04 exactly what
-# `value >= 400` renders on integer data), 401, 409, 300 and 211; build/check compares each
+# `value >= 400` renders on integer data), 401, 409, 300 and 211; build/grade compares each
 # view with the default one at the checker's default tolerance (2 levels). Every threshold
 # must fail at least one view of every step: the student's whole step fails.
 #
@@ -27,7 +27,7 @@ for step in $steps; do
             --out "$out" > /dev/null || { echo "threshold test: $step --threshold $threshold failed"; exit 1; }
         failing=""
         for view in top front side; do
-            if ! "$build/check" "$out/${step}_$view.png" "$work/default/${step}_$view.png" \
+            if ! "$build/grade" "$out/${step}_$view.png" "$work/default/${step}_$view.png" \
                     > "$work/line" 2>&1; then
                 grep -q "result=fail" "$work/line" ||
                     { echo "threshold test: check could not compare: $(cat "$work/line")"; exit 2; }

@@ -1,4 +1,4 @@
-// compare.h: how close a student's picture is to the reference, as build/check measures it.
+// compare.h: how close a student's picture is to the reference, as build/grade measures it.
 // Both pictures are first quantised to 8 bits per channel (to_byte), so a PNG read back
 // compares exactly with the image that was written; every error is in 8-bit units (0..255).
 #pragma once

@@ -1,1569 +1,1350 @@
-// grade.cpp: grades a tree's PROGRAMS, as `make check` runs it: every step, with every run the
-// reference manifest lists (its default run and its variants), on the reference volume, and
-// every picture and work counter compared with the reference run's. A student sees the verdict
-// the instructor will see.
+// grade.cpp: the instructor's grader. Compares a student's PNGs with the
+// reference images (one pair, one student's folder, or a whole class) and says pass or fail
+// with the numbers.
 //
-//   build/grade [--tree DIR] [--bin DIR] [--reference DIR] [--out DIR] [--step NN]...
-//               [--view top|front|side] [--args "FLAGS"] [--volume PATH] [--timeout S]
+//   build/grade STUDENT.png REFERENCE.png [--tol N] [--diff OUT.png]
+//   build/grade --submission DIR [--reference DIR] [--tol N] [--report OUT_DIR]
+//   build/grade --class DIR [--reference DIR] [--tol N] --report OUT_DIR
 //
-// For each run (manifest line `NAME: ARGUMENTS [tol=N] [counters=LIST]`) the step's binary is
-// run as a process in the tree:  BIN/NN_name --volume V --no-window --out OUT/NAME ARGS
-// (V: the phantom, or the volume REFERENCE/volume.txt names)
-// into a folder emptied first (an old picture never passes). Then, for each view:
-//   - the picture against REFERENCE/NN_name_<view>[_VARIANT].png, within the run's tolerance
-//     (8-bit units, tools/compare.h);
-//   - the summary line's work counters against REFERENCE/counters.txt (written by make
-//     reference): each must be equal, since the lab prescribes the work as well as the result.
-// Per step it prints one row of a progress table (not built, not started, crashed, failing,
-// passing) and, for a step that is not passing, the first things to look at: the TODO line of
-// a stub, the signal of a crash and how to find its line, the worst pixel ready for
-// --debug-pixel, a side-by-side picture (student | reference | heat map), a picture that
-// matches another view's reference, the counter that differs.
+// Errors are in 8-bit units after quantising both pictures; a pixel fails when one of its
+// channels differs by more than --tol. Exit status: 0 all pass, 1 something fails, 2 bad
+// input (the checker's own arguments, the reference folder, the output folder).
 //
-// Exit status: 0 every graded step passes, 1 some step does not, 2 bad input.
+// A submission is not trusted: it is read by folder descriptor, never through a symbolic
+// link, every file bounded before it is read (image_read.h); nothing is ever written into it
+// or into the reference folder. Reports go to --report OUT_DIR only (output_folder.h).
+#include <fcntl.h>
+#include <dirent.h>
+#include <poll.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <algorithm>
-#include <array>
+#include <atomic>
 #include <cctype>
-#include <cerrno>
-#include <chrono>
-#include <climits>
-#include <cmath>
 #include <csignal>
+#include <mutex>
+#include <thread>
+#include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
-#include <optional>
+#include <regex>
 #include <set>
 #include <sstream>
 #include <string>
-#include <thread>
+#include <tuple>
 #include <vector>
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <sys/wait.h>
-#include <unistd.h>
 #include "args.h"
 #include "tools/compare.h"
 #include "error.h"
 #include "image.h"
+#include "tools/image_read.h"
+#include "tools/output_folder.h"
 #include "tools/process.h"
 #include "tools/sandbox.h"
-#include "tools/run_step.h"
 
 using namespace ctlab;
 namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double default_tolerance = 2;    // 8-bit units: rounding differences pass
-constexpr double max_tolerance = 255;      // 8-bit units
-constexpr double default_timeout_s = 120;  // per run: a step on the phantom takes < 2 s
-constexpr double default_budget_s = 600;   // per student tree with --build: build and runs
-constexpr size_t max_output_bytes = 1 << 20;  // of a run's stdout or stderr that is read
-constexpr int max_details = 4;             // lines of "look at" printed per step
-constexpr int gap = 4;                     // pixels between the side-by-side panels
+constexpr double default_tolerance = 2;  // 8-bit units: rounding differences pass
+constexpr double max_tolerance = 255;    // 8-bit units: above this every picture passes
 constexpr int exit_pass = 0, exit_fail = 1;
-const std::vector<std::string> views = {"top", "front", "side"};
-// The pictures a run may write: part 1's views, or part 2's one camera picture (steps 10 on).
-const std::vector<std::string> pictures = {"top", "front", "side", "camera"};
-// The work counters of the summary line that a run must reproduce (common/render.h's Work).
-const std::vector<std::string> work_counters = {"samples", "skipped", "leapt",
-                                                "gradients", "terminated", "hits"};
+const char* const default_reference = "data/reference";
+constexpr size_t max_folder_entries = 100000;  // a submission or a class is far smaller
+const char* const pictures_folder = "pictures";  // OUT_DIR/pictures/NAME.png, side by side
+const char* const tree_checker = "check";          // beside build/grade: grades a student tree
+constexpr double default_budget_s = 600;         // wall-clock seconds for one student's tree
+constexpr double budget_margin_s = 60;           // build/check's own start and end, past it
+const char* const graded_mark = "graded.txt";    // students/NAME/graded.txt: finished
+
+// Only NN_name_top|front|side.png count: variants (..._front_skin030.png), manifests and
+// anything else in the reference folder are not expected from the student.
+// Part 2's steps (10 on) write one picture, NN_name_camera.png.
+const std::regex expected_name("^([0-9]{2}_[a-z0-9_]+)_(top|front|side|camera)\\.png$");
 
 const char* const usage_text =
-    "usage: grade [--tree DIR] [--bin DIR] [--reference DIR] [--out DIR] [--step NN]...\n"
-    "             [--view top|front|side] [--args \"FLAGS\"] [--volume PATH] [--timeout S]\n"
+    "usage: grade STUDENT.png REFERENCE.png [--tol N] [--diff OUT.png]\n"
+    "       grade --submission DIR [--reference DIR] [--tol N] [--report OUT_DIR]\n"
+    "       grade --class DIR [--reference DIR] [--tol N] --report OUT_DIR\n"
     "\n"
-    "Runs every step of the tree with every run of REFERENCE/manifest.txt (on the phantom) and\n"
-    "compares each picture and the summary lines' work counters with the reference run's.\n"
+    "Compares pictures after rounding both to 8 bits per channel. Errors are in 8-bit\n"
+    "units (0..255); a pixel fails when any channel differs by more than the tolerance.\n"
     "\n"
-    "  --tree DIR        the lab or a student tree: its steps/ say which steps exist, and the\n"
-    "                    steps run inside it (default .)\n"
-    "  --bin DIR         where the step binaries are (default TREE/build)\n"
-    "  --reference DIR   pictures, manifest.txt and counters.txt (default TREE/data/reference)\n"
-    "  --out DIR         the runs' pictures, side-by-side pictures and report.txt\n"
-    "                    (default TREE/out/check; emptied of earlier runs first)\n"
-    "  --step NN         grade only step NN (repeatable; default every step)\n"
-    "  --view V          render and grade only view V (runs that choose a view are kept)\n"
-    "  --args \"FLAGS\"    more flags for every run, split at spaces (e.g. \"--threads 1\")\n"
-    "  --volume PATH     the volume to render (default: REFERENCE/volume.txt's volume: and\n"
-    "                    arguments: lines, as make reference VOLUME=... writes them; else\n"
-    "                    the phantom)\n"
-    "  --timeout S       seconds a run may take before it is stopped (default 120)\n"
+    "  --tol N             tolerance in 8-bit units, a number from 0 to 255 (default: each\n"
+    "                      step's tol= in the reference folder's manifest.txt, as make check\n"
+    "                      grades it, else 2)\n"
+    "  --diff OUT.png      one pair: write a heat map of the differences (black = equal,\n"
+    "                      blue = within the tolerance, magenta, yellow, white = largest);\n"
+    "                      OUT's folder must exist; an input or a reference is never replaced\n"
+    "  --submission DIR    one student's folder: every NN_name_top|front|side.png of the\n"
+    "                      reference folder is expected in DIR (names match in any case;\n"
+    "                      pictures in one subfolder such as DIR/out/ are found and said so)\n"
+    "  --class DIR         a class: one subfolder per student, each a folder of pictures or a\n"
+    "                      student tree (has .ctlab-student or steps/). A tree's steps/ are\n"
+    "                      built from source and run by build/check --build in a sandbox,\n"
+    "                      against this lab's common/ (its own build/ is never used)\n"
+    "  --reference DIR     the reference folder (default data/reference)\n"
+    "  --report OUT_DIR    where reports go (created if missing; never inside a submission or\n"
+    "                      the reference folder): report.md, report.csv and pictures/NAME.png\n"
+    "                      (student | reference | heat map) for each picture that fails; for a\n"
+    "                      class: class.csv, summary.md and students/NAME/ as above\n"
+    "  --jobs N            --class: grade N students at once (default 1)\n"
+    "  --budget S          --class: wall-clock seconds for one student tree, its build and\n"
+    "                      all its runs (default 600)\n"
+    "  --timeout S         --class: seconds one run of a step may take (default 120)\n"
+    "  --step NN           --class: build and grade only step NN (again for more steps)\n"
+    "  --regrade           --class: grade again the students a stopped run had finished\n"
+    "                      (otherwise their reports are kept and they are skipped)\n"
+    "  --no-sandbox        --class: where bubblewrap cannot run, build and run the trees'\n"
+    "                      programs anyway, unconfined (otherwise they are not run)\n"
+    "  --help              this text\n"
     "\n"
-    "Grading a student's tree (the instructor; build/check --class does this for a class):\n"
-    "  --build           build the tree's steps/*.cpp from source (ordinary files only, links\n"
-    "                    never followed) against the instructor's lab (--lab: its Makefile,\n"
-    "                    common/ and compiled library), never running what TREE/build holds;\n"
-    "                    build and runs inside the sandbox (bubblewrap: no network, no home,\n"
-    "                    only the sources, the volume and one output folder; limits on CPU,\n"
-    "                    memory, file size, files, processes and output)\n"
-    "  --lab DIR         the instructor's lab (default: the one this grade was built in)\n"
-    "  --jobs N          compile N steps at once (default 2)\n"
-    "  --budget S        wall-clock seconds for the whole tree, build and runs (default 600):\n"
-    "                    runs past it are not started\n"
-    "  --no-sandbox      with --build where bubblewrap cannot run: run the programs anyway,\n"
-    "                    with limits but unconfined (the instructor's explicit choice)\n"
-    "  --help            this text\n"
+    "Verdicts per picture: pass, fail, damaged (its CRC or checksum is wrong: a changed or\n"
+    "cut byte), error (not a readable picture, another size, a symbolic link), missing, extra.\n"
+    "A submission is only read: links are never followed, nothing is written into it.\n"
     "\n"
-    "Exit status: 0 every graded step passes, 1 some step does not, 2 bad input.\n";
-
-// --- Settings and the manifest ---------------------------------------------------------------
+    "One pair prints: max_abs= mean_abs= rmse= psnr_db= over_tol_pct= tol= result=\n"
+    "Exit status: 0 all pass, 1 a picture (or a student) fails or is missing, 2 bad input.\n";
 
 struct Settings {
-    fs::path tree = ".", bin, reference, out;
-    std::vector<std::string> steps;  // NN or NN_name; empty: all
-    std::string view;                // "" = every view
-    std::vector<std::string> extra_args;
-    std::string volume;                       // "" = REFERENCE/volume.txt's, else the phantom
-    std::vector<std::string> volume_args;     // --dims ... from REFERENCE/volume.txt
-    double timeout_s = default_timeout_s;
-    bool build = false;          // a stranger's tree: built and run in the sandbox
-    bool no_sandbox = false;     // --build without a sandbox, explicitly
-    fs::path lab;                // the instructor's lab: Makefile, common/, its library
-    int jobs = 2;
-    double budget_s = default_budget_s;
+    std::vector<std::string> files;  // STUDENT.png REFERENCE.png
+    double tolerance = default_tolerance;
+    bool has_tolerance = false;  // --tol given: it holds for every picture
+    std::string diff, submission, class_folder, reference = default_reference, report;
+    bool has_submission = false, has_class = false, has_reference = false, has_report = false;
+    bool help = false;
+    int jobs = 1;                           // --class: students graded at once
+    double budget_s = default_budget_s;     // --class: wall-clock seconds per student tree
+    std::string timeout;                    // --class: build/check's --timeout (per run)
+    std::vector<std::string> steps;         // --class: only these steps (--step NN, repeated)
+    bool no_sandbox = false, regrade = false, has_class_flag = false;
 };
-
-std::vector<std::string> split_words(const std::string& text) {
-    std::vector<std::string> words;
-    std::istringstream in(text);
-    for (std::string word; in >> word;) words.push_back(word);
-    return words;
-}
 
 Settings parse_arguments(int argc, char** argv) {
     Settings settings;
-    bool has_bin = false, has_reference = false, has_out = false;
     for (int a = 1; a < argc; ++a) {
         const std::string arg = argv[a];
-        auto value = [&]() -> std::string {
+        auto take_value = [&]() -> std::string {
             if (a + 1 >= argc) throw InputError(arg + ": expected a value after it");
             return argv[++a];
         };
         if (arg == "--help" || arg == "-h") {
-            std::printf("%s", usage_text);
-            std::exit(exit_pass);
-        } else if (arg == "--tree") {
-            settings.tree = value();
-        } else if (arg == "--bin") {
-            settings.bin = value();
-            has_bin = true;
+            settings.help = true;
+        } else if (arg == "--tol") {
+            settings.tolerance = parse_double(arg, take_value(), 0, max_tolerance);
+            settings.has_tolerance = true;
+        } else if (arg == "--diff") {
+            settings.diff = take_value();
+            if (settings.diff.empty()) throw InputError("--diff: expected a file name, got ''");
+        } else if (arg == "--submission") {
+            settings.submission = take_value();
+            settings.has_submission = true;
+        } else if (arg == "--class") {
+            settings.class_folder = take_value();
+            settings.has_class = true;
         } else if (arg == "--reference") {
-            settings.reference = value();
-            has_reference = true;
-        } else if (arg == "--out") {
-            settings.out = value();
-            has_out = true;
-        } else if (arg == "--step") {
-            settings.steps.push_back(value());
-        } else if (arg == "--view") {
-            settings.view = value();
-            if (std::find(views.begin(), views.end(), settings.view) == views.end()) {
-                throw InputError("--view: expected top, front or side, got '" + settings.view +
-                                 "'");
-            }
-        } else if (arg == "--args") {
-            for (const std::string& word : split_words(value())) {
-                settings.extra_args.push_back(word);
-            }
-        } else if (arg == "--volume") {
-            settings.volume = value();
-            if (settings.volume.empty()) throw InputError("--volume: expected a file or phantom");
+            settings.reference = take_value();
+            settings.has_reference = true;
+        } else if (arg == "--report") {
+            settings.report = take_value();
+            settings.has_report = true;
+        } else if (arg == "--jobs") {
+            settings.jobs = parse_int(arg, take_value(), 1, 256);
+            settings.has_class_flag = true;
+        } else if (arg == "--budget") {
+            settings.budget_s = parse_double(arg, take_value(), 1, 7 * 24 * 3600);
+            settings.has_class_flag = true;
         } else if (arg == "--timeout") {
-            settings.timeout_s = parse_double(arg, value(), 0.1, 24 * 3600);
-        } else if (arg == "--build") {
-            settings.build = true;
+            settings.timeout = std::to_string(parse_double(arg, take_value(), 0.1, 24 * 3600));
+            settings.has_class_flag = true;
+        } else if (arg == "--step") {
+            settings.steps.push_back(take_value());
+            settings.has_class_flag = true;
         } else if (arg == "--no-sandbox") {
             settings.no_sandbox = true;
-        } else if (arg == "--lab") {
-            settings.lab = value();
-            if (settings.lab.empty()) throw InputError("--lab: expected a folder");
-        } else if (arg == "--jobs") {
-            settings.jobs = parse_int(arg, value(), 1, 256);
-        } else if (arg == "--budget") {
-            settings.budget_s = parse_double(arg, value(), 1, 7 * 24 * 3600);
+            settings.has_class_flag = true;
+        } else if (arg == "--regrade") {
+            settings.regrade = true;
+            settings.has_class_flag = true;
+        } else if (arg.size() > 1 && arg[0] == '-') {
+            throw InputError("unknown flag '" + printable(arg) + "' (see grade --help)");
         } else {
-            throw InputError("unknown argument '" + arg + "' (see grade --help)");
+            settings.files.push_back(arg);
         }
     }
-    for (const fs::path* path : {&settings.tree, &settings.bin, &settings.reference,
-                                 &settings.out}) {
-        if (path == &settings.tree || (path == &settings.bin && has_bin) ||
-            (path == &settings.reference && has_reference) || (path == &settings.out && has_out)) {
-            if (path->empty()) throw InputError("expected a folder name, got ''");
+    if (settings.help) return settings;
+    if (settings.has_class_flag && !settings.has_class) {
+        throw InputError("--jobs, --budget, --timeout, --no-sandbox and --regrade are for "
+                         "--class DIR");
+    }
+    if (settings.has_submission && settings.has_class) {
+        throw InputError("--submission and --class: one at a time");
+    }
+    if (settings.has_submission || settings.has_class) {
+        const std::string flag = settings.has_class ? "--class" : "--submission";
+        const std::string& folder =
+            settings.has_class ? settings.class_folder : settings.submission;
+        if (folder.empty()) throw InputError(flag + ": expected a folder");
+        if (!settings.files.empty()) {
+            throw InputError(flag + " compares folders: no picture names expected, got '" +
+                             printable(settings.files[0]) + "'");
         }
+        if (!settings.diff.empty()) {
+            throw InputError("--diff is for one pair; " + flag +
+                             " writes its heat maps to --report OUT_DIR");
+        }
+        if (settings.has_reference && settings.reference.empty()) {
+            throw InputError("--reference: expected a folder, got ''");
+        }
+        if (settings.has_report && settings.report.empty()) {
+            throw InputError("--report: expected a folder, got ''");
+        }
+        if (settings.has_class && !settings.has_report) {
+            throw InputError("--class needs --report OUT_DIR: the folder for the class's CSV, "
+                             "summary and reports");
+        }
+        // The same folder (by any name or link) would pass everything against itself.
+        struct stat a {}, b {};
+        if (stat(folder.c_str(), &a) == 0 && stat(settings.reference.c_str(), &b) == 0 &&
+            a.st_dev == b.st_dev && a.st_ino == b.st_ino) {
+            throw InputError(flag + " '" + printable(folder) + "' is the reference folder '" +
+                             printable(settings.reference) + "': it would pass against itself");
+        }
+        return settings;
     }
-    if (settings.build && has_bin) {
-        throw InputError("--build builds the tree's steps itself: no --bin");
+    if (settings.has_reference || settings.has_report) {
+        throw InputError("--reference and --report need --submission DIR or --class DIR");
     }
-    if (!has_bin) settings.bin = settings.tree / "build";
-    if (!has_reference) settings.reference = settings.tree / "data" / "reference";
-    if (!has_out) settings.out = settings.tree / "out" / "check";
+    if (settings.files.size() != 2) {
+        throw InputError("expected STUDENT.png REFERENCE.png or --submission DIR, got " +
+                         std::to_string(settings.files.size()) + " file names (see --help)");
+    }
     return settings;
 }
 
-// One run of a step: its default run (variant "") or a manifest variant.
-struct Run {
-    std::string name;     // NN_name or NN_name_VARIANT
-    std::string variant;  // "" for the default run
-    std::vector<std::string> arguments;
-    double tolerance = default_tolerance;
-    bool has_tolerance = false;     // set on this line (a variant inherits its step's)
-    std::vector<std::string> counters = work_counters;  // compared with the reference run's
-    bool has_counters = false;
-};
-
-struct Step {
-    std::string name;  // NN_name
-    std::vector<Run> runs;
-};
-
-std::string trim(const std::string& text) {
-    const size_t first = text.find_first_not_of(" \t\r");
-    if (first == std::string::npos) return "";
-    return text.substr(first, text.find_last_not_of(" \t\r") + 1 - first);
-}
-
-// Reads at most `limit` bytes of a regular file (not through a symlink).
-std::string read_bounded(const fs::path& path, size_t limit, bool* truncated = nullptr) {
-    const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
-    if (fd < 0) throw InputError("cannot read '" + path.string() + "': " + std::strerror(errno));
-    struct stat info {};
-    if (fstat(fd, &info) != 0 || !S_ISREG(info.st_mode)) {
-        ::close(fd);
-        throw InputError("'" + path.string() + "' is not a regular file");
-    }
-    std::string text;
-    char buffer[65536];
-    ssize_t got;
-    while (text.size() < limit && (got = ::read(fd, buffer, sizeof buffer)) > 0) {
-        text.append(buffer, static_cast<size_t>(got));
-    }
-    ::close(fd);
-    if (truncated) *truncated = text.size() >= limit;
-    if (text.size() > limit) text.resize(limit);
+std::string lower(std::string text) {
+    std::transform(text.begin(), text.end(), text.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     return text;
 }
 
-constexpr size_t max_manifest_bytes = 1 << 20;
-
-// The manifest's runs, grouped by step, for the steps in `step_names` (every step gets its
-// default run even when the manifest does not list it).
-std::vector<Step> read_manifest(const fs::path& path, const std::vector<std::string>& step_names) {
-    std::vector<Step> steps;
-    for (const std::string& name : step_names) steps.push_back({name, {}});
-    auto find_step = [&](const std::string& name) -> Step* {
-        for (Step& step : steps) {
-            if (name == step.name || name.rfind(step.name + "_", 0) == 0) return &step;
-        }
-        return nullptr;
-    };
-    std::istringstream lines(read_bounded(path, max_manifest_bytes));
-    std::string line;
-    int number = 0;
-    while (std::getline(lines, line)) {
-        ++number;
-        line = trim(line);
-        if (line.empty() || line[0] == '#') continue;
-        const std::string where = path.string() + ":" + std::to_string(number) + ": ";
-        const size_t colon = line.find(':');
-        if (colon == std::string::npos) throw InputError(where + "expected 'NAME: ARGUMENTS'");
-        Run run;
-        run.name = trim(line.substr(0, colon));
-        Step* step = find_step(run.name);
-        if (!step) continue;  // a step this tree does not have (or not graded now)
-        if (run.name != step->name) run.variant = run.name.substr(step->name.size() + 1);
-        for (const std::string& word : split_words(line.substr(colon + 1))) {
-            if (word.rfind("tol=", 0) == 0) {
-                run.tolerance = parse_double("tol", word.substr(4), 0, max_tolerance);
-                run.has_tolerance = true;
-            } else if (word.rfind("counters=", 0) == 0) {
-                run.counters.clear();
-                std::string list = word.substr(9);
-                if (list != "none") {
-                    std::replace(list.begin(), list.end(), ',', ' ');
-                    for (const std::string& counter : split_words(list)) {
-                        if (std::find(work_counters.begin(), work_counters.end(), counter) ==
-                            work_counters.end()) {
-                            throw InputError(where + "counters=: unknown counter '" + counter +
-                                             "'");
-                        }
-                        run.counters.push_back(counter);
-                    }
-                }
-                run.has_counters = true;
-            } else {
-                run.arguments.push_back(word);
-            }
-        }
-        step->runs.push_back(run);
-    }
-    for (Step& step : steps) {
-        auto default_run = std::find_if(step.runs.begin(), step.runs.end(),
-                                        [](const Run& run) { return run.variant.empty(); });
-        if (default_run == step.runs.end()) {
-            step.runs.insert(step.runs.begin(), Run{step.name, "", {}});
-            default_run = step.runs.begin();
-        }
-        for (Run& run : step.runs) {  // a variant inherits what its default line sets
-            if (!run.has_tolerance) run.tolerance = default_run->tolerance;
-            if (!run.has_counters) run.counters = default_run->counters;
-        }
-    }
-    return steps;
+bool has_png_extension(const std::string& name) {
+    return name.size() >= 4 && lower(name.substr(name.size() - 4)) == ".png";
 }
 
-// REFERENCE/counters.txt: "NAME: step=.. view=V key=value ..." -> (NAME, V) -> key -> value
-// (Summary and parse_summary: tools/run_step.h).
-using CounterTable = std::map<std::pair<std::string, std::string>, Summary>;
+// --- Where the checker may write ---------------------------------------------------------
 
-std::optional<CounterTable> read_counters(const fs::path& path) {
+fs::path absolute_path(const std::string& path) {
     std::error_code error;
-    if (!fs::is_regular_file(fs::symlink_status(path, error))) return std::nullopt;
-    CounterTable table;
-    std::istringstream lines(read_bounded(path, max_manifest_bytes * 4));
-    std::string line;
-    while (std::getline(lines, line)) {
-        line = trim(line);
-        if (line.empty() || line[0] == '#') continue;
-        const size_t colon = line.find(':');
-        if (colon == std::string::npos) continue;
-        Summary fields = parse_summary(line.substr(colon + 1));
-        if (!fields.count("view")) continue;
-        table[{trim(line.substr(0, colon)), fields["view"]}] = fields;
-    }
-    return table;
+    fs::path result = fs::weakly_canonical(fs::absolute(path), error);
+    return error ? fs::absolute(path).lexically_normal() : result;
 }
 
-// --- Running a step as a process -----------------------------------------------------------
-// tools/process.h's run_process: a step runs inside the tree (its relative paths, e.g. data/tf/,
-// are the tree's), in a process group of its own, its output read within a bound, and a
-// signal kept apart from an exit status. Its stdout and stderr are kept beside its pictures.
-
-using Outcome = ProcessResult;
-
-// Set by SIGINT, SIGTERM or SIGHUP: the running step is stopped and grade ends (its stage
-// removed) with status 130.
-volatile std::sig_atomic_t interrupted = 0;
-struct Interrupted {};
-
-Outcome checked(Outcome outcome) {
-    if (outcome.interrupted) throw Interrupted{};
-    return outcome;
+// True when `inner` is `outer` or lies inside it (both absolute and canonical).
+bool within(const fs::path& inner, const fs::path& outer) {
+    auto i = inner.begin();
+    for (auto o = outer.begin(); o != outer.end(); ++o, ++i) {
+        if (o->empty()) continue;  // a trailing slash
+        if (i == inner.end() || *i != *o) return false;
+    }
+    return true;
 }
 
-Outcome run_step_process(const fs::path& program, const std::vector<std::string>& arguments,
-                         const fs::path& folder, const fs::path& log_folder, double timeout_s) {
-    ProcessOptions options;
-    options.folder = folder.string();
-    options.limits.wall_s = timeout_s;
-    options.limits.output_bytes = max_output_bytes;
-    options.stop = &interrupted;
-    Outcome outcome = checked(run_process(program.string(), arguments, options));
-    for (const auto& [name, text] : {std::pair<const char*, const std::string*>{"stdout.txt",
-                                                                                &outcome.out},
-                                     {"stderr.txt", &outcome.err}}) {
-        const fs::path path = log_folder / name;
-        const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644);
-        if (fd < 0) continue;
-        const ssize_t written = ::write(fd, text->data(), text->size());
-        (void)written;
-        ::close(fd);
-    }
-    return outcome;
-}
-
-// --- A stranger's tree: staged, then built and run in the sandbox ----------------------------
-// The sandbox's user (as root, a uid of its own) must reach every folder it is given, and a
-// student's files are read only as ordinary files (never through a link). So a stage under
-// the system temp folder (mode 0711) holds copies of just what the build and runs need:
-//   STAGE/lab/Makefile, common/, data/tf/, data/presets/   the instructor's
-//   STAGE/lab/build/libctlab.a                              the instructor's compiled library
-//   STAGE/lab/build/ctlab_*.so                              its modules (formats, window)
-//   STAGE/lab/steps/NN_name.cpp                             the student's, ordinary files only
-//   STAGE/lab/build/NN_name                                 compiled in the sandbox
-//   STAGE/volume/NAME                                       the volume, when it is a file
-//   STAGE/run/                                              one run's output folder
-// No reference folder, no other student, no home: the sandbox sees /usr and these.
-
-#ifdef __SANITIZE_ADDRESS__
-constexpr bool lab_has_sanitizers = true;  // this grader, and so the lab's library, is SAN=1
-#else
-constexpr bool lab_has_sanitizers = false;
-#endif
-// The lab's modules beside its library (common/module.h): staged with it, never rebuilt.
-constexpr const char* lab_modules[] = {"ctlab_formats.so", "ctlab_window.so"};
-constexpr size_t max_source_bytes = 4 << 20;        // one step's .cpp
-constexpr size_t max_run_folder_bytes = 64 << 20;   // what a run may leave in its folder
-constexpr size_t max_run_folder_files = 256;
-constexpr double build_cpu_s = 300;                  // CPU seconds of one compiler process
-constexpr size_t build_memory = size_t(4) << 30;     // address space of one compiler process
-constexpr size_t run_memory = size_t(4) << 30;       // address space of a step
-constexpr size_t build_file_bytes = 512u << 20;      // the largest file a build writes
-constexpr size_t run_file_bytes = 64u << 20;         // the largest file a step writes
-constexpr size_t sandbox_open_files = 256;
-constexpr size_t sandbox_processes = 64;             // processes and threads
-constexpr size_t build_tmp_bytes = 512u << 20;       // the compiler's /tmp
-constexpr size_t run_tmp_bytes = 16u << 20;
-
-// Copies an ordinary file of at most `limit` bytes, never through a link; "" or the reason.
-std::string copy_untrusted(const fs::path& from, const fs::path& to, size_t limit) {
-    const int in = ::open(from.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC | O_NONBLOCK);
-    if (in < 0) {
-        return errno == ELOOP ? "is a symbolic link: not followed"
-                              : std::string("cannot be read: ") + std::strerror(errno);
-    }
-    struct stat info {};
-    if (fstat(in, &info) != 0 || !S_ISREG(info.st_mode)) {
-        ::close(in);
-        return "is not an ordinary file";
-    }
-    if (static_cast<size_t>(info.st_size) > limit) {
-        ::close(in);
-        return "is larger than " + readable_size(limit);
-    }
-    const int out = ::open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC,
-                           0644);
-    if (out < 0) {
-        ::close(in);
-        return "cannot be copied to " + to.string() + ": " + std::strerror(errno);
-    }
-    char buffer[65536];
-    size_t total = 0;
-    std::string problem;
-    for (ssize_t got; (got = ::read(in, buffer, sizeof buffer)) > 0;) {
-        total += static_cast<size_t>(got);
-        if (total > limit) {
-            problem = "is larger than " + readable_size(limit);
-            break;
+// The report folder must not be, lie inside or contain a folder the checker reads.
+void check_report_place(const std::string& report,
+                        const std::vector<std::pair<std::string, std::string>>& read_folders) {
+    const fs::path out = absolute_path(report);
+    for (const auto& [what, folder] : read_folders) {
+        const fs::path in = absolute_path(folder);
+        std::string relation;
+        if (out == in) {
+            relation = "is the " + what;
+        } else if (within(out, in)) {
+            relation = "is inside the " + what + " '" + printable(folder) + "'";
+        } else if (within(in, out)) {
+            relation = "holds the " + what + " '" + printable(folder) + "'";
         }
-        if (::write(out, buffer, static_cast<size_t>(got)) != got) {
-            problem = std::string("cannot be copied: ") + std::strerror(errno);
-            break;
+        if (!relation.empty()) {
+            throw InputError("--report '" + printable(report) + "' " + relation +
+                             ": the checker never writes there; choose a folder of its own, "
+                             "e.g. --report reports");
         }
     }
-    ::close(in);
-    ::close(out);
-    return problem;
 }
 
-// The stage: made once per grade, removed at the end.
-class Stage {
-public:
-    Stage() : folder_("grade") {
-        fs::permissions(folder_.path(), fs::perms::owner_all | fs::perms::others_exec);
-    }
-    fs::path root() const { return folder_.path(); }
-    fs::path lab() const { return root() / "lab"; }
+// --- Folders read by descriptor, never through a link -------------------------------------
 
-private:
-    TempFolder folder_;
+struct Folder {
+    std::shared_ptr<int> fd;
+    std::string shown;  // for messages
 };
 
-std::string signal_name(int signal) {
-    switch (signal) {
-        case SIGXCPU: return "SIGXCPU (it used up its CPU seconds: a loop that never ends?)";
-        case SIGXFSZ: return "SIGXFSZ (it wrote a file larger than the grader allows)";
-        default: break;
-    }
-    switch (signal) {
-        case SIGSEGV: return "SIGSEGV (segmentation fault: a read or write outside memory)";
-        case SIGABRT: return "SIGABRT (aborted: an assert, or the sanitizers, or a throw "
-                             "nobody caught)";
-        case SIGFPE: return "SIGFPE (arithmetic: an integer division by zero?)";
-        case SIGBUS: return "SIGBUS (bus error)";
-        case SIGILL: return "SIGILL (illegal instruction)";
-        case SIGKILL: return "SIGKILL (killed: out of memory?)";
-        default: {
-            const char* text = strsignal(signal);
-            return "signal " + std::to_string(signal) + (text ? std::string(" (") + text + ")"
-                                                              : std::string());
+Folder open_folder(int parent_fd, const std::string& name, const std::string& shown,
+                   bool follow_link) {
+    int flags = O_RDONLY | O_DIRECTORY | O_CLOEXEC;
+    if (!follow_link) flags |= O_NOFOLLOW;
+    const int fd = ::openat(parent_fd, name.c_str(), flags);
+    if (fd < 0) {
+        const int error = errno;
+        struct stat info {};
+        const bool exists = ::fstatat(parent_fd, name.c_str(), &info, AT_SYMLINK_NOFOLLOW) == 0;
+        if (!exists) throw InputError("'" + printable(shown) + "' does not exist");
+        if (S_ISLNK(info.st_mode) && !follow_link) {
+            throw InputError("'" + printable(shown) + "' is a symbolic link: not followed");
         }
+        if (error == ENOTDIR) throw InputError("'" + printable(shown) + "' is not a folder");
+        throw InputError("cannot open '" + printable(shown) + "': " + std::strerror(error));
     }
+    return {std::shared_ptr<int>(new int(fd), [](int* p) { ::close(*p); delete p; }), shown};
 }
 
-std::vector<std::string> lines_of(const std::string& text) {
-    std::vector<std::string> lines;
-    std::istringstream in(text);
-    for (std::string line; std::getline(in, line);) {
-        if (!trim(line).empty()) lines.push_back(line);
-    }
-    return lines;
-}
+enum class Kind { file, link, folder, other };
 
-// --- Pictures --------------------------------------------------------------------------------
-
-// The first pixel with the largest channel error.
-struct Worst {
-    int x = 0, y = 0, error = 0;
+struct Entry {
+    std::string name;
+    Kind kind;
 };
 
-Worst worst_pixel(const Image& student, const Image& reference) {
-    Worst worst;
-    for (int y = 0; y < student.height; ++y) {
-        for (int x = 0; x < student.width; ++x) {
-            const Rgb& a = student.at(x, y);
-            const Rgb& b = reference.at(x, y);
-            const int error = std::max({std::abs(to_byte(a.r) - to_byte(b.r)),
-                                        std::abs(to_byte(a.g) - to_byte(b.g)),
-                                        std::abs(to_byte(a.b) - to_byte(b.b))});
-            if (error > worst.error) worst = {x, y, error};
-        }
+std::vector<Entry> list_folder(const Folder& folder) {
+    const int fd = ::dup(*folder.fd);
+    DIR* listing = fd < 0 ? nullptr : ::fdopendir(fd);
+    if (!listing) {
+        if (fd >= 0) ::close(fd);
+        throw InputError("cannot list '" + printable(folder.shown) + "': " + std::strerror(errno));
     }
-    return worst;
-}
-
-Image transposed(const Image& image) {
-    Image result(image.height, image.width);
-    for (int y = 0; y < image.height; ++y) {
-        for (int x = 0; x < image.width; ++x) result.at(y, x) = image.at(x, y);
-    }
-    return result;
-}
-
-Image mirrored(const Image& image, bool left_right) {
-    Image result(image.width, image.height);
-    for (int y = 0; y < image.height; ++y) {
-        for (int x = 0; x < image.width; ++x) {
-            result.at(x, y) = left_right ? image.at(image.width - 1 - x, y)
-                                         : image.at(x, image.height - 1 - y);
-        }
-    }
-    return result;
-}
-
-bool same_size(const Image& a, const Image& b) {
-    return a.width == b.width && a.height == b.height;
-}
-
-bool passes(const Image& student, const Image& reference, double tolerance) {
-    return same_size(student, reference) && !student.pixels.empty() &&
-           compare_images(student, reference, tolerance).pass;
-}
-
-// student | reference | heat map, side by side on dark grey.
-Image side_by_side(const Image& student, const Image& reference, double tolerance) {
-    const Image heat = diff_heat_map(student, reference, tolerance);
-    const int width = student.width + reference.width + heat.width + 2 * gap;
-    const int height = std::max({student.height, reference.height, heat.height});
-    Image result(width, height);
-    std::fill(result.pixels.begin(), result.pixels.end(), grey(0.15f));
-    int left = 0;
-    for (const Image* panel : {&student, &reference, &heat}) {
-        for (int y = 0; y < panel->height; ++y) {
-            for (int x = 0; x < panel->width; ++x) result.at(left + x, y) = panel->at(x, y);
-        }
-        left += panel->width + gap;
-    }
-    return result;
-}
-
-// --- Grading ---------------------------------------------------------------------------------
-
-enum class Status { passing, failing, not_started, crashed, not_built };
-
-const char* status_text(Status status) {
-    switch (status) {
-        case Status::passing: return "passing";
-        case Status::failing: return "failing";
-        case Status::not_started: return "not started";
-        case Status::crashed: return "crashed";
-        case Status::not_built: return "not built";
-    }
-    return "?";
-}
-
-struct StepResult {
-    Status status = Status::passing;
-    int pictures = 0, pictures_passed = 0;
-    int counters = 0, counters_passed = 0;  // summary lines, and those whose counters match
-    int runs = 0;
-    std::vector<std::string> look_at;  // the first things to look at, most useful first
-    std::vector<std::string> problems;  // everything, for report.txt
-};
-
-std::string relative_to(const fs::path& path, const fs::path& base) {
-    std::error_code error;
-    const fs::path relative = fs::relative(path, base, error);
-    if (error || relative.empty() || relative.string().rfind("..", 0) == 0) return path.string();
-    return relative.string();
-}
-
-std::string join(const std::vector<std::string>& words) {
-    std::string text;
-    for (const std::string& word : words) text += (text.empty() ? "" : " ") + word;
-    return text;
-}
-
-
-// --- Probe rays: where a student's ray leaves the reference's ---------------------------------
-// REFERENCE/probes.txt names probe pixels per run and view; REFERENCE/traces/ holds their
-// reference traces, the sidecars --debug-pixel writes (common/ray_plot.h): each trace line as
-// "record<TAB>text<TAB>name=value ...". A failing run's probes are run again with
-// --debug-pixel and compared line by line, field by field.
-
-constexpr size_t max_trace_bytes = 8 << 20;
-constexpr double trace_absolute_tolerance = 1e-6;  // printed values are rounded to 6 decimals
-constexpr double trace_relative_tolerance = 1e-5;  // float against double sums: 1e-7
-
-struct Probe {
-    std::string view;
-    int x = 0, y = 0;
-};
-
-struct TraceLine {
-    std::string text;
-    std::vector<std::pair<std::string, double>> fields;
-    const double* field(const std::string& name) const {
-        for (const auto& f : fields) {
-            if (f.first == name) return &f.second;
-        }
-        return nullptr;
-    }
-};
-
-std::vector<TraceLine> read_trace(const fs::path& path) {
-    std::vector<TraceLine> lines;
-    std::istringstream in(read_bounded(path, max_trace_bytes));
-    for (std::string line; std::getline(in, line);) {
-        if (line.rfind("record\t", 0) != 0) continue;
-        const size_t tab = line.find('\t', 7);
-        TraceLine record;
-        record.text = line.substr(7, tab == std::string::npos ? std::string::npos : tab - 7);
-        if (tab != std::string::npos) {
-            for (const std::string& word : split_words(line.substr(tab + 1))) {
-                const size_t equals = word.rfind('=');
-                if (equals == std::string::npos || equals == 0) continue;
-                char* end = nullptr;
-                const double value = std::strtod(word.c_str() + equals + 1, &end);
-                if (end == word.c_str() + equals + 1) continue;
-                record.fields.emplace_back(word.substr(0, equals), value);
-            }
-        }
-        lines.push_back(record);
-    }
-    return lines;
-}
-
-std::string field_value(double value) {
-    char text[64];
-    if (value == std::floor(value) && std::fabs(value) < 1e15) {
-        std::snprintf(text, sizeof text, "%.0f", value);
-    } else if (std::fabs(value) < 1e6) {
-        std::snprintf(text, sizeof text, "%.6f", value);
-    } else {
-        std::snprintf(text, sizeof text, "%.6g", value);
-    }
-    return text;
-}
-
-// "n=43" or "t=14.00": where along the ray a line is (else the last such place before it).
-std::string place_of(const std::vector<TraceLine>& lines, size_t index) {
-    for (size_t n = index + 1; n-- > 0;) {
-        if (n >= lines.size()) continue;
-        for (const char* name : {"n", "t"}) {
-            if (const double* value = lines[n].field(name)) {
-                const std::string place = std::string(name) + "=" +
-                    (std::string(name) == "t" ? field_value(std::round(*value * 1e4) / 1e4)
-                                              : field_value(*value));
-                return n == index ? place : "the line after " + place;
-            }
-        }
-    }
-    return "line " + std::to_string(index + 1);
-}
-
-// The first difference of two traces, or "" when they agree.
-std::string first_difference(const std::vector<TraceLine>& yours,
-                             const std::vector<TraceLine>& reference) {
-    const size_t count = std::max(yours.size(), reference.size());
-    for (size_t n = 0; n < count; ++n) {
-        if (n >= yours.size()) {
-            return place_of(reference, n) + ": your trace ends there (" +
-                   std::to_string(yours.size()) + " lines), the reference's goes on (" +
-                   std::to_string(reference.size()) + " lines)" +
-                   "\n        reference: " + reference[n].text;
-        }
-        if (n >= reference.size()) {
-            return place_of(yours, n) + ": your trace goes on (" + std::to_string(yours.size()) +
-                   " lines), the reference's ended (" + std::to_string(reference.size()) +
-                   " lines)" + "\n        yours:     " + yours[n].text;
-        }
-        for (const auto& [name, expected] : reference[n].fields) {
-            const double* got = yours[n].field(name);
-            const bool same = got && (std::fabs(*got - expected) <=
-                                      trace_absolute_tolerance +
-                                          trace_relative_tolerance *
-                                              std::max(std::fabs(*got), std::fabs(expected)));
-            if (same) continue;
-            const std::string what =
-                got ? "your " + name + " is " + field_value(*got) + ", the reference's " +
-                          field_value(expected)
-                    : "your line has no " + name + "=, the reference's " + name + " is " +
-                          field_value(expected);
-            std::string text = place_of(reference, n) + ": " + what;
-            if (n > 0) text += "\n        both:      " + reference[n - 1].text;
-            text += "\n        yours:     " + yours[n].text +
-                    "\n        reference: " + reference[n].text;
-            return text;
-        }
-    }
-    return "";
-}
-
-class Grader {
-public:
-    explicit Grader(Settings settings) : settings_(std::move(settings)) {}
-
-    int run();
-
-private:
-    StepResult grade_step(const Step& step);
-    void grade_run(const Step& step, const Run& run, StepResult& result);
-    void grade_picture(const Step& step, const Run& run, const std::string& view,
-                       const fs::path& folder, StepResult& result);
-    void grade_counters(const Run& run, const std::string& view, const Summary& student,
-                        StepResult& result);
-    void probe_rays(const Step& step, const Run& run, const std::string& view,
-                    const fs::path& folder, StepResult& result);
-    std::string command_for(const Step& step, const Run& run, const std::string& view,
-                            const std::string& more = "") const;
-    fs::path reference_picture(const Step& step, const Run& run, const std::string& view) const {
-        return settings_.reference /
-               (step.name + "_" + view + (run.variant.empty() ? "" : "_" + run.variant) + ".png");
-    }
-    // The first flags of every run: the volume, no window, the output folder.
-    std::vector<std::string> first_arguments(const fs::path& folder) const;
-    // Runs the step with these flags, its pictures ending in `folder`.
-    Outcome execute(const Step& step, const std::vector<std::string>& arguments,
-                    const fs::path& folder);
-    // --build: the stage, and the student's steps compiled in the sandbox.
-    void stage_and_build(const std::vector<std::string>& names);
-    double seconds_left() const;
-
-    Settings settings_;
-    std::optional<CounterTable> counters_;
-    fs::path cwd_;
-    std::unique_ptr<Stage> stage_;
-    fs::path kit_reference_;  // the kit's phantom references, when grading on another volume
-    std::map<std::string, std::string> not_built_;  // --build: step -> why it was not built
-    double build_s_ = 0;  // --build: wall-clock seconds of the sandboxed build
-    std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
-};
-
-double Grader::seconds_left() const {
-    return settings_.budget_s -
-           std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-}
-
-// Sandbox settings shared by the build and the runs: the stage's lab read-only at /lab.
-Limits sandbox_limits(double wall_s, bool build) {
-    Limits limits;
-    limits.wall_s = wall_s;
-    limits.cpu_s = build ? build_cpu_s : wall_s;
-    // ASan reserves terabytes of address space for its shadow: a sanitizer build's programs
-    // cannot start under any limit of it (their memory is still bounded by the build's own
-    // checks); the other limits hold.
-    limits.address_space = lab_has_sanitizers ? 0 : build ? build_memory : run_memory;
-    limits.file_size = build ? build_file_bytes : run_file_bytes;
-    limits.open_files = sandbox_open_files;
-    limits.processes = sandbox_processes;
-    limits.output_bytes = max_output_bytes;
-    return limits;
-}
-
-std::vector<std::string> Grader::first_arguments(const fs::path& folder) const {
-    std::string volume = settings_.volume;
-    const fs::path name = fs::path(volume).lexically_normal().filename();
-    std::error_code error;
-    if (stage_ && !name.empty() && fs::exists(stage_->root() / "volume" / name, error)) {
-        volume = "/volume/" + name.string();
-    }
-    std::vector<std::string> arguments = {"--volume", volume, "--no-window", "--out",
-                                          stage_ ? "/out" : fs::absolute(folder).string()};
-    arguments.insert(arguments.end(), settings_.volume_args.begin(),
-                     settings_.volume_args.end());
-    return arguments;
-}
-
-Outcome Grader::execute(const Step& step, const std::vector<std::string>& arguments,
-                        const fs::path& folder) {
-    if (!stage_) {
-        return run_step_process(fs::absolute(settings_.bin / step.name), arguments,
-                                settings_.tree, folder, settings_.timeout_s);
-    }
-    Outcome outcome;
-    const double left = seconds_left();
-    if (left <= 0) {  // the student's budget is spent: reported as a timeout
-        outcome.timed_out = true;
-        outcome.err = "not run: this tree's budget of " +
-                      std::to_string(static_cast<int>(settings_.budget_s)) + " s is used up\n";
-        return outcome;
-    }
-    const fs::path run_folder = stage_->root() / "run";
-    std::error_code error;
-    fs::remove_all(run_folder, error);
-    fs::create_directory(run_folder);
-    give_to_sandbox(run_folder.string());
-    Sandbox sandbox;
-    sandbox.mounts = {{stage_->lab().string(), "/lab", false},
-                      {(stage_->root() / "volume").string(), "/volume", false},
-                      {run_folder.string(), "/out", true}};
-    sandbox.folder = "/lab";
-    sandbox.tmp_bytes = run_tmp_bytes;
-    ProcessOptions options;
-    options.limits = sandbox_limits(std::min(settings_.timeout_s, left), false);
-    options.prefix = settings_.no_sandbox ? std::vector<std::string>{} : sandbox_command(sandbox);
-    options.uid = settings_.no_sandbox ? 0 : sandbox_uid();
-    std::vector<std::string> words = arguments;
-    if (settings_.no_sandbox) {  // the same flags, the stage's own paths
-        for (std::string& word : words) {
-            if (word == "/out") word = run_folder.string();
-            if (word.rfind("/volume/", 0) == 0) word = (stage_->root() / word.substr(1)).string();
-        }
-        options.folder = stage_->lab().string();
-    }
-    const std::string program = settings_.no_sandbox
-        ? (stage_->lab() / "build" / step.name).string() : "/lab/build/" + step.name;
-    options.stop = &interrupted;
-    outcome = checked(run_process(program, words, options));
-    // bwrap exits with 128 + N when a signal N ended the program inside it.
-    constexpr int signal_status = 128, last_signal = 64;
-    if (!settings_.no_sandbox && outcome.signal == 0 && outcome.exit_status > signal_status &&
-        outcome.exit_status <= signal_status + last_signal) {
-        outcome.signal = outcome.exit_status - signal_status;
-        outcome.exit_status = -1;
-    }
-    // What it left in its folder, ordinary files only and within bounds, goes to `folder`.
-    size_t files = 0, bytes = 0;
-    std::string problem;
-    for (const fs::directory_entry& entry : fs::directory_iterator(run_folder, error)) {
-        const fs::path name = entry.path().filename();
-        if (++files > max_run_folder_files) {
-            problem = "it left more than " + std::to_string(max_run_folder_files) +
-                      " files in its output folder";
-            break;
+    ::rewinddir(listing);
+    std::vector<Entry> entries;
+    while (const dirent* item = ::readdir(listing)) {
+        const std::string name = item->d_name;
+        if (name == "." || name == "..") continue;
+        if (entries.size() == max_folder_entries) {
+            ::closedir(listing);
+            throw InputError("'" + printable(folder.shown) + "' holds more than " +
+                             std::to_string(max_folder_entries) +
+                             " entries: not a folder of pictures");
         }
         struct stat info {};
-        if (::lstat(entry.path().c_str(), &info) != 0 || !S_ISREG(info.st_mode)) continue;
-        bytes += static_cast<size_t>(info.st_size);
-        if (bytes > max_run_folder_bytes) {
-            problem = "it left more than " + readable_size(max_run_folder_bytes) +
-                      " in its output folder";
-            break;
+        Kind kind = Kind::other;
+        if (::fstatat(*folder.fd, name.c_str(), &info, AT_SYMLINK_NOFOLLOW) == 0) {
+            kind = S_ISREG(info.st_mode) ? Kind::file
+                 : S_ISLNK(info.st_mode) ? Kind::link
+                 : S_ISDIR(info.st_mode) ? Kind::folder
+                                         : Kind::other;
         }
-        copy_untrusted(entry.path(), folder / name, max_run_folder_bytes);
+        entries.push_back({name, kind});
     }
-    fs::remove_all(run_folder, error);
-    if (!problem.empty()) {  // graded as a program that printed too much
-        outcome.output_exceeded = true;
-        outcome.err = "grade: " + problem + "\n" + outcome.err;
-    }
-    for (const auto& [name, text] : {std::pair<const char*, const std::string*>{"stdout.txt",
-                                                                                &outcome.out},
-                                     {"stderr.txt", &outcome.err}}) {
-        std::ofstream log(folder / name, std::ios::binary | std::ios::trunc);
-        log << *text;
-    }
-    return outcome;
+    ::closedir(listing);
+    std::sort(entries.begin(), entries.end(),
+              [](const Entry& a, const Entry& b) { return a.name < b.name; });
+    return entries;
 }
 
-void Grader::stage_and_build(const std::vector<std::string>& names) {
-    const fs::path library = fs::path(build_folder()).parent_path() == settings_.lab
-        ? fs::path(build_folder()) / "libctlab.a" : settings_.lab / "build" / "libctlab.a";
-    std::error_code error;
-    if (!fs::is_regular_file(settings_.lab / "Makefile", error) ||
-        !fs::is_directory(settings_.lab / "common", error)) {
-        throw InputError("--lab: '" + settings_.lab.string() + "' holds no Makefile and common/");
-    }
-    if (!fs::is_regular_file(library, error)) {
-        throw InputError("the lab's library " + library.string() + " is not built: make");
-    }
-    for (const fs::directory_entry& entry : fs::directory_iterator(settings_.lab / "common")) {
-        if (fs::last_write_time(entry.path(), error) > fs::last_write_time(library, error)) {
-            throw InputError(entry.path().string() + " is newer than " + library.string() +
-                             ": make, so students are built against the library as it is");
-        }
-    }
-    stage_ = std::make_unique<Stage>();
-    const fs::path lab = stage_->lab();
-    fs::create_directories(lab / "steps");
-    fs::create_directories(lab / "build");
-    fs::create_directories(lab / "data");
-    fs::create_directories(stage_->root() / "volume");
-    fs::copy_file(settings_.lab / "Makefile", lab / "Makefile");
-    fs::copy(settings_.lab / "common", lab / "common", fs::copy_options::recursive);
-    for (const char* data : {"tf", "presets"}) {
-        if (fs::is_directory(settings_.lab / "data" / data, error)) {
-            fs::copy(settings_.lab / "data" / data, lab / "data" / data,
-                     fs::copy_options::recursive);
-        }
-    }
-    fs::copy_file(library, lab / "build" / "libctlab.a");
-    // The modules the steps open (common/module.h): the instructor's, as the library is.
-    for (const char* module : lab_modules) {
-        const fs::path built = library.parent_path() / module;
-        if (fs::is_regular_file(built, error)) fs::copy_file(built, lab / "build" / module);
-    }
-    if (settings_.volume != "phantom" && settings_.volume.rfind("phantom:", 0) != 0) {
-        // A file, or a folder (a DICOM series): the instructor's, copied as it is.
-        const fs::path volume = fs::path(settings_.volume).lexically_normal();
-        fs::copy(volume, stage_->root() / "volume" / volume.filename(),
-                 fs::copy_options::recursive);
-    }
-    // The student's sources: ordinary files only, never through a link.
-    std::vector<std::string> targets;
-    for (const std::string& name : names) {
-        const std::string problem = copy_untrusted(settings_.tree / "steps" / (name + ".cpp"),
-                                                   lab / "steps" / (name + ".cpp"),
-                                                   max_source_bytes);
-        if (problem.empty()) {
-            targets.push_back("build/" + name);
-        } else {
-            not_built_[name] = "steps/" + name + ".cpp " + problem;
-        }
-    }
-    give_to_sandbox((lab / "build").string());
-    if (targets.empty()) return;
+std::string join(const std::string& folder, const std::string& name) {
+    return folder.empty() || folder.back() == '/' ? folder + name : folder + "/" + name;
+}
 
-    Sandbox sandbox;
-    sandbox.mounts = {{lab.string(), "/lab", false}, {(lab / "build").string(), "/lab/build", true}};
-    sandbox.folder = "/lab";
-    sandbox.tmp_bytes = build_tmp_bytes;
-    ProcessOptions options;
-    options.limits = sandbox_limits(std::max(1.0, seconds_left()), true);
-    options.prefix = settings_.no_sandbox ? std::vector<std::string>{} : sandbox_command(sandbox);
-    options.uid = settings_.no_sandbox ? 0 : sandbox_uid();
-    if (settings_.no_sandbox) options.folder = lab.string();
-    // -o: the instructor's library is never remade (nor its objects looked for); -k: every
-    // step that compiles is built.
-    std::vector<std::string> arguments = {"--no-print-directory", "-k",
-                                          "-j" + std::to_string(settings_.jobs), "BUILD=build",
-                                          "WERROR=0", "-o", "build/libctlab.a"};
-    for (const char* module : lab_modules) {
-        arguments.insert(arguments.end(), {"-o", std::string("build/") + module});
-    }
-    // A sanitizer build of the lab (make SAN=1) has an instrumented library: the students'
-    // steps are built the same way, or they would not link against it.
-    if (lab_has_sanitizers) arguments.push_back("SAN=1");
-    arguments.insert(arguments.end(), targets.begin(), targets.end());
-    options.stop = &interrupted;
-    const Outcome outcome = checked(run_process("/usr/bin/make", arguments, options));
-    build_s_ = outcome.seconds;
-    {
-        std::ofstream log(settings_.out / "build.txt", std::ios::binary | std::ios::trunc);
-        log << outcome.out << outcome.err;
-    }
-    for (const std::string& name : names) {
-        if (not_built_.count(name)) continue;
-        if (fs::is_regular_file(lab / "build" / name, error)) continue;
-        // The compiler's first error in this step's file.
-        std::string first;
-        for (const std::string& line : lines_of(outcome.err + outcome.out)) {
-            if (line.rfind("steps/" + name + ".cpp:", 0) == 0 &&
-                line.find("error") != std::string::npos) {
-                first = line;
-                break;
+// --- The reference folder -----------------------------------------------------------------
+
+struct References {
+    std::string folder;
+    std::vector<std::string> names;   // expected pictures, sorted
+    std::vector<std::string> steps;   // their steps (NN_name), sorted, each once
+    std::map<std::string, Image> images;
+    std::map<std::string, double> tolerances;  // picture -> its tolerance (8-bit units)
+};
+
+// REFERENCE/manifest.txt's tol=N of each step's default line ("NN_name: ... tol=N"), as
+// build/check reads it: step -> tolerance.
+std::map<std::string, double> manifest_tolerances(const std::string& folder) {
+    std::map<std::string, double> tolerances;
+    std::ifstream manifest(join(folder, "manifest.txt"));
+    for (std::string line; std::getline(manifest, line);) {
+        const size_t colon = line.find(':');
+        if (line.empty() || line[0] == '#' || colon == std::string::npos) continue;
+        const std::string name = line.substr(0, colon);
+        std::istringstream words(line.substr(colon + 1));
+        for (std::string word; words >> word;) {
+            if (word.rfind("tol=", 0) == 0) {
+                tolerances[name] = parse_double("tol", word.substr(4), 0, max_tolerance);
             }
         }
-        if (first.empty()) {
-            first = outcome.timed_out ? "the build " + outcome.stop_reason()
-                                      : "no error in steps/" + name + ".cpp (see build.txt)";
-        }
-        not_built_[name] = "does not compile: " + first;
     }
+    return tolerances;
 }
 
-// "build/02_threshold --volume phantom --view top --threshold 500 --debug-pixel 12,40".
-std::string Grader::command_for(const Step& step, const Run& run, const std::string& view,
-                                const std::string& more) const {
-    // --build: the command as the student runs it in their own tree.
-    std::string text = (stage_ ? "build/" + step.name : relative_to(settings_.bin / step.name,
-                                                                      cwd_)) +
-                       " --volume " + settings_.volume;
-    if (!settings_.volume_args.empty()) text += " " + join(settings_.volume_args);
-    const bool chooses_view = std::find(run.arguments.begin(), run.arguments.end(),
-                                        "--view") != run.arguments.end();
-    if (!chooses_view && !view.empty()) text += " --view " + view;
-    if (!run.arguments.empty()) text += " " + join(run.arguments);
-    if (!settings_.extra_args.empty()) text += " " + join(settings_.extra_args);
-    return text + more;
+std::string step_of(const std::string& picture) {
+    std::smatch match;
+    return std::regex_match(picture, match, expected_name) ? match[1].str() : "";
 }
 
-void Grader::grade_counters(const Run& run, const std::string& view, const Summary& student,
-                            StepResult& result) {
-    if (!counters_ || run.counters.empty()) return;
-    const auto found = counters_->find({run.name, view});
-    if (found == counters_->end()) return;  // the reference run has no line for this view
-    const Summary& reference = found->second;
-    std::vector<std::string> differ;
-    ++result.counters;
-    for (const std::string& counter : run.counters) {
-        const auto expected = reference.find(counter);
-        if (expected == reference.end()) continue;
-        const auto got = student.find(counter);
-        if (got != student.end() && got->second == expected->second) continue;
-        differ.push_back(counter + "=" + (got == student.end() ? "(none)" : got->second) +
-                         " where the reference run has " + counter + "=" + expected->second);
-    }
-    if (differ.empty()) {
-        ++result.counters_passed;
-        return;
-    }
-    std::string text = "counter " + differ[0] + " (" + run.name + ", " + view + ")";
-    if (differ.size() > 1) {
-        text += "; also ";
-        for (size_t d = 1; d < differ.size(); ++d) {
-            text += (d > 1 ? ", " : "") + differ[d].substr(0, differ[d].find(' '));
-        }
-    }
-    // Samples and leapt trade one for one: their sum is the samples without leaping.
-    auto number = [](const Summary& fields, const std::string& key) -> long long {
-        const auto it = fields.find(key);
-        return it == fields.end() ? -1 : std::atoll(it->second.c_str());
-    };
-    if (number(student, "samples") != number(reference, "samples") &&
-        number(reference, "leapt") >= 0 &&
-        number(student, "samples") + number(student, "leapt") ==
-            number(reference, "samples") + number(reference, "leapt")) {
-        text += ": samples+leapt is right, so every sample is read or leapt over, but the "
-                "leaps are too short or too long";
-    } else {
-        // What the first counter that differs usually points at.
-        static const std::map<std::string, std::string> hints = {
-            {"samples", "a loop's range, or where a ray stops"},
-            {"skipped", "which samples count as transparent (opacity 0) and are skipped"},
-            {"leapt", "the bricks leapt over, and how far each leap goes"},
-            {"gradients", "where a gradient is computed: only where the picture needs one"},
-            {"terminated", "where a ray stops early: the test against --ert (default 0.01)"},
-            {"hits", "the hit test: the threshold, > or >=, the loop's range"}};
-        const std::string first = differ[0].substr(0, differ[0].find('='));
-        const auto hint = hints.find(first);
-        if (hint != hints.end()) text += ": look at " + hint->second;
-    }
-    result.problems.push_back(text);
-    result.look_at.push_back(text);
-}
-
-void Grader::grade_picture(const Step& step, const Run& run, const std::string& view,
-                           const fs::path& folder, StepResult& result) {
-    const fs::path reference_path = reference_picture(step, run, view);
-    const std::string reference_name = reference_path.filename().string();
-    const fs::path student_path = folder / (step.name + "_" + view + ".png");
-    auto problem = [&](const std::string& text, bool first = true) {
-        result.problems.push_back(reference_name + ": " + text);
-        if (first) result.look_at.push_back(reference_name + ": " + text);
-    };
+// Reads every expected reference picture once (a class reuses them): an unreadable one is
+// bad input.
+References load_references(const std::string& folder, const Settings& settings) {
+    References references;
+    references.folder = folder;
     std::error_code error;
-    if (!fs::is_regular_file(fs::symlink_status(student_path, error))) {
-        problem("the run wrote no " + student_path.filename().string());
-        return;
+    const fs::file_status status = fs::status(folder, error);
+    if (!fs::exists(status)) {
+        throw InputError("reference folder '" + printable(folder) + "' does not exist");
     }
-    const Image reference = read_image(reference_path.string());  // bad input: stops the grade
+    if (!fs::is_directory(status)) {
+        throw InputError("reference folder '" + printable(folder) + "' is not a folder");
+    }
+    for (const fs::directory_entry& entry : fs::directory_iterator(folder, error)) {
+        const std::string name = entry.path().filename().string();
+        if (std::regex_match(name, expected_name)) references.names.push_back(name);
+    }
+    if (error) throw InputError("cannot list '" + printable(folder) + "': " + error.message());
+    if (references.names.empty()) {
+        throw InputError("reference folder '" + printable(folder) +
+                         "' has no pictures named NN_name_top|front|side.png");
+    }
+    std::sort(references.names.begin(), references.names.end());
+    std::set<std::string> steps;
+    for (const std::string& name : references.names) {
+        references.images[name] = read_image(join(folder, name));
+        steps.insert(step_of(name));
+    }
+    references.steps.assign(steps.begin(), steps.end());
+    const std::map<std::string, double> manifest = manifest_tolerances(folder);
+    for (const std::string& name : references.names) {
+        const auto step = manifest.find(step_of(name));
+        references.tolerances[name] = settings.has_tolerance || step == manifest.end()
+                                          ? settings.tolerance : step->second;
+    }
+    return references;
+}
+
+// --- Grading one folder of pictures --------------------------------------------------------
+
+struct Row {
+    std::string file;          // the expected name (or, for an extra, the file's own)
+    std::string result;        // pass, fail, damaged, error, missing or extra
+    bool has_numbers = false;  // pass and fail rows carry the metrics
+    Comparison numbers;
+    std::string note;          // why a row is not a pass, or how the file was named
+    std::string reason;        // a short class of the note, for the class summary
+    std::string found_as;      // the student's file name (may differ in case)
+    unsigned long long hash = 0;  // FNV-1a of the student's bytes (pass and fail rows)
+    size_t bytes = 0;
+};
+
+struct Graded {
+    std::vector<Row> rows;
+    std::map<std::string, int> counts;  // result -> rows
+    std::vector<std::string> notes;     // said once per submission (subfolder, sizes)
+    Folder pictures;                    // the folder the pictures were read from
+    std::string source = "pictures";
+    bool all_pass = false;
+    int passed = 0, expected = 0;
+};
+
+unsigned long long fnv1a(const std::vector<unsigned char>& bytes) {
+    unsigned long long hash = 1469598103934665603ULL;
+    for (unsigned char b : bytes) hash = (hash ^ b) * 1099511628211ULL;
+    return hash;
+}
+
+// Student | reference | heat map, side by side on a dark background.
+Image side_by_side(const Image& student, const Image& reference, const Image& heat) {
+    constexpr int gap = 4;  // pixels between the pictures
+    const int width = student.width + reference.width + heat.width + 2 * gap;
+    const int height = std::max({student.height, reference.height, heat.height});
+    Image canvas(width, height);
+    for (Rgb& pixel : canvas.pixels) pixel = grey(0.15f);
+    int left = 0;
+    for (const Image* part : {&student, &reference, &heat}) {
+        for (int y = 0; y < part->height; ++y) {
+            for (int x = 0; x < part->width; ++x) canvas.at(left + x, y) = part->at(x, y);
+        }
+        left += part->width + gap;
+    }
+    return canvas;
+}
+
+// Which of the expected names the folder holds (matched without regard to case).
+std::map<std::string, std::vector<Entry>> match_names(const std::vector<Entry>& entries,
+                                                      const References& references) {
+    std::map<std::string, std::string> by_lower;
+    for (const std::string& name : references.names) by_lower[lower(name)] = name;
+    std::map<std::string, std::vector<Entry>> found;
+    for (const Entry& entry : entries) {
+        const auto it = by_lower.find(lower(entry.name));
+        if (it != by_lower.end()) found[it->second].push_back(entry);
+    }
+    return found;
+}
+
+Row grade_picture(const Folder& folder, const Entry& entry, const std::string& name,
+                  const References& references, double tolerance,
+                  const OutputFolder* pictures) {
+    Row row;
+    row.file = name;
+    row.result = "error";
+    row.found_as = entry.name;
+    const std::string shown = join(folder.shown, entry.name);
+    if (entry.kind == Kind::link) {
+        row.note = "'" + printable(shown) + "': is a symbolic link: not followed (a "
+                   "submission's pictures must be ordinary files)";
+        row.reason = "a symbolic link";
+        return row;
+    }
+    if (entry.kind != Kind::file) {
+        row.note = "'" + printable(shown) + "': is " +
+                   (entry.kind == Kind::folder ? "a folder" : "not an ordinary file") +
+                   ", not a picture";
+        row.reason = "not a file";
+        return row;
+    }
+    const Image& reference = references.images.at(name);
+    tolerance = references.tolerances.at(name);
     Image student;
+    std::vector<unsigned char> bytes;
     try {
-        student = read_image(student_path.string());
-    } catch (const InputError& failure) {
-        problem(std::string("cannot be read: ") + failure.what());
-        return;
+        student = read_image_at(*folder.fd, entry.name, shown, &bytes);
+        row.numbers = compare_images(student, reference, tolerance, "'" + printable(shown) + "'",
+                                     "the reference");
+    } catch (const DamagedImage& error) {
+        row.result = "damaged";
+        row.note = error.what();
+        row.reason = "a damaged PNG";
+        return row;
+    } catch (const InputError& error) {
+        row.note = error.what();
+        const bool size = student.width > 0 && (student.width != reference.width ||
+                                                student.height != reference.height);
+        row.reason = size ? "another picture size" : "not a readable picture";
+        return row;
     }
-    if (!same_size(student, reference)) {
-        problem("is " + std::to_string(student.width) + "x" + std::to_string(student.height) +
-                ", the reference is " + std::to_string(reference.width) + "x" +
-                std::to_string(reference.height) + ": rendered another view, or a loop over "
-                "the wrong axis?");
-        return;
-    }
-    const Comparison comparison = compare_images(student, reference, run.tolerance,
-                                                 student_path.string(), reference_name);
-    if (comparison.pass) {
-        ++result.pictures_passed;
-        return;
-    }
-    // Graded on another volume than the kit's phantom: a picture that is the kit's own
-    // reference was not rendered from the volume this run was given.
-    const fs::path kit_path = kit_reference_ / reference_name;
-    if (!kit_reference_.empty() &&
-        fs::is_regular_file(fs::symlink_status(kit_path, error)) &&
-        passes(student, read_image(kit_path.string()), run.tolerance)) {
-        problem("matches the kit's phantom reference, not the volume it was given (" +
-                settings_.volume + "): pictures copied or rendered from another volume");
-        return;
-    }
-    const Worst worst = worst_pixel(student, reference);
-    const std::string xy = std::to_string(worst.x) + "," + std::to_string(worst.y);
-    char numbers[160];
-    std::snprintf(numbers, sizeof numbers,
-                  "fails: %.2f%% of the pixels differ by more than %g; the worst, %d levels, "
-                  "at pixel %s", comparison.over_tol_pct, run.tolerance, worst.error,
-                  xy.c_str());
-    const fs::path pair_path = settings_.out / "side_by_side" / reference_name;
-    make_folder(pair_path.parent_path().string());
-    write_png(side_by_side(student, reference, run.tolerance), pair_path.string());
-    std::string text = std::string(numbers) + "\n      trace it:     " +
-                       command_for(step, run, view, " --debug-pixel " + xy) +
-                       "\n      side by side: " + relative_to(pair_path, cwd_) +
-                       " (yours | reference | differences)";
-    // A picture that is right for another view, or right but turned: the axes are swapped.
-    for (const std::string& other : views) {
-        if (other == view) continue;
-        const fs::path other_path = reference_picture(step, run, other);
-        if (!fs::is_regular_file(fs::symlink_status(other_path, error))) continue;
-        if (passes(student, read_image(other_path.string()), run.tolerance)) {
-            text += "\n      it matches the " + other + " view's reference: swapped axes?";
-        }
-    }
-    if (passes(transposed(student), reference, run.tolerance)) {
-        text += "\n      it matches the reference turned about its diagonal: x and y (or the "
-                "two image axes' voxel indices) swapped?";
-    }
-    if (passes(mirrored(student, true), reference, run.tolerance)) {
-        text += "\n      it matches the reference mirrored left to right: an axis reversed?";
-    }
-    if (passes(mirrored(student, false), reference, run.tolerance)) {
-        text += "\n      it matches the reference upside down: image row = k, k = 0 at the top";
-    }
-    problem(text);
-}
-
-void Grader::probe_rays(const Step& step, const Run& run, const std::string& view,
-                        const fs::path& folder, StepResult& result) {
-    const fs::path probes_path = settings_.reference / "probes.txt";
-    std::error_code error;
-    if (!fs::is_regular_file(fs::symlink_status(probes_path, error))) return;
-    std::vector<Probe> probes;
-    std::istringstream lines(read_bounded(probes_path, max_manifest_bytes));
-    for (std::string line; std::getline(lines, line);) {
-        const std::vector<std::string> words = split_words(line.substr(0, line.find('#')));
-        if (words.size() < 3 || words[0] != run.name || words[1] != view) continue;
-        Probe probe;
-        probe.view = view;
-        if (std::sscanf(words[2].c_str(), "%d,%d", &probe.x, &probe.y) == 2) {
-            probes.push_back(probe);
-        }
-    }
-    std::vector<std::string> agreed;
-    for (const Probe& probe : probes) {
-        const std::string xy = std::to_string(probe.x) + "_" + std::to_string(probe.y);
-        const fs::path reference_trace =
-            settings_.reference / "traces" / (run.name + "_" + view + "_ray_" + xy + ".txt");
-        if (!fs::is_regular_file(fs::symlink_status(reference_trace, error))) continue;
-        const fs::path probe_folder = folder / ("probe_" + view + "_" + xy);
-        fs::remove_all(probe_folder, error);
-        make_folder(probe_folder.string());
-        std::vector<std::string> arguments = first_arguments(probe_folder);
-        arguments.insert(arguments.end(), run.arguments.begin(), run.arguments.end());
-        arguments.insert(arguments.end(), settings_.extra_args.begin(),
-                         settings_.extra_args.end());
-        if (view != "camera") arguments.insert(arguments.end(), {"--view", view});
-        const std::string pixel = std::to_string(probe.x) + "," + std::to_string(probe.y);
-        arguments.insert(arguments.end(), {"--debug-pixel", pixel});
-        const Outcome outcome = execute(step, arguments, probe_folder);
-        const fs::path yours_path =
-            probe_folder / (step.name + "_" + view + "_ray_" + xy + ".txt");
-        const std::string command = command_for(step, run, view, " --debug-pixel " + pixel);
-        std::string text = run.name + " " + view + ": the probe ray " + pixel + " ";
-        if (outcome.timed_out || outcome.signal != 0 || outcome.exit_status != 0 ||
-            !fs::is_regular_file(fs::symlink_status(yours_path, error))) {
-            text += "could not be traced: " + command;
+    row.hash = fnv1a(bytes);
+    row.bytes = bytes.size();
+    row.has_numbers = true;
+    row.result = row.numbers.pass ? "pass" : "fail";
+    row.reason = row.numbers.pass ? "" : "pixels beyond the tolerance";
+    if (entry.name != name) row.note = "named " + printable(entry.name);
+    if (pictures) {
+        if (row.numbers.pass) {
+            pictures->remove(name);  // a picture left from an earlier, failing run
         } else {
-            const std::string difference =
-                first_difference(read_trace(yours_path), read_trace(reference_trace));
-            if (difference.empty()) {
-                agreed.push_back(pixel);
-                continue;
-            }
-            text += "leaves the reference's at " + difference +
-                    "\n        both traces: " + relative_to(yours_path, cwd_) + " | " +
-                    relative_to(reference_trace, cwd_) + "; the ray drawn: " +
-                    relative_to(probe_folder / (step.name + "_" + view + "_ray_" + xy + ".png"),
-                                cwd_);
+            pictures->write_png(name, side_by_side(student, reference,
+                                                   diff_heat_map(student, reference, tolerance)));
         }
-        result.problems.push_back(text);
-        result.look_at.push_back(text);
-        return;  // the first probe that differs is enough to look at
     }
-    if (!agreed.empty()) {
-        result.problems.push_back(run.name + " " + view + ": the probe rays " + join(agreed) +
-                                  " agree with the reference's traces");
-    }
+    return row;
 }
 
-void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
-    const fs::path folder = settings_.out / run.name;
-    std::error_code error;
-    fs::remove_all(folder, error);  // pictures of an earlier run never pass (not followed)
-    if (error) throw InputError("cannot empty '" + folder.string() + "': " + error.message());
-    make_folder(folder.string());
-
-    std::vector<std::string> arguments = first_arguments(folder);
-    const bool chooses_view =
-        std::find(run.arguments.begin(), run.arguments.end(), "--view") != run.arguments.end();
-    if (!settings_.view.empty() && !chooses_view) {
-        arguments.push_back("--view");
-        arguments.push_back(settings_.view);
-    }
-    arguments.insert(arguments.end(), run.arguments.begin(), run.arguments.end());
-    arguments.insert(arguments.end(), settings_.extra_args.begin(), settings_.extra_args.end());
-    ++result.runs;
-    std::vector<std::string> graded_views;  // those the reference run rendered
-    for (const std::string& view : pictures) {
-        if (!settings_.view.empty() && view != settings_.view) continue;
-        if (fs::is_regular_file(fs::symlink_status(reference_picture(step, run, view), error))) {
-            graded_views.push_back(view);
-        }
-    }
-    result.pictures += static_cast<int>(graded_views.size());
-    const Outcome outcome = execute(step, arguments, folder);
-    const std::string command = command_for(step, run, settings_.view);
-
-    // Stubs still in the code: their TODO lines (common/not_done.cpp) say what to write.
-    for (const std::string& line : lines_of(outcome.err)) {
-        if (line.rfind("TODO: ", 0) != 0) continue;
-        result.status = Status::not_started;
-        if (std::find(result.look_at.begin(), result.look_at.end(), line) == result.look_at.end()) {
-            result.look_at.push_back(line);
-            result.problems.push_back(line);
-        }
-    }
-    if (outcome.timed_out) {
-        result.status = std::max(result.status, Status::failing);
-        const std::string text = run.name + ": " +
-            (outcome.err.rfind("not run: ", 0) == 0
-                 ? outcome.err.substr(0, outcome.err.find('\n'))
-                 : "stopped after " + std::to_string(static_cast<int>(outcome.seconds + 0.5)) +
-                       " s: a loop that never ends? run it yourself: " + command);
-        result.problems.push_back(text);
-        result.look_at.push_back(text);
-        return;
-    }
-    if (outcome.output_exceeded) {
-        result.status = std::max(result.status, Status::failing);
-        const std::string text = run.name + ": stopped: " +
-            (outcome.err.rfind("grade: ", 0) == 0
-                 ? outcome.err.substr(7, outcome.err.find('\n') - 7)
-                 : "it printed more than " + readable_size(max_output_bytes)) +
-            " (a print inside a loop?)";
-        result.problems.push_back(text);
-        result.look_at.push_back(text);
-        return;
-    }
-    if (outcome.signal != 0) {
-        if (result.status != Status::not_started) result.status = Status::crashed;
-        const std::string text = run.name + ": crashed with " + signal_name(outcome.signal) +
-            "\n      to see the line: make san STEP=" + step.name.substr(0, 2) +
-            (run.arguments.empty() && settings_.extra_args.empty() ? std::string()
-                 : " ARGS='" + join(run.arguments) +
-                       (settings_.extra_args.empty() ? "" : " " + join(settings_.extra_args)) +
-                       "'") +
-            " (this step with AddressSanitizer and UBSan)";
-        result.problems.push_back(text);
-        result.look_at.insert(result.look_at.begin(), text);
-        return;
-    }
-    // A step built with the sanitizers (make san, SAN=1) exits with their report instead.
-    std::string sanitizer;
-    for (const std::string& line : lines_of(outcome.err)) {
-        if (line.find("ERROR: AddressSanitizer") != std::string::npos ||
-            line.find("runtime error:") != std::string::npos) {
-            if (sanitizer.empty()) sanitizer = line;
-        }
-        if (line.rfind("SUMMARY: ", 0) == 0) sanitizer = line;  // names the file and line
-    }
-    if (outcome.exit_status != 0 && !sanitizer.empty()) {
-        if (result.status != Status::not_started) result.status = Status::crashed;
-        const std::string text = run.name + ": the sanitizers stopped it: " + sanitizer +
-                                 "\n      the whole report: " + command;
-        result.problems.push_back(text);
-        result.look_at.insert(result.look_at.begin(), text);
-        return;
-    }
-    if (outcome.exit_status != 0) {
-        if (result.status == Status::passing) result.status = Status::failing;
-        std::string first_error;
-        for (const std::string& line : lines_of(outcome.err)) {
-            if (line.rfind("TODO: ", 0) != 0) {
-                first_error = line;
-                break;
+Graded grade_folder(const Folder& submission, const References& references, double tolerance,
+                    const OutputFolder* pictures) {
+    Graded graded;
+    graded.pictures = submission;
+    std::vector<Entry> entries = list_folder(submission);
+    std::map<std::string, std::vector<Entry>> found = match_names(entries, references);
+    if (found.empty()) {
+        // None at the top: the pictures may sit in one subfolder (out/, a zip's own folder).
+        size_t best = 0;
+        for (const Entry& entry : entries) {
+            if (entry.kind != Kind::folder) continue;
+            const Folder inner = open_folder(*submission.fd, entry.name,
+                                             join(submission.shown, entry.name), false);
+            std::vector<Entry> inner_entries = list_folder(inner);
+            std::map<std::string, std::vector<Entry>> inner_found =
+                match_names(inner_entries, references);
+            if (inner_found.size() > best) {
+                best = inner_found.size();
+                graded.pictures = inner;
+                entries = std::move(inner_entries);
+                found = std::move(inner_found);
             }
         }
-        const std::string text = run.name + ": exited with status " +
-            std::to_string(outcome.exit_status) + (first_error.empty() ? "" : ": " + first_error) +
-            "\n      run it yourself: " + command;
-        result.problems.push_back(text);
-        result.look_at.push_back(text);
-        return;
-    }
-
-    std::map<std::string, Summary> summaries;  // view -> its summary line
-    for (const std::string& line : lines_of(outcome.out)) {
-        if (line.rfind("step=", 0) != 0) continue;
-        Summary fields = parse_summary(line);
-        summaries[fields["view"]] = fields;
-    }
-    const size_t problems_before = result.problems.size();
-    for (const std::string& view : graded_views) {
-        const size_t problems_of_view = result.problems.size();
-        grade_picture(step, run, view, folder, result);
-        const auto summary = summaries.find(view);
-        if (summary == summaries.end()) {
-            const std::string text = run.name + ": printed no summary line for the " + view +
-                                     " view (step=... view=" + view + " ...)";
-            result.problems.push_back(text);
-            result.look_at.push_back(text);
-        } else {
-            grade_counters(run, view, summary->second, result);
+        if (best > 0) {
+            graded.notes.push_back("the pictures sit in the subfolder '" +
+                                   printable(fs::path(graded.pictures.shown).filename().string()) +
+                                   "/' of '" + printable(submission.shown) +
+                                   "': graded from there");
+            graded.source = "pictures in " +
+                            printable(fs::path(graded.pictures.shown).filename().string()) + "/";
         }
-        if (result.problems.size() > problems_of_view) probe_rays(step, run, view, folder, result);
     }
-    if (result.problems.size() > problems_before && result.status == Status::passing) {
-        result.status = Status::failing;
+    const Folder& folder = graded.pictures;
+    std::set<std::string> used;
+    for (const std::string& name : references.names) {
+        Row row;
+        const auto it = found.find(name);
+        if (it == found.end()) {
+            row = {name, "missing", false, {}, "not in the submission", "missing", "", 0, 0};
+        } else if (it->second.size() > 1) {
+            std::string names;
+            for (const Entry& entry : it->second) {
+                names += (names.empty() ? "" : ", ") + printable(entry.name);
+                used.insert(entry.name);
+            }
+            row = {name, "error", false, {}, "several files differ only in case: " + names,
+                   "names differing only in case", "", 0, 0};
+        } else {
+            used.insert(it->second[0].name);
+            row = grade_picture(folder, it->second[0], name, references, tolerance, pictures);
+        }
+        graded.rows.push_back(row);
+        ++graded.counts[row.result];
     }
+    for (const Entry& entry : entries) {
+        if (used.count(entry.name) || !has_png_extension(entry.name)) continue;
+        graded.rows.push_back({printable(entry.name), "extra", false, {},
+                               entry.kind == Kind::link ? "a symbolic link, not in the reference folder"
+                                                        : "not in the reference folder",
+                               "extra", entry.name, 0, 0});
+        ++graded.counts["extra"];
+    }
+    graded.expected = static_cast<int>(references.names.size());
+    graded.passed = graded.counts["pass"];
+    graded.all_pass = graded.passed == graded.expected;
+    int sized = 0, compared = 0;
+    for (const Row& row : graded.rows) {
+        if (row.result == "missing" || row.result == "extra") continue;
+        ++compared;
+        if (row.reason == "another picture size") ++sized;
+    }
+    if (compared > 1 && sized == compared) {
+        graded.notes.push_back("every picture has another size than its reference: rendered "
+                               "from another volume or view?");
+    }
+    return graded;
 }
 
-StepResult Grader::grade_step(const Step& step) {
-    StepResult result;
-    const fs::path binary = settings_.bin / step.name;
-    const fs::path source = settings_.tree / "steps" / (step.name + ".cpp");
-    std::error_code error;
-    if (stage_) {
-        const auto why = not_built_.find(step.name);
-        if (why != not_built_.end()) {
-            result.status = Status::not_built;
-            result.look_at.push_back(why->second);
-            result.problems.push_back(why->second);
-            return result;
-        }
+// --- Reports -------------------------------------------------------------------------------
+
+const std::vector<std::string> metrics = {"max_abs", "mean_abs", "rmse", "psnr_db",
+                                          "over_tol_pct"};
+const std::vector<std::string> columns = {"file",     "result", "max_abs",      "mean_abs",
+                                          "rmse",     "psnr_db", "over_tol_pct", "note"};
+
+// A row as the text of its columns (no metrics for missing, extra and error rows).
+std::vector<std::string> cells(const Row& row) {
+    std::vector<std::string> result = {row.file, row.result};
+    std::map<std::string, std::string> values;
+    if (row.has_numbers) {
+        for (const auto& [name, value] : comparison_fields(row.numbers)) values[name] = value;
     }
-    const bool built = fs::is_regular_file(binary, error) && access(binary.c_str(), X_OK) == 0;
-    if (stage_) {
-        // Built from the tree's sources in the sandbox: what TREE/build holds plays no part.
-    } else if (!built || (fs::exists(source, error) &&
-                   fs::last_write_time(source, error) > fs::last_write_time(binary, error))) {
-        result.status = Status::not_built;
-        const std::string text = std::string(built ? "steps/" + step.name + ".cpp is newer "
-                                                     "than " + relative_to(binary, cwd_)
-                                                   : relative_to(binary, cwd_) + " is not built") +
-            ": make " + step.name + " shows why (the compiler's first error)";
-        result.look_at.push_back(text);
-        result.problems.push_back(text);
-        return result;
-    }
-    for (const Run& run : step.runs) grade_run(step, run, result);
-    if (result.status == Status::passing && result.pictures == 0) {
-        result.status = Status::failing;
-        const std::string text = "no reference picture for this step in " +
-                                 settings_.reference.string() + ": make reference";
-        result.problems.push_back(text);
-        result.look_at.push_back(text);
-    }
+    for (const std::string& metric : metrics) result.push_back(values[metric]);
+    result.push_back(row.note);
     return result;
 }
 
-int Grader::run() {
-    cwd_ = fs::current_path();
+std::string csv_field(std::string text) {
+    // A cell a spreadsheet would run as a formula (a file named "=HYPERLINK(...).png") is
+    // quoted as text with a leading apostrophe.
+    if (!text.empty() && std::string("=+@\t").find(text[0]) != std::string::npos) {
+        text = "'" + text;
+    }
+    if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+    std::string quoted = "\"";
+    for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return quoted + "\"";
+}
+
+std::string csv_line(const std::vector<std::string>& fields) {
+    std::string text;
+    for (size_t f = 0; f < fields.size(); ++f) text += (f ? "," : "") + csv_field(fields[f]);
+    return text + "\n";
+}
+
+std::string markdown_field(std::string text) {
+    for (size_t at = 0; (at = text.find('|', at)) != std::string::npos; at += 2) {
+        text.replace(at, 1, "\\|");
+    }
+    std::replace(text.begin(), text.end(), '\n', ' ');
+    return text;
+}
+
+void print_table(const std::vector<Row>& rows) {
+    std::vector<size_t> widths(columns.size());
+    for (size_t c = 0; c < columns.size(); ++c) widths[c] = columns[c].size();
+    for (const Row& row : rows) {
+        const std::vector<std::string> text = cells(row);
+        for (size_t c = 0; c < text.size(); ++c) widths[c] = std::max(widths[c], text[c].size());
+    }
+    auto print_line = [&](const std::vector<std::string>& text) {
+        std::string line;
+        for (size_t c = 0; c < text.size(); ++c) {
+            const bool left = c < 2 || c + 1 == text.size();  // names left, numbers right
+            const std::string pad(widths[c] - text[c].size(), ' ');
+            line += (c ? "  " : "") + (left ? text[c] + pad : pad + text[c]);
+        }
+        while (!line.empty() && line.back() == ' ') line.pop_back();
+        std::printf("%s\n", line.c_str());
+    };
+    print_line(columns);
+    for (const Row& row : rows) print_line(cells(row));
+}
+
+std::string tolerance_text(double tolerance) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", tolerance);
+    return text;
+}
+
+// "2", or "2, and 3 for 07_compositing_order, 08_lit_compositing (manifest.txt's tol=)".
+std::string tolerances_text(const References& references, double tolerance) {
+    std::map<double, std::set<std::string>> others;
+    for (const auto& [name, value] : references.tolerances) {
+        if (value != tolerance) others[value].insert(step_of(name));
+    }
+    std::string text = tolerance_text(tolerance);
+    for (const auto& [value, steps] : others) {
+        text += ", " + tolerance_text(value) + " for";
+        bool first = true;
+        for (const std::string& step : steps) {
+            text += std::string(first ? " " : ", ") + step;
+            first = false;
+        }
+    }
+    return others.empty() ? text : text + " (manifest.txt's tol=)";
+}
+
+std::string summary_line(const Graded& graded) {
+    std::map<std::string, int> counts = graded.counts;
+    return std::to_string(graded.expected) + " expected: " + std::to_string(counts["pass"]) +
+           " pass, " + std::to_string(counts["fail"]) + " fail, " +
+           std::to_string(counts["damaged"]) + " damaged, " + std::to_string(counts["error"]) +
+           " error, " + std::to_string(counts["missing"]) + " missing; " +
+           std::to_string(counts["extra"]) + " extra; result=" +
+           (graded.all_pass ? "pass" : "fail");
+}
+
+std::string markdown_report(const std::string& submission, const References& references,
+                            double tolerance, const Graded& graded) {
+    std::string text = "# Check report\n\n";
+    text += "- submission: `" + printable(submission) + "`\n";
+    text += "- reference: `" + printable(references.folder) + "`\n";
+    text += "- tolerance: " + tolerances_text(references, tolerance) + " (8-bit units)\n";
+    for (const std::string& note : graded.notes) text += "- note: " + note + "\n";
+    text += "- " + summary_line(graded) + "\n\n";
+    std::string header = "|", rule = "|";
+    for (const std::string& column : columns) {
+        header += " " + column + " |";
+        rule += column == "file" || column == "result" || column == "note" ? "---|" : "--:|";
+    }
+    text += header + "\n" + rule + "\n";
+    for (const Row& row : graded.rows) {
+        std::string line = "|";
+        for (const std::string& cell : cells(row)) line += " " + markdown_field(cell) + " |";
+        text += line + "\n";
+    }
+    bool any_picture = false;
+    for (const Row& row : graded.rows) any_picture |= row.result == "fail";
+    if (any_picture) {
+        text += "\nEach failing picture is in `" + std::string(pictures_folder) +
+                "/` under its own name: the student's, the reference and the heat map of "
+                "their differences, side by side.\n";
+    }
+    return text;
+}
+
+std::string csv_report(const std::vector<Row>& rows) {
+    std::string text = csv_line(columns);
+    for (const Row& row : rows) text += csv_line(cells(row));
+    return text;
+}
+
+void write_reports(const OutputFolder& out, const std::string& submission,
+                   const References& references, double tolerance, const Graded& graded) {
+    out.write("report.md", markdown_report(submission, references, tolerance, graded));
+    out.write("report.csv", csv_report(graded.rows));
+}
+
+// --- One pair ------------------------------------------------------------------------------
+
+// The heat map's target may be new or an ordinary file, never a picture being compared, a
+// link, a device or a file in a reference folder; its folder must exist.
+void check_diff_target(const std::string& diff, const std::vector<std::string>& inputs) {
+    const std::string shown = "--diff '" + printable(diff) + "'";
+    struct stat target {};
+    if (::lstat(diff.c_str(), &target) == 0) {
+        if (S_ISLNK(target.st_mode)) throw InputError(shown + " is a symbolic link: not replaced");
+        if (!S_ISREG(target.st_mode)) {
+            throw InputError(shown + " is not an ordinary file: not replaced");
+        }
+        for (const std::string& input : inputs) {
+            struct stat info {};
+            if (::stat(input.c_str(), &info) == 0 && info.st_dev == target.st_dev &&
+                info.st_ino == target.st_ino) {
+                throw InputError(shown + " is one of the pictures being compared: not replaced");
+            }
+        }
+    }
+    const fs::path folder = absolute_path(diff).parent_path();
     std::error_code error;
-    if (!fs::is_directory(settings_.tree / "steps", error)) {
-        throw InputError("--tree: '" + settings_.tree.string() + "' has no steps/ folder");
+    if (!fs::is_directory(folder, error)) {
+        throw InputError(shown + ": the folder '" + printable(folder.string()) +
+                         "' does not exist (create it first)");
     }
-    if (!fs::is_directory(settings_.reference, error)) {
-        throw InputError("reference folder '" + settings_.reference.string() +
-                         "' does not exist");
+    const bool reference_folder =
+        fs::exists(folder / "manifest.txt", error) || fs::exists(folder / "volume.txt", error) ||
+        folder == absolute_path(inputs[1]).parent_path() ||
+        folder == absolute_path(default_reference);
+    if (reference_folder) {
+        throw InputError(shown + " is in a reference folder ('" + printable(folder.string()) +
+                         "'): write the heat map elsewhere");
     }
-    if (fs::is_symlink(settings_.out, error)) {
-        throw InputError("--out: '" + settings_.out.string() + "' is a symbolic link");
-    }
+}
 
-    // A stranger's tree is graded on the lab's steps: a step it lacks is not built, not absent.
-    if (settings_.build && settings_.lab.empty()) {
-        settings_.lab = fs::path(build_folder()).parent_path();
+int check_pair(const Settings& settings) {
+    const std::string& student_path = settings.files[0];
+    const std::string& reference_path = settings.files[1];
+    if (!settings.diff.empty()) check_diff_target(settings.diff, settings.files);
+    const Image student = read_image_file(student_path, false);
+    const Image reference = read_image(reference_path);
+    const Comparison result =
+        compare_images(student, reference, settings.tolerance, student_path, reference_path);
+    if (!settings.diff.empty()) {
+        write_file_replacing(settings.diff,
+                             png_bytes(diff_heat_map(student, reference, settings.tolerance)));
     }
-    if (settings_.build && fs::is_symlink(settings_.tree / "steps", error)) {
-        throw InputError("--tree: '" + (settings_.tree / "steps").string() +
-                         "' is a symbolic link: not followed");
-    }
-    const fs::path steps_folder = settings_.build ? settings_.lab / "steps"
-                                                  : settings_.tree / "steps";
-    std::vector<std::string> names;
-    for (const fs::directory_entry& entry : fs::directory_iterator(steps_folder)) {
-        const std::string name = entry.path().filename().string();
-        if (name.size() > 7 && std::isdigit(static_cast<unsigned char>(name[0])) &&
-            std::isdigit(static_cast<unsigned char>(name[1])) && name[2] == '_' &&
-            entry.path().extension() == ".cpp") {
-            names.push_back(entry.path().stem().string());
-        }
-    }
-    std::sort(names.begin(), names.end());
-    if (settings_.build) {  // the reference folder's pictures say which steps are assigned
-        std::set<std::string> assigned;
-        for (const fs::directory_entry& entry : fs::directory_iterator(settings_.reference)) {
-            const std::string file = entry.path().filename().string();
-            if (entry.path().extension() != ".png") continue;
-            for (const std::string& name : names) {
-                if (file.rfind(name + "_", 0) == 0) assigned.insert(name);
-            }
-        }
-        names.assign(assigned.begin(), assigned.end());
-    }
-    if (!settings_.steps.empty()) {
-        std::vector<std::string> chosen;
-        for (const std::string& wanted : settings_.steps) {
-            bool found = false;
-            for (const std::string& name : names) {
-                if (name == wanted || name.substr(0, 2) == wanted) {
-                    if (std::find(chosen.begin(), chosen.end(), name) == chosen.end()) {
-                        chosen.push_back(name);
-                    }
-                    found = true;
-                }
-            }
-            if (!found) {
-                throw InputError("--step " + wanted + ": no such step in " +
-                                 steps_folder.string());
-            }
-        }
-        std::sort(chosen.begin(), chosen.end());
-        names = chosen;
-    }
-    const fs::path manifest_path = settings_.reference / "manifest.txt";
-    if (!fs::is_regular_file(manifest_path, error)) {
-        throw InputError("no " + manifest_path.string() + ": the runs to grade are listed there");
-    }
-    const std::vector<Step> steps = read_manifest(manifest_path, names);
-    counters_ = read_counters(settings_.reference / "counters.txt");
-    // A reference folder made from another volume says which (make reference VOLUME=...).
-    const fs::path volume_record = settings_.reference / "volume.txt";
-    if (fs::is_regular_file(fs::symlink_status(volume_record, error))) {
-        std::istringstream lines(read_bounded(volume_record, max_manifest_bytes));
-        for (std::string line; std::getline(lines, line);) {
-            if (line.rfind("volume:", 0) == 0 && settings_.volume.empty()) {
-                settings_.volume = trim(line.substr(7));
-            } else if (line.rfind("arguments:", 0) == 0) {
-                settings_.volume_args = split_words(line.substr(10));
-            }
-        }
-    }
-    if (settings_.volume.empty()) settings_.volume = "phantom";
-    if (settings_.volume != "phantom") {
-        const fs::path kit = (settings_.build ? settings_.lab : settings_.tree) / "data" /
-                             "reference";
-        if (fs::is_directory(kit, error) && !fs::equivalent(kit, settings_.reference, error)) {
-            kit_reference_ = kit;
-        }
-    }
-    make_folder(settings_.out.string());
-    fs::remove_all(settings_.out / "side_by_side", error);
-    if (settings_.build) {
-        // A stranger's programs run only in the sandbox, unless the instructor says otherwise.
-        if (!sandbox_problem().empty() && !settings_.no_sandbox) {
-            throw InputError("no sandbox: " + sandbox_problem() + "; the tree's programs are "
-                             "not built or run (--no-sandbox runs them unconfined)");
-        }
-        std::vector<std::string> step_names;
-        for (const Step& step : steps) step_names.push_back(step.name);
-        stage_and_build(step_names);
-    }
+    std::printf("%s\n", comparison_line(result).c_str());
+    return result.pass ? exit_pass : exit_fail;
+}
 
-    std::printf("grading %zu step%s of %s against %s on %s%s\n", steps.size(),
-                steps.size() == 1 ? "" : "s", relative_to(settings_.tree, cwd_).c_str(),
-                relative_to(settings_.reference, cwd_).c_str(), settings_.volume.c_str(),
-                counters_ ? "" : " (no counters.txt there: counters not checked)");
-    std::fflush(stdout);
+// --- One student's folder --------------------------------------------------------------------
 
-    std::string report = "# grade report\n\n";
-    int passing = 0;
-    std::map<Status, int> counts;
-    std::vector<std::pair<std::string, StepResult>> results;
-    const int name_width = 24, status_width = 12;
-    std::printf("%-*s %-*s %9s %9s\n", name_width, "step", status_width, "status", "pictures",
-                "counters");
-    for (const Step& step : steps) {
-        const StepResult result = grade_step(step);
-        ++counts[result.status];
-        passing += result.status == Status::passing;
-        const std::string pictures =
-            result.runs ? std::to_string(result.pictures_passed) + "/" +
-                              std::to_string(result.pictures) : "-";
-        const std::string counters =
-            result.counters ? std::to_string(result.counters_passed) + "/" +
-                                  std::to_string(result.counters) : "-";
-        std::printf("%-*s %-*s %9s %9s\n", name_width, step.name.c_str(), status_width,
-                    status_text(result.status), pictures.c_str(), counters.c_str());
-        // A step still holding stubs: what to write is all there is to look at.
-        std::vector<std::string> look_at;
-        for (const std::string& line : result.look_at) {
-            if (result.status != Status::not_started || line.rfind("TODO: ", 0) == 0) {
-                look_at.push_back(line);
-            }
-        }
-        int shown = 0;
-        for (const std::string& line : look_at) {
-            if (shown++ == max_details) {
-                std::printf("    ... %zu more in %s\n", look_at.size() - max_details,
-                            relative_to(settings_.out / "report.txt", cwd_).c_str());
-                break;
-            }
-            std::printf("    %s\n", line.c_str());
-        }
-        std::fflush(stdout);
-        report += step.name + ": " + status_text(result.status) + ", pictures " + pictures +
-                  ", counters " + counters + "\n";
-        for (const std::string& problem : result.problems) report += "  " + problem + "\n";
-    }
-    std::string summary = std::to_string(steps.size()) + " step" +
-                          (steps.size() == 1 ? "" : "s") + ": ";
-    bool first = true;
-    for (Status status : {Status::passing, Status::failing, Status::crashed,
-                          Status::not_started, Status::not_built}) {
-        if (!counts[status] && status != Status::passing) continue;
-        summary += std::string(first ? "" : ", ") + std::to_string(counts[status]) + " " +
-                   status_text(status);
-        first = false;
-    }
-    const bool all_pass = passing == static_cast<int>(steps.size());
-    summary += std::string("; result=") + (all_pass ? "pass" : "fail");
-    report += "\n" + summary + "\n";
-    if (stage_) {  // what a class's timing table is made of
-        char times[96];
-        std::snprintf(times, sizeof times, "time: build %.1f s, runs %.1f s\n", build_s_,
-                      settings_.budget_s - seconds_left() - build_s_);
-        report += times;
-    }
+int check_submission(const Settings& settings) {
     {
-        const fs::path path = settings_.out / "report.txt";
-        fs::remove(path, error);
-        const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0644);
-        if (fd >= 0) {
-            const ssize_t written = ::write(fd, report.data(), report.size());
-            (void)written;
-            ::close(fd);
+        // The folder named on the command line may be a link (the instructor's choice);
+        // nothing inside it is followed.
+        std::error_code error;
+        const fs::file_status status = fs::status(settings.submission, error);
+        if (!fs::exists(status)) {
+            throw InputError("submission folder '" + printable(settings.submission) +
+                             "' does not exist");
+        }
+        if (!fs::is_directory(status)) {
+            throw InputError("submission folder '" + printable(settings.submission) +
+                             "' is not a folder");
         }
     }
-    std::printf("%s\n", summary.c_str());
-    return all_pass ? exit_pass : exit_fail;
+    if (settings.has_report) {
+        check_report_place(settings.report, {{"submission folder", settings.submission},
+                                             {"reference folder", settings.reference}});
+    }
+    const References references = load_references(settings.reference, settings);
+    const Folder submission = open_folder(AT_FDCWD, settings.submission, settings.submission, true);
+    std::unique_ptr<OutputFolder> out, pictures;
+    if (settings.has_report) {
+        out = std::make_unique<OutputFolder>(OutputFolder::open(settings.report));
+        pictures = std::make_unique<OutputFolder>(out->subfolder(pictures_folder));
+    }
+    const Graded graded = grade_folder(submission, references, settings.tolerance, pictures.get());
+    for (const std::string& note : graded.notes) std::printf("note: %s\n", note.c_str());
+    print_table(graded.rows);
+    std::printf("%s\n", summary_line(graded).c_str());
+    if (out) {
+        write_reports(*out, settings.submission, references, settings.tolerance, graded);
+        std::printf("report: %s %s\n", out->path("report.md").c_str(),
+                    out->path("report.csv").c_str());
+        if (graded.counts.count("fail")) {
+            std::printf("failing pictures (student | reference | heat map): %s/\n",
+                        pictures->path().c_str());
+        }
+    }
+    return graded.all_pass ? exit_pass : exit_fail;
+}
+
+// --- A class ---------------------------------------------------------------------------------
+
+struct Student {
+    std::string name;        // the subfolder's name (printable)
+    std::string result;      // pass, fail or error
+    std::string source;      // pictures, pictures in out/, program (build/check), ...
+    std::string note;
+    std::map<std::string, std::pair<int, int>> steps;  // step -> (passed, total)
+    std::vector<Row> rows;   // picture rows (not for a program graded by build/check)
+    Folder pictures;
+};
+
+// A file or folder name safe as one path component of the report folder.
+std::string safe_component(const std::string& name, std::set<std::string>& taken) {
+    std::string safe;
+    for (unsigned char c : name) {
+        safe += std::isalnum(c) || c == '-' || c == '_' || c == '.' ? static_cast<char>(c) : '_';
+    }
+    if (safe.empty() || safe[0] == '.') safe = "_" + safe;
+    std::string unique = safe;
+    for (int n = 2; taken.count(lower(unique)); ++n) unique = safe + "-" + std::to_string(n);
+    taken.insert(lower(unique));
+    return unique;
+}
+
+bool is_student_tree(const std::vector<Entry>& entries) {
+    for (const Entry& entry : entries) {
+        if (entry.name == ".ctlab-student" && entry.kind == Kind::file) return true;
+        if (entry.name == "steps" && entry.kind == Kind::folder) return true;
+    }
+    return false;
+}
+
+// build/check beside this program, when it is built.
+std::string grade_program() {
+    std::error_code error;
+    const fs::path self = fs::read_symlink("/proc/self/exe", error);
+    if (error) return "";
+    const fs::path grade = self.parent_path() / tree_checker;
+    return ::access(grade.c_str(), X_OK) == 0 ? grade.string() : "";
+}
+
+// Set by SIGINT, SIGTERM or SIGHUP: no student is started, the running ones are stopped.
+volatile std::sig_atomic_t stop_requested = 0;
+
+// Compilers each student's build runs at once: the cores left to each of --jobs students.
+int grade_jobs(const Settings& settings) {
+    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    return std::max(1, static_cast<int>(cores) / settings.jobs);
+}
+
+// The interface with build/check (tools/check.cpp), for a student tree:
+//   check --build --tree TREE --reference REF --out OUT_DIR --budget S --jobs N
+// renders into OUT_DIR (the student's folder in the report, never the tree), writes
+// OUT_DIR/report.txt with one line per step, "NN_name: STATUS, pictures P/T, counters C/T"
+// ("-" where nothing ran), and exits 0 (all pass), 1 (some fail) or 2 (bad input, its first
+// stderr line the reason). Its tolerances are the manifest's per run, not --tol.
+void grade_program_tree(const std::string& grade, const std::string& tree,
+                        const Settings& settings, const OutputFolder& out, Student& student) {
+    std::vector<std::string> arguments = {"--build", "--tree", tree, "--reference",
+                                          settings.reference, "--out", out.path(),
+                                          "--budget", std::to_string(settings.budget_s),
+                                          "--jobs", std::to_string(grade_jobs(settings))};
+    if (settings.no_sandbox) arguments.push_back("--no-sandbox");
+    if (!settings.timeout.empty()) arguments.insert(arguments.end(), {"--timeout",
+                                                                      settings.timeout});
+    for (const std::string& step : settings.steps) arguments.insert(arguments.end(),
+                                                                    {"--step", step});
+    ProcessOptions options;
+    options.limits.wall_s = settings.budget_s + budget_margin_s;
+    options.stop = &stop_requested;
+    options.limits.output_bytes = 1 << 20;  // bytes of grade's stdout kept
+    const ProcessResult result = run_process(grade, arguments, options);
+    constexpr size_t max_output = 1 << 20;  // bytes of grade's report read
+    const int code = result.exit_status;
+    if (result.timed_out || result.interrupted) {
+        student.source = "program (build/check)";
+        student.result = "error";
+        student.note = result.timed_out
+            ? "build/check went past the student's budget of " + std::to_string(
+                  static_cast<int>(settings.budget_s)) + " s and was stopped"
+            : "not finished: the check was interrupted";
+        return;
+    }
+    // grade's report.txt: "NN_name: STATUS, pictures P/T, counters C/T", "-" for none.
+    std::string report;
+    {
+        std::ifstream in(out.path() + "/report.txt", std::ios::binary);
+        char chunk[4096];
+        while (in && report.size() < max_output) {
+            in.read(chunk, sizeof chunk);
+            report.append(chunk, static_cast<size_t>(in.gcount()));
+        }
+    }
+    const std::regex line("^([0-9]{2}_[a-z0-9_]+): [a-z ]+, pictures (-|([0-9]+)/([0-9]+)), "
+                          "counters (-|([0-9]+)/([0-9]+))$");
+    size_t start = 0;
+    std::string step, reason;
+    while (start < report.size()) {
+        size_t end = report.find('\n', start);
+        if (end == std::string::npos) end = report.size();
+        const std::string one = report.substr(start, end - start);
+        std::smatch match;
+        if (std::regex_match(one, match, line)) {
+            auto number = [&](int group) {
+                return match[group].matched ? std::stoi(match[group]) : 0;
+            };
+            const int passed = number(3) + number(6), total = number(4) + number(7);
+            student.steps[match[1]] = {passed, std::max(total, 1)};  // nothing ran: 0 of 1
+            step = match[1];
+        } else if (reason.empty() && one.rfind("  ", 0) == 0 && one.rfind("    ", 0) != 0) {
+            reason = step + ": " + one.substr(2);  // the first problem: one line of reason
+        }
+        start = end + 1;
+    }
+    student.source = "program (build/check)";
+    if (code == 0 || code == 1) {
+        student.result = code == 0 ? "pass" : "fail";
+        student.note = reason;
+    } else {
+        student.result = "error";
+        student.note = "build/check stopped with status " + std::to_string(code) +
+                       " (its report: " + out.path() + ")";
+    }
+}
+
+// students/NAME/graded.txt: a student tree whose programs were graded, written last, so a
+// stopped class run keeps it (what a rerun reads back instead of grading the tree again).
+void write_graded(const OutputFolder& out, const Student& student) {
+    if (student.source.rfind("program", 0) != 0) return;  // pictures: quick to grade again
+    std::string text = "result: " + student.result + "\nsource: " + student.source +
+                       "\nnote: " + student.note + "\n";
+    for (const auto& [step, score] : student.steps) {
+        text += "step: " + step + " " + std::to_string(score.first) + " " +
+                std::to_string(score.second) + "\n";
+    }
+    out.write(graded_mark, text);
+}
+
+bool read_graded(const OutputFolder& out, Student& student) {
+    std::string text;
+    try {
+        const std::vector<unsigned char> bytes =
+            read_file_at(out.fd(), graded_mark, out.path(graded_mark), 1 << 20);
+        text.assign(bytes.begin(), bytes.end());
+    } catch (const InputError&) {
+        return false;
+    }
+    std::istringstream lines(text);
+    for (std::string line; std::getline(lines, line);) {
+        const size_t colon = line.find(": ");
+        if (colon == std::string::npos) continue;
+        const std::string key = line.substr(0, colon), value = line.substr(colon + 2);
+        if (key == "result") student.result = value;
+        if (key == "source") student.source = value;
+        if (key == "note") student.note = value;
+        if (key == "step") {
+            std::istringstream words(value);
+            std::string step;
+            int passed = 0, total = 0;
+            if (words >> step >> passed >> total) student.steps[step] = {passed, total};
+        }
+    }
+    return student.result == "pass" || student.result == "fail";
+}
+
+std::string score_text(int passed, int total) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.2f", total > 0 ? static_cast<double>(passed) / total : 0.0);
+    return text;
+}
+
+void grade_student(const Folder& class_folder, const Entry& entry, const References& references,
+                   const Settings& settings, const OutputFolder& out, const std::string& grade,
+                   Student& student) {
+    const std::string shown = join(class_folder.shown, entry.name);
+    if (entry.kind != Kind::folder) {
+        student.result = "error";
+        student.note = entry.kind == Kind::link
+            ? "'" + printable(shown) + "' is a symbolic link: not followed"
+            : "'" + printable(shown) + "' is not a folder";
+        return;
+    }
+    const Folder folder = open_folder(*class_folder.fd, entry.name, shown, false);
+    Folder pictures = folder;
+    if (is_student_tree(list_folder(folder))) {
+        if (!grade.empty()) {
+            grade_program_tree(grade, shown, settings, out, student);
+            return;
+        }
+        try {
+            pictures = open_folder(*folder.fd, "out", join(shown, "out"), false);
+        } catch (const InputError& error) {
+            student.result = "error";
+            student.source = "student tree";
+            student.note = std::string(error.what()) + " (build/check is not built, so the "
+                           "tree's out/ pictures are graded)";
+            return;
+        }
+        student.source = "tree's out/ pictures (build/check not built: programs not run)";
+    }
+    const OutputFolder pictures_out = out.subfolder(pictures_folder);
+    const Graded graded = grade_folder(pictures, references, settings.tolerance, &pictures_out);
+    write_reports(out, shown, references, settings.tolerance, graded);
+    if (student.source.empty()) student.source = graded.source;
+    student.result = graded.all_pass ? "pass" : "fail";
+    student.rows = graded.rows;
+    student.pictures = graded.pictures;
+    for (const std::string& note : graded.notes) {
+        student.note += (student.note.empty() ? "" : "; ") + note;
+    }
+    for (const Row& row : graded.rows) {
+        const std::string step = step_of(row.file);
+        if (step.empty() || row.result == "extra") continue;
+        auto& [passed, total] = student.steps[step];
+        passed += row.result == "pass";
+        ++total;
+    }
+}
+
+int check_class(const Settings& settings) {
+    {
+        std::error_code error;
+        const fs::file_status status = fs::status(settings.class_folder, error);
+        if (!fs::exists(status)) {
+            throw InputError("class folder '" + printable(settings.class_folder) +
+                             "' does not exist");
+        }
+        if (!fs::is_directory(status)) {
+            throw InputError("class folder '" + printable(settings.class_folder) +
+                             "' is not a folder");
+        }
+    }
+    check_report_place(settings.report, {{"class folder", settings.class_folder},
+                                         {"reference folder", settings.reference}});
+    const References references = load_references(settings.reference, settings);
+    const Folder class_folder =
+        open_folder(AT_FDCWD, settings.class_folder, settings.class_folder, true);
+    const OutputFolder out = OutputFolder::open(settings.report);
+    const OutputFolder students_out = out.subfolder("students");
+
+    // Student trees' programs are built and run only in the sandbox (build/check --build),
+    // unless the instructor says otherwise.
+    std::string grade = grade_program();
+    if (!grade.empty() && !sandbox_problem().empty() && !settings.no_sandbox) {
+        std::printf("grade: no sandbox (%s): student trees' programs are not built or run, "
+                    "their out/ pictures are graded (--no-sandbox runs them unconfined)\n",
+                    sandbox_problem().c_str());
+        grade.clear();
+    }
+    // One slot per student, in the class folder's order; a stopped run's finished students
+    // (students/NAME/graded.txt) are kept unless --regrade.
+    struct Slot {
+        Entry entry;
+        std::unique_ptr<OutputFolder> out;
+        bool kept = false;
+    };
+    std::vector<Slot> slots;
+    std::vector<Student> students;
+    std::set<std::string> taken;
+    for (const Entry& entry : list_folder(class_folder)) {
+        // A class list or a zip is no student, nor is a hidden folder (.git).
+        if (entry.kind == Kind::file || entry.name[0] == '.') continue;
+        Student student;
+        student.name = printable(entry.name);
+        Slot slot{entry, std::make_unique<OutputFolder>(
+                             students_out.subfolder(safe_component(entry.name, taken)))};
+        if (!settings.regrade) slot.kept = read_graded(*slot.out, student);
+        students.push_back(std::move(student));
+        slots.push_back(std::move(slot));
+    }
+    for (int signal : {SIGINT, SIGTERM, SIGHUP}) {
+        std::signal(signal, [](int) { stop_requested = 1; });
+    }
+    std::mutex printing;
+    std::atomic<size_t> next{0};
+    int kept = 0;
+    for (const Slot& slot : slots) kept += slot.kept;
+    auto worker = [&] {
+        for (size_t n; (n = next++) < slots.size() && !stop_requested;) {
+            Slot& slot = slots[n];
+            Student& student = students[n];
+            if (!slot.kept) {
+                try {
+                    grade_student(class_folder, slot.entry, references, settings, *slot.out,
+                                  grade, student);
+                } catch (const InputError& error) {
+                    student.result = "error";
+                    student.note = error.what();
+                }
+                if (stop_requested) {
+                    student.result = "error";
+                    student.note = "not finished: the check was interrupted";
+                    continue;
+                }
+                if (student.result == "error") {
+                    slot.out->write("report.md", "# Check report\n\n- student: `" +
+                                                     student.name + "`\n- result: error\n- " +
+                                                     student.note + "\n");
+                }
+                write_graded(*slot.out, student);
+            }
+            const std::lock_guard<std::mutex> lock(printing);
+            std::printf("%-24s %-5s %s%s%s%s\n", student.name.c_str(), student.result.c_str(),
+                        student.source.c_str(), student.note.empty() ? "" : ": ",
+                        student.note.c_str(), slot.kept ? " (graded before: kept)" : "");
+            std::fflush(stdout);
+        }
+    };
+    std::vector<std::thread> workers;
+    for (int w = 0; w < settings.jobs; ++w) workers.emplace_back(worker);
+    for (std::thread& thread : workers) thread.join();
+    if (stop_requested) {
+        size_t finished = 0;
+        for (const Student& student : students) {
+            finished += student.note != "not finished: the check was interrupted" &&
+                        !student.result.empty();
+        }
+        std::printf("grade: interrupted; %zu of %zu students graded, their reports kept: "
+                    "run the same command again to grade the rest\n", finished,
+                    students.size());
+        return exit_fail;
+    }
+    if (kept > 0) {
+        std::printf("grade: %d students graded by an earlier run were kept (--regrade grades "
+                    "them again)\n", kept);
+    }
+    if (students.empty()) {
+        throw InputError("class folder '" + printable(settings.class_folder) +
+                         "' has no student folders (one subfolder per student)");
+    }
+
+    // Steps: the reference's, and any build/check reported.
+    std::set<std::string> step_set(references.steps.begin(), references.steps.end());
+    for (const Student& student : students) {
+        for (const auto& [step, score] : student.steps) step_set.insert(step);
+    }
+    const std::vector<std::string> steps(step_set.begin(), step_set.end());
+
+    // class.csv: one row per student.
+    std::vector<std::string> header = {"student", "result", "score_pct", "source"};
+    header.insert(header.end(), steps.begin(), steps.end());
+    header.push_back("note");
+    std::string csv = csv_line(header);
+    int passing = 0;
+    for (const Student& student : students) {
+        int passed = 0, total = 0;
+        for (const auto& [step, score] : student.steps) {
+            passed += score.first;
+            total += score.second;
+        }
+        char pct[32];
+        std::snprintf(pct, sizeof pct, "%.1f", total > 0 ? 100.0 * passed / total : 0.0);
+        std::vector<std::string> fields = {student.name, student.result, pct, student.source};
+        for (const std::string& step : steps) {
+            const auto it = student.steps.find(step);
+            fields.push_back(it == student.steps.end()
+                                 ? ""
+                                 : score_text(it->second.first, it->second.second));
+        }
+        fields.push_back(student.note);
+        csv += csv_line(fields);
+        passing += student.result == "pass";
+    }
+    out.write("class.csv", csv);
+
+    // summary.md: the class at a glance, the commonest failures, identical wrong pictures.
+    std::string md = "# Class summary\n\n";
+    md += "- class: `" + printable(settings.class_folder) + "`\n";
+    md += "- reference: `" + printable(settings.reference) + "`\n";
+    md += "- tolerance: " + tolerances_text(references, settings.tolerance) + " (8-bit units)\n";
+    md += "- students: " + std::to_string(students.size()) + ", all steps pass: " +
+          std::to_string(passing) + "\n";
+    md += "- per student: `students/NAME/report.md`, failing pictures side by side (student | "
+          "reference | heat map) in `students/NAME/pictures/`; for a student tree whose "
+          "programs were run (build/check), `students/NAME/report.txt` and "
+          "`students/NAME/side_by_side/`; one row each in `class.csv`\n\n";
+    md += "## Steps\n\n| step | students passing it | students graded |\n|---|--:|--:|\n";
+    for (const std::string& step : steps) {
+        int pass = 0, graded = 0;
+        for (const Student& student : students) {
+            const auto it = student.steps.find(step);
+            if (it == student.steps.end()) continue;
+            ++graded;
+            pass += it->second.first == it->second.second;
+        }
+        md += "| " + step + " | " + std::to_string(pass) + " | " + std::to_string(graded) + " |\n";
+    }
+    std::map<std::pair<std::string, std::string>, std::vector<std::string>> failures;
+    for (const Student& student : students) {
+        for (const Row& row : student.rows) {
+            if (row.result == "pass" || row.result == "extra") continue;
+            const std::string verdict =
+                row.reason.empty() || row.reason == row.result ? row.result
+                                                               : row.result + ": " + row.reason;
+            failures[{row.file, verdict}].push_back(student.name);
+        }
+        if (student.rows.empty() && student.result == "error") {
+            failures[{"(whole submission)", "error"}].push_back(student.name);
+        }
+        if (student.rows.empty() && student.result == "fail") {  // a tree graded by build/check
+            for (const auto& [step, counts] : student.steps) {
+                if (counts.first == counts.second) continue;
+                failures[{step + " (the program)", "fail: see the student's report.txt"}]
+                    .push_back(student.name);
+            }
+        }
+    }
+    std::vector<std::pair<std::pair<std::string, std::string>, std::vector<std::string>>> sorted(
+        failures.begin(), failures.end());
+    std::stable_sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) {
+        return a.second.size() > b.second.size();
+    });
+    md += "\n## Commonest failures\n\n";
+    if (sorted.empty()) md += "None: every graded picture and program passes.\n";
+    constexpr size_t shown_failures = 15;
+    if (!sorted.empty()) md += "| picture | verdict | students | who |\n|---|---|--:|---|\n";
+    for (size_t n = 0; n < sorted.size() && n < shown_failures; ++n) {
+        std::string who;
+        for (const std::string& name : sorted[n].second) who += (who.empty() ? "" : ", ") + name;
+        md += "| " + sorted[n].first.first + " | " + markdown_field(sorted[n].first.second) +
+              " | " + std::to_string(sorted[n].second.size()) + " | " + markdown_field(who) +
+              " |\n";
+    }
+    if (sorted.size() > shown_failures) {
+        md += "\n(" + std::to_string(sorted.size() - shown_failures) +
+              " rarer failures: see each student's report.)\n";
+    }
+    // Byte-identical failing pictures from different students: grouped by size and hash,
+    // then compared byte for byte.
+    std::map<std::tuple<std::string, size_t, unsigned long long>,
+             std::vector<std::pair<const Student*, const Row*>>> same;
+    for (const Student& student : students) {
+        for (const Row& row : student.rows) {
+            if (row.result == "fail") same[{row.file, row.bytes, row.hash}].push_back({&student, &row});
+        }
+    }
+    std::string hints;
+    for (const auto& [key, group] : same) {
+        if (group.size() < 2) continue;
+        std::vector<unsigned char> first;
+        std::string names;
+        bool identical = true;
+        try {
+            for (const auto& [student, row] : group) {
+                const std::vector<unsigned char> bytes = read_file_at(
+                    *student->pictures.fd, row->found_as,
+                    join(student->pictures.shown, row->found_as), max_picture_file_bytes);
+                if (first.empty()) {
+                    first = bytes;
+                } else if (bytes != first) {
+                    identical = false;
+                }
+                names += (names.empty() ? "" : ", ") + student->name;
+            }
+        } catch (const InputError&) {
+            identical = false;  // changed since it was graded: no claim
+        }
+        if (identical) {
+            hints += "- " + std::get<0>(key) + ": " + names +
+                     " handed in byte-identical failing pictures\n";
+        }
+    }
+    md += "\n## Identical wrong pictures\n\n";
+    md += hints.empty() ? "None: no two students handed in the same failing picture.\n"
+                        : "Two renders of the same mistake rarely match to the byte: worth a "
+                          "look.\n\n" + hints;
+    out.write("summary.md", md);
+
+    std::printf("%d students: %d pass, %d do not\n", static_cast<int>(students.size()), passing,
+                static_cast<int>(students.size()) - passing);
+    if (!hints.empty()) std::printf("hint: byte-identical failing pictures, see summary.md\n");
+    std::printf("report: %s %s %s/\n", out.path("class.csv").c_str(),
+                out.path("summary.md").c_str(), students_out.path().c_str());
+    return passing == static_cast<int>(students.size()) ? exit_pass : exit_fail;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    for (int signal : {SIGINT, SIGTERM, SIGHUP}) {
-        std::signal(signal, [](int) { interrupted = 1; });
-    }
     try {
-        return Grader(parse_arguments(argc, argv)).run();
-    } catch (const Interrupted&) {
-        std::fprintf(stderr, "grade: interrupted\n");
-        return 128 + SIGINT;
-    } catch (const InputError& error) {
-        std::fprintf(stderr, "grade: error: %s\n", error.what());
-        return exit_bad_input;
+        const Settings settings = parse_arguments(argc, argv);
+        if (settings.help) {
+            std::printf("%s", usage_text);
+            return exit_pass;
+        }
+        if (settings.has_class) return check_class(settings);
+        return settings.has_submission ? check_submission(settings) : check_pair(settings);
     } catch (const std::exception& error) {
-        std::fprintf(stderr, "grade: internal error: %s\n", error.what());
-        return exit_fail;
+        // InputError, or a picture too large for memory: either way the input is at fault.
+        std::fprintf(stderr, "grade: error: %s\n", printable(error.what()).c_str());
+        return exit_bad_input;
     }
 }

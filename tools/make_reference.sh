@@ -97,7 +97,7 @@ done < "$manifest"
 
 # Everything is rendered into $work/images first: a run that fails leaves REFERENCE as it was.
 : > "$work/made"
-echo "# Each run's summary lines without timings: the work counters build/grade compares" \
+echo "# Each run's summary lines without timings: the work counters build/check compares" \
     > "$work/counters"
 mkdir -p "$work/images" || fail "cannot create a temporary folder"
 runs=0

@@ -51,7 +51,7 @@ const std::vector<std::string> copied = {"Makefile", ".gitignore", "common", "to
                                          "tests",    "data",       "handouts"};
 const std::vector<std::string> not_copied = {
     "data/CThead",               // not ours to hand out
-    "tests/grade_mistakes.txt",  // its patches quote solution lines
+    "tests/check_mistakes.txt",  // its patches quote solution lines
     "tools/student_README.md"};  // becomes README.md
 const char* const readme_template = "tools/student_README.md";
 const char* const readme_steps = "{{steps}}";    // where the template wants the table

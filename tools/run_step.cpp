@@ -14,6 +14,7 @@
 #include <sstream>
 #include <stdexcept>
 #include "error.h"
+#include "ray_plot.h"
 
 namespace ctlab {
 
@@ -109,7 +110,23 @@ RunResult run_step(const std::string& step, const std::vector<std::string>& flag
                    double timeout_s) {
     std::vector<std::string> args = {"--no-window"};
     args.insert(args.end(), flags.begin(), flags.end());
-    return run_program(step_binary(step), args, timeout_s);
+    RunResult result = run_program(step_binary(step), args, timeout_s);
+    // Each traced ray's records, from the sidecar beside its ray picture.
+    std::string out;
+    for (size_t n = 0; n + 1 < flags.size(); ++n) {
+        if (flags[n] == "--out") out = flags[n + 1];
+    }
+    if (out.empty() || result.status != 0) return result;
+    for (PixelTrace& trace : result.traces) {
+        const std::string path = out + "/" + step + "_" + trace.view + "_ray_" +
+                                 std::to_string(trace.x) + "_" + std::to_string(trace.y) + ".txt";
+        std::ifstream file(path, std::ios::binary);
+        if (!file) continue;
+        std::ostringstream text;
+        text << file.rdbuf();
+        trace.records = trace_records_from_text(text.str());
+    }
+    return result;
 }
 
 double summary_number(const Summary& summary, const std::string& key) {

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 #include "image.h"
+#include "render.h"
 #include "tools/process.h"
 #include "volume.h"
 
@@ -37,6 +38,10 @@ struct PixelTrace {
     int png[3] = {0, 0, 0};          // the same, quantised
     unsigned long long samples = 0;  // the samples= of the result line
     bool complete = false;           // the result line was found
+    // The trace's records, read from the sidecar the step wrote beside its ray picture
+    // (OUT/STEP_VIEW_ray_X_Y.txt; run_step reads it when the flags name --out): the machine
+    // form to read numbers from, where `lines` are only the text as printed.
+    std::vector<TraceRecord> records;
 };
 
 // What one run of a program gave (tools/process.h), its output parsed.

@@ -194,45 +194,47 @@ std::string tf_range(int from, int to, double r, double g, double b, double a) {
     return text_of("%d %d constant %.9g %.9g %.9g %.9g\n", from, to, r, g, b, a);
 }
 
-// Step 05's "crossing between n=A and n=B: hit at A + F" in samples along the ray, or a
-// hit at n = 0.
+// The traced ray's numbers come from its records (the sidecar beside its ray picture,
+// PixelTrace::records), never from the printed lines.
+
+// Step 05's crossing record (kind hit: n and fraction, "hit at A + F") in samples along the
+// ray, or a hit at the first sample (n = 0).
 bool traced_t_hit(const PixelTrace& trace, double& t_hit) {
-    for (const std::string& line : trace.lines) {
-        const size_t at = line.find("hit at ");
-        int whole = 0;
-        double fraction = 0;
-        if (at != std::string::npos &&
-            std::sscanf(line.c_str() + at, "hit at %d + %lf", &whole, &fraction) == 2) {
-            t_hit = whole + fraction;
+    for (const TraceRecord& record : trace.records) {
+        if (record.kind == TraceKind::hit && record.has("n") && record.has("fraction")) {
+            t_hit = record.number("n", 0) + record.number("fraction", 0);
             return true;
         }
     }
-    if (!trace.lines.empty() && trace.lines[0].rfind("n=  0 ", 0) == 0 &&
-        trace.lines[0].find("hit") != std::string::npos) {
-        t_hit = 0;
-        return true;
+    if (!trace.records.empty()) {
+        const TraceRecord& first = trace.records[0];
+        if (first.kind == TraceKind::sample && first.hit && first.number("n", -1) == 0) {
+            t_hit = 0;
+            return true;
+        }
     }
     return false;
 }
 
-// The lit steps' trace line "gradient=(GI, GJ, GK) shade=S".
+// The lit steps' shade record: the gradient at the hit.
 bool traced_gradient(const PixelTrace& trace, double g[3]) {
-    for (const std::string& line : trace.lines) {
-        if (std::sscanf(line.c_str(), "gradient=(%lf, %lf, %lf)", &g[0], &g[1], &g[2]) == 3) {
+    for (const TraceRecord& record : trace.records) {
+        if (record.kind == TraceKind::shade && record.has("gradient.i") &&
+            record.has("gradient.j") && record.has("gradient.k")) {
+            g[0] = record.number("gradient.i", 0);
+            g[1] = record.number("gradient.j", 0);
+            g[2] = record.number("gradient.k", 0);
             return true;
         }
     }
     return false;
 }
 
-// The transparency after the traced ray's last composited sample ("... T=0.00704").
+// The transparency after the traced ray's last record that gives one (T).
 double traced_transparency(const Run& run) {
     double t = -1;
     for (const PixelTrace& trace : run.result.traces) {
-        for (const std::string& line : trace.lines) {
-            const size_t at = line.find(" T=");
-            if (at != std::string::npos) t = std::strtod(line.c_str() + at + 3, nullptr);
-        }
+        for (const TraceRecord& record : trace.records) t = record.number("T", t);
     }
     return t;
 }

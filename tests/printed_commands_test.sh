@@ -1,0 +1,101 @@
+#!/bin/sh
+# printed_commands_test.sh: every command build/check prints in its failure reports runs as
+# printed. Mistakes are patched into copies of the solution's steps (a part-1 step, the first
+# step holding the slab method, found by its lesson marker, and a crash), each graded as
+# make check grades a tree; then every command line of the reports ("trace it:", "run it
+# yourself:", "could not be traced:", "the whole report:", "to see the line ...:") is run
+# from the lab's root exactly as printed: a step's command must exit 0 (its pictures go to
+# out/, as the student's would), a make command must be one make knows how to run (make -n).
+#
+#   sh tests/printed_commands_test.sh BUILD      (from the repository root; make test runs it)
+set -u
+build=${1:-build}
+passed=0
+failed=0
+ok() { passed=$((passed + 1)); }
+bad() { echo "printed_commands test: FAILED: $*"; failed=$((failed + 1)); }
+
+if [ -f .ctlab-student ]; then  # the mistakes patch solution lines
+    echo "printed_commands test: 0 passed, 0 failed (skipped: a student tree)"
+    exit 0
+fi
+[ -x "$build/check" ] || { echo "printed_commands test: $build/check is not built"; exit 1; }
+work=$(mktemp -d) || exit 1
+if [ -n "${KEEP:-}" ]; then echo "kept $work"; else trap 'rm -rf "$work"' EXIT INT TERM; fi
+case "$build" in *san*) san=SAN=1 ;; *) san= ;; esac
+
+tree=$work/tree
+mkdir -p "$tree/steps" "$tree/$build" || exit 1
+cp Makefile "$tree/" && cp -R common "$tree/" && cp -R "$build/common" "$tree/$build/" &&
+    cp "$build/libctlab.a" "$tree/$build/" || { bad "cannot copy the lab into $tree"; exit 1; }
+find "$tree/$build" -type f -exec touch {} +
+
+# mutant NAME SOURCE SED: the patched step built into $work/bin/NAME.
+mutant() {
+    name=$1 source=$2 script=$3
+    stem=$(basename "$source" .cpp)
+    rm -f "$tree"/steps/*.cpp
+    sed -e "$script" "$source" > "$tree/$source" || return 1
+    if cmp -s "$source" "$tree/$source"; then bad "$name: '$script' changes nothing"; return 1; fi
+    # shellcheck disable=SC2086
+    make --no-print-directory -C "$tree" BUILD="$build" WERROR=0 $san \
+        -o "$build/libctlab.a" -o "$build/ctlab_formats.so" -o "$build/ctlab_window.so" \
+        "$build/$stem" > "$work/make.log" 2>&1 ||
+        { bad "$name: the patched $stem does not compile"; tail -n 20 "$work/make.log"; return 1; }
+    mkdir -p "$work/bin/$name" && mv "$tree/$build/$stem" "$work/bin/$name/"
+}
+
+# run_printed NAME LOG: every printed command of the report, run as printed.
+run_printed() {
+    name=$1 log=$2
+    sed -n -E 's/.*(trace it|run it yourself|could not be traced|the whole report|to see the line[^:]*): +//p' \
+        "$log" > "$work/commands"
+    count=$(wc -l < "$work/commands")
+    if [ "$count" -eq 0 ]; then bad "$name: the report prints no command"; sed 's/^/    /' "$log"; return; fi
+    while IFS= read -r command; do
+        case $command in
+            make\ *) check=$(echo "$command" | sed 's/^make /make -n /') ;;
+            *) check=$command ;;
+        esac
+        # No window: the command as a student runs it, on a machine without a display here.
+        if env -u DISPLAY -u WAYLAND_DISPLAY sh -c "$check" > "$work/command.log" 2>&1 \
+                < /dev/null; then
+            ok
+        else
+            bad "$name: the printed command fails: $command"; tail -n 5 "$work/command.log"
+        fi
+    done < "$work/commands"
+    echo "printed_commands test: $name: $count printed commands run"
+}
+
+# A part-1 picture that differs (the threshold moved): "trace it" and the probe ray.
+mutant threshold_401 steps/02_threshold.cpp \
+    's/bone_threshold = 400;/bone_threshold = 401;/' &&
+    { "$build/check" --bin "$work/bin/threshold_401" --step 02 --out "$work/out/t" \
+          > "$work/t.log" 2>&1
+      [ $? -eq 1 ] || bad "threshold_401: grade did not fail"
+      run_printed threshold_401 "$work/t.log"; }
+
+# A crash: "to see the line: make san ...".
+mutant crash steps/03_depth_shading.cpp \
+    '/for (int [nt] = 0; [nt] < view.ray_length; ++[nt]) {/i\    if (x == 9) *static_cast<volatile int*>(nullptr) = 0;' &&
+    { "$build/check" --bin "$work/bin/crash" --step 03 --view top --out "$work/out/c" \
+          > "$work/c.log" 2>&1
+      [ $? -eq 1 ] || bad "crash: grade did not fail"
+      run_printed crash "$work/c.log"; }
+
+# Part 2: the slab method without its parallel case (d == 0), in the first step that holds it.
+slab=$(grep -l '^//> lesson: slab$' steps/[0-9][0-9]_*.cpp 2>/dev/null | head -n 1)
+if [ -z "$slab" ]; then
+    echo "printed_commands test: skipped: no step holds the slab method"
+else
+    number=$(basename "$slab" | cut -c1-2)
+    mutant slab_parallel "$slab" '/if (d == 0) {  \/\/ true for -0 too/,/^        }$/d' &&
+        { "$build/check" --bin "$work/bin/slab_parallel" --step "$number" --out "$work/out/s" \
+              > "$work/s.log" 2>&1
+          [ $? -eq 1 ] || { bad "slab_parallel: grade did not fail"; sed 's/^/    /' "$work/s.log"; }
+          run_printed slab_parallel "$work/s.log"; }
+fi
+
+echo "printed_commands test: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
