@@ -431,6 +431,7 @@ static float derivative(Sample sample, int n, int count, double spacing) {
     return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
 }
 
+// Changed in step 10: a voxel's gradient by its indices; its callers count the work.
 static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
     auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
     auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
@@ -477,6 +478,7 @@ static float shade(Vec3 gradient, Vec3 to_light) {
 
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// Changed in step 10: in the camera's frame.
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -506,6 +508,7 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // transparent, composited front to back; early ray termination as in step 07. Step 09's
 // leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
 // (leap_past), and every sample leapt over would have been transparent.
+// Changed in step 10: along the camera's ray.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, const EmptySpace& space,
                                            Vec3 to_light, const Params& params, Work& work,

@@ -641,6 +641,7 @@ static Walk jittered(Walk walk, const Span& span, double step, float u) {
 // (0: step 10's samples exactly): read by trilinear interpolation, classified by the table,
 // lit where it is not transparent, composited front to back; early ray termination as in
 // step 07, leaping over empty bricks as in step 10.
+// Changed in step 11: the samples move by the pixel's jitter.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, const EmptySpace& space,
                                            Vec3 to_light, const Params& params,

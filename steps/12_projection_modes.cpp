@@ -280,6 +280,7 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 
 // CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in part 1 (step
 // 00); trilinear values lie between voxel values, so within 0..1 too.
+// Changed in step 12: takes a trilinear (fractional) value.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;

@@ -568,6 +568,7 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
 // (leap_past), and every sample leapt over would have been transparent. The span is the
 // clipped one (clip_span).
+// Changed in step 13: along the clipped span.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, const EmptySpace& space,
                                            Vec3 to_light, const Params& params, Work& work,

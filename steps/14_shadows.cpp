@@ -666,6 +666,7 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // (leap_past), and every sample leapt over would have been transparent. A lit sample's light
 // is blocked: shade_blocked() with T_light (a shadow ray, or the light volume) and its
 // ambient occlusion.
+// Changed in step 14: a lit sample's light is blocked.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, const EmptySpace& space,
                                            Vec3 to_light, const Blocking& blocking,
