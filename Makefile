@@ -117,6 +117,7 @@ LIBTOOLS       := $(BUILD)/libctlab_tools.a
 .PHONY: all help deps demo test run diff clean $(STEP_NAMES)
 .PHONY: reference student check-student handouts  # the instructor and student kit, below
 .PHONY: carry  # in a student tree: your functions forward into later steps
+.PHONY: carry-lab  # in the lab: a fixed function forward into the later steps
 .PHONY: check check-steps san  # grading this tree's programs, and one step with the sanitizers
 .PHONY: fuzz fuzz-build
 .PHONY: bench study peers  # measuring: speed, and error against run time
@@ -141,6 +142,8 @@ help:
 	@echo "make diff STEP=NN   what step NN adds to step NN-1"
 	@echo "make carry [STEP=NN]   student tree: copy your lesson functions into the later steps"
 	@echo "                that use them unchanged (only where they are still stubs)"
+	@echo "make carry-lab FUNCTION=name FROM=NN   the lab: copy step NN's function into the"
+	@echo "                later steps that take it unchanged (up to one that changes it)"
 	@echo "make deps       install the Debian packages ctlab needs (as root)"
 	@echo "make fuzz [FUZZ_SECONDS=N]   build the libFuzzer harnesses (clang) into build-fuzz/"
 	@echo "                (or BUILD=DIR) and run each for N seconds (default 60)"
@@ -335,9 +338,16 @@ carry: export CTLAB_STEP := $(value STEP)
 carry: $(BUILD)/carry
 	@'$(BUILD)/carry' $(if $(value STEP),--step "$$CTLAB_STEP")
 
+# In the lab: a fix to step FROM's function FUNCTION reaches every later step that takes it
+# unchanged (tools/carry.cpp --lab; tests/test_lesson_markers.cpp fails when copies differ).
+carry-lab: export CTLAB_FUNCTION := $(value FUNCTION)
+carry-lab: export CTLAB_FROM := $(value FROM)
+carry-lab: $(BUILD)/carry
+	@'$(BUILD)/carry' --lab --function "$$CTLAB_FUNCTION" --from "$$CTLAB_FROM"
+
 # The README's pictures of the window's control panel: steps 06 and 10 on a virtual X display
 # (xvfb-run), into handouts/panel_NN_name.png (tools/panel_screenshots.sh).
-screenshots: $(BUILD)/06_transfer_function $(BUILD)/10_free_camera
+screenshots: $(BUILD)/06_transfer_function $(BUILD)/12_free_leaping
 	sh tools/panel_screenshots.sh $(BUILD) handouts
 
 # Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.
@@ -379,7 +389,7 @@ BUILD_FLAGS := $(CXX) $(CPPFLAGS) $(CXXFLAGS) $(TEST_OPT) | $(LDFLAGS) $(LDLIBS)
 FLAGS_STAMP := $(BUILD)/flags.txt
 # Only a make that builds may rewrite it: a test's `make reference STEP_BINARIES=` or
 # `make carry` given other flags must not mark the whole build folder out of date.
-STAMP_GOALS := $(filter-out reference carry diff help clean run,$(or $(MAKECMDGOALS),all))
+STAMP_GOALS := $(filter-out reference carry carry-lab diff help clean run,$(or $(MAKECMDGOALS),all))
 ifneq ($(STAMP_GOALS),)
 ifneq ($(BUILD_FLAGS),$(shell cat $(FLAGS_STAMP) 2>/dev/null))
 $(shell mkdir -p $(BUILD) && printf '%s\n' '$(BUILD_FLAGS)' > $(FLAGS_STAMP))

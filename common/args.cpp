@@ -113,8 +113,9 @@ void Args::add_choice(const std::string& flag, std::string* target,
     flags_.push_back({flag, Kind::choice, target, 0, 0, choices, help});
 }
 
-void Args::add_string(const std::string& flag, std::string* target, const std::string& help) {
-    flags_.push_back({flag, Kind::text, target, 0, 0, {}, help});
+void Args::add_string(const std::string& flag, std::string* target, const std::string& help,
+                      const std::string& metavar) {
+    flags_.push_back({flag, Kind::text, target, 0, 0, {}, help, metavar});
 }
 
 void Args::add_switch(const std::string& flag, bool* target, const std::string& help) {
@@ -154,7 +155,7 @@ std::string Args::usage() const {
     for (const Flag& flag : flags_) {
         std::string line = "  " + flag.name;
         if (flag.kind == Kind::integer || flag.kind == Kind::real) line += " N";
-        if (flag.kind == Kind::text) line += " FILE";
+        if (flag.kind == Kind::text) line += " " + flag.metavar;
         if (flag.kind == Kind::choice) {
             line += " ";
             for (size_t n = 0; n < flag.choices.size(); ++n) {

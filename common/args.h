@@ -78,7 +78,9 @@ public:
                     const std::string& help);
     void add_choice(const std::string& flag, std::string* target,
                     const std::vector<std::string>& choices, const std::string& help);
-    void add_string(const std::string& flag, std::string* target, const std::string& help);
+    // metavar: what --help shows after the flag for its value ("FILE", "WxH", ...).
+    void add_string(const std::string& flag, std::string* target, const std::string& help,
+                    const std::string& metavar = "FILE");
     void add_switch(const std::string& flag, bool* target, const std::string& help);
 
     // Parses argv. --help prints the usage and exits with status 0.
@@ -97,6 +99,7 @@ private:
         double min, max;
         std::vector<std::string> choices;
         std::string help;
+        std::string metavar = "";  // a text flag's value in --help
     };
     std::string step_, summary_;
     std::vector<Flag> flags_;

@@ -74,6 +74,7 @@ static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
 //> lesson: shade
 // Diffuse lighting: ambient + (1 - ambient) * max(0, N.L), N the outward normal -grad/|grad|.
 // A zero gradient (inside a uniform region) has no normal: such a point gets ambient only.
+// Changed in step 04: lit by the gradient instead of shaded by depth.
 static float shade(Vec3 gradient, Vec3 to_light) {
     const float size = length(gradient);
     if (size == 0.0f) return ambient;

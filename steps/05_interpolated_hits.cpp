@@ -33,6 +33,7 @@ struct Hit {
 // n - 1) and the first above it (v1, at n), a fraction (threshold - v0) / (v1 - v0) of the way
 // from n - 1 to n. v1 > threshold >= v0, so v1 != v0: no division by zero, and the fraction is
 // in [0, 1). The ray stops there.
+// Changed in step 05: the hit lies between two samples.
 static Hit first_hit(const Volume& volume, const View& view, int x, int y, int threshold,
                      Work& work, Trace* trace) {
     int previous = 0;  // the sample before n (none at n = 0)

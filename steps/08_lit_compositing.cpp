@@ -76,6 +76,7 @@ static Rgba mix(const Rgba& a, const Rgba& b, float f) {
 // The table of a transfer function: classifying a sample is then a single read. Values no
 // range covers stay transparent. A ramp goes linearly from its start at `from` to its end at
 // `to`. The opacities are corrected here, once per entry, for samples `ratio` units apart.
+// Changed in step 08: each entry's opacity corrected for the spacing.
 static Lut build_lut(const TransferFunction& tf, double ratio) {
     Lut lut;  // every entry {0, 0, 0, 0}
     for (const TfRange& range : tf.ranges) {
@@ -177,6 +178,7 @@ static int samples_along_ray(const View& view, double step) {
 // a float alpha < 1) could make T subnormal (below 2.2e-308), where arithmetic is slow.
 // Samples are `step` physical units apart and each stands for `step` units of the volume's
 // depth; the light L (0..1) darkens the colour only, never the opacity.
+// Changed in step 08: lit samples, `step` units apart.
 static Accumulated composite_front_to_back(const Volume& volume, const View& view, int x, int y,
                                            const Lut& lut, Vec3 to_light, const Params& params,
                                            Work& work, Trace* trace) {

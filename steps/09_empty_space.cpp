@@ -241,6 +241,7 @@ static int samples_along_ray(const View& view, double step) {
 // past it). Leap on to the sample at or just before that brick's end: every sample between
 // lies inside the brick, and that one is checked in turn. Empty bricks often follow each
 // other (the air around the head): the leap passes the whole run of them at once.
+// Changed in step 09: leaps over empty bricks.
 static Accumulated composite_front_to_back(const Volume& volume, const View& view, int x, int y,
                                            const Lut& lut, const EmptySpace& space, Vec3 to_light,
                                            const Params& params, Work& work, Trace* trace) {

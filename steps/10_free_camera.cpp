@@ -1,22 +1,21 @@
-// 10_free_camera.cpp: part 2 begins: any view, from an orbit camera, with trilinear samples.
+// 10_free_camera.cpp: part 2 begins: any view, from an orbit camera, by the slab method.
 //
 // New here:   an orbit camera around the centre of the volume's box (--azimuth, --elevation,
 //             --zoom, --projection ortho|perspective, --fov, --size WxH); one ray per pixel in
 //             physical space, voxel (i, j, k) at (i*sx, j*sy, k*sz); where it enters and leaves
-//             the box of voxel centres (the slab method); samples every --step physical units
-//             read by trilinear interpolation of the eight voxels around them
-//             (--interpolation nearest: the one nearest voxel, part 1's way); step 09's
-//             leaping over empty bricks, along a free ray (--no-leaping: the same picture).
-//             Compositing, lighting and opacity correction are step 08's.
+//             the box of voxel centres (the slab method); samples every --step physical units,
+//             each read from its nearest voxel (part 1's way: step 11 interpolates). The light
+//             turns with the camera. Compositing, lighting and opacity correction are step 08's.
 // Camera:     a proper camera: image x runs along `right` = forward x up. Part 1's top view is
 //             --azimuth 180 --elevation 90, its side view --azimuth 90 --elevation 0, and its
 //             front view the left-right mirror of --azimuth 0 --elevation 0 (that camera faces
 //             the face, so the patient's right, +i, is on its left).
-// Builds on:  09_empty_space (lit front to back, a step in physical units, empty bricks).
+// Defaults:   azimuth 30, elevation 20, orthographic, 512x512, --fov 30 (perspective), light
+//             30 degrees to the right of the camera and 20 above it, a black background.
+// Builds on:  09_empty_space (lit front to back, a step in physical units).
 // Handout:    handouts/10_free_camera.md
 // Run:        make run STEP=10 ARGS="--azimuth 60 --projection perspective"
-// Reference:  data/reference/10_free_camera_camera.png: the default run (azimuth 30,
-//             elevation 20, orthographic, 512x512), on the phantom.
+// Reference:  data/reference/10_free_camera_camera.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
@@ -52,13 +51,10 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
-    bool no_leaping = false;     // read every sample, even in bricks known to be empty
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
     std::string projection = "ortho";      // "ortho" or "perspective"
-    std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
-    bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
 };
@@ -99,7 +95,6 @@ static Vec3d box_high(const Volume& volume) {
     return {(volume.nx - 1) * volume.sx, (volume.ny - 1) * volume.sy, (volume.nz - 1) * volume.sz};
 }
 
-//> lesson: camera
 // sin and cos of an angle in degrees, exact at multiples of 90: std::sin(180 * pi / 180) is
 // 1.2e-16, not 0, and a camera meant to look along an axis would look a hair past it, its
 // samples a hair off the voxel centres.
@@ -113,6 +108,7 @@ static double sin_degrees(double angle) {
 }
 static double cos_degrees(double angle) { return sin_degrees(angle + 90); }
 
+//> lesson: camera
 // The orbit camera looks at the centre of the box from `azimuth` degrees around the vertical
 // and `elevation` degrees above the i-j plane. Up is -k (k runs from the crown down). Azimuth
 // 0, elevation 0 stands in front of the face (small j) looking along +j; azimuth 90 looks along
@@ -263,16 +259,7 @@ struct Walk {
     }
 };
 
-// The eight voxels around a point: the voxel at or below it (the low corner), how far the
-// point is past it along each axis (0..1), and the high corner, the next voxel along each
-// axis (at the last voxel of an axis: that voxel again).
-struct Cell {
-    int i = 0, j = 0, k = 0;           // the low corner
-    float fi = 0, fj = 0, fk = 0;      // the point's fractions past it
-    int i1 = 0, j1 = 0, k1 = 0;        // the high corner
-};
-
-//> lesson: trilinear
+//> lesson: walk
 // The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
 // the divisions by the spacing are done here, once per ray, not at every sample.
 static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span, double step) {
@@ -285,184 +272,30 @@ static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span,
                                         sample_count_slack)) + 1;
     return walk;
 }
-
-// Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
-// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
-static void low_corner(double u, int count, int* low, float* fraction) {
-    u = std::clamp(u, 0.0, double(count - 1));
-    *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
-    *fraction = float(u - *low);
-}
-
-static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
-    Cell cell;
-    // nearest: the point first moves to the nearest voxel centre (a half rounds up), so
-    // every fraction is 0 and the low corner is that voxel.
-    const Vec3d p = nearest ? Vec3d{std::floor(point.i + 0.5), std::floor(point.j + 0.5),
-                                    std::floor(point.k + 0.5)}
-                            : point;
-    low_corner(p.i, volume.nx, &cell.i, &cell.fi);
-    low_corner(p.j, volume.ny, &cell.j, &cell.fj);
-    low_corner(p.k, volume.nz, &cell.k, &cell.fk);
-    cell.i1 = std::min(cell.i + 1, volume.nx - 1);
-    cell.j1 = std::min(cell.j + 1, volume.ny - 1);
-    cell.k1 = std::min(cell.k + 1, volume.nz - 1);
-    return cell;
-}
-
-// A value fraction f of the way from a to b: a itself when f = 0.
-static float lerp(float a, float b, float f) { return a + f * (b - a); }
-
-// Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
-// Exact for any field linear in i, j and k (and so in physical space).
-static float trilinear(const Volume& volume, const Cell& c) {
-    const float low_low = lerp(volume.at(c.i, c.j, c.k), volume.at(c.i1, c.j, c.k), c.fi);
-    const float high_low = lerp(volume.at(c.i, c.j1, c.k), volume.at(c.i1, c.j1, c.k), c.fi);
-    const float low_high = lerp(volume.at(c.i, c.j, c.k1), volume.at(c.i1, c.j, c.k1), c.fi);
-    const float high_high = lerp(volume.at(c.i, c.j1, c.k1), volume.at(c.i1, c.j1, c.k1), c.fi);
-    return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
-}
-
-// A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
-// low corner on it), or trilinear, eight.
-static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
-    return nearest ? float(volume.at(c.i, c.j, c.k)) : trilinear(volume, c);
-}
-//< lesson: trilinear
-
-// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
-// the current table, how far the empty space around each brick reaches (see empty_reach); no
-// reach: leap over nothing.
-struct EmptySpace {
-    Bricks bricks;
-    std::vector<uint8_t> reach;  // per brick, 0: the table sees something in it
-
-    int reach_at(const Cell& cell) const {
-        return reach.empty() ? 0 : reach[bricks.index(cell.i, cell.j, cell.k)];
-    }
-};
-constexpr int max_reach = 32;           // bricks: a leap crosses at most 2 * 32 - 1 of them
-constexpr double leap_margin = 1e-6;    // voxels: a leap stops this far before a brick's face
-
-//> lesson: empty_space
-// Step 09's bricks that the table leaves wholly transparent, unchanged.
-static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
-    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
-    for (size_t n = 0; n < lut.entries.size(); ++n) {
-        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
-    }
-    std::vector<uint8_t> empty(bricks.count());
-    for (size_t b = 0; b < bricks.count(); ++b) {
-        const int low = bricks.ranges[b].min - lowest_ct_value;
-        const int high = bricks.ranges[b].max - lowest_ct_value;
-        empty[b] = opaque_before[high + 1] == opaque_before[low];
-    }
-    return empty;
-}
-
-// The bricks whose neighbours (26, at most) are all empty too: `empty` shrunk by one brick
-// on every side, one axis at a time. Past the volume's edge counts as empty (no ray samples
-// there).
-static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> empty) {
-    const size_t strides[3] = {1, size_t(bricks.bx), size_t(bricks.bx) * size_t(bricks.by)};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    for (int axis = 0; axis < 3; ++axis) {
-        const std::vector<uint8_t> before = empty;
-        const size_t stride = strides[axis];
-        for (size_t b = 0; b < empty.size(); ++b) {
-            const int at = int(b / stride % size_t(counts[axis]));  // along this axis
-            if (at > 0) empty[b] &= before[b - stride];
-            if (at + 1 < counts[axis]) empty[b] &= before[b + stride];
-        }
-    }
-    return empty;
-}
-
-// Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
-// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
-// reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
-// A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
-// brick on every side.
-static std::vector<uint8_t> empty_reach(const Bricks& bricks, const std::vector<uint8_t>& empty) {
-    std::vector<uint8_t> reach = empty, cube = empty;  // 1 for an empty brick, 0 else
-    for (int r = 2; r <= max_reach; ++r) {
-        cube = shrink(bricks, cube);
-        bool any = false;
-        for (size_t b = 0; b < cube.size(); ++b) {
-            if (cube[b]) reach[b] = uint8_t(r);
-            any = any || cube[b];
-        }
-        if (!any) break;
-    }
-    return reach;
-}
-
-// The sample to go on from when sample n lies in a brick of reach r: the first one past the
-// faces of the cube of bricks r - 1 around it (the slab method again, in sample units: face
-// = first + t * per_step). Every sample before it is inside the cube, even after rounding:
-// the faces are taken leap_margin voxels inside. A cube that reaches the volume's edge has
-// no face there. At least n + 1, at most the ray's sample count.
-static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& cell, int reach,
-                           long long n) {
-    const int corner[3] = {cell.i, cell.j, cell.k};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    double leave = std::numeric_limits<double>::infinity();  // in samples
-    for (int axis = 0; axis < 3; ++axis) {
-        const double d = walk.per_step[axis];
-        if (d == 0) continue;  // parallel to these faces: never leaves through them
-        const int brick = corner[axis] / brick_size;
-        const int face_brick = d > 0 ? brick + reach : brick - reach + 1;  // its first voxel
-        if (face_brick <= 0 || face_brick >= counts[axis]) continue;       // the volume's edge
-        const double face = face_brick * brick_size + (d > 0 ? -leap_margin : leap_margin);
-        leave = std::min(leave, (face - walk.first[axis]) / d);
-    }
-    if (!(leave < double(walk.count))) return walk.count;
-    return std::max(n + 1, (long long)std::ceil(leave));
-}
-//< lesson: empty_space
+//< lesson: walk
 
 //> lesson: gradient
 // Step 08's derivative and gradient at a voxel, unchanged.
+// The derivative along one axis at index n (of count samples, spacing apart); sample(m) reads
+// the volume at index m on that axis. Central inside, one-sided at the border: never outside.
 template <class Sample>
 static float derivative(Sample sample, int n, int count, double spacing) {
-    if (count == 1) return 0.0f;
+    if (count == 1) return 0.0f;  // a volume one voxel thick has no slope along this axis
     if (n == 0) return float((sample(1) - sample(0)) / spacing);
     if (n == count - 1) return float((sample(n) - sample(n - 1)) / spacing);
     return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
 }
 
-static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
+// The gradient of the CT values at voxel (i, j, k): it points into denser material.
+static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
+    const int i = voxel.i, j = voxel.j, k = voxel.k;
+    ++work.gradients;
     auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
     auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
     auto along_k = [&](int m) { return double(volume.at(i, j, m)); };
     return {derivative(along_i, i, volume.nx, volume.sx),
             derivative(along_j, j, volume.ny, volume.sy),
             derivative(along_k, k, volume.nz, volume.sz)};
-}
-
-static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
-
-// The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
-// values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
-static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
-    work.gradients += 8;
-    auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
-        return gradient_at(volume, a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k);
-    };
-    const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
-    const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
-    const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
-    const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
-    return lerp_vector(lerp_vector(low_low, high_low, c.fj), lerp_vector(low_high, high_high, c.fj),
-                       c.fk);
-}
-
-// A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
-// differences), else trilinear.
-static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
-    if (!nearest) return gradient_trilinear(volume, c, work);
-    ++work.gradients;
-    return gradient_at(volume, c.i, c.j, c.k);
 }
 //< lesson: gradient
 
@@ -477,6 +310,7 @@ static float shade(Vec3 gradient, Vec3 to_light) {
 
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// Changed in step 10: in the camera's frame.
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -487,7 +321,8 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-//> lesson: front_to_back
+// The ray's two trace records (given): where it starts, and where it meets the box. The entry
+// is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
@@ -496,19 +331,18 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
         trace->box_missed(high);
         return;
     }
-    const Vec3d in = ray.origin + span.t_entry * ray.direction;
+    const Vec3d in = entry_point(ray, span, high);
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
     trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
+//> lesson: front_to_back
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
-// each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 07. Step 09's
-// leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
-// (leap_past), and every sample leapt over would have been transparent.
+// each read from its nearest voxel, classified by the table, lit by that voxel's gradient
+// where it is not transparent, composited front to back; early ray termination as in step 07.
+// Changed in step 10: along the camera's ray.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, const EmptySpace& space,
-                                           Vec3 to_light, const Params& params, Work& work,
+                                           int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
                                            Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
@@ -520,17 +354,12 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     const Walk walk = walk_through(volume, ray, span, params.step);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
-        const Cell cell = cell_at(volume, q, params.nearest);
+        // The sample reads its nearest voxel (a half rounds up), kept inside the volume.
+        const Voxel voxel = {std::clamp(int(std::floor(q.i + 0.5)), 0, volume.nx - 1),
+                             std::clamp(int(std::floor(q.j + 0.5)), 0, volume.ny - 1),
+                             std::clamp(int(std::floor(q.k + 0.5)), 0, volume.nz - 1)};
         const double t = span.t_entry + n * params.step;  // physical units along the ray
-        const int reach = space.reach_at(cell);
-        if (reach > 0) {
-            const long long next = leap_past(walk, space.bricks, cell, reach, n);
-            work.leapt += next - n;
-            if (trace) trace->leap(t, span.t_entry + (next - 1) * params.step, next - n, reach);
-            n = next - 1;
-            continue;
-        }
-        const float value = sample_value(volume, cell, params.nearest);
+        const float value = volume.at(voxel.i, voxel.j, voxel.k);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
@@ -541,7 +370,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         }
         double light = 1.0;  // unlit
         if (!params.unlit) {
-            light = shade(sample_gradient(volume, cell, params.nearest, work), to_light);
+            light = shade(gradient_at(volume, voxel, work), to_light);
         }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
@@ -575,7 +404,7 @@ int main(int argc, char** argv) {
         // --- Options: the shared flags plus this step's own ---
         Params params;
         Args args(step_name, "The volume from an orbit camera: rays through the box in physical "
-                             "space, trilinear samples, lit front to back.");
+                             "space, nearest samples, lit front to back.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -585,27 +414,24 @@ int main(int argc, char** argv) {
         args.add_double("--step", &params.step, min_step, max_step,
                         "physical units between two samples along a ray");
         args.add_double("--light-angle", &params.light_angle, -180, 180,
-                        "light direction, degrees to the right of the camera");
+                        "light direction, degrees to the right of the camera (default 30; "
+                        "always 20 degrees above it)");
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
-        args.add_switch("--no-leaping", &params.no_leaping,
-                        "read every sample, even in bricks the table leaves transparent");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
                         "degrees above the i-j plane; 90 looks down from the crown");
         args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
                         "ortho: pixels per voxel; perspective: walks the eye in (>1)");
-        args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
-                        "a sample's value: the eight voxels around it, or the nearest one");
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
         args.add_double("--fov", &params.fov, 1, 170,
-                        "perspective: the image's height as an angle, degrees");
-        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)");
+                        "perspective: the image's height as an angle, degrees (default 30)");
+        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
+                        "WxH");
         const Options options = args.parse(argc, argv);
-        params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
             throw InputError("--view: step 10 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
@@ -625,15 +451,6 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
-        // --- The bricks the table leaves empty ---
-        EmptySpace space;
-        if (!params.no_leaping) space.bricks = make_bricks(volume, brick_size, options.threads);
-        auto update_empty_space = [&] {
-            if (params.no_leaping) return;
-            space.reach = empty_reach(space.bricks, find_empty_bricks(space.bricks, lut));
-        };
-        update_empty_space();
-
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
@@ -649,8 +466,8 @@ int main(int argc, char** argv) {
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
-            return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
-                                                           to_light, params, work, trace));
+            return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
+                                                           params, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
@@ -674,7 +491,6 @@ int main(int argc, char** argv) {
                              if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
-                             update_empty_space();
                          },
                          [&] { return summary_number(params.step); }};
         renderer.orbit.turn = [&](double azimuth, double elevation) {
@@ -696,10 +512,9 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
-                   " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
-                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation;
+                   " fov=" + summary_number(params.fov);
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

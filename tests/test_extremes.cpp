@@ -77,7 +77,7 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--threshold", "32767"});
     }
     if (step >= "04" && step < "06") all.push_back({"--light-angle", "180"});
-    const bool projection_modes = step.rfind("12", 0) == 0;  // grey: no transfer function
+    const bool projection_modes = step.rfind("14", 0) == 0;  // grey: no transfer function
     if (step >= "06" && !projection_modes) {
         all.push_back({"--skin-opacity", "1"});
         all.push_back({"--tf", "data/tf/transparent.tf"});
@@ -99,14 +99,17 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     // without leaping, the longest step unlit, and each step's own paths.
     if (ctlab_test::is_camera_step(step)) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
-        std::vector<std::string> nearest = {"--interpolation", "nearest", "--azimuth", "-360"};
-        const bool part3 = step >= "30";  // part 3 has no --no-leaping
-        if (!projection_modes && !part3) nearest.push_back("--no-leaping");
+        // Step 10 reads the nearest voxel only (11 on: --interpolation); 12 on leap (not 14,
+        // and not part 3, which has no --no-leaping).
+        std::vector<std::string> nearest = {"--azimuth", "-360"};
+        if (step >= "11") nearest.insert(nearest.begin(), {"--interpolation", "nearest"});
+        const bool part3 = step >= "30";
+        if (step >= "12" && !projection_modes && !part3) nearest.push_back("--no-leaping");
         all.push_back(nearest);
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
     }
     if (step >= "30") all.push_back({"--mode", "mip", "--elevation", "-90"});  // part 3's MIP
-    if (step.rfind("11", 0) == 0) {
+    if (step.rfind("13", 0) == 0) {
         all.push_back({"--jitter", "blue"});
         all.push_back({"--jitter", "hash", "--zoom", "0.01"});
         all.push_back({"--jitter", "hash", "--show-jitter"});  // a trace with no ray
@@ -115,12 +118,12 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--mode", "minip", "--slab", "2"});
         all.push_back({"--mode", "average", "--zoom", "100"});
     }
-    if (step.rfind("13", 0) == 0) {
+    if (step.rfind("15", 0) == 0) {
         all.push_back({"--iso", "32767", "--shininess", "1000"});
         all.push_back({"--iso", "-32768", "--clip", "0,0,1,0"});
         all.push_back({"--mode", "composite", "--clip", "1,1,1,-1"});
     }
-    if (step.rfind("14", 0) == 0) {
+    if (step.rfind("16", 0) == 0) {
         all.push_back({"--shadows", "ray", "--ao", "off"});
         all.push_back({"--shadows", "none", "--ao", "on"});
         all.push_back({"--shadows", "volume", "--ao", "on", "--light-angle", "180"});

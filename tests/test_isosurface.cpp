@@ -1,4 +1,4 @@
-// test_isosurface.cpp: step 13 (the isosurface, Phong, the clipping plane) run as a program
+// test_isosurface.cpp: step 15 (the isosurface, Phong, the clipping plane) run as a program
 // (tools/run_step.h), against analytic volumes written here as raw int16 files: a sphere so
 // large that its surface is nearly flat across the volume (the bisected hit on it), a sphere
 // seen from many directions (its silhouette) and grazed, a slab cut by the clipping plane,
@@ -20,9 +20,9 @@ using namespace ctlab;
 
 namespace {
 
-const std::string iso_step = "13_isosurface";
+const std::string iso_step = "15_isosurface";
 
-// Runs step 13 on `volume_flags` with `flags`, --pfm into `folder`, two threads.
+// Runs step 15 on `volume_flags` with `flags`, --pfm into `folder`, two threads.
 RunResult run_iso(const std::vector<std::string>& volume_flags, std::vector<std::string> flags,
                   const TempFolder& folder) {
     flags.insert(flags.begin(), volume_flags.begin(), volume_flags.end());
@@ -446,8 +446,8 @@ TEST_CASE("isosurface: leaping over bricks below iso changes the work, not the p
     CHECK(summary_count(with, "samples") * 3 < summary_count(without, "samples"));
 }
 
-TEST_CASE("isosurface: the clipped composite render leaps as step 10 does, the same picture") {
-    // Step 10's leaping over the bricks the table leaves transparent, on the span the clip
+TEST_CASE("isosurface: the clipped composite render leaps as step 12 does, the same picture") {
+    // Step 12's leaping over the bricks the table leaves transparent, on the span the clip
     // plane cut: a leap starts from the clipped entry, and the picture stays bit for bit.
     const TempFolder leaping("isosurface_composite_leaping"),
         reading("isosurface_composite_reading");
@@ -523,7 +523,7 @@ TEST_CASE("isosurface: the default run matches its reference image, no NaN") {
     CHECK(non_finite_pixels(image) == 0);
     CHECK(summary_count(run.summary("camera"), "hits") > 0);
     CHECK(run.summary("camera").at("size") == "512x512");
-    const std::string path = "data/reference/13_isosurface_camera.png";
+    const std::string path = "data/reference/15_isosurface_camera.png";
     REQUIRE_MESSAGE(access(path.c_str(), R_OK) == 0, "missing " << path << ": make reference");
     const Comparison c = compare_images(image, read_image(path), 1, "the float render", path);
     INFO(comparison_line(c));

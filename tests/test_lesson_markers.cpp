@@ -2,6 +2,8 @@
 // handout test (tools/lesson_markers.h), on small sources with known answers.
 #include <doctest/doctest.h>
 #include <string>
+#include <utility>
+#include <vector>
 #include "tools/lesson_markers.h"
 
 namespace {
@@ -179,4 +181,94 @@ TEST_CASE("code_only: the same code under other comments and layout is the same,
     CHECK(lesson::code_only("f(\"x\");\n") != lesson::code_only("f(\"y\");\n"));
     CHECK(lesson::code_only(bare) !=
           lesson::code_only("static int add(int a, int b) { return b; }"));
+}
+
+// --- Copies across steps (tools/lesson_markers.h "Copies across steps", make carry-lab) ------
+
+namespace {
+
+using Steps = std::vector<std::pair<std::string, std::string>>;
+
+std::string step_source(const std::string& comment, const std::string& body) {
+    return "#include <cmath>\n"
+           "constexpr double margin = 1e-6;  // voxels: a code line that ends in a comment\n"
+           "//> lesson: slab\n" + comment +
+           "static double exit_t(double t) {\n" + body + "}\n"
+           "//< lesson: slab\n"
+           "int main() { return int(exit_t(1.0)); }\n";
+}
+
+std::string drift_names(const std::vector<lesson::Drift>& drifts) {
+    std::string names;
+    for (const lesson::Drift& drift : drifts) {
+        names += drift.function + " " + drift.earlier + " " + drift.later + "\n";
+    }
+    return names;
+}
+
+}  // namespace
+
+TEST_CASE("copies across steps: the same code passes, a drift names the function and the steps") {
+    const std::string body = "    return t + 1;\n";
+    Steps steps = {{"10_camera", step_source("// The exit.\n", body)},
+                   {"11_jitter", step_source("// Step 10's exit, unchanged.\n", body)},
+                   {"12_modes", step_source("", "    return t   +   1;  // layout aside\n")}};
+    CHECK(lesson::find_drifts(steps).empty());  // comments and layout aside, main() ignored
+    steps[2].second = step_source("", "    return t + 2;\n");
+    CHECK(drift_names(lesson::find_drifts(steps)) == "exit_t 11_jitter 12_modes\n");
+    // Declared as a change of this step: a new chain starts there.
+    steps[2].second = step_source("// Changed in step 12: one more.\n", "    return t + 2;\n");
+    CHECK(lesson::find_drifts(steps).empty());
+    // The line carried on into step 13 names step 12: step 13 must equal step 12's.
+    steps.push_back({"13_iso", step_source("// Changed in step 12: one more.\n", body)});
+    CHECK(drift_names(lesson::find_drifts(steps)) == "exit_t 12_modes 13_iso\n");
+    // "changed in step 1" is not step 12's, nor is "step 123".
+    CHECK(lesson::declares_change("// changed in step 12: x\n", "12"));
+    CHECK_FALSE(lesson::declares_change("// changed in step 123\n", "12"));
+    CHECK_FALSE(lesson::declares_change("// changed in step 11\n", "12"));
+}
+
+TEST_CASE("carry-lab: a fix reaches the later copies, up to a step that changes the function") {
+    const std::string old_body = "    return t + 1;\n", fixed = "    return t + 1.5;\n";
+    Steps steps = {{"10_camera", step_source("// The exit, fixed.\n", fixed)},
+                   {"11_jitter", step_source("// The exit.\n", old_body)},
+                   {"12_modes", step_source("// The exit.\n", old_body)},
+                   {"13_iso", step_source("// Changed in step 13: two.\n", "    return 2;\n")},
+                   {"14_shadow", step_source("// Changed in step 13: two.\n", "    return 2;\n")}};
+    const Steps before = steps;
+    const std::vector<lesson::Carried> carried = lesson::carry_forward(steps, "exit_t", "10");
+    REQUIRE(carried.size() == 3);
+    CHECK(carried[0].step == "11_jitter");
+    CHECK(carried[0].outcome == "carried");
+    CHECK(carried[1].outcome == "carried");
+    CHECK_FALSE(carried[1].drifted);
+    CHECK(carried[2].step == "13_iso");
+    CHECK(carried[2].outcome == "changes it");
+    CHECK(steps[0].second == before[0].second);
+    CHECK(steps[1].second == step_source("// The exit, fixed.\n", fixed));  // comments too
+    CHECK(steps[2].second == step_source("// The exit, fixed.\n", fixed));
+    CHECK(steps[3].second == before[3].second);
+    CHECK(steps[4].second == before[4].second);
+    CHECK(lesson::find_drifts(steps).empty());
+    // Run again: nothing left to do.
+    const std::vector<lesson::Carried> again = lesson::carry_forward(steps, "exit_t", "10");
+    CHECK(again[0].outcome == "same");
+    CHECK_THROWS_AS(lesson::carry_forward(steps, "main", "10"), lesson::InputError);
+    CHECK_THROWS_AS(lesson::carry_forward(steps, "exit_t", "20"), lesson::InputError);
+}
+
+// The rule on the lab itself: every function a later step holds is the earlier step's code,
+// or the later step says "changed in step NN". `make carry-lab FUNCTION=name FROM=NN` fixes
+// a drift that was a fix made in one step only.
+TEST_CASE("the lab's steps: no copy of a function has drifted from the step before") {
+    const Steps steps = lesson::read_steps(".");
+    REQUIRE(steps.size() >= 10);
+    for (const lesson::Drift& drift : lesson::find_drifts(steps)) {
+        const std::string message =
+            "steps/" + drift.later + ".cpp: " + drift.function + "() differs from steps/" +
+            drift.earlier + ".cpp's, and its comments do not say \"changed in step " +
+            drift.later.substr(0, 2) + ": why\" (or: make carry-lab FUNCTION=" + drift.function +
+            " FROM=" + drift.earlier.substr(0, 2) + ")";
+        FAIL_CHECK(message);
+    }
 }

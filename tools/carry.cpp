@@ -13,6 +13,13 @@
 //     FROM_STEP's, and the rest of the file is untouched.
 // Prints one line per function it looked at. Exit 0, or 2 for bad input (no record, a step
 // that does not parse).
+//
+//   build/carry --lab --function NAME --from NN [--tree DIR]      (make carry-lab)
+//
+// In the lab (the solution): a fix to step NN's function NAME reaches every later step that
+// takes it unchanged (tools/lesson_markers.h, "Copies across steps": the later steps whose
+// copy does not say "changed in step MM" for their own MM), up to the first that changes it.
+// tests/test_lesson_markers.cpp fails when two such copies differ.
 #include <sys/stat.h>
 #include <unistd.h>
 #include <algorithm>
@@ -39,18 +46,43 @@ const char* const usage_text =
     "usage: carry [--step NN] [--tree DIR]\n"
     "In a student tree (default .), copies your version of each lesson function that a later\n"
     "step uses unchanged into that step, where it is still the generated stub. Never\n"
-    "overwrites a function you wrote. --step NN: only into step NN.\n";
+    "overwrites a function you wrote. --step NN: only into step NN.\n"
+    "\n"
+    "usage: carry --lab --function NAME --from NN [--tree DIR]\n"
+    "In the lab: copies step NN's function NAME (comments, signature, body) into every later\n"
+    "step that takes it unchanged, up to the first step whose copy says \"changed in step MM\"\n"
+    "(MM its own number).\n";
 
 struct Settings {
     std::string step;  // "" = every step; else the two digits
     std::string tree = ".";
+    bool lab = false;             // --lab: carry a function of the solution forward
+    std::string function, from;  // --function NAME --from NN (with --lab)
 };
 
 Settings parse_arguments(int argc, char** argv) {
     Settings settings;
     kit_tool::parse(argc, argv, "carry", usage_text,
                     {kit_tool::value_flag("--step", &settings.step),
-                     kit_tool::value_flag("--tree", &settings.tree)});
+                     kit_tool::value_flag("--tree", &settings.tree),
+                     kit_tool::switch_flag("--lab", &settings.lab),
+                     kit_tool::value_flag("--function", &settings.function),
+                     kit_tool::value_flag("--from", &settings.from)});
+    if (settings.lab != (!settings.function.empty() || !settings.from.empty())) {
+        throw InputError("--lab goes with --function NAME and --from NN (see carry --help)");
+    }
+    if (settings.lab) {
+        if (settings.function.empty() || settings.from.empty()) {
+            throw InputError("--lab needs --function NAME and --from NN");
+        }
+        if (!settings.step.empty()) throw InputError("--step is for a student tree, not --lab");
+        std::string& from = settings.from;
+        const auto digit = [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; };
+        if (!std::all_of(from.begin(), from.end(), digit) || from.size() > 2) {
+            throw InputError("--from: expected a step number like 10, got '" + from + "'");
+        }
+        if (from.size() == 1) from = "0" + from;
+    }
     std::string& step = settings.step;
     const auto digit = [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; };
     if (!step.empty() && !std::all_of(step.begin(), step.end(), digit)) {
@@ -164,7 +196,51 @@ bool plain_step_file(const fs::path& path) {
            !fs::is_symlink(fs::symlink_status(path.parent_path(), error)) && !error;
 }
 
+// --lab: carry step settings.from's function forward through the solution's steps.
+int run_lab(const Settings& settings) {
+    const fs::path tree = settings.tree;
+    bool identifier_name = !settings.function.empty();
+    for (char c : settings.function) identifier_name = identifier_name && lesson::is_identifier_char(c);
+    if (!identifier_name) {
+        throw InputError("--function: expected a function name, got '" +
+                         ctlab::printable(settings.function) + "'");
+    }
+    std::vector<std::pair<std::string, std::string>> steps = lesson::read_steps(tree);
+    const std::vector<std::pair<std::string, std::string>> before = steps;
+    const std::vector<lesson::Carried> carried =
+        lesson::carry_forward(steps, settings.function, settings.from);
+    int written = 0;
+    for (const lesson::Carried& step : carried) {
+        const std::string what = step.step + ": " + settings.function + "()";
+        if (step.outcome == "changes it") {
+            std::printf("%s: kept, this step changes it (\"changed in step %s\"): the later "
+                        "steps follow this version\n", what.c_str(), step.step.substr(0, 2).c_str());
+        } else if (step.outcome == "same") {
+            std::printf("%s: already the same\n", what.c_str());
+        } else {
+            std::printf("%s: carried%s\n", what.c_str(),
+                        step.drifted ? " (its code had drifted from the step before's)" : "");
+        }
+    }
+    for (size_t n = 0; n < steps.size(); ++n) {
+        if (steps[n].second == before[n].second) continue;
+        const fs::path path = tree / "steps" / (steps[n].first + ".cpp");
+        if (!plain_step_file(path)) {
+            throw InputError(path.generic_string() + " is not a plain file: nothing written");
+        }
+    }
+    for (size_t n = 0; n < steps.size(); ++n) {
+        if (steps[n].second == before[n].second) continue;
+        write_text(tree / "steps" / (steps[n].first + ".cpp"), steps[n].second);
+        ++written;
+    }
+    std::printf("carry --lab: %s() from step %s into %d later step(s)\n",
+                settings.function.c_str(), settings.from.c_str(), written);
+    return 0;
+}
+
 int run(const Settings& settings) {
+    if (settings.lab) return run_lab(settings);
     const fs::path tree = settings.tree;
     int carried = 0, kept = 0, waiting = 0;
     for (const Line& line : read_record(tree)) {

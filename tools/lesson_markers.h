@@ -738,3 +738,184 @@ inline std::vector<Answer> solution_answers(const std::filesystem::path& solutio
 }
 
 }  // namespace lesson
+
+// --- Copies across steps: a function that a later step takes unchanged ----------------------
+// Consecutive steps differ by their lesson only, so a function defined in several steps is one
+// function kept in several files. The rule (tests/test_lesson_markers.cpp checks it, and
+// `make carry-lab` keeps it):
+//   - every top-level function of a step except main() is compared with the function of the
+//     same name in the last earlier step that defines one;
+//   - their code must be the same (comments and layout aside: lesson::code_only),
+//   - unless the later step declares that it changes the function: a line of the comment block
+//     above it says "changed in step NN" (NN: that step's own number), with the reason, e.g.
+//         // Changed in step 11: the first sample moves by the pixel's jitter.
+//     A copy carried further keeps that line, and names another step there: no change.
+// A function that a step changes starts a new chain: the steps after it are compared with it.
+namespace lesson {
+
+struct StepFunction {
+    std::string name;
+    std::string text;  // comment block, signature and body (function_text)
+    std::string code;  // code_only(text): what must match
+    bool changed = false;  // its comments say "changed in step NN" for this step's NN
+    Function where;
+};
+
+// "changed in step 11" (any case) in the comment lines of a function's text, for step "11".
+inline bool declares_change(const std::string& comments, const std::string& number) {
+    std::string lower;
+    for (char c : comments) lower += char(std::tolower(static_cast<unsigned char>(c)));
+    const std::string phrase = "changed in step " + number;
+    for (size_t at = lower.find(phrase); at != std::string::npos;
+         at = lower.find(phrase, at + 1)) {
+        const size_t after = at + phrase.size();
+        if (after >= lower.size() || !std::isdigit(static_cast<unsigned char>(lower[after]))) {
+            return true;
+        }
+    }
+    return false;
+}
+
+// The top-level functions of a step source (main() left out), in order. `number` is the
+// step's two digits. A name defined twice (overloads) keeps its first definition only.
+inline std::vector<StepFunction> step_functions(const std::string& source,
+                                                const std::string& path,
+                                                const std::string& number) {
+    const std::string masked = mask_code(source);
+    Region whole;
+    whole.name = "(the whole file)";
+    whole.end = source.size();
+    std::vector<StepFunction> result;
+    for (const Function& function : find_functions(source, masked, whole, path)) {
+        if (function.name == "main") continue;
+        bool seen = false;
+        for (const StepFunction& kept : result) seen = seen || kept.name == function.name;
+        if (seen) continue;
+        StepFunction entry;
+        entry.name = function.name;
+        // Its comment block: the run of comment lines right above it (no marker lines, no
+        // code line that ends in a comment).
+        Function own = function;
+        own.start = own.header;
+        while (own.start > 0) {
+            const size_t above = line_start(source, own.start - 1);
+            const std::string line = trim(source.substr(above, own.start - above));
+            const std::string code = trim(masked.substr(above, own.start - above));
+            if (line.rfind("//", 0) != 0 || !code.empty() || line.rfind("//>", 0) == 0 ||
+                line.rfind("//<", 0) == 0) {
+                break;
+            }
+            own.start = above;
+        }
+        entry.where = own;
+        entry.text = function_text(source, own);
+        entry.code = code_only(entry.text);
+        entry.changed = declares_change(source.substr(own.start, own.header - own.start), number);
+        result.push_back(entry);
+    }
+    return result;
+}
+
+struct Drift {
+    std::string function, earlier, later;  // "intersect_box", "10_free_camera", "11_jitter"
+};
+
+// Every function whose code differs from its copy in the last earlier step defining it, where
+// the later step does not declare the change. `steps`: the step stems in order, with sources.
+inline std::vector<Drift> find_drifts(
+    const std::vector<std::pair<std::string, std::string>>& steps) {
+    std::vector<Drift> drifts;
+    std::vector<std::vector<StepFunction>> functions;
+    for (const auto& [stem, source] : steps) {
+        functions.push_back(step_functions(source, "steps/" + stem + ".cpp", stem.substr(0, 2)));
+    }
+    for (size_t n = 1; n < steps.size(); ++n) {
+        for (const StepFunction& later : functions[n]) {
+            if (later.changed) continue;
+            for (size_t m = n; m-- > 0;) {
+                const StepFunction* earlier = nullptr;
+                for (const StepFunction& candidate : functions[m]) {
+                    if (candidate.name == later.name) earlier = &candidate;
+                }
+                if (!earlier) continue;
+                if (earlier->code != later.code) {
+                    drifts.push_back({later.name, steps[m].first, steps[n].first});
+                }
+                break;
+            }
+        }
+    }
+    return drifts;
+}
+
+// `make carry-lab FUNCTION=name FROM=NN`: step FROM's function `name` (its comment block,
+// signature and body) copied into every later step that takes it unchanged by the rule above,
+// up to the first later step that declares a change of its own (there the chain ends: that
+// step's version is its own). What happened to each later step holding the function:
+struct Carried {
+    std::string step;     // the later step's stem
+    std::string outcome;  // "carried", "same" (nothing to do), "changes it" (the chain ends)
+    bool drifted = false; // carried: its code differed from the copy before it (a drift)
+};
+
+// Carries into `steps` (stems and sources, in order; the sources are rewritten in place).
+// Throws InputError when step `from` (two digits) does not exist or does not define `name`.
+inline std::vector<Carried> carry_forward(std::vector<std::pair<std::string, std::string>>& steps,
+                                          const std::string& name, const std::string& from) {
+    size_t first = steps.size();
+    for (size_t n = 0; n < steps.size(); ++n) {
+        if (steps[n].first.compare(0, 2, from) == 0 && steps[n].first.size() > 2) first = n;
+    }
+    if (first == steps.size()) throw InputError("no step " + from + " in steps/");
+    const auto defines = [&](size_t n, StepFunction& found) {
+        const std::string& stem = steps[n].first;
+        for (const StepFunction& function :
+             step_functions(steps[n].second, "steps/" + stem + ".cpp", stem.substr(0, 2))) {
+            if (function.name == name) {
+                found = function;
+                return true;
+            }
+        }
+        return false;
+    };
+    StepFunction source;
+    if (!defines(first, source)) {
+        throw InputError("steps/" + steps[first].first + ".cpp defines no function " + name +
+                         "() (main() is never carried)");
+    }
+    std::vector<Carried> result;
+    std::string before = "";  // the code of the previous copy, before this carry
+    for (size_t n = first + 1; n < steps.size(); ++n) {
+        StepFunction later;
+        if (!defines(n, later)) continue;
+        if (later.changed) {
+            result.push_back({steps[n].first, "changes it", false});
+            break;
+        }
+        Carried carried{steps[n].first, "same", false};
+        if (later.text != source.text) {
+            carried.outcome = "carried";
+            carried.drifted = !before.empty() && later.code != before;
+            std::string& text = steps[n].second;
+            text.replace(later.where.start,
+                         function_text(text, later.where).size(), source.text);
+        }
+        before = later.code;
+        result.push_back(carried);
+    }
+    return result;
+}
+
+// The step stems of a lab's steps/ folder (steps/NN_name.cpp), in order, with their sources.
+inline std::vector<std::pair<std::string, std::string>> read_steps(
+    const std::filesystem::path& root) {
+    std::vector<std::pair<std::string, std::string>> steps;
+    for (const std::filesystem::path& path : files_under(root / "steps", ".cpp")) {
+        if (is_step(path) && path.parent_path() == root / "steps") {
+            steps.push_back({path.stem().string(), read_text(path.string())});
+        }
+    }
+    return steps;
+}
+
+}  // namespace lesson

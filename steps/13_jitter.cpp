@@ -1,20 +1,20 @@
-// 11_jitter.cpp: the wood-grain rings of a fixed sample grid, turned into noise by jitter.
+// 13_jitter.cpp: the wood-grain rings of a fixed sample grid, turned into noise by jitter.
 //
-// New here:   every ray of step 10 samples at the same distances from where it enters the box,
+// New here:   every ray of step 12 samples at the same distances from where it enters the box,
 //             so a surface at a slowly changing depth shows rings. Here each pixel moves its
 //             first sample by u * step, u in [0, 1) its own: --jitter hash (white noise, a PCG
 //             hash of the pixel) or --jitter blue (a 64 x 64 blue-noise tile made at start-up
-//             by void and cluster, repeated over the image); --jitter none is step 10.
+//             by void and cluster, repeated over the image); --jitter none is step 12.
 //             --show-jitter draws the offsets u themselves as grey.
-// Builds on:  10_free_camera (the orbit camera, trilinear samples, lit front to back, leaping).
-// Handout:    handouts/11_jitter.md
-// Run:        make run STEP=11 ARGS="--step 4 --jitter hash"
-// Reference:  data/reference/11_jitter_camera.png: the default run (blue noise, azimuth 30,
+// Builds on:  12_free_leaping (the orbit camera, trilinear samples, lit front to back, leaping).
+// Handout:    handouts/13_jitter.md
+// Run:        make run STEP=13 ARGS="--step 4 --jitter hash"
+// Reference:  data/reference/13_jitter_camera.png: the default run (blue noise, azimuth 30,
 //             elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "11_jitter";
+constexpr const char* step_name = "13_jitter";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -104,7 +104,6 @@ static Vec3d box_high(const Volume& volume) {
     return {(volume.nx - 1) * volume.sx, (volume.ny - 1) * volume.sy, (volume.nz - 1) * volume.sz};
 }
 
-//> lesson: camera
 // sin and cos of an angle in degrees, exact at multiples of 90: std::sin(180 * pi / 180) is
 // 1.2e-16, not 0, and a camera meant to look along an axis would look a hair past it, its
 // samples a hair off the voxel centres.
@@ -118,6 +117,7 @@ static double sin_degrees(double angle) {
 }
 static double cos_degrees(double angle) { return sin_degrees(angle + 90); }
 
+//> lesson: camera
 // The orbit camera looks at the centre of the box from `azimuth` degrees around the vertical
 // and `elevation` degrees above the i-j plane. Up is -k (k runs from the crown down). Azimuth
 // 0, elevation 0 stands in front of the face (small j) looking along +j; azimuth 90 looks along
@@ -277,6 +277,9 @@ struct Cell {
     int i1 = 0, j1 = 0, k1 = 0;        // the high corner
 };
 
+// Given: a value fraction f of the way from a to b: a itself when f = 0.
+static float lerp(float a, float b, float f) { return a + f * (b - a); }
+
 //> lesson: trilinear
 // The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
 // the divisions by the spacing are done here, once per ray, not at every sample.
@@ -314,9 +317,6 @@ static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     cell.k1 = std::min(cell.k + 1, volume.nz - 1);
     return cell;
 }
-
-// A value fraction f of the way from a to b: a itself when f = 0.
-static float lerp(float a, float b, float f) { return a + f * (b - a); }
 
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
@@ -426,6 +426,9 @@ static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& c
 }
 //< lesson: empty_space
 
+// Given: lerp() for gradients.
+static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
+
 //> lesson: gradient
 // Step 08's derivative and gradient at a voxel, unchanged.
 template <class Sample>
@@ -436,7 +439,10 @@ static float derivative(Sample sample, int n, int count, double spacing) {
     return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
 }
 
-static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
+// The gradient of the CT values at voxel (i, j, k): it points into denser material.
+static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
+    const int i = voxel.i, j = voxel.j, k = voxel.k;
+    ++work.gradients;
     auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
     auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
     auto along_k = [&](int m) { return double(volume.at(i, j, m)); };
@@ -445,14 +451,11 @@ static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
             derivative(along_k, k, volume.nz, volume.sz)};
 }
 
-static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
-
 // The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
 // values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
 static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
-    work.gradients += 8;
     auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
-        return gradient_at(volume, a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k);
+        return gradient_at(volume, Voxel{a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k}, work);
     };
     const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
     const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
@@ -466,8 +469,7 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
 // differences), else trilinear.
 static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
     if (!nearest) return gradient_trilinear(volume, c, work);
-    ++work.gradients;
-    return gradient_at(volume, c.i, c.j, c.k);
+    return gradient_at(volume, Voxel{c.i, c.j, c.k}, work);
 }
 //< lesson: gradient
 
@@ -609,7 +611,8 @@ static float jitter_offset(const Jitter& jitter, int x, int y) {
     return 0.0f;
 }
 
-//> lesson: front_to_back
+// The ray's two trace records (given): where it starts, and where it meets the box. The entry
+// is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
@@ -618,14 +621,15 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
         trace->box_missed(high);
         return;
     }
-    const Vec3d in = ray.origin + span.t_entry * ray.direction;
+    const Vec3d in = entry_point(ray, span, high);
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
     trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
+//> lesson: front_to_back
 // The walk moved by the pixel's offset: sample n at t_entry + (u + n) * step until t_exit.
 // A ray shorter than its offset gets no sample: it only grazes the box. With u = 0 this is
-// the walk unchanged, bit for bit (step 10's samples).
+// the walk unchanged, bit for bit (step 12's samples).
 static Walk jittered(Walk walk, const Span& span, double step, float u) {
     const double offset = u * step;  // physical units from the entry to the first sample
     const double length_inside = span.t_exit - span.t_entry;
@@ -637,10 +641,11 @@ static Walk jittered(Walk walk, const Span& span, double step, float u) {
     return walk;
 }
 
-// Step 10's compositing, its samples moved by the pixel's offset u in [0, 1) from the jitter
-// (0: step 10's samples exactly): read by trilinear interpolation, classified by the table,
+// Step 12's compositing, its samples moved by the pixel's offset u in [0, 1) from the jitter
+// (0: step 12's samples exactly): read by trilinear interpolation, classified by the table,
 // lit where it is not transparent, composited front to back; early ray termination as in
-// step 07, leaping over empty bricks as in step 10.
+// step 07, leaping over empty bricks as in step 12.
+// Changed in step 13: the samples move by the pixel's jitter.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, const EmptySpace& space,
                                            Vec3 to_light, const Params& params,
@@ -713,7 +718,7 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 10's orbit camera with each pixel's first sample moved by a "
+        Args args(step_name, "Step 12's orbit camera with each pixel's first sample moved by a "
                              "random fraction of the step: rings become noise.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
@@ -724,7 +729,8 @@ int main(int argc, char** argv) {
         args.add_double("--step", &params.step, min_step, max_step,
                         "physical units between two samples along a ray");
         args.add_double("--light-angle", &params.light_angle, -180, 180,
-                        "light direction, degrees to the right of the camera");
+                        "light direction, degrees to the right of the camera (default 30; "
+                        "always 20 degrees above it)");
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
@@ -741,8 +747,9 @@ int main(int argc, char** argv) {
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
         args.add_double("--fov", &params.fov, 1, 170,
-                        "perspective: the image's height as an angle, degrees");
-        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)");
+                        "perspective: the image's height as an angle, degrees (default 30)");
+        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
+                        "WxH");
         args.add_choice("--jitter", &params.jitter, {"none", "hash", "blue"},
                         "the first sample's offset per pixel: none, a hash, a blue-noise tile");
         args.add_switch("--show-jitter", &params.show_jitter,
@@ -750,7 +757,7 @@ int main(int argc, char** argv) {
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 11 renders the camera's view; turn it with "
+            throw InputError("--view: step 13 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;

@@ -1,24 +1,22 @@
-// 14_shadows.cpp: light that is blocked: shadows towards the light, and ambient occlusion.
+// 15_isosurface.cpp: the surface where the volume crosses an iso value, lit with Phong, and
+// a clipping plane that cuts the volume open.
 //
-// New here:   every lit sample of step 10's composite asks how much of the light reaches it
-//             through the volume, T_light = product of (1 - alpha) towards the light
-//             (Beer-Lambert, with the opacity-corrected table), which darkens the diffuse
-//             light: --shadows ray marches a shadow ray from the sample (leaping over empty
-//             bricks: they let all the light through); --shadows volume reads T_light
-//             trilinearly from a light-transmittance volume swept once per render, slice by
-//             slice from the light's side. Ambient occlusion (--ao on): the mean transmittance
-//             over a short distance in six directions darkens the ambient light.
-//             --shadows none --ao off is step 10's picture.
-// Builds on:  10_free_camera (the orbit camera, the slab method, trilinear samples, lit front
-//             to back, leaping over empty bricks).
-// Handout:    handouts/14_shadows.md
-// Run:        make run STEP=14 ARGS="--light-angle 70 --ao off"
-// Reference:  data/reference/14_shadows_camera.png: the default run (shadow rays and ambient
-//             occlusion, azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// New here:   along the camera's ray, the first sample above --iso and the one before it
+//             bracket the crossing; bisection on the trilinear field narrows it to 1e-4 voxel;
+//             the surface there is lit with Phong (ambient, diffuse, specular, --shininess)
+//             from the trilinear central-difference gradient. Step 12's leaping serves the
+//             iso test too: a brick wholly at or below iso cannot hold a crossing. Second,
+//             smaller idea: --clip nx,ny,nz,d keeps the half-space n.p <= d and cuts the rest
+//             away, in the iso render and in step 12's composite render (--mode composite).
+// Builds on:  12_free_leaping (the orbit camera, the slab method, trilinear samples, leaping).
+// Handout:    handouts/15_isosurface.md
+// Run:        make run STEP=15 ARGS="--clip 0,-1,0,-100 --shininess 40"
+// Reference:  data/reference/15_isosurface_camera.png: the default run (iso 400, azimuth 30,
+//             elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "14_shadows";
+constexpr const char* step_name = "15_isosurface";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -41,9 +39,24 @@ constexpr int max_image_side = 8192;             // pixels, --size limit per sid
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
-constexpr double min_light_transmittance = 1e-4;  // a shadow ray stops below this: dark enough
-constexpr double occlusion_radius = 4;  // physical units around a sample ambient occlusion sees
-constexpr double occlusion_step = 1;    // physical units between its samples
+constexpr int bone_iso = 400;            // CT value of the default surface: bone, as step 05
+constexpr int iso_key_step = 50;         // CT units per Up/Down key press (iso mode)
+constexpr double hit_tolerance = 1e-4;   // voxels (of the smallest spacing): bisection stops
+                                         // once the bracket is shorter than this
+constexpr float ambient_weight = 0.1f;   // Phong: light that reaches every surface
+constexpr float diffuse_weight = 0.6f;   // Phong: times N.L
+constexpr float specular_weight = 0.3f;  // Phong: times (R.V)^shininess; the three sum to 1
+constexpr double default_shininess = 20;  // Phong exponent: larger, a smaller sharper highlight
+constexpr Rgb surface_colour = {1, 1, 1};  // bone white, as the classic table's bone
+constexpr double max_clip_number = 1e6;    // --clip's numbers, physical units
+
+// The clipping plane: the volume is kept where dot(normal, p) <= distance, p in physical
+// units; normal has length 1, so distance is how far the plane lies from the origin along it.
+struct ClipPlane {
+    bool on = false;
+    Vec3d normal;
+    double distance = 0;
+};
 
 struct Params {
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
@@ -62,9 +75,11 @@ struct Params {
     bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
-    std::string shadows = "ray";  // "ray": a shadow ray per lit sample; "volume": read from a
-                                  // light-transmittance volume; "none"
-    std::string ao = "on";        // "on": ambient occlusion; "off"
+    std::string mode = "iso";              // "iso": the surface; "composite": step 12's picture
+    int iso = bone_iso;                    // the surface is where the value crosses this
+    double shininess = default_shininess;  // Phong exponent
+    std::string clip_text;                 // "nx,ny,nz,d" as given; "": no clipping plane
+    ClipPlane clip;                        // clip_text, read by parse_clip
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -95,6 +110,7 @@ struct Span {
     bool hit = false;
     double t_entry = 0, t_exit = 0;
     int entry_axis = -1;  // the axis whose face the ray enters through; -1: it starts inside
+    bool clipped = false;  // it enters through the clip plane (entry_axis is -1 then)
 };
 
 // The box of voxel centres, 0 .. (n - 1) * spacing along each axis: every point in it has
@@ -103,7 +119,6 @@ static Vec3d box_high(const Volume& volume) {
     return {(volume.nx - 1) * volume.sx, (volume.ny - 1) * volume.sy, (volume.nz - 1) * volume.sz};
 }
 
-//> lesson: camera
 // sin and cos of an angle in degrees, exact at multiples of 90: std::sin(180 * pi / 180) is
 // 1.2e-16, not 0, and a camera meant to look along an axis would look a hair past it, its
 // samples a hair off the voxel centres.
@@ -117,6 +132,7 @@ static double sin_degrees(double angle) {
 }
 static double cos_degrees(double angle) { return sin_degrees(angle + 90); }
 
+//> lesson: camera
 // The orbit camera looks at the centre of the box from `azimuth` degrees around the vertical
 // and `elevation` degrees above the i-j plane. Up is -k (k runs from the crown down). Azimuth
 // 0, elevation 0 stands in front of the face (small j) looking along +j; azimuth 90 looks along
@@ -216,6 +232,35 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
 }
 //< lesson: slab
 
+//> lesson: clip
+// The clipping plane cuts the ray's span in the box down to where n.p <= d. Along the ray
+// n.p grows at the rate n.direction, from n.origin at t = 0, and reaches d at the plane:
+//   t_plane = (d - n.origin) / (n.direction).
+// Growing (n.direction > 0), the ray leaves the kept side there: the span ends at t_plane.
+// Shrinking, it comes into the kept side there: the span starts at t_plane. Parallel to the
+// plane (n.direction = 0, no division), it is kept whole or cut away whole.
+static Span clip_span(const Ray& ray, Span span, const ClipPlane& clip, Trace* trace) {
+    if (!clip.on || !span.hit) return span;
+    const double rate = dot(clip.normal, ray.direction);     // d(n.p)/dt
+    const double room = clip.distance - dot(clip.normal, ray.origin);  // >= 0: origin kept
+    if (rate == 0) {
+        if (room < 0) span.hit = false;
+    } else if (rate > 0) {
+        span.t_exit = std::min(span.t_exit, room / rate);
+    } else if (room / rate > span.t_entry) {
+        span.t_entry = room / rate;
+        span.entry_axis = -1;
+        span.clipped = true;
+    }
+    if (span.t_entry > span.t_exit) span.hit = false;
+    if (trace) {
+        trace->clip(clip.normal, clip.distance, !span.hit, span.t_entry, span.t_exit,
+                    span.clipped);
+    }
+    return span;
+}
+//< lesson: clip
+
 //> lesson: opacity_correction
 // The opacity correction of step 08, unchanged.
 static float corrected_opacity(float alpha, double ratio) {
@@ -276,6 +321,9 @@ struct Cell {
     int i1 = 0, j1 = 0, k1 = 0;        // the high corner
 };
 
+// Given: a value fraction f of the way from a to b: a itself when f = 0.
+static float lerp(float a, float b, float f) { return a + f * (b - a); }
+
 //> lesson: trilinear
 // The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
 // the divisions by the spacing are done here, once per ray, not at every sample.
@@ -313,9 +361,6 @@ static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     cell.k1 = std::min(cell.k + 1, volume.nz - 1);
     return cell;
 }
-
-// A value fraction f of the way from a to b: a itself when f = 0.
-static float lerp(float a, float b, float f) { return a + f * (b - a); }
 
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
@@ -425,6 +470,21 @@ static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& c
 }
 //< lesson: empty_space
 
+//> lesson: leap
+// Step 12's leaping, for the iso test: a brick is empty when its largest value (which covers
+// every sample in its cells, the voxel past it included) is at or below iso: no sample there
+// can be above iso. empty_reach() and leap_past() then work as for the table. Run again
+// whenever iso changes.
+static std::vector<uint8_t> find_bricks_below(const Bricks& bricks, int iso) {
+    std::vector<uint8_t> below(bricks.count());
+    for (size_t b = 0; b < bricks.count(); ++b) below[b] = bricks.ranges[b].max <= iso;
+    return below;
+}
+//< lesson: leap
+
+// Given: lerp() for gradients.
+static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
+
 //> lesson: gradient
 // Step 08's derivative and gradient at a voxel, unchanged.
 template <class Sample>
@@ -435,7 +495,10 @@ static float derivative(Sample sample, int n, int count, double spacing) {
     return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
 }
 
-static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
+// The gradient of the CT values at voxel (i, j, k): it points into denser material.
+static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
+    const int i = voxel.i, j = voxel.j, k = voxel.k;
+    ++work.gradients;
     auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
     auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
     auto along_k = [&](int m) { return double(volume.at(i, j, m)); };
@@ -444,14 +507,11 @@ static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
             derivative(along_k, k, volume.nz, volume.sz)};
 }
 
-static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
-
 // The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
 // values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
 static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
-    work.gradients += 8;
     auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
-        return gradient_at(volume, a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k);
+        return gradient_at(volume, Voxel{a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k}, work);
     };
     const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
     const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
@@ -465,12 +525,19 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
 // differences), else trilinear.
 static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
     if (!nearest) return gradient_trilinear(volume, c, work);
-    ++work.gradients;
-    return gradient_at(volume, c.i, c.j, c.k);
+    return gradient_at(volume, Voxel{c.i, c.j, c.k}, work);
 }
 //< lesson: gradient
 
 //> lesson: shade
+// Step 08's diffuse shading, unchanged.
+static float shade(Vec3 gradient, Vec3 to_light) {
+    const float size = length(gradient);
+    if (size == 0.0f) return ambient;
+    const Vec3 normal = (-1.0f / size) * gradient;
+    return ambient + (1.0f - ambient) * std::max(0.0f, dot(normal, to_light));
+}
+
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
 static Vec3 light_direction(const Camera& camera, double angle) {
@@ -483,169 +550,8 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// --shadows volume: T_light at every voxel centre for one light direction, in the volume's
-// layout, so a sample's Cell reads it as it reads the values.
-using LightVolume = std::vector<float>;
-
-// What light that is blocked needs beside step 10's table: ambient occlusion's own table
-// (corrected for occlusion_step) and, with --shadows volume, the light-transmittance volume of
-// the current light (empty otherwise).
-struct Blocking {
-    Lut occlusion_lut;
-    LightVolume light;
-    Vec3d light_towards;  // the light direction `light` was swept for
-};
-
-//> lesson: shadow
-// How much of the light reaches `point` (physical units): march from it towards the light,
-// `step` physical units at a time, to where that ray leaves the box, multiplying the
-// transparencies of the samples met, T_light = product of (1 - alpha). The table's alphas are
-// corrected for the step, so through a homogeneous medium T_light = (1 - alpha)^(distance /
-// unit) = exp(-sigma d), Beer-Lambert with sigma = -ln(1 - alpha) per unit. The sample itself
-// (n = 0) is left out (it would shadow itself); empty bricks let all the light through, so
-// the shadow ray leaps over them as the camera's ray does; the march stops once T_light is
-// below min_light_transmittance.
-static double light_transmittance(const Volume& volume, const Lut& lut, const EmptySpace& space,
-                                  const Vec3d& point, const Vec3d& to_light, double step,
-                                  Work& work) {
-    const Ray ray = {point, to_light};
-    const Span span = intersect_box(ray, Vec3d{}, box_high(volume));
-    if (!span.hit) return 1;
-    const Walk walk = walk_through(volume, ray, span, step);
-    double transmittance = 1;
-    for (long long n = 1; n < walk.count; ++n) {
-        const Cell cell = cell_at(volume, walk.at(n), false);  // trilinear, whatever the camera
-        const int reach = space.reach_at(cell);
-        if (reach > 0) {
-            const long long next = leap_past(walk, space.bricks, cell, reach, n);
-            work.leapt += next - n;
-            n = next - 1;
-            continue;
-        }
-        ++work.samples;
-        const float value = trilinear(volume, cell);
-        transmittance *= 1 - lut.entries[int(double(value) - lowest_ct_value)].a;
-        if (transmittance < min_light_transmittance) break;
-    }
-    return transmittance;
-}
-
-// The light-transmittance volume for the directional light `to_light` (unit, physical): every
-// shadow ray's answer at once, T_light at every voxel centre, swept slice by slice from the
-// light's side. The slices lie across the axis a the light crosses fastest (the largest
-// |L_a| / s_a); the slice nearest the light gets all of it. A voxel p of the next slice gets
-// what reached q = p + d L on the slice before (d = s_a / |L_a| physical units away), times
-// what the segment between lets through: T(p) = T(q) * (1 - alpha_d(v(q))), the table's
-// alphas corrected for d. q is at most one voxel off p across the slice, and the light is
-// directional: every q is the same offset from its p, so T(q) and v(q) are bilinear reads
-// with the same four neighbours and weights everywhere. A q outside the box: the light came
-// in through a side face, T = 1 (the bit of material between that face and p is missed). One
-// read per voxel, once per light direction; each slice's rows in parallel.
-static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
-                               const Vec3d& to_light, bool corrected, int threads, Work& work) {
-    const int counts[3] = {volume.nx, volume.ny, volume.nz};
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
-    const size_t strides[3] = {1, size_t(volume.nx), size_t(volume.nx) * volume.ny};  // as volume.data
-    int a = 0;
-    for (int axis = 1; axis < 3; ++axis) {
-        if (std::fabs(to_light[axis]) / spacing[axis] > std::fabs(to_light[a]) / spacing[a]) {
-            a = axis;
-        }
-    }
-    const int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2;  // across the slice, b the faster in memory
-    const double d = spacing[a] / std::fabs(to_light[a]);
-    const Lut segment = build_lut(tf, corrected ? d / unit_length : 1.0);
-    const double shift_b = d * to_light[b] / spacing[b];  // voxels, at most 1 either way
-    const double shift_c = d * to_light[c] / spacing[c];
-    const int offset_b = int(std::floor(shift_b)), offset_c = int(std::floor(shift_c));
-    const float fb = float(shift_b - offset_b), fc = float(shift_c - offset_c);  // 0..1
-    // q's low corner is inside, and so is its high corner unless its weight is 0.
-    auto inside = [](int low, float f, int count) {
-        return low >= 0 && (low + 1 < count || (low + 1 == count && f == 0));
-    };
-    const int towards = to_light[a] > 0 ? 1 : -1;  // from a slice to the one before it
-    LightVolume light(volume.data.size(), 1.0f);
-    const int nearest = towards > 0 ? counts[a] - 1 : 0;  // the slice nearest the light
-    for (int u = nearest - towards; u >= 0 && u < counts[a]; u -= towards) {
-        const size_t here = size_t(u) * strides[a], before = size_t(u + towards) * strides[a];
-        parallel_rows(counts[c], threads, work, [&](int w, Work& row_work) {
-            const int low_c = w + offset_c;
-            if (!inside(low_c, fc, counts[c])) return;  // the whole row stays 1
-            const size_t dc = low_c + 1 < counts[c] ? strides[c] : 0;
-            const int v_first = std::max(0, -offset_b);  // the row's voxels whose q is inside
-            int v_end = counts[b];
-            while (v_end > v_first && !inside(v_end - 1 + offset_b, fb, counts[b])) --v_end;
-            for (int v = v_first; v < v_end; ++v) {
-                const int low_b = v + offset_b;
-                const size_t db = low_b + 1 < counts[b] ? strides[b] : 0;
-                const size_t at = before + size_t(low_b) * strides[b] + size_t(low_c) * strides[c];
-                auto bilinear = [&](const auto* data) {
-                    return lerp(lerp(data[at], data[at + db], fb),
-                                lerp(data[at + dc], data[at + dc + db], fb), fc);
-                };
-                const float value = bilinear(volume.data.data());
-                light[here + size_t(v) * strides[b] + size_t(w) * strides[c]] =
-                    bilinear(light.data()) *
-                    (1 - segment.entries[int(double(value) - lowest_ct_value)].a);
-            }
-            row_work.samples += uint64_t(std::max(0, v_end - v_first));
-        });
-    }
-    return light;
-}
-
-// T_light at a sample from the light-transmittance volume: a trilinear read through the
-// sample's cell, as trilinear() reads the values.
-static double light_from_volume(const Volume& volume, const LightVolume& light, const Cell& c) {
-    auto at = [&](int i, int j, int k) { return light[volume.index(i, j, k)]; };
-    const float low_low = lerp(at(c.i, c.j, c.k), at(c.i1, c.j, c.k), c.fi);
-    const float high_low = lerp(at(c.i, c.j1, c.k), at(c.i1, c.j1, c.k), c.fi);
-    const float low_high = lerp(at(c.i, c.j, c.k1), at(c.i1, c.j, c.k1), c.fi);
-    const float high_high = lerp(at(c.i, c.j1, c.k1), at(c.i1, c.j1, c.k1), c.fi);
-    return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
-}
-
-// Ambient occlusion: how open the space around `q` (voxel units) is. Along each of the six
-// axis directions, the transmittance over occlusion_radius physical units (samples
-// occlusion_step apart, the table's alphas corrected for that step), stopping at the box's
-// faces (nothing out there blocks); their mean, 1 in empty surroundings, less where material
-// around the sample would block light coming from all sides.
-static double ambient_occlusion(const Volume& volume, const Lut& occlusion_lut, const Vec3d& q,
-                                Work& work) {
-    const int counts[3] = {volume.nx, volume.ny, volume.nz};
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
-    double sum = 0;
-    for (int axis = 0; axis < 3; ++axis) {
-        for (const double sign : {1.0, -1.0}) {
-            double transmittance = 1;
-            for (double t = occlusion_step; t <= occlusion_radius; t += occlusion_step) {
-                double p[3] = {q.i, q.j, q.k};
-                p[axis] += sign * t / spacing[axis];
-                if (p[axis] < 0 || p[axis] > counts[axis] - 1) break;  // outside the box
-                const float value = trilinear(volume, cell_at(volume, {p[0], p[1], p[2]}, false));
-                ++work.samples;
-                transmittance *= 1 - occlusion_lut.entries[int(double(value) - lowest_ct_value)].a;
-            }
-            sum += transmittance;
-        }
-    }
-    return sum / 6;
-}
-
-// Step 10's light, blocked: the diffuse part only as far as T_light lets it through, the
-// ambient part as far as the surroundings are open.
-static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching,
-                           double occlusion) {
-    const float size = length(gradient);
-    const float open = float(occlusion) * ambient;
-    if (size == 0.0f) return open;
-    const Vec3 normal = (-1.0f / size) * gradient;
-    return open + (1.0f - ambient) * float(light_reaching) *
-                      std::max(0.0f, dot(normal, to_light));
-}
-//< lesson: shadow
-
-//> lesson: front_to_back
+// The ray's two trace records (given): where it starts, and where it meets the box. The entry
+// is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
@@ -654,34 +560,32 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
         trace->box_missed(high);
         return;
     }
-    const Vec3d in = ray.origin + span.t_entry * ray.direction;
+    const Vec3d in = entry_point(ray, span, high);
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
     trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
+//> lesson: front_to_back
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
 // transparent, composited front to back; early ray termination as in step 07. Step 09's
 // leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
-// (leap_past), and every sample leapt over would have been transparent. A lit sample's light
-// is blocked: shade_blocked() with T_light (a shadow ray, or the light volume) and its
-// ambient occlusion.
+// (leap_past), and every sample leapt over would have been transparent. The span is the
+// clipped one (clip_span).
+// Changed in step 15: along the clipped span.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, const EmptySpace& space,
-                                           Vec3 to_light, const Blocking& blocking,
-                                           const Params& params, Work& work, Trace* trace) {
+                                           Vec3 to_light, const Params& params, Work& work,
+                                           Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
-    const Span span = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, span, high, params.step);
+    const Span box = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, box, high, params.step);
+    const Span span = clip_span(ray, box, params.clip, trace);
     Accumulated pixel;
     if (!span.hit) return pixel;
     const Walk walk = walk_through(volume, ray, span, params.step);
-    const Vec3d light_d = {to_light.i, to_light.j, to_light.k};
-    const Vec3d towards = params.unlit ? Vec3d{} : (1 / length(light_d)) * light_d;  // unit
-    const bool shadow_rays = params.shadows == "ray", light_volume = params.shadows == "volume";
-    const bool occlusion_on = params.ao == "on";
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
@@ -704,18 +608,8 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             continue;
         }
         double light = 1.0;  // unlit
-        double light_t = 1, occlusion = 1;  // nothing blocks the light, nothing around
-        const uint64_t samples_before = work.samples, leapt_before = work.leapt;
         if (!params.unlit) {
-            if (shadow_rays) {
-                light_t = light_transmittance(volume, lut, space, point, towards,
-                                                     params.step, work);
-            } else if (light_volume) {
-                light_t = light_from_volume(volume, blocking.light, cell);
-            }
-            if (occlusion_on) occlusion = ambient_occlusion(volume, blocking.occlusion_lut, q, work);
-            light = shade_blocked(sample_gradient(volume, cell, params.nearest, work),
-                                  to_light, light_t, occlusion);
+            light = shade(sample_gradient(volume, cell, params.nearest, work), to_light);
         }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
@@ -724,10 +618,8 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         pixel.b += weight * sample.b;
         pixel.transparency *= 1 - alpha;
         if (trace) {
-            trace->sample(TraceSample(t, point, value).rgba(sample)
-                              .shadow(light_t, occlusion, work.samples - samples_before,
-                                      work.leapt - leapt_before)
-                              .light(light).colour(pixel.r, pixel.g, pixel.b)
+            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
+                              .colour(pixel.r, pixel.g, pixel.b)
                               .transparency(pixel.transparency));
         }
         if (pixel.transparency < stop_below && n + 1 < walk.count) {
@@ -746,13 +638,199 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: front_to_back
 
+// Where the ray meets the surface: `along` physical units past the entry, at `point` (voxel
+// units, as the walk's samples).
+struct SurfaceHit {
+    bool hit = false;
+    double along = 0;
+    Vec3d point;
+};
+
+//> lesson: bisection
+// The crossing between two points of the walk `below` (value <= iso) and `above` (value >
+// iso), in samples (2.5: halfway between samples 2 and 3): the midpoint of the bracket is read
+// by trilinear interpolation and replaces the end on its side, so the bracket always straddles
+// iso and halves each time. It stops when the bracket is shorter than `tolerance` (samples),
+// and the crossing is its midpoint, at most tolerance / 2 from the true one: 14 halvings from
+// a step of 1 to 1e-4. (The secant step would usually need fewer reads, but can creep in from
+// one end.) t_entry and step only turn samples into t for the trace. With nearest samples
+// (--interpolation nearest) the field is a staircase, and the crossing is where it steps.
+static double bisect(const Volume& volume, const Walk& walk, double below, double above,
+                     double iso, double tolerance, bool nearest, double t_entry, double step,
+                     Trace* trace) {
+    for (int iteration = 1; above - below > tolerance; ++iteration) {
+        const double middle = 0.5 * (below + above);
+        const Vec3d point = walk.first + middle * walk.per_step;  // voxel units
+        const float value = sample_value(volume, cell_at(volume, point, nearest), nearest);
+        const bool is_above = value > iso;
+        if (is_above) {
+            above = middle;
+        } else {
+            below = middle;
+        }
+        if (trace) {
+            trace->bisection(iteration, t_entry + middle * step, value, is_above,
+                             t_entry + below * step, t_entry + above * step);
+        }
+    }
+    return 0.5 * (below + above);
+}
+//< lesson: bisection
+
+//> lesson: phong
+// The three Phong terms at a surface point, for unit vectors: normal N (outward), to_light L,
+// to_viewer V. R is L mirrored about N; the highlight is where R points at the viewer. A light
+// behind the surface (N.L <= 0) leaves only the ambient term: no diffuse, no highlight.
+struct PhongTerms {
+    float ambient = 0, diffuse = 0, specular = 0;
+};
+
+static PhongTerms phong(Vec3 normal, Vec3 to_light, Vec3 to_viewer, double shininess) {
+    PhongTerms terms;
+    terms.ambient = ambient_weight;
+    const float n_dot_l = dot(normal, to_light);
+    if (n_dot_l <= 0.0f) return terms;
+    const Vec3 reflected = (2 * n_dot_l) * normal - to_light;
+    const float r_dot_v = std::max(0.0f, dot(reflected, to_viewer));
+    terms.diffuse = diffuse_weight * n_dot_l;
+    terms.specular = specular_weight * float(std::pow(double(r_dot_v), shininess));
+    return terms;
+}
+
+// The surface's colour lit: its own colour times ambient + diffuse, plus the white highlight.
+static Rgb lit_colour(const PhongTerms& terms) {
+    const float lit = terms.ambient + terms.diffuse;
+    return {surface_colour.r * lit + terms.specular, surface_colour.g * lit + terms.specular,
+            surface_colour.b * lit + terms.specular};
+}
+//< lesson: phong
+
+//> lesson: isosurface
+// Walk the ray as step 12 does, leaping over bricks at or below iso, but instead of
+// compositing, stop at the first sample above iso: the crossing lies between it and the sample
+// before (read or leapt over, it is at or below iso), and bisection finds it. A ray whose
+// first sample is already above iso starts inside the surface: it hits at its entry (on the
+// clip plane that is the cut face).
+static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, const Ray& ray,
+                                 const Span& span, const Params& params, Work& work,
+                                 Trace* trace) {
+    SurfaceHit hit;
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    const double smallest_spacing = std::min({volume.sx, volume.sy, volume.sz});
+    auto t = [&](double n) { return span.t_entry + n * params.step; };  // physical units
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const Cell cell = cell_at(volume, q, params.nearest);
+        const int reach = space.reach_at(cell);
+        if (reach > 0) {  // samples n .. next - 1 are all at or below iso
+            const long long next = leap_past(walk, space.bricks, cell, reach, n);
+            work.leapt += next - n;
+            if (trace) trace->leap(t(n), t(next - 1), next - n, reach, true);
+            n = next - 1;
+            continue;
+        }
+        const float value = sample_value(volume, cell, params.nearest);
+        ++work.samples;
+        if (trace) {
+            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+            trace->sample(TraceSample(t(n), p, value).iso(value > params.iso));
+        }
+        if (value <= params.iso) continue;
+        hit.hit = true;
+        double at = n;  // in samples
+        if (n > 0) {
+            if (trace) trace->bracket(t(n - 1), t(n), hit_tolerance);
+            at = bisect(volume, walk, n - 1, n, params.iso,
+                        hit_tolerance * smallest_spacing / params.step, params.nearest,
+                        span.t_entry, params.step, trace);
+        } else if (trace) {
+            trace->note({}, "the first sample is above iso: the ray starts inside, hit at its "
+                            "entry");
+        }
+        hit.along = at * params.step;
+        hit.point = walk.first + at * walk.per_step;
+        ++work.hits;
+        if (n + 1 < walk.count) ++work.terminated;
+        return hit;
+    }
+    if (trace) {
+        trace->note({{"iso", double(params.iso)}},
+                    "no crossing of iso %d: the pixel shows the background", params.iso);
+    }
+    return hit;
+}
+
+// One pixel of the iso render: the first crossing, its normal (the clip plane's on the cut
+// face, else -gradient / |gradient|) and Phong. A zero gradient has no normal: ambient only.
+static Rgb isosurface_ray(const Volume& volume, const EmptySpace& space, const Camera& camera,
+                          int x, int y, const Params& params, Work& work, Trace* trace) {
+    const Vec3d high = box_high(volume);
+    const Ray ray = camera_ray(camera, x, y);
+    const Span box = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, box, high, params.step);
+    const Span span = clip_span(ray, box, params.clip, trace);
+    if (!span.hit) return background;
+    const SurfaceHit hit = first_crossing(volume, space, ray, span, params, work, trace);
+    if (!hit.hit) return background;
+    auto to_float = [](const Vec3d& a) { return Vec3{float(a.i), float(a.j), float(a.k)}; };
+    Vec3 normal;
+    const char* source = "the clip plane";
+    if (span.clipped && hit.along == 0) {
+        normal = to_float(params.clip.normal);  // outward: the cut-away side is +normal
+    } else {
+        const Vec3 gradient = sample_gradient(
+            volume, cell_at(volume, hit.point, params.nearest), params.nearest, work);
+        const float size = length(gradient);
+        if (size > 0.0f) normal = (-1.0f / size) * gradient;
+        source = size > 0.0f ? "-gradient" : "none (zero gradient)";
+    }
+    const Vec3 to_light = light_direction(camera, params.light_angle);
+    const Vec3 to_viewer = -1.0f * to_float(ray.direction);
+    PhongTerms terms;
+    terms.ambient = ambient_weight;
+    if (length(normal) > 0.0f) terms = phong(normal, to_light, to_viewer, params.shininess);
+    const Rgb colour = lit_colour(terms);
+    if (trace) {
+        const Vec3d p = {hit.point.i * volume.sx, hit.point.j * volume.sy,
+                         hit.point.k * volume.sz};
+        trace->surface_hit(span.t_entry + hit.along, p, normal, source);
+        trace->phong(to_light, to_viewer, terms.ambient, terms.diffuse, terms.specular,
+                     params.shininess);
+    }
+    return colour;
+}
+//< lesson: isosurface
+
+// "nx,ny,nz,d" -> the plane n.p = d with n scaled to length 1 (d with it); a normal of length
+// 0 has no direction and is refused.
+static ClipPlane parse_clip(const std::string& text) {
+    double numbers[4] = {};
+    size_t start = 0;
+    for (int n = 0; n < 4; ++n) {
+        const size_t comma = n < 3 ? text.find(',', start) : std::string::npos;
+        if (n < 3 && comma == std::string::npos) {
+            throw InputError("--clip: expected NX,NY,NZ,D such as 1,0,0,128, got '" + text + "'");
+        }
+        numbers[n] = parse_double("--clip", text.substr(start, comma - start), -max_clip_number,
+                                  max_clip_number);
+        start = comma + 1;
+    }
+    const Vec3d normal = {numbers[0], numbers[1], numbers[2]};
+    const double size = length(normal);
+    if (size == 0) throw InputError("--clip: the normal (0, 0, 0) has no direction");
+    ClipPlane clip;
+    clip.on = true;
+    clip.normal = (1 / size) * normal;
+    clip.distance = numbers[3] / size;
+    return clip;
+}
+
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 10's lit compositing with light that is blocked: shadow rays "
-                             "(or a light-transmittance volume) towards the light and ambient "
-                             "occlusion.");
+        Args args(step_name, "The first crossing of an iso value along the camera's rays, "
+                             "refined by bisection and lit with Phong; a clipping plane.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -762,12 +840,14 @@ int main(int argc, char** argv) {
         args.add_double("--step", &params.step, min_step, max_step,
                         "physical units between two samples along a ray");
         args.add_double("--light-angle", &params.light_angle, -180, 180,
-                        "light direction, degrees to the right of the camera");
+                        "light direction, degrees to the right of the camera (default 30; "
+                        "always 20 degrees above it)");
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
         args.add_switch("--no-leaping", &params.no_leaping,
-                        "read every sample, even in bricks the table leaves transparent");
+                        "read every sample, even in bricks the table leaves transparent "
+                        "(composite) or wholly at or below iso (iso)");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
@@ -779,21 +859,27 @@ int main(int argc, char** argv) {
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
         args.add_double("--fov", &params.fov, 1, 170,
-                        "perspective: the image's height as an angle, degrees");
-        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)");
-        args.add_choice("--shadows", &params.shadows, {"ray", "volume", "none"},
-                        "T_light by a shadow ray from every lit sample, from a light-"
-                        "transmittance volume swept once per render, or none");
-        args.add_choice("--ao", &params.ao, {"on", "off"},
-                        "ambient occlusion from the opacity around every lit sample");
+                        "perspective: the image's height as an angle, degrees (default 30)");
+        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
+                        "WxH");
+        args.add_choice("--mode", &params.mode, {"iso", "composite"},
+                        "the isosurface (iso) or step 12's composite picture");
+        args.add_int("--iso", &params.iso, -32768, 32767,
+                     "the surface's value, in the file's units (default 400: bone)");
+        args.add_double("--shininess", &params.shininess, 1, 1000,
+                        "Phong exponent: larger gives a smaller, sharper highlight");
+        args.add_string("--clip", &params.clip_text,
+                        "clipping plane NX,NY,NZ,D: keeps n.p <= D (physical units)",
+                        "NX,NY,NZ,D");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 14 renders the camera's view; turn it with "
+            throw InputError("--view: step 15 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
         parse_size(params.size, max_image_side, &width, &height);
+        if (!params.clip_text.empty()) params.clip = parse_clip(params.clip_text);
 
         // --- Volume ---
         const Volume volume = load_volume(options);
@@ -806,15 +892,16 @@ int main(int argc, char** argv) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
-        Blocking blocking;
-        blocking.occlusion_lut = build_lut(tf, occlusion_step / unit_length);
 
-        // --- The bricks the table leaves empty ---
+        // --- The bricks the table leaves empty (composite) or wholly at or below iso (iso) ---
+        const bool iso_mode = params.mode == "iso";
         EmptySpace space;
         if (!params.no_leaping) space.bricks = make_bricks(volume, brick_size, options.threads);
         auto update_empty_space = [&] {
             if (params.no_leaping) return;
-            space.reach = empty_reach(space.bricks, find_empty_bricks(space.bricks, lut));
+            space.reach = empty_reach(space.bricks,
+                                      iso_mode ? find_bricks_below(space.bricks, params.iso)
+                                               : find_empty_bricks(space.bricks, lut));
         };
         update_empty_space();
 
@@ -830,40 +917,24 @@ int main(int argc, char** argv) {
             return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
         };
 
-        // --- The light-transmittance volume (--shadows volume): the light turns with the
-        // camera (light_towards), so every render sweeps it again, in the render's time and
-        // work; a traced ray reuses it while the light has not moved ---
-        auto sweep_for = [&](const Camera& camera, Work& work, bool again) {
-            if (params.shadows != "volume" || params.unlit) return;
-            const Vec3 l = light_towards(camera);
-            const Vec3d light_d = {l.i, l.j, l.k};
-            const Vec3d towards = (1 / length(light_d)) * light_d;  // unit, in double
-            const Vec3d moved = towards - blocking.light_towards;
-            if (!again && !blocking.light.empty() && dot(moved, moved) == 0) return;
-            blocking.light = sweep_light(volume, tf, towards, !params.no_correction,
-                                         options.threads, work);
-            blocking.light_towards = towards;
-        };
-
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
+            if (iso_mode) {
+                return isosurface_ray(volume, space, camera, x, y, params, work, trace);
+            }
             return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
-                                                           to_light, blocking, params, work,
-                                                           trace));
+                                                           to_light, params, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
             const Vec3 to_light = light_towards(camera);
-            sweep_for(camera, work, true);
             return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
                 return pixel(camera, to_light, x, y, ray_work, nullptr);
             });
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Camera camera = make_camera(volume, params, view);
-            Work sweep_work;  // not this ray's
-            sweep_for(camera, sweep_work, false);
             return pixel(camera, light_towards(camera), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
@@ -880,6 +951,15 @@ int main(int argc, char** argv) {
                              update_empty_space();
                          },
                          [&] { return summary_number(params.step); }};
+        if (iso_mode) {  // Up/Down move the iso value instead of the step
+            renderer.knob = {"iso",
+                             [&](const View&, int steps) {
+                                 params.iso = std::clamp(params.iso + steps * iso_key_step,
+                                                         -32768, 32767);
+                                 update_empty_space();
+                             },
+                             [&] { return std::to_string(params.iso); }};
+        }
         renderer.orbit.turn = [&](double azimuth, double elevation) {
             params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
             params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
@@ -903,8 +983,11 @@ int main(int argc, char** argv) {
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
                    " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +
-                   " shadows=" + params.shadows +
-                   " ao=" + params.ao;
+                   " mode=" + params.mode +
+                   (iso_mode ? " step=" + summary_number(params.step)  // the knob's is printed
+                             : " iso=" + std::to_string(params.iso)) +
+                   " shininess=" + summary_number(params.shininess) +
+                   " clip=" + (params.clip.on ? params.clip_text : std::string("none"));
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

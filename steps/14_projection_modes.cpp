@@ -1,20 +1,20 @@
-// 12_projection_modes.cpp: maximum, minimum and average intensity along the free camera's ray.
+// 14_projection_modes.cpp: maximum, minimum and average intensity along the free camera's ray.
 //
 // New here:   no transfer function, no compositing: each ray reduces the values it samples
 //             inside the box to one number, the largest (MIP), the smallest (MinIP) or their
 //             mean (average, a simulated X-ray), shown as grey with part 1's mapping (the
 //             volume's min..max to black..white). --slab W keeps only the samples within W/2
 //             of the plane through the box's centre, facing the camera (a thin-slab projection).
-//             Step 10's table, light, compositing and leaping (which needs the table) go.
-// Builds on:  10_free_camera (the orbit camera, the slab method, trilinear samples).
-// Handout:    handouts/12_projection_modes.md
-// Run:        make run STEP=12 ARGS="--mode minip --slab 20"
-// Reference:  data/reference/12_projection_modes_camera.png: the default run (MIP, azimuth 30,
+//             Step 12's table, light, compositing and leaping (which needs the table) go.
+// Builds on:  11_trilinear (the orbit camera, the slab method, trilinear samples).
+// Handout:    handouts/14_projection_modes.md
+// Run:        make run STEP=14 ARGS="--mode minip --slab 20"
+// Reference:  data/reference/14_projection_modes_camera.png: the default run (MIP, azimuth 30,
 //             elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "12_projection_modes";
+constexpr const char* step_name = "14_projection_modes";
 constexpr Rgb background = {0, 0, 0};  // a ray that meets no sample: black
 constexpr double default_step = 1;    // physical units between two samples along a ray
 constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
@@ -83,7 +83,6 @@ static Vec3d box_high(const Volume& volume) {
     return {(volume.nx - 1) * volume.sx, (volume.ny - 1) * volume.sy, (volume.nz - 1) * volume.sz};
 }
 
-//> lesson: camera
 // sin and cos of an angle in degrees, exact at multiples of 90: std::sin(180 * pi / 180) is
 // 1.2e-16, not 0, and a camera meant to look along an axis would look a hair past it, its
 // samples a hair off the voxel centres.
@@ -97,6 +96,7 @@ static double sin_degrees(double angle) {
 }
 static double cos_degrees(double angle) { return sin_degrees(angle + 90); }
 
+//> lesson: camera
 // The orbit camera looks at the centre of the box from `azimuth` degrees around the vertical
 // and `elevation` degrees above the i-j plane. Up is -k (k runs from the crown down). Azimuth
 // 0, elevation 0 stands in front of the face (small j) looking along +j; azimuth 90 looks along
@@ -218,6 +218,9 @@ struct Cell {
     int i1 = 0, j1 = 0, k1 = 0;        // the high corner
 };
 
+// Given: a value fraction f of the way from a to b: a itself when f = 0.
+static float lerp(float a, float b, float f) { return a + f * (b - a); }
+
 //> lesson: trilinear
 // The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
 // the divisions by the spacing are done here, once per ray, not at every sample.
@@ -256,9 +259,6 @@ static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     return cell;
 }
 
-// A value fraction f of the way from a to b: a itself when f = 0.
-static float lerp(float a, float b, float f) { return a + f * (b - a); }
-
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
 static float trilinear(const Volume& volume, const Cell& c) {
@@ -280,12 +280,14 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 
 // CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in part 1 (step
 // 00); trilinear values lie between voxel values, so within 0..1 too.
+// Changed in step 14: takes a trilinear (fractional) value.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
 }
 
-//> lesson: projection
+// The ray's two trace records (given): where it starts, and where it meets the box. The entry
+// is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
@@ -294,11 +296,12 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
         trace->box_missed(high);
         return;
     }
-    const Vec3d in = ray.origin + span.t_entry * ray.direction;
+    const Vec3d in = entry_point(ray, span, high);
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
     trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
+//> lesson: projection
 // --slab: the part of the span within slab / 2 of the plane through the box's centre at right
 // angles to the view. Along the ray that distance grows by dot(direction, forward) per unit
 // of t: 1 for an orthographic ray, cos(angle to forward) > 0 for a perspective one.
@@ -322,7 +325,7 @@ static Span within_slab(const Ray& ray, Span span, const Camera& camera, double 
     return span;
 }
 
-// One ray's projection: samples at t_entry + n * step until t_exit (step 10's), read by
+// One ray's projection: samples at t_entry + n * step until t_exit (step 12's), read by
 // trilinear interpolation; the largest, the smallest and the sum, all starting from the
 // first sample (not from 0: CT values go below 0). Only samples inside the box count: a ray
 // that misses it has none.
@@ -391,12 +394,13 @@ int main(int argc, char** argv) {
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
         args.add_double("--fov", &params.fov, 1, 170,
-                        "perspective: the image's height as an angle, degrees");
-        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)");
+                        "perspective: the image's height as an angle, degrees (default 30)");
+        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
+                        "WxH");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 12 renders the camera's view; turn it with "
+            throw InputError("--view: step 14 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
