@@ -1,6 +1,6 @@
 // 31_empty_space_skipping.cpp: the first trick: leap over space that cannot change the pixel.
 //
-// New here:   step 10's empty-space leaping, brought back into part 3's renderer and timed on
+// New here:   step 12's empty-space leaping, brought back into part 3's renderer and timed on
 //             its own: the volume's min-max bricks (common/bricks.h, 8 voxels a side, made
 //             once per volume) and, for the table, each empty brick's reach (the cube of
 //             empty bricks around it). A composite ray in an empty brick leaps to where it
@@ -94,9 +94,8 @@ static Vec3d box_high(const Volume& volume) {
     return {(volume.nx - 1) * volume.sx, (volume.ny - 1) * volume.sy, (volume.nz - 1) * volume.sz};
 }
 
-// --- Part 2's renderer: step 10's lessons, unchanged (make carry brings a student's own) ---
+// --- Part 2's renderer: part 2's lessons, unchanged (make carry brings a student's own) ---
 
-//> lesson: camera
 // sin and cos of an angle in degrees, exact at multiples of 90: std::sin(180 * pi / 180) is
 // 1.2e-16, not 0, and a camera meant to look along an axis would look a hair past it, its
 // samples a hair off the voxel centres.
@@ -110,6 +109,7 @@ static double sin_degrees(double angle) {
 }
 static double cos_degrees(double angle) { return sin_degrees(angle + 90); }
 
+//> lesson: camera
 // The orbit camera looks at the centre of the box from `azimuth` degrees around the vertical
 // and `elevation` degrees above the i-j plane. Up is -k (k runs from the crown down). Azimuth
 // 0, elevation 0 stands in front of the face (small j) looking along +j; azimuth 90 looks along
@@ -269,6 +269,9 @@ struct Cell {
     int i1 = 0, j1 = 0, k1 = 0;        // the high corner
 };
 
+// Given: a value fraction f of the way from a to b: a itself when f = 0.
+static float lerp(float a, float b, float f) { return a + f * (b - a); }
+
 //> lesson: trilinear
 // The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
 // the divisions by the spacing are done here, once per ray, not at every sample.
@@ -306,9 +309,6 @@ static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     cell.k1 = std::min(cell.k + 1, volume.nz - 1);
     return cell;
 }
-
-// A value fraction f of the way from a to b: a itself when f = 0.
-static float lerp(float a, float b, float f) { return a + f * (b - a); }
 
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
@@ -419,6 +419,9 @@ static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& c
 }
 //< lesson: empty_space
 
+// Given: lerp() for gradients.
+static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
+
 //> lesson: gradient
 // Step 08's derivative and gradient at a voxel, unchanged.
 template <class Sample>
@@ -429,7 +432,10 @@ static float derivative(Sample sample, int n, int count, double spacing) {
     return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
 }
 
-static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
+// The gradient of the CT values at voxel (i, j, k): it points into denser material.
+static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
+    const int i = voxel.i, j = voxel.j, k = voxel.k;
+    ++work.gradients;
     auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
     auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
     auto along_k = [&](int m) { return double(volume.at(i, j, m)); };
@@ -438,14 +444,11 @@ static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
             derivative(along_k, k, volume.nz, volume.sz)};
 }
 
-static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
-
 // The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
 // values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
 static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
-    work.gradients += 8;
     auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
-        return gradient_at(volume, a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k);
+        return gradient_at(volume, Voxel{a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k}, work);
     };
     const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
     const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
@@ -459,8 +462,7 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
 // differences), else trilinear.
 static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
     if (!nearest) return gradient_trilinear(volume, c, work);
-    ++work.gradients;
-    return gradient_at(volume, c.i, c.j, c.k);
+    return gradient_at(volume, Voxel{c.i, c.j, c.k}, work);
 }
 //< lesson: gradient
 
@@ -491,7 +493,8 @@ static float display_grey(const Volume& volume, double value) {
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
 }
 
-//> lesson: ray_output
+// The ray's two trace records (given): where it starts, and where it meets the box. The entry
+// is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
@@ -500,11 +503,12 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
         trace->box_missed(high);
         return;
     }
-    const Vec3d in = ray.origin + span.t_entry * ray.direction;
+    const Vec3d in = entry_point(ray, span, high);
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
     trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
+//> lesson: ray_output
 static Rgb over_background(const Accumulated& ray) {
     return {float(ray.r + ray.transparency * background.r),
             float(ray.g + ray.transparency * background.g),
@@ -523,9 +527,10 @@ struct Scene {
 };
 
 //> lesson: composite
-// Case a, b and c: step 30's compositing with step 10's leaping: a sample in an empty brick
+// Case a, b and c: step 30's compositing with step 12's leaping: a sample in an empty brick
 // leaps past the empty cube around it (leap_past), and every sample leapt over would have
 // been transparent.
+// Changed in step 31: the leaping is this step's trick.
 static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Params& params = scene.params;
@@ -588,6 +593,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
 // more than the maximum so far: none of its samples can raise it (a trilinear sample lies
 // between its corners' values, and a brick's range covers the voxel past it). The leap is
 // leap_past with reach 1, the brick itself. The first sample is always read.
+// Changed in step 31: the leaping over bricks that cannot raise the maximum is this step's trick.
 static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Params& params = scene.params;

@@ -102,9 +102,8 @@ static Vec3d box_high(const Volume& volume) {
     return {(volume.nx - 1) * volume.sx, (volume.ny - 1) * volume.sy, (volume.nz - 1) * volume.sz};
 }
 
-// --- Part 2's renderer: step 10's lessons, unchanged (make carry brings a student's own) ---
+// --- Part 2's renderer: part 2's lessons, unchanged (make carry brings a student's own) ---
 
-//> lesson: camera
 // sin and cos of an angle in degrees, exact at multiples of 90: std::sin(180 * pi / 180) is
 // 1.2e-16, not 0, and a camera meant to look along an axis would look a hair past it, its
 // samples a hair off the voxel centres.
@@ -118,6 +117,7 @@ static double sin_degrees(double angle) {
 }
 static double cos_degrees(double angle) { return sin_degrees(angle + 90); }
 
+//> lesson: camera
 // The orbit camera looks at the centre of the box from `azimuth` degrees around the vertical
 // and `elevation` degrees above the i-j plane. Up is -k (k runs from the crown down). Azimuth
 // 0, elevation 0 stands in front of the face (small j) looking along +j; azimuth 90 looks along
@@ -277,6 +277,9 @@ struct Cell {
     int i1 = 0, j1 = 0, k1 = 0;        // the high corner
 };
 
+// Given: a value fraction f of the way from a to b: a itself when f = 0.
+static float lerp(float a, float b, float f) { return a + f * (b - a); }
+
 //> lesson: trilinear
 // The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
 // the divisions by the spacing are done here, once per ray, not at every sample.
@@ -314,9 +317,6 @@ static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
     cell.k1 = std::min(cell.k + 1, volume.nz - 1);
     return cell;
 }
-
-// A value fraction f of the way from a to b: a itself when f = 0.
-static float lerp(float a, float b, float f) { return a + f * (b - a); }
 
 // Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
 // Exact for any field linear in i, j and k (and so in physical space).
@@ -427,6 +427,9 @@ static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& c
 }
 //< lesson: empty_space
 
+// Given: lerp() for gradients.
+static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
+
 //> lesson: gradient
 // Step 08's derivative and gradient at a voxel, unchanged.
 template <class Sample>
@@ -437,7 +440,10 @@ static float derivative(Sample sample, int n, int count, double spacing) {
     return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
 }
 
-static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
+// The gradient of the CT values at voxel (i, j, k): it points into denser material.
+static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
+    const int i = voxel.i, j = voxel.j, k = voxel.k;
+    ++work.gradients;
     auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
     auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
     auto along_k = [&](int m) { return double(volume.at(i, j, m)); };
@@ -446,14 +452,11 @@ static Vec3 gradient_at(const Volume& volume, int i, int j, int k) {
             derivative(along_k, k, volume.nz, volume.sz)};
 }
 
-static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
-
 // The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
 // values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
 static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
-    work.gradients += 8;
     auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
-        return gradient_at(volume, a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k);
+        return gradient_at(volume, Voxel{a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k}, work);
     };
     const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
     const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
@@ -467,8 +470,7 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
 // differences), else trilinear.
 static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
     if (!nearest) return gradient_trilinear(volume, c, work);
-    ++work.gradients;
-    return gradient_at(volume, c.i, c.j, c.k);
+    return gradient_at(volume, Voxel{c.i, c.j, c.k}, work);
 }
 //< lesson: gradient
 
@@ -508,7 +510,7 @@ static GradientTable build_gradient_table(const Volume& volume, const EmptySpace
     table.bricks = bricks.count();
     std::vector<size_t> filled(bricks.bz, 0);  // per layer: no two threads count in one
     Work unused;
-    parallel_rows(bricks.bz, threads, unused, [&](int c, Work&) {
+    parallel_rows(bricks.bz, threads, unused, [&](int c, Work& uncounted) {
         for (int b = 0; b < bricks.by; ++b) {
             for (int a = 0; a < bricks.bx; ++a) {
                 bool needed = false;
@@ -522,7 +524,7 @@ static GradientTable build_gradient_table(const Volume& volume, const EmptySpace
                 for (int k = c * size; k < std::min((c + 1) * size, volume.nz); ++k) {
                     for (int j = b * size; j < std::min((b + 1) * size, volume.ny); ++j) {
                         for (int i = a * size; i < std::min((a + 1) * size, volume.nx); ++i) {
-                            const Vec3 g = gradient_at(volume, i, j, k);
+                            const Vec3 g = gradient_at(volume, Voxel{i, j, k}, uncounted);
                             float* out = &table.components[3 * volume.index(i, j, k)];
                             out[0] = g.i;
                             out[1] = g.j;
@@ -589,7 +591,8 @@ static float display_grey(const Volume& volume, double value) {
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
 }
 
-//> lesson: ray_output
+// The ray's two trace records (given): where it starts, and where it meets the box. The entry
+// is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
                       double step) {
     if (!trace) return;
@@ -598,11 +601,12 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
         trace->box_missed(high);
         return;
     }
-    const Vec3d in = ray.origin + span.t_entry * ray.direction;
+    const Vec3d in = entry_point(ray, span, high);
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
     trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
+//> lesson: ray_output
 static Rgb over_background(const Accumulated& ray) {
     return {float(ray.r + ray.transparency * background.r),
             float(ray.g + ray.transparency * background.g),
@@ -623,6 +627,7 @@ struct Scene {
 
 //> lesson: composite
 // Case a, b and c: step 31's compositing, a lit sample's gradient from the table.
+// Changed in step 32: the gradient read from the table is this step's trick.
 static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Params& params = scene.params;
