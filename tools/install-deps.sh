@@ -3,6 +3,7 @@
 #   sh tools/install-deps.sh        what building, running and testing the lab needs
 #   sh tools/install-deps.sh fuzz   also clang and its libFuzzer runtime (make fuzz)
 #   sh tools/install-deps.sh peers  also make bench's peers, VolPack and VTK (make bench PEERS=1)
+#   sh tools/install-deps.sh fuzz peers   both (CI)
 # Required packages build and run the lab; optional ones only serve one test (the window test
 # on a virtual display). As root it installs whatever is missing with apt-get. Otherwise a
 # missing required package stops here (exit status 1) with the one sudo command to run, and
@@ -16,10 +17,16 @@ required="$required python3-nibabel python3-pydicom python3-numpy"
 required="$required bubblewrap"
 optional="xvfb xauth xdotool python3"  # window tests: virtual X display, real X input,
                                         # a display that never answers (bad_input_test.sh)
-[ "${1:-}" = fuzz ] && required="$required clang libclang-rt-dev"
+for extra in "$@"; do
+    case $extra in
+        fuzz|peers) ;;
+        *) echo "install-deps: unknown list '$extra' (fuzz or peers)" >&2; exit 2 ;;
+    esac
+done
+case " $* " in *" fuzz "*) required="$required clang libclang-rt-dev" ;; esac
 # make bench PEERS=1: the peers it times ctlab against (VolPack, VTK's CPU ray caster on a
 # virtual X display); without them the bench leaves their rows out.
-[ "${1:-}" = peers ] && required="$required libvolpack1-dev python3-vtk9 xvfb xauth"
+case " $* " in *" peers "*) required="$required libvolpack1-dev python3-vtk9 xvfb xauth" ;; esac
 
 # missing PACKAGES...: the ones not installed, each with a leading space
 missing() {
