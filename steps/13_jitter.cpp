@@ -1,12 +1,13 @@
 // 13_jitter.cpp: the wood-grain rings of a fixed sample grid, turned into noise by jitter.
 //
-// New here:   every ray of step 12 samples at the same distances from where it enters the box,
+// New here:   every ray of step 11 samples at the same distances from where it enters the box,
 //             so a surface at a slowly changing depth shows rings. Here each pixel moves its
 //             first sample by u * step, u in [0, 1) its own: --jitter hash (white noise, a PCG
 //             hash of the pixel) or --jitter blue (a 64 x 64 blue-noise tile made at start-up
-//             by void and cluster, repeated over the image); --jitter none is step 12.
+//             by void and cluster, repeated over the image); --jitter none is step 11.
 //             --show-jitter draws the offsets u themselves as grey.
-// Builds on:  12_free_leaping (the orbit camera, trilinear samples, lit front to back, leaping).
+// Builds on:  11_trilinear (the orbit camera, the slab method, trilinear samples, lit front to
+//             back).
 // Handout:    handouts/13_jitter.md
 // Run:        make run STEP=13 ARGS="--step 4 --jitter hash"
 // Reference:  data/reference/13_jitter_camera.png: the default run (blue noise, azimuth 30,
@@ -49,7 +50,6 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
-    bool no_leaping = false;     // read every sample, even in bricks known to be empty
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
@@ -335,97 +335,6 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 }
 //< lesson: trilinear
 
-// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
-// the current table, how far the empty space around each brick reaches (see empty_reach); no
-// reach: leap over nothing.
-struct EmptySpace {
-    Bricks bricks;
-    std::vector<uint8_t> reach;  // per brick, 0: the table sees something in it
-
-    int reach_at(const Cell& cell) const {
-        return reach.empty() ? 0 : reach[bricks.index(cell.i, cell.j, cell.k)];
-    }
-};
-constexpr int max_reach = 32;           // bricks: a leap crosses at most 2 * 32 - 1 of them
-constexpr double leap_margin = 1e-6;    // voxels: a leap stops this far before a brick's face
-
-//> lesson: empty_space
-// Step 09's bricks that the table leaves wholly transparent, unchanged.
-static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
-    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
-    for (size_t n = 0; n < lut.entries.size(); ++n) {
-        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
-    }
-    std::vector<uint8_t> empty(bricks.count());
-    for (size_t b = 0; b < bricks.count(); ++b) {
-        const int low = bricks.ranges[b].min - lowest_ct_value;
-        const int high = bricks.ranges[b].max - lowest_ct_value;
-        empty[b] = opaque_before[high + 1] == opaque_before[low];
-    }
-    return empty;
-}
-
-// The bricks whose neighbours (26, at most) are all empty too: `empty` shrunk by one brick
-// on every side, one axis at a time. Past the volume's edge counts as empty (no ray samples
-// there).
-static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> empty) {
-    const size_t strides[3] = {1, size_t(bricks.bx), size_t(bricks.bx) * size_t(bricks.by)};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    for (int axis = 0; axis < 3; ++axis) {
-        const std::vector<uint8_t> before = empty;
-        const size_t stride = strides[axis];
-        for (size_t b = 0; b < empty.size(); ++b) {
-            const int at = int(b / stride % size_t(counts[axis]));  // along this axis
-            if (at > 0) empty[b] &= before[b - stride];
-            if (at + 1 < counts[axis]) empty[b] &= before[b + stride];
-        }
-    }
-    return empty;
-}
-
-// Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
-// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
-// reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
-// A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
-// brick on every side.
-static std::vector<uint8_t> empty_reach(const Bricks& bricks, const std::vector<uint8_t>& empty) {
-    std::vector<uint8_t> reach = empty, cube = empty;  // 1 for an empty brick, 0 else
-    for (int r = 2; r <= max_reach; ++r) {
-        cube = shrink(bricks, cube);
-        bool any = false;
-        for (size_t b = 0; b < cube.size(); ++b) {
-            if (cube[b]) reach[b] = uint8_t(r);
-            any = any || cube[b];
-        }
-        if (!any) break;
-    }
-    return reach;
-}
-
-// The sample to go on from when sample n lies in a brick of reach r: the first one past the
-// faces of the cube of bricks r - 1 around it (the slab method again, in sample units: face
-// = first + t * per_step). Every sample before it is inside the cube, even after rounding:
-// the faces are taken leap_margin voxels inside. A cube that reaches the volume's edge has
-// no face there. At least n + 1, at most the ray's sample count.
-static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& cell, int reach,
-                           long long n) {
-    const int corner[3] = {cell.i, cell.j, cell.k};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    double leave = std::numeric_limits<double>::infinity();  // in samples
-    for (int axis = 0; axis < 3; ++axis) {
-        const double d = walk.per_step[axis];
-        if (d == 0) continue;  // parallel to these faces: never leaves through them
-        const int brick = corner[axis] / brick_size;
-        const int face_brick = d > 0 ? brick + reach : brick - reach + 1;  // its first voxel
-        if (face_brick <= 0 || face_brick >= counts[axis]) continue;       // the volume's edge
-        const double face = face_brick * brick_size + (d > 0 ? -leap_margin : leap_margin);
-        leave = std::min(leave, (face - walk.first[axis]) / d);
-    }
-    if (!(leave < double(walk.count))) return walk.count;
-    return std::max(n + 1, (long long)std::ceil(leave));
-}
-//< lesson: empty_space
-
 // Given: lerp() for gradients.
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
@@ -629,7 +538,7 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 //> lesson: front_to_back
 // The walk moved by the pixel's offset: sample n at t_entry + (u + n) * step until t_exit.
 // A ray shorter than its offset gets no sample: it only grazes the box. With u = 0 this is
-// the walk unchanged, bit for bit (step 12's samples).
+// the walk unchanged, bit for bit (step 11's samples).
 static Walk jittered(Walk walk, const Span& span, double step, float u) {
     const double offset = u * step;  // physical units from the entry to the first sample
     const double length_inside = span.t_exit - span.t_entry;
@@ -641,15 +550,15 @@ static Walk jittered(Walk walk, const Span& span, double step, float u) {
     return walk;
 }
 
-// Step 12's compositing, its samples moved by the pixel's offset u in [0, 1) from the jitter
-// (0: step 12's samples exactly): read by trilinear interpolation, classified by the table,
+// Step 11's compositing, its samples moved by the pixel's offset u in [0, 1) from the jitter
+// (0: step 11's samples exactly): read by trilinear interpolation, classified by the table,
 // lit where it is not transparent, composited front to back; early ray termination as in
-// step 07, leaping over empty bricks as in step 12.
+// step 07.
 // Changed in step 13: the samples move by the pixel's jitter.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, const EmptySpace& space,
-                                           Vec3 to_light, const Params& params,
-                                           const Jitter& jitter, Work& work, Trace* trace) {
+                                           int y, const Lut& lut, Vec3 to_light,
+                                           const Params& params, const Jitter& jitter,
+                                           Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
@@ -666,14 +575,6 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
         const double t = t_first + n * params.step;  // physical units along the ray
-        const int reach = space.reach_at(cell);
-        if (reach > 0) {
-            const long long next = leap_past(walk, space.bricks, cell, reach, n);
-            work.leapt += next - n;
-            if (trace) trace->leap(t, t_first + (next - 1) * params.step, next - n, reach);
-            n = next - 1;
-            continue;
-        }
         const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
@@ -718,7 +619,7 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 12's orbit camera with each pixel's first sample moved by a "
+        Args args(step_name, "Step 11's orbit camera with each pixel's first sample moved by a "
                              "random fraction of the step: rings become noise.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
@@ -734,8 +635,6 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
-        args.add_switch("--no-leaping", &params.no_leaping,
-                        "read every sample, even in bricks the table leaves transparent");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
@@ -775,15 +674,6 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
-        // --- The bricks the table leaves empty ---
-        EmptySpace space;
-        if (!params.no_leaping) space.bricks = make_bricks(volume, brick_size, options.threads);
-        auto update_empty_space = [&] {
-            if (params.no_leaping) return;
-            space.reach = empty_reach(space.bricks, find_empty_bricks(space.bricks, lut));
-        };
-        update_empty_space();
-
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does), and each pixel's jitter (the
         // blue-noise tile made once) ---
@@ -811,8 +701,8 @@ int main(int argc, char** argv) {
                 }
                 return grey(u);
             }
-            return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
-                                                           to_light, params, jitter, work, trace));
+            return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
+                                                           params, jitter, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
@@ -836,7 +726,6 @@ int main(int argc, char** argv) {
                              if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
-                             update_empty_space();
                          },
                          [&] { return summary_number(params.step); }};
         renderer.orbit.turn = [&](double azimuth, double elevation) {
@@ -858,7 +747,6 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
-                   " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
                    " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +

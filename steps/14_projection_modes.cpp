@@ -5,7 +5,7 @@
 //             mean (average, a simulated X-ray), shown as grey with part 1's mapping (the
 //             volume's min..max to black..white). --slab W keeps only the samples within W/2
 //             of the plane through the box's centre, facing the camera (a thin-slab projection).
-//             Step 12's table, light, compositing and leaping (which needs the table) go.
+//             Step 11's table, light and compositing go.
 // Builds on:  11_trilinear (the orbit camera, the slab method, trilinear samples).
 // Handout:    handouts/14_projection_modes.md
 // Run:        make run STEP=14 ARGS="--mode minip --slab 20"
@@ -325,7 +325,7 @@ static Span within_slab(const Ray& ray, Span span, const Camera& camera, double 
     return span;
 }
 
-// One ray's projection: samples at t_entry + n * step until t_exit (step 12's), read by
+// One ray's projection: samples at t_entry + n * step until t_exit (step 11's), read by
 // trilinear interpolation; the largest, the smallest and the sum, all starting from the
 // first sample (not from 0: CT values go below 0). Only samples inside the box count: a ray
 // that misses it has none.

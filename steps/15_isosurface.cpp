@@ -4,11 +4,10 @@
 // New here:   along the camera's ray, the first sample above --iso and the one before it
 //             bracket the crossing; bisection on the trilinear field narrows it to 1e-4 voxel;
 //             the surface there is lit with Phong (ambient, diffuse, specular, --shininess)
-//             from the trilinear central-difference gradient. Step 12's leaping serves the
-//             iso test too: a brick wholly at or below iso cannot hold a crossing. Second,
-//             smaller idea: --clip nx,ny,nz,d keeps the half-space n.p <= d and cuts the rest
-//             away, in the iso render and in step 12's composite render (--mode composite).
-// Builds on:  12_free_leaping (the orbit camera, the slab method, trilinear samples, leaping).
+//             from the trilinear central-difference gradient. Second, smaller idea:
+//             --clip nx,ny,nz,d keeps the half-space n.p <= d and cuts the rest away, in the
+//             iso render and in step 11's composite render (--mode composite).
+// Builds on:  11_trilinear (the orbit camera, the slab method, trilinear samples).
 // Handout:    handouts/15_isosurface.md
 // Run:        make run STEP=15 ARGS="--clip 0,-1,0,-100 --shininess 40"
 // Reference:  data/reference/15_isosurface_camera.png: the default run (iso 400, azimuth 30,
@@ -66,7 +65,6 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
-    bool no_leaping = false;     // read every sample, even in bricks known to be empty
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
@@ -75,7 +73,7 @@ struct Params {
     bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
-    std::string mode = "iso";              // "iso": the surface; "composite": step 12's picture
+    std::string mode = "iso";              // "iso": the surface; "composite": step 11's picture
     int iso = bone_iso;                    // the surface is where the value crosses this
     double shininess = default_shininess;  // Phong exponent
     std::string clip_text;                 // "nx,ny,nz,d" as given; "": no clipping plane
@@ -379,109 +377,6 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 }
 //< lesson: trilinear
 
-// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
-// the current table, how far the empty space around each brick reaches (see empty_reach); no
-// reach: leap over nothing.
-struct EmptySpace {
-    Bricks bricks;
-    std::vector<uint8_t> reach;  // per brick, 0: the table sees something in it
-
-    int reach_at(const Cell& cell) const {
-        return reach.empty() ? 0 : reach[bricks.index(cell.i, cell.j, cell.k)];
-    }
-};
-constexpr int max_reach = 32;           // bricks: a leap crosses at most 2 * 32 - 1 of them
-constexpr double leap_margin = 1e-6;    // voxels: a leap stops this far before a brick's face
-
-//> lesson: empty_space
-// Step 09's bricks that the table leaves wholly transparent, unchanged.
-static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
-    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
-    for (size_t n = 0; n < lut.entries.size(); ++n) {
-        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
-    }
-    std::vector<uint8_t> empty(bricks.count());
-    for (size_t b = 0; b < bricks.count(); ++b) {
-        const int low = bricks.ranges[b].min - lowest_ct_value;
-        const int high = bricks.ranges[b].max - lowest_ct_value;
-        empty[b] = opaque_before[high + 1] == opaque_before[low];
-    }
-    return empty;
-}
-
-// The bricks whose neighbours (26, at most) are all empty too: `empty` shrunk by one brick
-// on every side, one axis at a time. Past the volume's edge counts as empty (no ray samples
-// there).
-static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> empty) {
-    const size_t strides[3] = {1, size_t(bricks.bx), size_t(bricks.bx) * size_t(bricks.by)};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    for (int axis = 0; axis < 3; ++axis) {
-        const std::vector<uint8_t> before = empty;
-        const size_t stride = strides[axis];
-        for (size_t b = 0; b < empty.size(); ++b) {
-            const int at = int(b / stride % size_t(counts[axis]));  // along this axis
-            if (at > 0) empty[b] &= before[b - stride];
-            if (at + 1 < counts[axis]) empty[b] &= before[b + stride];
-        }
-    }
-    return empty;
-}
-
-// Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
-// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
-// reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
-// A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
-// brick on every side.
-static std::vector<uint8_t> empty_reach(const Bricks& bricks, const std::vector<uint8_t>& empty) {
-    std::vector<uint8_t> reach = empty, cube = empty;  // 1 for an empty brick, 0 else
-    for (int r = 2; r <= max_reach; ++r) {
-        cube = shrink(bricks, cube);
-        bool any = false;
-        for (size_t b = 0; b < cube.size(); ++b) {
-            if (cube[b]) reach[b] = uint8_t(r);
-            any = any || cube[b];
-        }
-        if (!any) break;
-    }
-    return reach;
-}
-
-// The sample to go on from when sample n lies in a brick of reach r: the first one past the
-// faces of the cube of bricks r - 1 around it (the slab method again, in sample units: face
-// = first + t * per_step). Every sample before it is inside the cube, even after rounding:
-// the faces are taken leap_margin voxels inside. A cube that reaches the volume's edge has
-// no face there. At least n + 1, at most the ray's sample count.
-static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& cell, int reach,
-                           long long n) {
-    const int corner[3] = {cell.i, cell.j, cell.k};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    double leave = std::numeric_limits<double>::infinity();  // in samples
-    for (int axis = 0; axis < 3; ++axis) {
-        const double d = walk.per_step[axis];
-        if (d == 0) continue;  // parallel to these faces: never leaves through them
-        const int brick = corner[axis] / brick_size;
-        const int face_brick = d > 0 ? brick + reach : brick - reach + 1;  // its first voxel
-        if (face_brick <= 0 || face_brick >= counts[axis]) continue;       // the volume's edge
-        const double face = face_brick * brick_size + (d > 0 ? -leap_margin : leap_margin);
-        leave = std::min(leave, (face - walk.first[axis]) / d);
-    }
-    if (!(leave < double(walk.count))) return walk.count;
-    return std::max(n + 1, (long long)std::ceil(leave));
-}
-//< lesson: empty_space
-
-//> lesson: leap
-// Step 12's leaping, for the iso test: a brick is empty when its largest value (which covers
-// every sample in its cells, the voxel past it included) is at or below iso: no sample there
-// can be above iso. empty_reach() and leap_past() then work as for the table. Run again
-// whenever iso changes.
-static std::vector<uint8_t> find_bricks_below(const Bricks& bricks, int iso) {
-    std::vector<uint8_t> below(bricks.count());
-    for (size_t b = 0; b < bricks.count(); ++b) below[b] = bricks.ranges[b].max <= iso;
-    return below;
-}
-//< lesson: leap
-
 // Given: lerp() for gradients.
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
@@ -568,14 +463,11 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 //> lesson: front_to_back
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 07. Step 09's
-// leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
-// (leap_past), and every sample leapt over would have been transparent. The span is the
+// transparent, composited front to back; early ray termination as in step 07. The span is the
 // clipped one (clip_span).
 // Changed in step 15: along the clipped span.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, const EmptySpace& space,
-                                           Vec3 to_light, const Params& params, Work& work,
+                                           int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
                                            Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
@@ -590,14 +482,6 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
         const double t = span.t_entry + n * params.step;  // physical units along the ray
-        const int reach = space.reach_at(cell);
-        if (reach > 0) {
-            const long long next = leap_past(walk, space.bricks, cell, reach, n);
-            work.leapt += next - n;
-            if (trace) trace->leap(t, span.t_entry + (next - 1) * params.step, next - n, reach);
-            n = next - 1;
-            continue;
-        }
         const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
@@ -706,14 +590,13 @@ static Rgb lit_colour(const PhongTerms& terms) {
 //< lesson: phong
 
 //> lesson: isosurface
-// Walk the ray as step 12 does, leaping over bricks at or below iso, but instead of
-// compositing, stop at the first sample above iso: the crossing lies between it and the sample
-// before (read or leapt over, it is at or below iso), and bisection finds it. A ray whose
+// Walk the ray as step 11 does, but instead of compositing, stop at the first sample above
+// iso: the crossing lies between it and the sample before (at or below iso), and bisection
+// finds it. A ray whose
 // first sample is already above iso starts inside the surface: it hits at its entry (on the
 // clip plane that is the cut face).
-static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, const Ray& ray,
-                                 const Span& span, const Params& params, Work& work,
-                                 Trace* trace) {
+static SurfaceHit first_crossing(const Volume& volume, const Ray& ray, const Span& span,
+                                 const Params& params, Work& work, Trace* trace) {
     SurfaceHit hit;
     const Walk walk = walk_through(volume, ray, span, params.step);
     const double smallest_spacing = std::min({volume.sx, volume.sy, volume.sz});
@@ -721,14 +604,6 @@ static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, 
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
-        const int reach = space.reach_at(cell);
-        if (reach > 0) {  // samples n .. next - 1 are all at or below iso
-            const long long next = leap_past(walk, space.bricks, cell, reach, n);
-            work.leapt += next - n;
-            if (trace) trace->leap(t(n), t(next - 1), next - n, reach, true);
-            n = next - 1;
-            continue;
-        }
         const float value = sample_value(volume, cell, params.nearest);
         ++work.samples;
         if (trace) {
@@ -762,15 +637,15 @@ static SurfaceHit first_crossing(const Volume& volume, const EmptySpace& space, 
 
 // One pixel of the iso render: the first crossing, its normal (the clip plane's on the cut
 // face, else -gradient / |gradient|) and Phong. A zero gradient has no normal: ambient only.
-static Rgb isosurface_ray(const Volume& volume, const EmptySpace& space, const Camera& camera,
-                          int x, int y, const Params& params, Work& work, Trace* trace) {
+static Rgb isosurface_ray(const Volume& volume, const Camera& camera, int x, int y,
+                          const Params& params, Work& work, Trace* trace) {
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
     const Span box = intersect_box(ray, Vec3d{}, high);
     trace_ray(trace, ray, box, high, params.step);
     const Span span = clip_span(ray, box, params.clip, trace);
     if (!span.hit) return background;
-    const SurfaceHit hit = first_crossing(volume, space, ray, span, params, work, trace);
+    const SurfaceHit hit = first_crossing(volume, ray, span, params, work, trace);
     if (!hit.hit) return background;
     auto to_float = [](const Vec3d& a) { return Vec3{float(a.i), float(a.j), float(a.k)}; };
     Vec3 normal;
@@ -845,9 +720,6 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
-        args.add_switch("--no-leaping", &params.no_leaping,
-                        "read every sample, even in bricks the table leaves transparent "
-                        "(composite) or wholly at or below iso (iso)");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
@@ -863,7 +735,7 @@ int main(int argc, char** argv) {
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
                         "WxH");
         args.add_choice("--mode", &params.mode, {"iso", "composite"},
-                        "the isosurface (iso) or step 12's composite picture");
+                        "the isosurface (iso) or step 11's composite picture");
         args.add_int("--iso", &params.iso, -32768, 32767,
                      "the surface's value, in the file's units (default 400: bone)");
         args.add_double("--shininess", &params.shininess, 1, 1000,
@@ -893,17 +765,7 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
-        // --- The bricks the table leaves empty (composite) or wholly at or below iso (iso) ---
         const bool iso_mode = params.mode == "iso";
-        EmptySpace space;
-        if (!params.no_leaping) space.bricks = make_bricks(volume, brick_size, options.threads);
-        auto update_empty_space = [&] {
-            if (params.no_leaping) return;
-            space.reach = empty_reach(space.bricks,
-                                      iso_mode ? find_bricks_below(space.bricks, params.iso)
-                                               : find_empty_bricks(space.bricks, lut));
-        };
-        update_empty_space();
 
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does) ---
@@ -921,10 +783,10 @@ int main(int argc, char** argv) {
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
             if (iso_mode) {
-                return isosurface_ray(volume, space, camera, x, y, params, work, trace);
+                return isosurface_ray(volume, camera, x, y, params, work, trace);
             }
-            return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
-                                                           to_light, params, work, trace));
+            return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
+                                                           params, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
@@ -948,7 +810,6 @@ int main(int argc, char** argv) {
                              if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
-                             update_empty_space();
                          },
                          [&] { return summary_number(params.step); }};
         if (iso_mode) {  // Up/Down move the iso value instead of the step
@@ -956,7 +817,6 @@ int main(int argc, char** argv) {
                              [&](const View&, int steps) {
                                  params.iso = std::clamp(params.iso + steps * iso_key_step,
                                                          -32768, 32767);
-                                 update_empty_space();
                              },
                              [&] { return std::to_string(params.iso); }};
         }
@@ -979,7 +839,6 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
-                   " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
                    " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +

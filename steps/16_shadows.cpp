@@ -1,16 +1,16 @@
 // 16_shadows.cpp: light that is blocked: shadows towards the light, and ambient occlusion.
 //
-// New here:   every lit sample of step 12's composite asks how much of the light reaches it
+// New here:   every lit sample of step 11's composite asks how much of the light reaches it
 //             through the volume, T_light = product of (1 - alpha) towards the light
 //             (Beer-Lambert, with the opacity-corrected table), which darkens the diffuse
-//             light: --shadows ray marches a shadow ray from the sample (leaping over empty
-//             bricks: they let all the light through); --shadows volume reads T_light
+//             light: --shadows ray marches a shadow ray from the sample; --shadows volume
+//             reads T_light
 //             trilinearly from a light-transmittance volume swept once per render, slice by
 //             slice from the light's side. Ambient occlusion (--ao on): the mean transmittance
 //             over a short distance in six directions darkens the ambient light.
-//             --shadows none --ao off is step 12's picture.
-// Builds on:  12_free_leaping (the orbit camera, the slab method, trilinear samples, lit front
-//             to back, leaping over empty bricks).
+//             --shadows none --ao off is step 11's picture.
+// Builds on:  11_trilinear (the orbit camera, the slab method, trilinear samples, lit front to
+//             back).
 // Handout:    handouts/16_shadows.md
 // Run:        make run STEP=16 ARGS="--light-angle 70 --ao off"
 // Reference:  data/reference/16_shadows_camera.png: the default run (shadow rays and ambient
@@ -53,7 +53,6 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
-    bool no_leaping = false;     // read every sample, even in bricks known to be empty
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
@@ -334,97 +333,6 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 }
 //< lesson: trilinear
 
-// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
-// the current table, how far the empty space around each brick reaches (see empty_reach); no
-// reach: leap over nothing.
-struct EmptySpace {
-    Bricks bricks;
-    std::vector<uint8_t> reach;  // per brick, 0: the table sees something in it
-
-    int reach_at(const Cell& cell) const {
-        return reach.empty() ? 0 : reach[bricks.index(cell.i, cell.j, cell.k)];
-    }
-};
-constexpr int max_reach = 32;           // bricks: a leap crosses at most 2 * 32 - 1 of them
-constexpr double leap_margin = 1e-6;    // voxels: a leap stops this far before a brick's face
-
-//> lesson: empty_space
-// Step 09's bricks that the table leaves wholly transparent, unchanged.
-static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
-    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
-    for (size_t n = 0; n < lut.entries.size(); ++n) {
-        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
-    }
-    std::vector<uint8_t> empty(bricks.count());
-    for (size_t b = 0; b < bricks.count(); ++b) {
-        const int low = bricks.ranges[b].min - lowest_ct_value;
-        const int high = bricks.ranges[b].max - lowest_ct_value;
-        empty[b] = opaque_before[high + 1] == opaque_before[low];
-    }
-    return empty;
-}
-
-// The bricks whose neighbours (26, at most) are all empty too: `empty` shrunk by one brick
-// on every side, one axis at a time. Past the volume's edge counts as empty (no ray samples
-// there).
-static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> empty) {
-    const size_t strides[3] = {1, size_t(bricks.bx), size_t(bricks.bx) * size_t(bricks.by)};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    for (int axis = 0; axis < 3; ++axis) {
-        const std::vector<uint8_t> before = empty;
-        const size_t stride = strides[axis];
-        for (size_t b = 0; b < empty.size(); ++b) {
-            const int at = int(b / stride % size_t(counts[axis]));  // along this axis
-            if (at > 0) empty[b] &= before[b - stride];
-            if (at + 1 < counts[axis]) empty[b] &= before[b + stride];
-        }
-    }
-    return empty;
-}
-
-// Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
-// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
-// reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
-// A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
-// brick on every side.
-static std::vector<uint8_t> empty_reach(const Bricks& bricks, const std::vector<uint8_t>& empty) {
-    std::vector<uint8_t> reach = empty, cube = empty;  // 1 for an empty brick, 0 else
-    for (int r = 2; r <= max_reach; ++r) {
-        cube = shrink(bricks, cube);
-        bool any = false;
-        for (size_t b = 0; b < cube.size(); ++b) {
-            if (cube[b]) reach[b] = uint8_t(r);
-            any = any || cube[b];
-        }
-        if (!any) break;
-    }
-    return reach;
-}
-
-// The sample to go on from when sample n lies in a brick of reach r: the first one past the
-// faces of the cube of bricks r - 1 around it (the slab method again, in sample units: face
-// = first + t * per_step). Every sample before it is inside the cube, even after rounding:
-// the faces are taken leap_margin voxels inside. A cube that reaches the volume's edge has
-// no face there. At least n + 1, at most the ray's sample count.
-static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& cell, int reach,
-                           long long n) {
-    const int corner[3] = {cell.i, cell.j, cell.k};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    double leave = std::numeric_limits<double>::infinity();  // in samples
-    for (int axis = 0; axis < 3; ++axis) {
-        const double d = walk.per_step[axis];
-        if (d == 0) continue;  // parallel to these faces: never leaves through them
-        const int brick = corner[axis] / brick_size;
-        const int face_brick = d > 0 ? brick + reach : brick - reach + 1;  // its first voxel
-        if (face_brick <= 0 || face_brick >= counts[axis]) continue;       // the volume's edge
-        const double face = face_brick * brick_size + (d > 0 ? -leap_margin : leap_margin);
-        leave = std::min(leave, (face - walk.first[axis]) / d);
-    }
-    if (!(leave < double(walk.count))) return walk.count;
-    return std::max(n + 1, (long long)std::ceil(leave));
-}
-//< lesson: empty_space
-
 // Given: lerp() for gradients.
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
@@ -489,7 +397,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 // layout, so a sample's Cell reads it as it reads the values.
 using LightVolume = std::vector<float>;
 
-// What light that is blocked needs beside step 12's table: ambient occlusion's own table
+// What light that is blocked needs beside step 11's table: ambient occlusion's own table
 // (corrected for occlusion_step) and, with --shadows volume, the light-transmittance volume of
 // the current light (empty otherwise).
 struct Blocking {
@@ -504,12 +412,10 @@ struct Blocking {
 // transparencies of the samples met, T_light = product of (1 - alpha). The table's alphas are
 // corrected for the step, so through a homogeneous medium T_light = (1 - alpha)^(distance /
 // unit) = exp(-sigma d), Beer-Lambert with sigma = -ln(1 - alpha) per unit. The sample itself
-// (n = 0) is left out (it would shadow itself); empty bricks let all the light through, so
-// the shadow ray leaps over them as the camera's ray does; the march stops once T_light is
-// below min_light_transmittance.
-static double light_transmittance(const Volume& volume, const Lut& lut, const EmptySpace& space,
-                                  const Vec3d& point, const Vec3d& to_light, double step,
-                                  Work& work) {
+// (n = 0) is left out (it would shadow itself); the march stops once T_light is below
+// min_light_transmittance.
+static double light_transmittance(const Volume& volume, const Lut& lut, const Vec3d& point,
+                                  const Vec3d& to_light, double step, Work& work) {
     const Ray ray = {point, to_light};
     const Span span = intersect_box(ray, Vec3d{}, box_high(volume));
     if (!span.hit) return 1;
@@ -517,13 +423,6 @@ static double light_transmittance(const Volume& volume, const Lut& lut, const Em
     double transmittance = 1;
     for (long long n = 1; n < walk.count; ++n) {
         const Cell cell = cell_at(volume, walk.at(n), false);  // trilinear, whatever the camera
-        const int reach = space.reach_at(cell);
-        if (reach > 0) {
-            const long long next = leap_past(walk, space.bricks, cell, reach, n);
-            work.leapt += next - n;
-            n = next - 1;
-            continue;
-        }
         ++work.samples;
         const float value = trilinear(volume, cell);
         transmittance *= 1 - lut.entries[int(double(value) - lowest_ct_value)].a;
@@ -634,7 +533,7 @@ static double ambient_occlusion(const Volume& volume, const Lut& occlusion_lut, 
     return sum / 6;
 }
 
-// Step 12's light, blocked: the diffuse part only as far as T_light lets it through, the
+// Step 11's light, blocked: the diffuse part only as far as T_light lets it through, the
 // ambient part as far as the surroundings are open.
 static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching,
                            double occlusion) {
@@ -665,15 +564,13 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 //> lesson: front_to_back
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 07. Step 09's
-// leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
-// (leap_past), and every sample leapt over would have been transparent. A lit sample's light
-// is blocked: shade_blocked() with T_light (a shadow ray, or the light volume) and its
+// transparent, composited front to back; early ray termination as in step 07. A lit sample's
+// light is blocked: shade_blocked() with T_light (a shadow ray, or the light volume) and its
 // ambient occlusion.
 // Changed in step 16: a lit sample's light is blocked.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, const EmptySpace& space,
-                                           Vec3 to_light, const Blocking& blocking,
+                                           int y, const Lut& lut, Vec3 to_light,
+                                           const Blocking& blocking,
                                            const Params& params, Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
@@ -691,14 +588,6 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
         const double t = span.t_entry + n * params.step;  // physical units along the ray
-        const int reach = space.reach_at(cell);
-        if (reach > 0) {
-            const long long next = leap_past(walk, space.bricks, cell, reach, n);
-            work.leapt += next - n;
-            if (trace) trace->leap(t, span.t_entry + (next - 1) * params.step, next - n, reach);
-            n = next - 1;
-            continue;
-        }
         const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
@@ -710,11 +599,10 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         }
         double light = 1.0;  // unlit
         double light_t = 1, occlusion = 1;  // nothing blocks the light, nothing around
-        const uint64_t samples_before = work.samples, leapt_before = work.leapt;
+        const uint64_t samples_before = work.samples;
         if (!params.unlit) {
             if (shadow_rays) {
-                light_t = light_transmittance(volume, lut, space, point, towards,
-                                                     params.step, work);
+                light_t = light_transmittance(volume, lut, point, towards, params.step, work);
             } else if (light_volume) {
                 light_t = light_from_volume(volume, blocking.light, cell);
             }
@@ -730,8 +618,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         pixel.transparency *= 1 - alpha;
         if (trace) {
             trace->sample(TraceSample(t, point, value).rgba(sample)
-                              .shadow(light_t, occlusion, work.samples - samples_before,
-                                      work.leapt - leapt_before)
+                              .shadow(light_t, occlusion, work.samples - samples_before, 0)
                               .light(light).colour(pixel.r, pixel.g, pixel.b)
                               .transparency(pixel.transparency));
         }
@@ -755,7 +642,7 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 12's lit compositing with light that is blocked: shadow rays "
+        Args args(step_name, "Step 11's lit compositing with light that is blocked: shadow rays "
                              "(or a light-transmittance volume) towards the light and ambient "
                              "occlusion.");
         args.add_string("--tf", &params.tf_path,
@@ -772,8 +659,6 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
-        args.add_switch("--no-leaping", &params.no_leaping,
-                        "read every sample, even in bricks the table leaves transparent");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
@@ -816,15 +701,6 @@ int main(int argc, char** argv) {
         Blocking blocking;
         blocking.occlusion_lut = build_lut(tf, occlusion_step / unit_length);
 
-        // --- The bricks the table leaves empty ---
-        EmptySpace space;
-        if (!params.no_leaping) space.bricks = make_bricks(volume, brick_size, options.threads);
-        auto update_empty_space = [&] {
-            if (params.no_leaping) return;
-            space.reach = empty_reach(space.bricks, find_empty_bricks(space.bricks, lut));
-        };
-        update_empty_space();
-
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
@@ -855,9 +731,8 @@ int main(int argc, char** argv) {
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
-            return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
-                                                           to_light, blocking, params, work,
-                                                           trace));
+            return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
+                                                           blocking, params, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
@@ -884,7 +759,6 @@ int main(int argc, char** argv) {
                              if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
-                             update_empty_space();
                          },
                          [&] { return summary_number(params.step); }};
         renderer.orbit.turn = [&](double azimuth, double elevation) {
@@ -906,7 +780,6 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
-                   " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
                    " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +

@@ -99,12 +99,11 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     // without leaping, the longest step unlit, and each step's own paths.
     if (ctlab_test::is_camera_step(step)) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
-        // Step 10 reads the nearest voxel only (11 on: --interpolation); 12 on leap (not 14,
-        // and not part 3, which has no --no-leaping).
+        // Step 10 reads the nearest voxel only (11 on: --interpolation); step 17 leaps (part 3
+        // has no --no-leaping).
         std::vector<std::string> nearest = {"--azimuth", "-360"};
         if (step >= "11") nearest.insert(nearest.begin(), {"--interpolation", "nearest"});
-        const bool part3 = step >= "30";
-        if (step >= "12" && !projection_modes && !part3) nearest.push_back("--no-leaping");
+        if (step.rfind("17", 0) == 0) nearest.push_back("--no-leaping");
         all.push_back(nearest);
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
     }

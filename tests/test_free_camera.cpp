@@ -1,5 +1,5 @@
-// test_free_camera.cpp: steps 10-12 (the orbit camera, trilinear samples, leaping along a free
-// ray; most cases on step 12, which has all three) run as programs (tools/run_step.h): its
+// test_free_camera.cpp: steps 10, 11 and 17 (the orbit camera, trilinear samples, leaping along
+// a free ray; most cases on step 17, which has all three) run as programs (tools/run_step.h): its
 // pictures along the three axes against part 1's (step 08), the slab method's stiff cases seen
 // in its traces and float images, trilinear samples on a linear ramp against the closed form,
 // and a sphere whose silhouette has the same radius from every direction.
@@ -20,7 +20,7 @@ using namespace ctlab;
 
 namespace {
 
-const std::string free_camera = "12_free_leaping";
+const std::string free_camera = "17_free_leaping";
 const std::string part1 = "08_lit_compositing";
 
 // Runs a step with --pfm into `folder` and returns its result; the image is read separately.
@@ -394,7 +394,7 @@ TEST_CASE("free camera: the default run matches its reference image, no NaN") {
     CHECK(non_finite_pixels(image) == 0);
     CHECK(summary_count(run.summary("camera"), "samples") > 0);
     CHECK(run.summary("camera").at("size") == "512x512");
-    const std::string path = "data/reference/12_free_leaping_camera.png";
+    const std::string path = "data/reference/17_free_leaping_camera.png";
     REQUIRE_MESSAGE(access(path.c_str(), R_OK) == 0, "missing " << path << ": make reference");
     const Image reference = read_image(path);
     const Comparison c = compare_images(image, reference, 1, "the float render", path);
@@ -463,9 +463,9 @@ TEST_CASE("free camera: leaping over empty bricks never changes the picture") {
 }
 
 // The re-cut of part 2: step 10 (nearest samples) is step 11 with --interpolation nearest, and
-// step 11 is step 12 with --no-leaping, bit for bit, with the same work where they read the
+// step 11 is step 17 with --no-leaping, bit for bit, with the same work where they read the
 // same samples: each step adds its one idea without touching the picture of the one before.
-TEST_CASE("free camera: step 10 is step 11's nearest picture, step 11 is step 12's unleapt") {
+TEST_CASE("free camera: step 10 is step 11's nearest picture, step 11 is step 17's unleapt") {
     const std::vector<std::string> phantom = {"--volume", "phantom"};
     const std::vector<std::string> small = {"--size", "160x128", "--azimuth", "40"};
     auto with = [&](std::vector<std::string> flags) {

@@ -413,65 +413,6 @@ TEST_CASE("isosurface: the Phong terms equal the hand-computed ones for a known 
     }
 }
 
-// How many pixels of two pictures differ in any channel (pictures of different sizes: all).
-static size_t pixels_differing(const Image& a, const Image& b) {
-    if (a.pixels.size() != b.pixels.size()) return std::max(a.pixels.size(), b.pixels.size());
-    size_t differing = 0;
-    for (size_t n = 0; n < a.pixels.size(); ++n) {
-        differing += a.pixels[n].r != b.pixels[n].r || a.pixels[n].g != b.pixels[n].g ||
-                     a.pixels[n].b != b.pixels[n].b;
-    }
-    return differing;
-}
-
-TEST_CASE("isosurface: leaping over bricks below iso changes the work, not the picture") {
-    const TempFolder leaping("isosurface_leaping"), reading("isosurface_reading");
-    const std::vector<std::string> phantom = {"--volume", "phantom"};
-    const std::vector<std::string> flags = {"--size", "160x128", "--zoom", "0.5", "--azimuth",
-                                            "-40", "--elevation", "25"};
-    std::vector<std::string> all = flags;
-    all.push_back("--no-leaping");
-    const RunResult fast = run_iso(phantom, flags, leaping);
-    const RunResult slow = run_iso(phantom, all, reading);
-    const Image a = picture(leaping), b = picture(reading);
-    CHECK(pixels_differing(a, b) == 0);
-    const Summary& with = fast.summary("camera");
-    const Summary& without = slow.summary("camera");
-    CHECK(summary_count(with, "hits") == summary_count(without, "hits"));
-    CHECK(summary_count(with, "hits") > 1000);
-    CHECK(summary_count(without, "leapt") == 0);
-    // Every sample is read or leapt over, and most are leapt over.
-    CHECK(summary_count(with, "samples") + summary_count(with, "leapt") ==
-          summary_count(without, "samples"));
-    CHECK(summary_count(with, "samples") * 3 < summary_count(without, "samples"));
-}
-
-TEST_CASE("isosurface: the clipped composite render leaps as step 12 does, the same picture") {
-    // Step 12's leaping over the bricks the table leaves transparent, on the span the clip
-    // plane cut: a leap starts from the clipped entry, and the picture stays bit for bit.
-    const TempFolder leaping("isosurface_composite_leaping"),
-        reading("isosurface_composite_reading");
-    const std::vector<std::string> phantom = {"--volume", "phantom"};
-    const std::vector<std::string> flags = {"--mode", "composite", "--clip", "1,1,0,200",
-                                            "--size", "160x128", "--zoom", "0.5",
-                                            "--azimuth", "-40", "--elevation", "25"};
-    std::vector<std::string> all = flags;
-    all.push_back("--no-leaping");
-    const RunResult fast = run_iso(phantom, flags, leaping);
-    const RunResult slow = run_iso(phantom, all, reading);
-    const Image a = picture(leaping), b = picture(reading);
-    CHECK(pixels_differing(a, b) == 0);
-    const Summary& with = fast.summary("camera");
-    const Summary& without = slow.summary("camera");
-    CHECK(summary_count(without, "leapt") == 0);
-    CHECK(summary_count(with, "leapt") > 0);
-    // Every sample is read or leapt over; rays still end at the same early termination.
-    CHECK(summary_count(with, "samples") + summary_count(with, "leapt") ==
-          summary_count(without, "samples"));
-    CHECK(summary_count(with, "terminated") == summary_count(without, "terminated"));
-    CHECK(summary_count(with, "samples") < summary_count(without, "samples"));
-}
-
 TEST_CASE("isosurface: the picture and the work do not depend on the thread count") {
     const TempFolder one("isosurface_threads1"), three("isosurface_threads3");
     std::vector<Summary> summaries;

@@ -1,5 +1,5 @@
 // test_jitter.cpp: step 13 (jitter) run as a program (tools/run_step.h). Without jitter it is
-// step 12 bit for bit; the hash's offsets are uniform on [0, 1) and the same in every run; the
+// step 11 bit for bit; the hash's offsets are uniform on [0, 1) and the same in every run; the
 // blue-noise tile holds every rank once and has far less low-frequency power than white noise
 // (the analytic flat spectrum); the trace shows the offset; and on a ball, jitter removes the
 // rings a fixed sample grid draws (measured as the error that survives averaging along rings).
@@ -18,7 +18,7 @@ using namespace ctlab;
 namespace {
 
 const std::string jitter_step = "13_jitter";
-const std::string free_camera = "12_free_leaping";
+const std::string free_camera = "11_trilinear";
 constexpr int tile = 64;  // the blue-noise tile's side, as handouts/13_jitter.md says
 constexpr double pi = 3.14159265358979323846;
 
@@ -145,7 +145,7 @@ double ring_banding(const Image& image, const Image& reference, double out_to) {
 
 }  // namespace
 
-TEST_CASE("jitter: --jitter none draws step 12's picture bit for bit, with the same work") {
+TEST_CASE("jitter: --jitter none draws step 11's picture bit for bit, with the same work") {
     const TempFolder folder("jitter_none");
     for (const std::vector<std::string>& camera :
          std::vector<std::vector<std::string>>{{"--size", "96x80", "--zoom", "0.35"},

@@ -3,8 +3,8 @@
 // written here: a homogeneous slab between the light and a surface (Beer-Lambert, by shadow
 // ray and by the light volume), a lone voxel in empty space (nothing blocks its light,
 // nothing is around it), a uniform block (ambient occlusion of a known medium), and the
-// phantom: shadows and occlusion off (step 12's picture, bit for bit), leaping shadow rays
-// (the same picture), the light volume against the shadow rays (close, and far fewer reads).
+// phantom: shadows and occlusion off (step 11's picture, bit for bit), the light volume against
+// the shadow rays (close, and far fewer reads).
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <cmath>
@@ -203,16 +203,16 @@ TEST_CASE("shadows: ambient occlusion inside a uniform medium is (1 - alpha)^(ra
     CHECK(inside >= 30);
 }
 
-TEST_CASE("shadows: with shadows and occlusion off it is step 12's picture, bit for bit") {
+TEST_CASE("shadows: with shadows and occlusion off it is step 11's picture, bit for bit") {
     const TempFolder ten("shadows_step10"), fourteen("shadows_off");
     const std::vector<std::string> flags = {"--volume", "phantom", "--size", "128x96", "--zoom",
                                             "0.4", "--azimuth", "-50", "--threads", "2", "--pfm"};
     std::vector<std::string> a = flags, b = flags;
     a.insert(a.end(), {"--out", ten.path()});
     b.insert(b.end(), {"--out", fourteen.path(), "--shadows", "none", "--ao", "off"});
-    REQUIRE(run_step("12_free_leaping", a).status == 0);
+    REQUIRE(run_step("11_trilinear", a).status == 0);
     REQUIRE(run_step(shadows_step, b).status == 0);
-    const Image p = read_pfm(step_output(ten.path(), "12_free_leaping", "camera", "pfm"));
+    const Image p = read_pfm(step_output(ten.path(), "11_trilinear", "camera", "pfm"));
     const Image q = read_pfm(step_output(fourteen.path(), shadows_step, "camera", "pfm"));
     REQUIRE(p.pixels.size() == q.pixels.size());
     int differing = 0;
@@ -272,23 +272,6 @@ Picture phantom_picture(const std::vector<std::string>& extra, const TempFolder&
     return picture;
 }
 
-TEST_CASE("shadows: shadow rays leap over empty bricks and give the same picture as without") {
-    const TempFolder folder("shadows_leap");
-    const Picture leaping = phantom_picture({"--ao", "off"}, folder);
-    const Picture every = phantom_picture({"--ao", "off", "--no-leaping"}, folder);
-    REQUIRE(leaping.image.pixels.size() == every.image.pixels.size());
-    int differing = 0;
-    for (size_t n = 0; n < leaping.image.pixels.size(); ++n) {
-        differing += leaping.image.pixels[n].r != every.image.pixels[n].r ||
-                     leaping.image.pixels[n].g != every.image.pixels[n].g ||
-                     leaping.image.pixels[n].b != every.image.pixels[n].b;
-    }
-    CHECK(differing == 0);  // a leapt sample is transparent: it multiplies T_light by 1
-    CHECK(leaping.count("leapt") > 0);
-    CHECK(leaping.count("samples") + leaping.count("leapt") == every.count("samples"));
-    CHECK(leaping.count("samples") * 2 < every.count("samples"));
-}
-
 TEST_CASE("shadows: the light-transmittance volume gives the shadow rays' picture for one read "
           "per voxel, where the shadow rays read per lit sample") {
     const TempFolder folder("shadows_volume");
@@ -331,6 +314,6 @@ TEST_CASE("shadows: the light-transmittance volume gives the shadow rays' pictur
     CAPTURE(marched_512);
     CHECK(marched_512 > 3 * marched);
     CHECK(swept_512.count("samples") < rays_512.count("samples"));
-    // and its steps along the shadow rays, samples and leaps, several times the sweep's reads
-    CHECK(marched_512 + rays_512.count("leapt") - open_512.count("leapt") > 4 * sweep);
+    // and its steps along the shadow rays several times the sweep's reads
+    CHECK(marched_512 > 4 * sweep);
 }

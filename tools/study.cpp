@@ -14,7 +14,7 @@
 //              jitter (trilinear): RMSE, and RMSE after a 5x5 blur
 //              (the rings and bands that survive it; noise does not)
 //   shadows    step 16: shadow rays, the light-transmittance volume and ambient occlusion,
-//              each against step 12's light (what it adds) with its time and samples read;
+//              each against step 11's light (what it adds) with its time and samples read;
 //              rays and volume at step 4 .. 1/2 against shadow rays at step 1/4
 //   precision  the cost of subnormal arithmetic on this machine, and of a float ray
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
@@ -628,7 +628,7 @@ constexpr const char* shadows_step = "16_shadows";
 
 void shadows_study() {
     std::printf("shadows: step 16 on the phantom, the default camera at 256x256: each kind of "
-                "blocked light against step 12's light; T_light by shadow rays and by the "
+                "blocked light against step 11's light; T_light by shadow rays and by the "
                 "light-transmittance volume at steps 4 .. 1/2 (ambient occlusion off) against "
                 "shadow rays at step 1/4\n");
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
@@ -636,13 +636,13 @@ void shadows_study() {
         phantom_volume().flags +
         std::vector<std::string>{"--size", quick ? "64x64" : "256x256", "--zoom",
                                  quick ? "1" : "0.5"};
-    // What each adds: the difference from --shadows none --ao off (step 12's light, the same
-    // picture as step 12's), at the default step; the cost in time and samples read (the
+    // What each adds: the difference from --shadows none --ao off (step 11's light, the same
+    // picture as step 11's), at the default step; the cost in time and samples read (the
     // shadow rays', the occlusion probes' and the sweep's reads count as samples).
-    const std::string added = "8-bit (RMSE, max) vs step 12's light";
+    const std::string added = "8-bit (RMSE, max) vs step 11's light";
     const Run open = run(shadows_step, camera + std::vector<std::string>{
                              "--shadows", "none", "--ao", "off"}, true);
-    record({"shadows", "none, ao off (step 12's light)", "1", open.ms(), 0, 0, added,
+    record({"shadows", "none, ao off (step 11's light)", "1", open.ms(), 0, 0, added,
             open.count("samples")});
     for (const char* ao : {"off", "on"}) {
         for (const char* shadows : {"ray", "volume", "none"}) {
@@ -1374,7 +1374,7 @@ int run(int argc, char** argv) {
        << "\n";
     md << "## Shadows (step 16, the default camera at 256x256; error in 8-bit units)\n\n"
        << section("study:shadows",
-                  written_by + "\nWhat each adds: the difference from step 12's light "
+                  written_by + "\nWhat each adds: the difference from step 11's light "
                                "(`--shadows none --ao off`), at step 1; samples count every "
                                "read (the camera's rays, the shadow rays, the occlusion probes, "
                                "the light volume's sweep):\n\n" +

@@ -1,4 +1,4 @@
-// 12_free_leaping.cpp: step 09's leaping over empty bricks, along a free ray.
+// 17_free_leaping.cpp: step 09's leaping over empty bricks, along a free ray.
 //
 // New here:   step 09 leapt over empty bricks along part 1's axis-aligned rays. A camera's ray
 //             crosses bricks at any angle, and one brick at a time would take ~40 leaps to
@@ -6,17 +6,18 @@
 //             around it, and a ray leaps out of that cube at once (the slab method again, in
 //             sample units). Every sample leapt over would have been transparent: the picture
 //             is step 11's (--no-leaping: every sample read), with fewer samples. It is an
-//             optimisation only.
+//             optimisation only, so it comes last in part 2, on step 11's composite (the
+//             renderer steps 13-16 extend without it).
 // Defaults:   as step 10: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
 //             30 degrees right of the camera and 20 above it, a black background.
 // Builds on:  11_trilinear (the orbit camera, trilinear samples, lit front to back).
-// Handout:    handouts/12_free_leaping.md
-// Run:        make run STEP=12 ARGS="--no-leaping"
-// Reference:  data/reference/12_free_leaping_camera.png: the default run, on the phantom.
+// Handout:    handouts/17_free_leaping.md
+// Run:        make run STEP=17 ARGS="--no-leaping"
+// Reference:  data/reference/17_free_leaping_camera.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "12_free_leaping";
+constexpr const char* step_name = "17_free_leaping";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -507,7 +508,7 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // transparent, composited front to back; early ray termination as in step 07. Step 09's
 // leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
 // (leap_past), and every sample leapt over would have been transparent.
-// Changed in step 12: leaps over the empty cube around a sample.
+// Changed in step 17: leaps over the empty cube around a sample.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, const EmptySpace& space,
                                            Vec3 to_light, const Params& params, Work& work,
@@ -611,7 +612,7 @@ int main(int argc, char** argv) {
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 12 renders the camera's view; turn it with "
+            throw InputError("--view: step 17 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
