@@ -108,6 +108,10 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
     }
     if (step >= "30") all.push_back({"--mode", "mip", "--elevation", "-90"});  // part 3's MIP
+    if (step.rfind("12", 0) == 0) {
+        all.push_back({"--jitter", "hash", "--zoom", "0.01"});
+        all.push_back({"--jitter", "hash", "--show-jitter"});  // a trace with no ray
+    }
     if (step.rfind("13", 0) == 0) {
         all.push_back({"--jitter", "blue"});
         all.push_back({"--jitter", "hash", "--zoom", "0.01"});

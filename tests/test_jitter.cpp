@@ -1,8 +1,9 @@
-// test_jitter.cpp: step 13 (jitter) run as a program (tools/run_step.h). Without jitter it is
-// step 11 bit for bit; the hash's offsets are uniform on [0, 1) and the same in every run; the
-// blue-noise tile holds every rank once and has far less low-frequency power than white noise
-// (the analytic flat spectrum); the trace shows the offset; and on a ball, jitter removes the
-// rings a fixed sample grid draws (measured as the error that survives averaging along rings).
+// test_jitter.cpp: steps 12 (jitter by a hash) and 13 (blue noise) run as programs
+// (tools/run_step.h). Without jitter each is step 11 bit for bit; the hash's offsets are
+// uniform on [0, 1) and the same in every run; the blue-noise tile holds every rank once and
+// has far less low-frequency power than white noise (the analytic flat spectrum); the trace
+// shows the offset; and on a ball, jitter removes the rings a fixed sample grid draws
+// (measured as the error that survives averaging along rings).
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <cmath>
@@ -17,9 +18,10 @@ using namespace ctlab;
 
 namespace {
 
-const std::string jitter_step = "13_jitter";
+const std::string jitter_step = "13_blue_noise";  // every mode: none, hash, blue
+const std::string hash_step = "12_jitter";        // none and hash
 const std::string free_camera = "11_trilinear";
-constexpr int tile = 64;  // the blue-noise tile's side, as handouts/13_jitter.md says
+constexpr int tile = 64;  // the blue-noise tile's side, as handouts/13_blue_noise.md says
 constexpr double pi = 3.14159265358979323846;
 
 RunResult render(const std::string& step, std::vector<std::string> flags,
@@ -155,20 +157,48 @@ TEST_CASE("jitter: --jitter none draws step 11's picture bit for bit, with the s
         flags.insert(flags.end(), camera.begin(), camera.end());
         const RunResult ten = render(free_camera, flags, folder);
         flags.insert(flags.end(), {"--jitter", "none"});
-        const RunResult eleven = render(jitter_step, flags, folder);
-        const Image a = camera_pfm(folder, free_camera), b = camera_pfm(folder, jitter_step);
-        REQUIRE(a.pixels.size() == b.pixels.size());
-        int differing = 0;
-        for (size_t n = 0; n < a.pixels.size(); ++n) {
-            const Rgb &p = a.pixels[n], &q = b.pixels[n];
-            if (p.r != q.r || p.g != q.g || p.b != q.b) ++differing;
-        }
-        CHECK(differing == 0);
-        for (const char* counter : {"samples", "skipped", "leapt", "gradients", "terminated"}) {
-            CAPTURE(counter);
-            CHECK(ten.summary("camera").at(counter) == eleven.summary("camera").at(counter));
+        for (const std::string& step : {hash_step, jitter_step}) {
+            CAPTURE(step);
+            const RunResult eleven = render(step, flags, folder);
+            const Image a = camera_pfm(folder, free_camera), b = camera_pfm(folder, step);
+            REQUIRE(a.pixels.size() == b.pixels.size());
+            int differing = 0;
+            for (size_t n = 0; n < a.pixels.size(); ++n) {
+                const Rgb &p = a.pixels[n], &q = b.pixels[n];
+                if (p.r != q.r || p.g != q.g || p.b != q.b) ++differing;
+            }
+            CHECK(differing == 0);
+            for (const char* counter :
+                 {"samples", "skipped", "leapt", "gradients", "terminated"}) {
+                CAPTURE(counter);
+                CHECK(ten.summary("camera").at(counter) == eleven.summary("camera").at(counter));
+            }
         }
     }
+}
+
+// Step 13 adds the blue-noise tile only: its --jitter hash is step 12's default, bit for bit.
+TEST_CASE("jitter: step 13's --jitter hash is step 12's picture, bit for bit, with the same work") {
+    const TempFolder folder("jitter_hash_steps");
+    const std::vector<std::string> flags = {"--volume", "phantom", "--size", "96x80", "--zoom",
+                                            "0.35", "--step", "4"};
+    const RunResult twelve = render(hash_step, flags, folder);
+    std::vector<std::string> hash = flags;
+    hash.insert(hash.end(), {"--jitter", "hash"});
+    const RunResult thirteen = render(jitter_step, hash, folder);
+    const Image a = camera_pfm(folder, hash_step), b = camera_pfm(folder, jitter_step);
+    REQUIRE(a.pixels.size() == b.pixels.size());
+    int differing = 0;
+    for (size_t n = 0; n < a.pixels.size(); ++n) {
+        const Rgb &p = a.pixels[n], &q = b.pixels[n];
+        if (p.r != q.r || p.g != q.g || p.b != q.b) ++differing;
+    }
+    CHECK(differing == 0);
+    for (const char* counter : {"samples", "skipped", "gradients", "terminated"}) {
+        CAPTURE(counter);
+        CHECK(twelve.summary("camera").at(counter) == thirteen.summary("camera").at(counter));
+    }
+    CHECK(summary_count(twelve.summary("camera"), "samples") > 0);
 }
 
 TEST_CASE("jitter: the hash's offsets are uniform on [0, 1), uncorrelated and deterministic") {

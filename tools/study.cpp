@@ -588,7 +588,7 @@ ImageError low_pass_error(const Image& image, const Image& reference, int radius
     return {std::sqrt(sum / count) * byte_units, largest * byte_units};
 }
 
-constexpr const char* jitter_step = "13_jitter";
+constexpr const char* jitter_step = "13_blue_noise";
 constexpr int jitter_blur_radius = 2;  // pixels: the low-pass box is 5 x 5
 
 void jitter_study() {

@@ -1,21 +1,20 @@
-// 13_jitter.cpp: the wood-grain rings of a fixed sample grid, turned into noise by jitter.
+// 12_jitter.cpp: the wood-grain rings of a fixed sample grid, turned into noise by jitter.
 //
 // New here:   every ray of step 11 samples at the same distances from where it enters the box,
 //             so a surface at a slowly changing depth shows rings. Here each pixel moves its
-//             first sample by u * step, u in [0, 1) its own: --jitter hash (white noise, a PCG
-//             hash of the pixel) or --jitter blue (a 64 x 64 blue-noise tile made at start-up
-//             by void and cluster, repeated over the image); --jitter none is step 11.
-//             --show-jitter draws the offsets u themselves as grey.
+//             first sample by u * step, u in [0, 1) its own, from a hash of the pixel (white
+//             noise: --jitter hash, a PCG hash); --jitter none is step 11. --show-jitter draws
+//             the offsets u themselves as grey. Step 13 spreads the offsets more evenly.
 // Builds on:  11_trilinear (the orbit camera, the slab method, trilinear samples, lit front to
 //             back).
-// Handout:    handouts/13_jitter.md
-// Run:        make run STEP=13 ARGS="--step 4 --jitter hash"
-// Reference:  data/reference/13_jitter_camera.png: the default run (blue noise, azimuth 30,
+// Handout:    handouts/12_jitter.md
+// Run:        make run STEP=12 ARGS="--step 4 --jitter none"
+// Reference:  data/reference/12_jitter_camera.png: the default run (hash jitter, azimuth 30,
 //             elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "13_jitter";
+constexpr const char* step_name = "12_jitter";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -38,9 +37,6 @@ constexpr int max_image_side = 8192;             // pixels, --size limit per sid
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
-constexpr int tile_side = 64;           // pixels: the blue-noise tile, repeated over the image
-constexpr double tile_sigma = 1.5;      // pixels: void and cluster's Gaussian (Ulichney's 1.5)
-constexpr double initial_share = 0.1;   // of the tile's pixels in void and cluster's first pattern
 
 struct Params {
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
@@ -58,14 +54,13 @@ struct Params {
     bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
-    std::string jitter = "blue";           // "none", "hash" or "blue"
+    std::string jitter = "hash";           // "none" or "hash"
     bool show_jitter = false;              // draw the offsets u as grey instead of the volume
 };
 
-// The per-pixel offsets of the first sample: by hash, or from the blue-noise tile.
+// The per-pixel offsets of the first sample: none, or by hash.
 struct Jitter {
-    std::string mode = "none";  // "none", "hash" or "blue"
-    std::vector<float> tile;    // blue: tile_side * tile_side offsets in [0, 1), row by row
+    std::string mode = "none";  // "none" or "hash"
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -422,101 +417,9 @@ static float hash_offset(int x, int y) {
 }
 //< lesson: hash
 
-// A binary pattern on the tile (which wraps around at its edges) and its energy: each 1 adds a
-// Gaussian of width tile_sigma around itself to every pixel's energy.
-struct Pattern {
-    std::vector<char> ones = std::vector<char>(tile_side * tile_side, 0);
-    std::vector<double> energy = std::vector<double>(tile_side * tile_side, 0.0);
-    int count = 0;  // how many 1s
-};
-
-//> lesson: blue_noise
-// Sets pixel p to 1 or back to 0, adding or taking away its Gaussian. The distance wraps around
-// the tile's edges, so the tile repeats without a seam.
-static void flip(Pattern& pattern, int p) {
-    const bool now_one = !pattern.ones[p];
-    pattern.ones[p] = now_one;
-    pattern.count += now_one ? 1 : -1;
-    const double sign = now_one ? 1.0 : -1.0;
-    const int px = p % tile_side, py = p / tile_side;
-    for (int y = 0; y < tile_side; ++y) {
-        const int dy = std::min(std::abs(y - py), tile_side - std::abs(y - py));
-        for (int x = 0; x < tile_side; ++x) {
-            const int dx = std::min(std::abs(x - px), tile_side - std::abs(x - px));
-            const double r2 = double(dx * dx + dy * dy);
-            pattern.energy[y * tile_side + x] +=
-                sign * std::exp(-r2 / (2 * tile_sigma * tile_sigma));
-        }
-    }
-}
-
-// The tightest cluster: the 1 with the most energy. The largest void: the 0 with the least.
-// Ties go to the first pixel, so the tile is the same in every run.
-static int tightest_cluster(const Pattern& pattern) {
-    int best = -1;
-    for (int p = 0; p < int(pattern.ones.size()); ++p) {
-        if (pattern.ones[p] && (best < 0 || pattern.energy[p] > pattern.energy[best])) best = p;
-    }
-    return best;
-}
-static int largest_void(const Pattern& pattern) {
-    int best = -1;
-    for (int p = 0; p < int(pattern.ones.size()); ++p) {
-        if (!pattern.ones[p] && (best < 0 || pattern.energy[p] < pattern.energy[best])) best = p;
-    }
-    return best;
-}
-
-// Void and cluster (Ulichney 1993): every pixel of the tile gets a rank, 0 .. side^2 - 1, such
-// that the pixels of any rank below r are spread evenly, with no clumps and no holes: blue
-// noise. The offset of rank r is (r + 0.5) / side^2: each offset once, evenly over [0, 1).
-static std::vector<float> blue_noise_tile() {
-    const int count = tile_side * tile_side;
-    // 1. A first pattern of about 10% of the pixels, picked by the hash: white noise.
-    Pattern pattern;
-    for (int p = 0; p < count; ++p) {
-        if (hash_offset(p % tile_side, p / tile_side) < initial_share) flip(pattern, p);
-    }
-    if (pattern.count == 0) flip(pattern, 0);
-    // 2. Even it out: move the tightest cluster into the largest void, until the largest void
-    //    is where that 1 came from (at most `count` moves, in case it never settles).
-    for (int move = 0; move < count; ++move) {
-        const int cluster = tightest_cluster(pattern);
-        flip(pattern, cluster);
-        const int gap = largest_void(pattern);
-        flip(pattern, gap);
-        if (gap == cluster) break;
-    }
-    std::vector<int> rank(count, -1);
-    // 3. The first pattern's 1s, ranked from the last: take away the tightest cluster each time.
-    Pattern taking = pattern;
-    for (int r = pattern.count - 1; r >= 0; --r) {
-        const int cluster = tightest_cluster(taking);
-        flip(taking, cluster);
-        rank[cluster] = r;
-    }
-    // 4. The rest, ranked from the first: fill the largest void each time. (Ulichney fills the
-    //    second half at the tightest cluster of 0s instead. That is the same pixel: the kernel
-    //    summed over the whole wrapped tile is the same at every pixel, so a 0's energy from
-    //    the 0s is that sum minus its energy from the 1s.)
-    for (int r = pattern.count; r < count; ++r) {
-        const int gap = largest_void(pattern);
-        flip(pattern, gap);
-        rank[gap] = r;
-    }
-    std::vector<float> tile(count);
-    for (int p = 0; p < count; ++p) tile[p] = float((rank[p] + 0.5) / count);
-    return tile;
-}
-//< lesson: blue_noise
-
-// Pixel (x, y)'s offset u in [0, 1): 0 without jitter. A tile that is not there (not made yet)
-// gives 0 too.
+// Pixel (x, y)'s offset u in [0, 1): 0 without jitter.
 static float jitter_offset(const Jitter& jitter, int x, int y) {
     if (jitter.mode == "hash") return hash_offset(x, y);
-    if (jitter.mode == "blue" && jitter.tile.size() == size_t(tile_side * tile_side)) {
-        return jitter.tile[(y % tile_side) * tile_side + x % tile_side];
-    }
     return 0.0f;
 }
 
@@ -554,7 +457,7 @@ static Walk jittered(Walk walk, const Span& span, double step, float u) {
 // (0: step 11's samples exactly): read by trilinear interpolation, classified by the table,
 // lit where it is not transparent, composited front to back; early ray termination as in
 // step 07.
-// Changed in step 13: the samples move by the pixel's jitter.
+// Changed in step 12: the samples move by the pixel's jitter.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light,
                                            const Params& params, const Jitter& jitter,
@@ -649,14 +552,14 @@ int main(int argc, char** argv) {
                         "perspective: the image's height as an angle, degrees (default 30)");
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
                         "WxH");
-        args.add_choice("--jitter", &params.jitter, {"none", "hash", "blue"},
-                        "the first sample's offset per pixel: none, a hash, a blue-noise tile");
+        args.add_choice("--jitter", &params.jitter, {"none", "hash"},
+                        "the first sample's offset per pixel: none, or a hash of the pixel");
         args.add_switch("--show-jitter", &params.show_jitter,
                         "draw each pixel's offset u (0..1) as grey instead of the volume");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 13 renders the camera's view; turn it with "
+            throw InputError("--view: step 12 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
@@ -675,14 +578,12 @@ int main(int argc, char** argv) {
         Lut lut = build_lut(tf, opacity_ratio(params));
 
         // --- View: the camera's image (its camera is made for each render: the window turns
-        // it, and previews at coarser pixels while it does), and each pixel's jitter (the
-        // blue-noise tile made once) ---
+        // it, and previews at coarser pixels while it does), and each pixel's jitter ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
         Jitter jitter;
         jitter.mode = params.jitter;
-        if (jitter.mode == "blue") jitter.tile = blue_noise_tile();
 
         // --- Light: towards it from every ray of a render (it turns with the camera), so
         // worked out once per render, as step 08 does once per view; none with --unlit ---
