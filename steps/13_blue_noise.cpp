@@ -218,31 +218,41 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
 //< lesson: slab
 
 //> lesson: opacity_correction
-// The opacity correction of step 08, unchanged.
+// The TF's opacity alpha holds for one unit of length. A sample that stands for `ratio` units
+// lets (1 - alpha)^ratio through, so its opacity is alpha' = 1 - (1 - alpha)^ratio. Computed
+// as -expm1(ratio * log1p(-alpha)): the plain form loses its digits when alpha or the result
+// is tiny. alpha = 0 stays 0 and alpha = 1 stays 1 (log1p(-1) would be -infinity).
 static float corrected_opacity(float alpha, double ratio) {
     if (alpha <= 0.0f) return 0.0f;
     if (alpha >= 1.0f) return 1.0f;
     return float(-std::expm1(ratio * std::log1p(-double(alpha))));
 }
 
+// How many units of length one sample stands for (1 with --no-correction: the TF unchanged).
 static double opacity_ratio(const Params& params) {
     return params.no_correction ? 1.0 : params.step / unit_length;
 }
 //< lesson: opacity_correction
 
-// Step 08's lookup table, unchanged: one RGBA per CT value, opacities corrected for the step.
+// The lookup table: one RGBA entry per CT value, -32768..32767. The entry of `value` is
+// entries[value - lowest_ct_value], so any int16 is a valid index. A new table is transparent.
 struct Lut {
     std::vector<Rgba> entries = std::vector<Rgba>(ct_value_end - lowest_ct_value);
 };
 
 //> lesson: lookup_table
+// The colour a fraction f of the way from a to b (f = 0 gives a exactly).
 static Rgba mix(const Rgba& a, const Rgba& b, float f) {
     return {a.r + f * (b.r - a.r), a.g + f * (b.g - a.g), a.b + f * (b.b - a.b),
             a.a + f * (b.a - a.a)};
 }
 
+// The table of a transfer function: classifying a sample is then a single read. Values no
+// range covers stay transparent. A ramp goes linearly from its start at `from` to its end at
+// `to`. The opacities are corrected here, once per entry, for samples `ratio` units apart.
+// Changed in step 08: each entry's opacity corrected for the spacing.
 static Lut build_lut(const TransferFunction& tf, double ratio) {
-    Lut lut;
+    Lut lut;  // every entry {0, 0, 0, 0}
     for (const TfRange& range : tf.ranges) {
         const float width = float(range.to - range.from);
         for (int value = range.from; value < range.to; ++value) {
@@ -339,7 +349,6 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
 //> lesson: gradient
-// Step 08's derivative and gradient at a voxel, unchanged.
 template <class Sample>
 static float derivative(Sample sample, int n, int count, double spacing) {
     if (count == 1) return 0.0f;
@@ -383,7 +392,8 @@ static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, W
 //< lesson: gradient
 
 //> lesson: shade
-// Step 08's diffuse shading, unchanged.
+// Diffuse lighting: ambient + (1 - ambient) * max(0, N.L), N the outward normal -grad/|grad|.
+// A zero gradient (inside a uniform region) has no normal: such a point gets ambient only.
 static float shade(Vec3 gradient, Vec3 to_light) {
     const float size = length(gradient);
     if (size == 0.0f) return ambient;
@@ -609,6 +619,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     return pixel;
 }
 
+// What the ray left transparent shows the background: C + T*background.
 static Rgb over_background(const Accumulated& ray) {
     return {float(ray.r + ray.transparency * background.r),
             float(ray.g + ray.transparency * background.g),
