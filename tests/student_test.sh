@@ -201,10 +201,16 @@ san=
 [ "$build" = build-san ] && san=SAN=1
 # The lab's own flags, as make test was given them (CI's WERROR=1): the kit's are the same.
 grep -q -- ' -Werror' "$build/flags.txt" 2>/dev/null && san="$san WERROR=1"
+# The kit's steps are stubs that render nothing (and step 02 once written): they compile with
+# STEP_OPT (the Makefile's flags for the steps alone, outside the flags stamp) at -O0 without
+# debug information, about 0.9 s of compiler CPU less per step than -O2 -g; a sanitizer build
+# keeps its own flags.
+step_opt="-O0 -g0"
+[ "$build" = build-san ] && step_opt=
 student_make() {  # student_make TARGET...: make in the student tree, quietly, log in build.log
     # shellcheck disable=SC2086
     env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$student" -j2 BUILD="$build" \
-        $san "$@" > "$work/build.log" 2>&1
+        STEP_OPT="$step_opt" $san "$@" > "$work/build.log" 2>&1
 }
 if student_make all "$build/ctlab_tests"; then ok; else
     bad "the student tree builds every target: make -C $student all $build/ctlab_tests"
