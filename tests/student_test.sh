@@ -27,7 +27,7 @@ if [ -f .ctlab-student ]; then
     echo "student test: 0 passed, 0 failed (skipped: this is a generated student tree)"
     exit 0
 fi
-for tool in make_student check handout_listings find_answers carry; do
+for tool in make_student check handout_listings find_answers carry make_phantom; do
     [ -x "$build/$tool" ] || { echo "student test: $build/$tool is not built"; exit 1; }
 done
 work=$(mktemp -d) || exit 1
@@ -230,6 +230,13 @@ progress_is() {
             grep -q "^$step  *$status " "$work/progress.log"
     done
 }
+# The kit's make check grades on the phantom written once to a raw file (the record
+# `make reference VOLUME=...` writes, REFERENCE/volume.txt, names it): the same voxels, without
+# painting the head again in each of the ~80 runs of a pass (0.1 s of CPU each). The built-in
+# phantom itself is what the student's step 02 is graded on below.
+"$build/make_phantom" "$work/phantom.raw" > /dev/null &&
+    printf 'volume: %s\n' "$work/phantom.raw" > "$student/data/reference/volume.txt" ||
+    bad "cannot write the phantom to $work/phantom.raw"
 progress_is none "a fresh kit"
 
 # --- make carry: a function written once serves the later steps -------------------------
