@@ -26,6 +26,12 @@ work=$(mktemp -d) || exit 1
 if [ -n "${KEEP:-}" ]; then echo "check test: logs kept in $work"; else
     trap 'rm -rf "$work"' EXIT INT TERM; fi
 case "$build" in *san*) san=SAN=1 ;; *) san= ;; esac
+# The phantom, written once to a raw file that every graded run reads: the same voxels as
+# --volume phantom (the lab's steps pass on it with every counter), without painting the head
+# again in each of the ~200 runs (0.1 s of CPU each). make check's own default, the built-in
+# phantom, is graded in tests/student_test.sh and tests/printed_commands_test.sh.
+phantom=$work/phantom.raw
+"$build/make_phantom" "$phantom" > /dev/null || { echo "check test: make_phantom failed"; exit 1; }
 
 # grade_ok NAME EXPECTED_STATUS LOG PATTERNS: the exit status and every ';'-separated pattern.
 grade_ok() {
@@ -47,7 +53,7 @@ grade_ok() {
 }
 
 # --- The lab's own steps: every run of the manifest, every view, pictures and counters --------
-[ -z "${ONLY:-}" ] && "$build/check" --bin "$build" --out "$work/lab" > "$work/lab.log" 2>&1
+[ -z "${ONLY:-}" ] && "$build/check" --bin "$build" --volume "$phantom" --out "$work/lab" > "$work/lab.log" 2>&1
 steps=$(ls steps/[0-9][0-9]_*.cpp | wc -l)
 [ -z "${ONLY:-}" ] && grade_ok "the lab's steps" 0 $? "$work/lab.log" "^$steps steps?: $steps passing; result=pass"
 
@@ -63,12 +69,9 @@ grade_ok "check --step 99" 2 $? "$work/bad.log" "^check: error: --step 99: no su
 grade_ok "check --reference with no manifest" 2 $? "$work/bad.log" "^check: error: no .*manifest.txt"
 
 # --- Mistakes, patched into copies of the solution's steps ---------------------------------------
-# A tree with the lab's Makefile and common/, and its compiled library (common/ is unchanged).
-tree=$work/tree
-mkdir -p "$tree/steps" "$tree/$build" || exit 1
-cp Makefile "$tree/" && cp -R common "$tree/" && cp -R "$build/common" "$tree/$build/" &&
-    cp "$build/libctlab.a" "$tree/$build/" || { bad "cannot copy the lab into $tree"; exit 1; }
-find "$tree/$build" -type f -exec touch {} +  # newer than the copied sources
+# Each built alone against the lab's compiled library (tests/mutants.sh).
+. tests/mutants.sh
+mutant_tree || exit 1
 
 grep -v '^#' tests/check_mistakes.txt | grep -v '^[[:space:]]*$' |
     grep -E "^(${ONLY:-.*}) " > "$work/mistakes"
@@ -83,28 +86,11 @@ while IFS='|' read -r name step view script expect shows; do
         continue
     fi
     stem=$(basename "$source" .cpp)
-    rm -f "$tree"/steps/*.cpp
-    cp "$source" "$tree/steps/" || { bad "$name: cannot copy $source"; continue; }
-    if [ "$script" != - ]; then
-        sed -e "$script" "$source" > "$tree/$source" || { bad "$name: bad sed script"; continue; }
-        if cmp -s "$source" "$tree/$source"; then
-            bad "$name: '$script' changes nothing in $source (the step changed?)"; continue
-        fi
-    fi
-    # WERROR=0: a mistake may well warn (a parameter it no longer uses), and a student's build
-    # is not -Werror; CI's WERROR=1 reaches this make through MAKEFLAGS otherwise.
-    # shellcheck disable=SC2086
-    # -o: the lab's library and modules as they are, never remade (only the step compiles).
-    if ! make --no-print-directory -C "$tree" BUILD="$build" WERROR=0 $san \
-            -o "$build/libctlab.a" -o "$build/ctlab_formats.so" -o "$build/ctlab_window.so" \
-            "$build/$stem" > "$work/make.log" 2>&1; then
-        bad "$name: the patched $stem does not compile"; tail -n 20 "$work/make.log"; continue
-    fi
-    mkdir -p "$work/bin/$name" && mv "$tree/$build/$stem" "$work/bin/$name/"
+    mutant "$name" "$source" "$script" || continue
     # The reference's own picture planted where the run writes: it must be gone before the run.
     mkdir -p "$work/out/$name/$stem" &&
         cp "data/reference/${stem}_$view.png" "$work/out/$name/$stem/" || bad "$name: no plant"
-    "$build/check" --bin "$work/bin/$name" --step "$step" --view "$view" \
+    "$build/check" --bin "$work/bin/$name" --step "$step" --view "$view" --volume "$phantom" \
         --out "$work/out/$name" > "$work/$name.log" 2>&1
     status=$?
     case "$expect" in

@@ -24,26 +24,10 @@ work=$(mktemp -d) || exit 1
 if [ -n "${KEEP:-}" ]; then echo "kept $work"; else trap 'rm -rf "$work"' EXIT INT TERM; fi
 case "$build" in *san*) san=SAN=1 ;; *) san= ;; esac
 
-tree=$work/tree
-mkdir -p "$tree/steps" "$tree/$build" || exit 1
-cp Makefile "$tree/" && cp -R common "$tree/" && cp -R "$build/common" "$tree/$build/" &&
-    cp "$build/libctlab.a" "$tree/$build/" || { bad "cannot copy the lab into $tree"; exit 1; }
-find "$tree/$build" -type f -exec touch {} +
-
-# mutant NAME SOURCE SED: the patched step built into $work/bin/NAME.
-mutant() {
-    name=$1 source=$2 script=$3
-    stem=$(basename "$source" .cpp)
-    rm -f "$tree"/steps/*.cpp
-    sed -e "$script" "$source" > "$tree/$source" || return 1
-    if cmp -s "$source" "$tree/$source"; then bad "$name: '$script' changes nothing"; return 1; fi
-    # shellcheck disable=SC2086
-    make --no-print-directory -C "$tree" BUILD="$build" WERROR=0 $san \
-        -o "$build/libctlab.a" -o "$build/ctlab_formats.so" -o "$build/ctlab_window.so" \
-        "$build/$stem" > "$work/make.log" 2>&1 ||
-        { bad "$name: the patched $stem does not compile"; tail -n 20 "$work/make.log"; return 1; }
-    mkdir -p "$work/bin/$name" && mv "$tree/$build/$stem" "$work/bin/$name/"
-}
+# The mistakes, each built alone against the lab's compiled library: tests/mutants.sh's
+# mutant NAME SOURCE SED puts the patched step into $work/bin/NAME.
+. tests/mutants.sh
+mutant_tree || exit 1
 
 # run_printed NAME LOG [crash]: every printed command of the report, run as printed. With
 # `crash`, a command that runs the crashing step itself passes when it crashes as reported:
