@@ -570,6 +570,8 @@ static Vec3 gradient_from_table(const Volume& volume, const GradientTable& table
 struct CellWalk {
     double i = 0, j = 0, k = 0;     // the sample's position, voxel units
     double di = 0, dj = 0, dk = 0;  // one step along the ray, voxel units
+
+    void step_on() { i += di, j += dj, k += dk; }  // the next sample: three additions
 };
 
 // The eight corner values of the cell read last, and where that cell is.
@@ -584,13 +586,6 @@ struct Corners {
 static CellWalk walk_from(const Walk& walk, long long n) {
     const Vec3d q = walk.at(n);
     return {q.i, q.j, q.k, walk.per_step.i, walk.per_step.j, walk.per_step.k};
-}
-
-// The next sample: one step further, three additions.
-static void step_on(CellWalk& at) {
-    at.i += at.di;
-    at.j += at.dj;
-    at.k += at.dk;
 }
 
 // Along one axis, step 32's low_corner() without std::clamp or std::floor: int(u) rounds
@@ -725,7 +720,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
     };
     CellWalk at = walk_from(walk, 0);
     Corners corners;
-    for (long long n = 0; n < walk.count; ++n, step_on(at)) {
+    for (long long n = 0; n < walk.count; ++n, at.step_on()) {
         const Cell cell = cell_of(volume, at, params.nearest);
         const int reach = scene.space.reach_at(cell);
         if (reach > 0) {
@@ -733,7 +728,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
             work.leapt += next - n;
             if (trace) trace->leap(t_at(n), t_at(next - 1), next - n, reach);
             n = next - 1;
-            at = walk_from(walk, n);  // the loop's ++n and step_on() move it to sample next
+            at = walk_from(walk, n);  // the loop's ++n and step_on() take it to sample next
             continue;
         }
         const float value = params.nearest ? sample_value(volume, cell, true)
@@ -787,7 +782,7 @@ static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     CellWalk at = walk_from(walk, 0);
     Corners corners;
     float highest = 0;
-    for (long long n = 0; n < walk.count; ++n, step_on(at)) {
+    for (long long n = 0; n < walk.count; ++n, at.step_on()) {
         const Cell cell = cell_of(volume, at, params.nearest);
         const Bricks& bricks = scene.space.bricks;
         if (n > 0 && bricks.ranges[bricks.index(cell.i, cell.j, cell.k)].max <= highest) {

@@ -1230,8 +1230,8 @@ int gain_report(const std::string& out_path) {
     }
     const std::string when = utc_now(), load = load_average();
     const std::string note = text_of(
-        "CPU ms per render on 1 thread (`make gain`, %s; load average %s; the median of %d "
-        "pairs of runs, `--repeat 1` and `--repeat %d`, CPU time from the child's rusage).\n",
+        "CPU ms per render on 1 thread (`make gain`, %s; load average %s;\nthe median of %d "
+        "pairs of runs, `--repeat 1` and `--repeat %d`; CPU time from each child's rusage).\n",
         when.c_str(), load.c_str(), gain_pairs, gain_repeat);
     std::ostringstream out;
     out << "# Part 3: CPU time per render, 1 thread (build/bench --gain)\n\n"
