@@ -615,9 +615,9 @@ static inline Cell cell_of(const Volume& volume, const CellWalk& at, bool neares
 
 // The cell's eight values: one index for the low corner, the others a stride or two past it.
 // Read only when the cell is not the one read last (the sample has not left it).
-static inline const Corners& read_corners(const Volume& volume, const Cell& c, Corners& corners) {
+static inline void read_corners(const Volume& volume, const Cell& c, Corners& corners) {
     const size_t base = volume.index(c.i, c.j, c.k);
-    if (base == corners.base) return corners;  // the same cell: its values are still here
+    if (base == corners.base) return;  // the same cell: its values are still here
     corners.base = base;
     const size_t di = size_t(c.i1 - c.i);  // 0 at a single voxel along the axis
     const size_t dj = size_t(c.j1 - c.j) * size_t(volume.nx);
@@ -626,7 +626,6 @@ static inline const Corners& read_corners(const Volume& volume, const Cell& c, C
     float* out = corners.v;
     out[0] = v[0], out[1] = v[di], out[2] = v[dj], out[3] = v[di + dj];
     out[4] = v[dk], out[5] = v[di + dk], out[6] = v[dj + dk], out[7] = v[di + dj + dk];
-    return corners;
 }
 
 // trilinear() on the corners read: the same lerps in the same order.
@@ -731,8 +730,9 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
             at = walk_from(walk, n);  // the loop's ++n and step_on() take it to sample next
             continue;
         }
+        if (!params.nearest) read_corners(volume, cell, corners);
         const float value = params.nearest ? sample_value(volume, cell, true)
-                                           : blend_corners(read_corners(volume, cell, corners), cell);
+                                           : blend_corners(corners, cell);
         const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         if (sample.a == 0.0f) {
@@ -796,8 +796,9 @@ static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
             at = walk_from(walk, n);
             continue;
         }
+        if (!params.nearest) read_corners(volume, cell, corners);
         const float value = params.nearest ? sample_value(volume, cell, true)
-                                           : blend_corners(read_corners(volume, cell, corners), cell);
+                                           : blend_corners(corners, cell);
         ++work.samples;
         highest = n == 0 ? value : std::max(highest, value);
         if (trace) {
