@@ -1160,12 +1160,13 @@ int peers_report(int cores, bool quick, int runs, int pass_count, const std::str
 // --repeat gain_repeat, and a render costs the difference of the two processes' CPU time
 // (user + system, from the child's rusage) over gain_repeat - 1: loading the volume, the
 // bricks and any table made once per process cancel out, and CPU time, unlike wall time,
-// hardly depends on what else the shared machine runs. Each figure is the median of
-// gain_pairs such pairs. The report has one section per step, "gain:NN_name", for
-// tools/measured.cpp to copy into the handout's block: the step's figures, its gain over the
-// step before and over the first part-3 step.
+// depends less on what else the shared machine runs (less, not nothing: under a load of 20
+// on 2 cores a step measured 10% slower than its next run). Each figure is the median of
+// gain_pairs such pairs, the steps taken in turn for each pair. The report has one section
+// per step, "gain:NN_name", for tools/measured.cpp to copy into the handout's block: the
+// step's figures, its gain over the step before and over the first part-3 step.
 constexpr int gain_repeat = 11;  // renders in the longer process of a pair
-constexpr int gain_pairs = 3;    // pairs per figure (the median)
+constexpr int gain_pairs = 5;    // pairs per figure (the median)
 constexpr int gain_side = cthead_nx;  // the top view: one pixel per voxel
 
 int gain_report(const std::string& out_path) {
@@ -1204,22 +1205,26 @@ int gain_report(const std::string& out_path) {
         }
         return run.cpu_s;
     };
+    // Case by case, each pair of runs of every step one after the other: a stretch where the
+    // shared machine is slower hits every step of the case alike, not one step's figure.
     std::map<std::string, std::vector<double>> ms;  // step -> CPU ms per render, per case
-    for (const std::string& step : steps) {
-        for (int c = 0; c < peer_case_count; ++c) {
-            const std::vector<std::string> flags =
-                case_flags(part3_rule.flags[c], gain_side, oblique_side, dims);
-            std::vector<double> per_render;
-            for (int pair = 0; pair < gain_pairs; ++pair) {
+    for (int c = 0; c < peer_case_count; ++c) {
+        const std::vector<std::string> flags =
+            case_flags(part3_rule.flags[c], gain_side, oblique_side, dims);
+        std::map<std::string, std::vector<double>> per_render;  // step -> one per pair
+        for (int pair = 0; pair < gain_pairs; ++pair) {
+            for (const std::string& step : steps) {
                 const double one = cpu_of(step, flags, 1);
                 const double many = cpu_of(step, flags, gain_repeat);
-                per_render.push_back(1000 * (many - one) / (gain_repeat - 1));
+                per_render[step].push_back(1000 * (many - one) / (gain_repeat - 1));
             }
-            ms[step].push_back(median_of(per_render));
+        }
+        for (const std::string& step : steps) {
+            ms[step].push_back(median_of(per_render[step]));
             std::printf("bench: gain, %s case %c: %.1f ms CPU per render\n", step.c_str(),
                         peer_cases[c].id, ms[step].back());
-            std::fflush(stdout);
         }
+        std::fflush(stdout);
     }
     std::string flag_text[peer_case_count];
     for (int c = 0; c < peer_case_count; ++c) {
