@@ -283,12 +283,13 @@ else
 	cp out/study/error_vs_time.png handouts/error_vs_time.png
 endif
 
-# Part 3's gains: every part-3 step on the bench's four cases, CPU time per render on one
-# thread (tools/part3_gain.sh; CPU time, so a shared machine spoils it less than wall time):
-# out/part3_gain.md, copied into the handouts' <!-- measured: gain:NN_name --> blocks.
+# Part 3's gains: every part-3 step on the bench's four cases (the peer table's flags), CPU
+# time per render on one thread (build/bench --gain; CPU time from the child's rusage, so a
+# shared machine spoils it less than wall time): out/part3_gain.md, copied into the handouts'
+# <!-- measured: gain:NN_name --> blocks.
 PART3_BINARIES := $(filter $(BUILD)/3%,$(STEP_BINARIES))
-gain: $(BUILD)/measured $(PART3_BINARIES)
-	sh tools/part3_gain.sh '$(BUILD)' out/part3_gain.md
+gain: $(BUILD)/bench $(BUILD)/measured $(PART3_BINARIES)
+	$(BUILD)/bench --gain --out out/part3_gain.md
 	$(BUILD)/measured out/part3_gain.md
 
 # --- Instructor and student kit: references, student skeletons, handout listings ----------

@@ -86,8 +86,8 @@ for handout in handouts/*.md; do
         case $name in
             bench:*) [ -f "steps/${name#bench:}.cpp" ] ;;
             study:*) grep -q "section(\"$name\"" tools/study.cpp ;;
-            # make gain (tools/part3_gain.sh) writes one section per part-3 step.
-            gain:*) [ -f "steps/${name#gain:}.cpp" ] && grep -q 'section: gain:' tools/part3_gain.sh ;;
+            # make gain (build/bench --gain) writes one section per part-3 step.
+            gain:*) [ -f "steps/${name#gain:}.cpp" ] && grep -q 'section: gain:' tools/bench.cpp ;;
             *) false ;;
         esac || echo "$handout: block '$name' is no section bench, study or gain writes"
     done > "$work/names"

@@ -1,7 +1,7 @@
 // bench.cpp: how fast every step renders, with one thread and with two.
 //
 //   build/bench [--volume phantom|PATH] [--runs N] [--out FILE] [--steps NN,NN]
-//               [--flags "FLAGS"] [--quick] [--peers]                          (make bench)
+//               [--flags "FLAGS"] [--quick] [--peers] [--gain]         (make bench, make gain)
 //
 // Each step runs as its own program (tools/run_step.h), as a student runs it, at its default
 // settings, with --repeat N: every view is rendered N times, and its summary line gives the
@@ -36,7 +36,8 @@
 // four cases of ../shared/performance.md on the phantom at spacing 1,1,1 (--quick: the small
 // phantom) interleaved with ctlab's candidate steps for each case; a table of ratios peer ms /
 // ctlab ms, first renders, and issue #30's targets met or missed (see peers_section).
-// --peers makes that table alone.
+// --peers makes that table alone. --gain (make gain) times the part-3 steps alone, in CPU
+// time per render on the same cases (see gain_report).
 //
 // A full run on the phantom at default settings also writes each step's figures as a section
 // "bench:NN_name" for tools/measured.cpp (make bench copies them into the handouts' blocks).
@@ -1153,12 +1154,153 @@ int peers_report(int cores, bool quick, int runs, int pass_count, const std::str
     return failed ? 1 : 0;
 }
 
+// --- --gain (make gain): what each part-3 trick gains, in CPU time per render ---
+// Every part-3 step renders each peer case (part3_rule's flags, the same as in the peer
+// table) on the phantom at spacing 1,1,1 on one thread, once with --repeat 1 and once with
+// --repeat gain_repeat, and a render costs the difference of the two processes' CPU time
+// (user + system, from the child's rusage) over gain_repeat - 1: loading the volume, the
+// bricks and any table made once per process cancel out, and CPU time, unlike wall time,
+// depends less on what else the shared machine runs (less, not nothing: under a load of 20
+// on 2 cores a step measured 10% slower than its next run). Each figure is the median of
+// gain_pairs such pairs, the steps taken in turn for each pair. The report has one section
+// per step, "gain:NN_name", for tools/measured.cpp to copy into the handout's block: the
+// step's figures, its gain over the step before and over the first part-3 step.
+constexpr int gain_repeat = 11;  // renders in the longer process of a pair
+constexpr int gain_pairs = 5;    // pairs per figure (the median)
+constexpr int gain_side = cthead_nx;  // the top view: one pixel per voxel
+
+int gain_report(const std::string& out_path) {
+    const int dims[3] = {cthead_nx, cthead_ny, cthead_nz};
+    const TempFolder folder("bench_gain");
+    std::vector<std::string> volume_flags;
+    {
+        Volume phantom = make_phantom_sized(dims[0], dims[1], dims[2], 1);
+        phantom.sx = phantom.sy = phantom.sz = 1;
+        volume_flags = write_raw_volume(phantom, folder.path("phantom.raw"));
+    }
+    std::vector<std::string> steps;
+    for (const std::string& step : step_names()) {
+        if (std::stoi(step.substr(0, 2)) < first_part3_step) continue;
+        if (!file_exists(step_binary(step))) {
+            throw InputError("bench --gain: " + step_binary(step) + " is not built (make all)");
+        }
+        steps.push_back(step);
+    }
+    if (steps.empty()) throw InputError("bench --gain: no part-3 step in steps/");
+    // CPU seconds of one process rendering `flags` `repeat` times.
+    auto cpu_of = [&](const std::string& step, const std::vector<std::string>& flags,
+                      int repeat) {
+        std::vector<std::string> args = volume_flags;
+        for (const std::string& word :
+             {std::string("--no-window"), std::string("--threads"), std::string("1"),
+              std::string("--out"), folder.path("out"), std::string("--repeat"),
+              std::to_string(repeat)}) {
+            args.push_back(word);
+        }
+        args.insert(args.end(), flags.begin(), flags.end());
+        const RunResult run = run_program(step_binary(step), args, run_timeout_s);
+        if (run.status != 0) {
+            throw InputError("bench --gain: " + run.command() + " failed: " +
+                             run.err.substr(0, run.err.find('\n')));
+        }
+        return run.cpu_s;
+    };
+    // Case by case, each pair of runs of every step one after the other: a stretch where the
+    // shared machine is slower hits every step of the case alike, not one step's figure.
+    std::map<std::string, std::vector<double>> ms;  // step -> CPU ms per render, per case
+    for (int c = 0; c < peer_case_count; ++c) {
+        const std::vector<std::string> flags =
+            case_flags(part3_rule.flags[c], gain_side, oblique_side, dims);
+        std::map<std::string, std::vector<double>> per_render;  // step -> one per pair
+        for (int pair = 0; pair < gain_pairs; ++pair) {
+            for (const std::string& step : steps) {
+                const double one = cpu_of(step, flags, 1);
+                const double many = cpu_of(step, flags, gain_repeat);
+                per_render[step].push_back(1000 * (many - one) / (gain_repeat - 1));
+            }
+        }
+        for (const std::string& step : steps) {
+            ms[step].push_back(median_of(per_render[step]));
+            std::printf("bench: gain, %s case %c: %.1f ms CPU per render\n", step.c_str(),
+                        peer_cases[c].id, ms[step].back());
+        }
+        std::fflush(stdout);
+    }
+    std::string flag_text[peer_case_count];
+    for (int c = 0; c < peer_case_count; ++c) {
+        for (const std::string& word :
+             case_flags(part3_rule.flags[c], gain_side, oblique_side, dims)) {
+            flag_text[c] += (flag_text[c].empty() ? "" : " ") + word;
+        }
+    }
+    const std::string when = utc_now(), load = load_average();
+    const std::string note = text_of(
+        "CPU ms per render on 1 thread (`make gain`, %s; load average %s;\nthe median of %d "
+        "pairs of runs, `--repeat 1` and `--repeat %d`; CPU time from each child's rusage).\n",
+        when.c_str(), load.c_str(), gain_pairs, gain_repeat);
+    std::ostringstream out;
+    out << "# Part 3: CPU time per render, 1 thread (build/bench --gain)\n\n"
+        << text_of("Measured %s on %s (load average %s): the phantom at spacing 1,1,1, "
+                   "--threads 1; each figure the median of %d pairs of runs (--repeat 1 and "
+                   "--repeat %d), CPU ms per render = the pair's difference / %d.\n\n",
+                   when.c_str(), first_line_of("/proc/cpuinfo", "model name").c_str(),
+                   load.c_str(), gain_pairs, gain_repeat, gain_repeat - 1);
+    const std::string& first = steps.front();
+    for (size_t n = 0; n < steps.size(); ++n) {
+        const std::string& step = steps[n];
+        const std::string number = step.substr(0, 2);
+        out << "<!-- section: gain:" << step << " -->\n";
+        if (n == 0) {
+            out << "| case | flags | step " << number << ", CPU ms per render |\n|---|---|---|\n";
+            for (int c = 0; c < peer_case_count; ++c) {
+                out << text_of("| %c %s | `%s` | %.1f |\n", peer_cases[c].id, peer_cases[c].what,
+                               flag_text[c].c_str(), ms[step][c]);
+            }
+        } else {
+            const std::string& previous = steps[n - 1];
+            const bool short_table = previous == first;  // the gain over both is one column
+            const std::string p_number = previous.substr(0, 2), f_number = first.substr(0, 2);
+            if (short_table) {
+                out << "| case | step " << p_number << " ms | step " << number
+                    << " ms | gain over step " << p_number << " |\n|---|---|---|---|\n";
+            } else {
+                out << "| case | step " << f_number << " ms | step " << p_number << " ms | step "
+                    << number << " ms | gain over step " << p_number << " | over step "
+                    << f_number << " |\n|---|---|---|---|---|---|\n";
+            }
+            auto gain = [](double before, double after) {
+                return after > 0 ? text_of("%.2fx", before / after) : std::string("n/a");
+            };
+            for (int c = 0; c < peer_case_count; ++c) {
+                const double f = ms[first][c], p = ms[previous][c], t = ms[step][c];
+                const std::string name = text_of("%c %s", peer_cases[c].id, peer_cases[c].what);
+                if (short_table) {
+                    out << text_of("| %s | %.1f | %.1f | %s |\n", name.c_str(), p, t,
+                                   gain(p, t).c_str());
+                } else {
+                    out << text_of("| %s | %.1f | %.1f | %.1f | %s | %s |\n", name.c_str(), f, p,
+                                   t, gain(p, t).c_str(), gain(f, t).c_str());
+                }
+            }
+        }
+        out << "\n" << note << "<!-- end section -->\n\n";
+    }
+    const size_t slash = out_path.rfind('/');
+    if (slash != std::string::npos) make_folder(out_path.substr(0, slash));
+    std::ofstream file(out_path);
+    if (!file) throw InputError("--out: cannot write '" + out_path + "'");
+    file << out.str();
+    std::printf("bench: wrote %s\n", out_path.c_str());
+    return 0;
+}
+
 int run(int argc, char** argv) {
     std::string volume_name = "phantom", out_path = "out/bench.md", only;
     std::vector<std::string> extra_flags;  // --flags: given to every step, after its defaults
     int runs = default_runs;
     bool quick = false;
     bool peers_only = false;  // --peers: the peer table alone
+    bool gain_only = false;   // --gain: part 3's CPU time per render alone (make gain)
     for (int n = 1; n < argc; ++n) {
         const std::string flag = argv[n];
         const bool has_value = n + 1 < argc;
@@ -1166,6 +1308,8 @@ int run(int argc, char** argv) {
             quick = true;
         } else if (flag == "--peers") {
             peers_only = true;
+        } else if (flag == "--gain") {
+            gain_only = true;
         } else if (flag == "--volume" && has_value) {
             volume_name = argv[++n];
         } else if (flag == "--runs" && has_value) {
@@ -1179,7 +1323,7 @@ int run(int argc, char** argv) {
             for (std::string word; words >> word;) extra_flags.push_back(word);
         } else {
             throw InputError("usage: bench [--volume phantom|PATH] [--runs N>=10] [--out FILE]"
-                             " [--steps NN,NN] [--flags \"FLAGS\"] [--quick] [--peers], got '" + flag +
+                             " [--steps NN,NN] [--flags \"FLAGS\"] [--quick] [--peers] [--gain], got '" + flag +
                              "'");
         }
     }
@@ -1188,6 +1332,7 @@ int run(int argc, char** argv) {
     const unsigned hardware = std::thread::hardware_concurrency();
     const int cores = hardware > 0 ? int(hardware) : 1;
     if (peers_only) return peers_report(cores, quick, runs, pass_count, out_path);
+    if (gain_only) return gain_report(out_path == "out/bench.md" ? "out/part3_gain.md" : out_path);
     // Each volume: its name in the report and the flags that load it.
     std::vector<std::pair<std::string, std::vector<std::string>>> volumes;
     const TempFolder quick_folder("bench_quick");

@@ -254,6 +254,8 @@ ProcessResult run_process(const std::string& program, const std::vector<std::str
     }
     result.seconds = std::chrono::duration<double>(clock::now() - start).count();
     result.max_rss_kib = usage.ru_maxrss;  // Linux: kibibytes
+    result.cpu_s = double(usage.ru_utime.tv_sec) + double(usage.ru_stime.tv_sec) +
+                   1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
     if (WIFEXITED(wait_status)) {
         result.exit_status = WEXITSTATUS(wait_status);
         result.status = result.exit_status;

@@ -49,6 +49,7 @@ struct ProcessResult {
     std::string out, err;            // what it printed, at most limits.output_bytes each
     double seconds = 0;              // wall-clock time it took
     long max_rss_kib = 0;            // peak resident memory of the child (ru_maxrss), KiB
+    double cpu_s = 0;                // CPU time of the child, user + system (rusage), seconds
 
     // The command line, for messages: "build/03_depth_shading --view top ...".
     std::string command() const;
