@@ -193,8 +193,11 @@ mkdir -p "$reference/traces" "$reference/rays" || fail "cannot create $reference
 for file in "$work/traces"/*.txt; do
     [ -f "$file" ] && { mv "$file" "$reference/traces/" || fail "cannot write $reference/traces"; }
 done
+# The steps write ray pictures uncompressed (a run's cost); stored ones are packed first.
 for file in "$work/rays"/*.png; do
-    [ -f "$file" ] && { mv "$file" "$reference/rays/" || fail "cannot write $reference/rays"; }
+    [ -f "$file" ] || continue
+    "$build/pack_png" "$file" || fail "cannot pack $file"
+    mv "$file" "$reference/rays/" || fail "cannot write $reference/rays"
 done
 echo "make reference: $probe_count probe traces into $reference/traces/"
 

@@ -1,0 +1,52 @@
+// pack_png.cpp: rewrites PNG files at the default compression, pixels unchanged. A step's
+// --debug-pixel writes its ray pictures uncompressed (common/image.h: cheap for a run that
+// opens them once); make reference stores them in the repository, where a picture that is
+// 70 times bigger for nothing costs every clone. tools/make_reference.sh runs this on each.
+//
+//   build/pack_png FILE...
+//
+// Each file is read, written again beside itself and renamed into place (write_png), then
+// read back and compared byte for byte per channel. Exits 0, or 2 with one line naming the file.
+#include <cstdio>
+#include <string>
+#include "error.h"
+#include "image.h"
+#include "tools/image_read.h"
+
+namespace {
+
+bool same_pixels(const ctlab::Image& a, const ctlab::Image& b) {
+    if (a.width != b.width || a.height != b.height) return false;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x) {
+            const ctlab::Rgb& p = a.at(x, y);
+            const ctlab::Rgb& q = b.at(x, y);
+            if (ctlab::to_byte(p.r) != ctlab::to_byte(q.r) ||
+                ctlab::to_byte(p.g) != ctlab::to_byte(q.g) ||
+                ctlab::to_byte(p.b) != ctlab::to_byte(q.b))
+                return false;
+        }
+    return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc < 2) {
+        std::fprintf(stderr, "usage: pack_png FILE...\n");
+        return ctlab::exit_bad_input;
+    }
+    try {
+        for (int a = 1; a < argc; ++a) {
+            const std::string path = argv[a];
+            const ctlab::Image image = ctlab::read_image_file(path, false);
+            ctlab::write_png(image, path);
+            if (!same_pixels(image, ctlab::read_image_file(path, false)))
+                throw ctlab::InputError(path + ": its pixels changed when written again");
+        }
+        return 0;
+    } catch (const std::exception& error) {
+        std::fprintf(stderr, "pack_png: error: %s\n", error.what());
+        return ctlab::exit_bad_input;
+    }
+}
