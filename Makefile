@@ -104,9 +104,10 @@ COMMON_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(COMMON_SOURCES))
 MODULES        := $(BUILD)/ctlab_formats.so $(BUILD)/ctlab_window.so
 # tools/run_step.cpp, process.cpp and sandbox.cpp are no tools: they start the programs the
 # tests and tools run; compare, image_read and output_folder are the checker's and grader's
-# picture code (libctlab_tools: never linked into a step).
+# picture code, class_cache a class run's shared builds and runs (libctlab_tools: never linked
+# into a step).
 TOOL_LIB_SOURCES := tools/run_step.cpp tools/process.cpp tools/sandbox.cpp tools/compare.cpp \
-                    tools/image_read.cpp tools/output_folder.cpp
+                    tools/image_read.cpp tools/output_folder.cpp tools/class_cache.cpp
 TOOL_SOURCES   := $(filter-out $(TOOL_LIB_SOURCES),$(wildcard tools/*.cpp))
 TOOL_BINARIES  := $(patsubst tools/%.cpp,$(BUILD)/%,$(TOOL_SOURCES))
 TEST_SOURCES   := $(wildcard tests/*.cpp) tests/fuzz/targets.cpp  # targets: crash replays

@@ -1,0 +1,182 @@
+// class_cache.cpp: a class run's shared builds and runs (see class_cache.h).
+#include "tools/class_cache.h"
+#include <unistd.h>
+#include <atomic>
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+#include "tools/run_step.h"
+
+namespace ctlab {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const char* const source_file = "source.cpp";  // a build entry: the source, whole
+const char* const program_file = "program";    // ... and the binary built from it alone
+const char* const key_file = "key.txt";        // a run entry: its key text, whole
+const char* const outcome_file = "outcome.txt";
+const char* const files_folder = "files";       // what the run left in its output folder
+
+std::string hex(unsigned long long value) {
+    char text[17];
+    std::snprintf(text, sizeof text, "%016llx", value);
+    return text;
+}
+
+// The whole file, or nullopt-like false when it cannot be read.
+bool read_whole(const fs::path& path, std::string& text) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return false;
+    std::ostringstream bytes;
+    bytes << in.rdbuf();
+    text = bytes.str();
+    return !in.bad();
+}
+
+bool write_whole(const fs::path& path, const std::string& text) {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    return static_cast<bool>(out);
+}
+
+// A folder no other writer uses, beside the entries, to fill before publishing it.
+fs::path new_entry_folder(const fs::path& parent) {
+    static std::atomic<unsigned> counter{0};
+    std::ostringstream name;
+    name << ".new-" << ::getpid() << "-" << std::this_thread::get_id() << "-" << counter++;
+    const fs::path folder = parent / name.str();
+    fs::create_directories(folder);
+    return folder;
+}
+
+// Publishes `made` as `entry` by one rename; when another writer was first, theirs stays.
+void publish(const fs::path& made, const fs::path& entry) {
+    std::error_code error;
+    fs::rename(made, entry, error);
+    if (error) fs::remove_all(made, error);
+}
+
+// Arguments as text that no other list gives: each one's length, then its bytes.
+std::string arguments_text(const std::string& key, const std::vector<std::string>& arguments) {
+    std::string text = "build " + key + "\n";
+    for (const std::string& argument : arguments) {
+        text += std::to_string(argument.size()) + ":" + argument + "\n";
+    }
+    return text;
+}
+
+}  // namespace
+
+unsigned long long fnv1a_64(const std::string& bytes, unsigned long long hash) {
+    for (unsigned char b : bytes) hash = (hash ^ b) * 1099511628211ULL;
+    return hash;
+}
+
+ClassCache::ClassCache(const std::string& folder, const std::string& lab)
+    : root_((fs::path(folder) / ("lab-" + hex(fnv1a_64(lab)))).string()) {
+    fs::create_directories(fs::path(root_) / "build");
+    fs::create_directories(fs::path(root_) / "run");
+}
+
+std::string ClassCache::take_build(const std::string& step, const std::string& source,
+                                   const std::string& binary) const {
+    const std::string key = step + "-" + hex(fnv1a_64(step + '\0' + source));
+    const fs::path entry = fs::path(root_) / "build" / key;
+    std::string stored;
+    if (!read_whole(entry / source_file, stored) || stored != source) return "";
+    std::error_code error;
+    fs::copy_file(entry / program_file, binary, fs::copy_options::overwrite_existing, error);
+    return error ? "" : key;
+}
+
+void ClassCache::store_build(const std::string& step, const std::string& source,
+                             const std::string& binary) const {
+    const std::string key = step + "-" + hex(fnv1a_64(step + '\0' + source));
+    const fs::path entry = fs::path(root_) / "build" / key;
+    std::error_code error;
+    if (fs::exists(entry, error)) return;
+    const fs::path made = new_entry_folder(fs::path(root_) / "build");
+    fs::copy_file(binary, made / program_file, error);
+    if (error || !write_whole(made / source_file, source)) {
+        fs::remove_all(made, error);
+        return;
+    }
+    publish(made, entry);
+}
+
+bool ClassCache::reusable(const ProcessResult& outcome) {
+    return outcome.started && !outcome.timed_out && !outcome.output_exceeded &&
+           !outcome.interrupted && outcome.signal != SIGKILL && outcome.signal != SIGXCPU &&
+           outcome.signal != SIGXFSZ;
+}
+
+bool ClassCache::take_run(const std::string& key, const std::vector<std::string>& arguments,
+                          const std::string& folder, ProcessResult& outcome) const {
+    const std::string text = arguments_text(key, arguments);
+    const fs::path entry = fs::path(root_) / "run" / hex(fnv1a_64(text));
+    std::string stored, fields_line, out, err;
+    if (!read_whole(entry / key_file, stored) || stored != text ||
+        !read_whole(entry / outcome_file, fields_line) || !read_whole(entry / "stdout.txt", out) ||
+        !read_whole(entry / "stderr.txt", err)) {
+        return false;
+    }
+    Summary fields = parse_summary(fields_line);
+    for (const char* name : {"status", "exit_status", "signal", "seconds", "max_rss_kib"}) {
+        if (!fields.count(name)) return false;
+    }
+    std::error_code error;
+    for (const fs::directory_entry& file : fs::directory_iterator(entry / files_folder, error)) {
+        fs::copy_file(file.path(), fs::path(folder) / file.path().filename(),
+                      fs::copy_options::overwrite_existing, error);
+        if (error) return false;
+    }
+    if (error) return false;
+    outcome.started = true;
+    outcome.status = std::stoi(fields["status"]);
+    outcome.exit_status = std::stoi(fields["exit_status"]);
+    outcome.signal = std::stoi(fields["signal"]);
+    outcome.seconds = std::stod(fields["seconds"]);
+    outcome.max_rss_kib = std::stol(fields["max_rss_kib"]);
+    outcome.out = out;
+    outcome.err = err;
+    return true;
+}
+
+void ClassCache::store_run(const std::string& key, const std::vector<std::string>& arguments,
+                           const ProcessResult& outcome, const std::string& folder,
+                           const std::vector<std::string>& names) const {
+    if (!reusable(outcome)) return;
+    const std::string text = arguments_text(key, arguments);
+    const fs::path entry = fs::path(root_) / "run" / hex(fnv1a_64(text));
+    std::error_code error;
+    if (fs::exists(entry, error)) return;
+    const fs::path made = new_entry_folder(fs::path(root_) / "run");
+    fs::create_directory(made / files_folder, error);
+    bool whole = !error;
+    for (const std::string& name : names) {
+        fs::copy_file(fs::path(folder) / name, made / files_folder / name, error);
+        whole = whole && !error;
+    }
+    char fields[200];
+    std::snprintf(fields, sizeof fields,
+                  "status=%d exit_status=%d signal=%d seconds=%.3f max_rss_kib=%ld\n",
+                  outcome.status, outcome.exit_status, outcome.signal, outcome.seconds,
+                  outcome.max_rss_kib);
+    whole = whole && write_whole(made / "stdout.txt", outcome.out) &&
+            write_whole(made / "stderr.txt", outcome.err) && write_whole(made / outcome_file, fields) &&
+            write_whole(made / key_file, text);  // last: an entry without it is never read
+    if (!whole) {
+        fs::remove_all(made, error);
+        return;
+    }
+    publish(made, entry);
+}
+
+}  // namespace ctlab
