@@ -164,3 +164,16 @@ TEST_CASE("class cache: a run stopped by a limit or a kill is not stored") {
     CHECK(ClassCache::reusable(crashed));
     CHECK(ClassCache::reusable(exited(1, "")));
 }
+
+TEST_CASE("class cache: one tree at a time builds a source, the others wait for it") {
+    const TempFolder cache("class_cache_test");
+    const ClassCache classes(cache.path(), "lab");
+    std::unique_ptr<CacheLock> held = classes.lock_build("02_threshold", "source", nullptr);
+    REQUIRE(held);
+    // Told to stop while another holds the lock: it gives up instead of waiting on.
+    volatile std::sig_atomic_t stop = 1;
+    CHECK(classes.lock_build("02_threshold", "source", &stop) == nullptr);
+    CHECK(classes.lock_build("02_threshold", "another source", &stop) != nullptr);
+    held.reset();
+    CHECK(classes.lock_build("02_threshold", "source", &stop) != nullptr);
+}

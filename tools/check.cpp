@@ -33,10 +33,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -1070,10 +1072,9 @@ void Grader::stage_and_build(const std::vector<std::string>& names) {
         cache_ = std::make_unique<ClassCache>(settings_.cache.string(),
                                               lab_fingerprint(lab, settings_));
     }
-    // The student's sources: ordinary files only, never through a link. A source the class
-    // cache holds byte for byte takes the binary built from it.
+    // The student's sources: ordinary files only, never through a link.
     std::vector<std::string> targets;
-    std::map<std::string, std::string> sources;
+    std::map<std::string, std::string> sources;  // with the cache: each source's bytes
     for (const std::string& name : names) {
         const fs::path source = lab / "steps" / (name + ".cpp");
         const std::string problem = copy_untrusted(settings_.tree / "steps" / (name + ".cpp"),
@@ -1083,30 +1084,44 @@ void Grader::stage_and_build(const std::vector<std::string>& names) {
             continue;
         }
         ++builds_;
-        if (cache_) {
-            sources[name] = read_bounded(source, max_source_bytes);
-            const std::string key =
-                cache_->take_build(name, sources[name], (lab / "build" / name).string());
-            if (!key.empty()) {
-                build_keys_[name] = key;
-                ++builds_reused_;
-                continue;
-            }
-        }
+        if (cache_) sources[name] = read_bounded(source, max_source_bytes);
         targets.push_back(name);
-    }
-    if (targets.empty()) {
-        build_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() -
-                                                 build_start).count();
-        return;
     }
 
     // Each step is built by itself, in a sandbox that sees its one source, the instructor's
     // Makefile, common/, library and modules, and a writable build folder of its own: its
     // binary is made from that source alone (no #include of another step's file), as the
-    // cache's key says. `jobs` steps at once.
+    // cache's key says. `jobs` steps at once. With the class cache, a source another tree
+    // built takes its binary; one another tree is building now is waited for (its lock).
     const fs::path builds = stage_->root() / "builds";
-    for (const std::string& name : targets) {
+    // -o: the instructor's library is never remade (nor its objects looked for).
+    std::vector<std::string> make_flags = {"--no-print-directory", "BUILD=build", "WERROR=0",
+                                           "-o", "build/libctlab.a"};
+    for (const char* module : lab_modules) {
+        make_flags.insert(make_flags.end(), {"-o", std::string("build/") + module});
+    }
+    // A sanitizer build of the lab (make SAN=1) has an instrumented library: the students'
+    // steps are built the same way, or they would not link against it.
+    if (lab_has_sanitizers) make_flags.push_back("SAN=1");
+    std::vector<Outcome> outcomes(targets.size());
+    std::vector<std::string> keys(targets.size());  // the cache entry each binary came from
+    std::vector<char> reused(targets.size(), 0), made(targets.size(), 0);
+    std::atomic<size_t> next{0};
+    std::mutex failing;
+    std::exception_ptr failure;  // a builder's error, thrown again once all have ended
+    auto build = [&](size_t n) {
+        const std::string& name = targets[n];
+        const fs::path binary = lab / "build" / name;
+        std::unique_ptr<CacheLock> lock;
+        if (cache_) {
+            lock = cache_->lock_build(name, sources.at(name), &interrupted);
+            keys[n] = cache_->take_build(name, sources.at(name), binary.string());
+            if (!keys[n].empty()) {
+                reused[n] = made[n] = 1;
+                return;
+            }
+        }
+        std::error_code error;
         const fs::path own = builds / name;
         fs::create_directories(own / "steps");
         fs::create_directories(own / "build");
@@ -1122,39 +1137,46 @@ void Grader::stage_and_build(const std::vector<std::string>& names) {
             fs::create_directory_symlink(lab / "common", own / "common");
         }
         give_to_sandbox((own / "build").string());
-    }
-    // -o: the instructor's library is never remade (nor its objects looked for).
-    std::vector<std::string> make_flags = {"--no-print-directory", "BUILD=build", "WERROR=0",
-                                           "-o", "build/libctlab.a"};
-    for (const char* module : lab_modules) {
-        make_flags.insert(make_flags.end(), {"-o", std::string("build/") + module});
-    }
-    // A sanitizer build of the lab (make SAN=1) has an instrumented library: the students'
-    // steps are built the same way, or they would not link against it.
-    if (lab_has_sanitizers) make_flags.push_back("SAN=1");
-    std::vector<Outcome> outcomes(targets.size());
-    std::atomic<size_t> next{0};
+        Sandbox sandbox;
+        sandbox.mounts = {{(lab / "Makefile").string(), "/lab/Makefile", false},
+                          {(lab / "common").string(), "/lab/common", false},
+                          {(own / "steps").string(), "/lab/steps", false},
+                          {(own / "build").string(), "/lab/build", true}};
+        sandbox.folder = "/lab";
+        sandbox.tmp_bytes = build_tmp_bytes;
+        ProcessOptions options;
+        options.limits = sandbox_limits(std::max(1.0, seconds_left()), true);
+        options.prefix = settings_.no_sandbox ? std::vector<std::string>{}
+                                              : sandbox_command(sandbox);
+        options.uid = settings_.no_sandbox ? 0 : sandbox_uid();
+        if (settings_.no_sandbox) options.folder = own.string();
+        options.stop = &interrupted;
+        std::vector<std::string> arguments = make_flags;
+        arguments.push_back("build/" + name);
+        outcomes[n] = run_process("/usr/bin/make", arguments, options);
+        // The binary, made by the sandbox: an ordinary file within bounds, or not built.
+        const fs::path built = own / "build" / name;
+        if (!fs::is_regular_file(fs::symlink_status(built, error)) ||
+            !copy_untrusted(built, binary, build_file_bytes).empty()) {
+            return;
+        }
+        fs::permissions(binary, fs::perms::owner_all | fs::perms::group_read |
+                        fs::perms::group_exec | fs::perms::others_read |
+                        fs::perms::others_exec, error);
+        made[n] = 1;
+        if (cache_ && outcomes[n].exit_status == 0) {
+            cache_->store_build(name, sources.at(name), binary.string());
+            keys[n] = cache_->take_build(name, sources.at(name), binary.string());
+        }
+    };
     auto builder = [&] {
         for (size_t n; (n = next++) < targets.size() && !interrupted;) {
-            const std::string& name = targets[n];
-            const fs::path own = builds / name;
-            Sandbox sandbox;
-            sandbox.mounts = {{(lab / "Makefile").string(), "/lab/Makefile", false},
-                              {(lab / "common").string(), "/lab/common", false},
-                              {(own / "steps").string(), "/lab/steps", false},
-                              {(own / "build").string(), "/lab/build", true}};
-            sandbox.folder = "/lab";
-            sandbox.tmp_bytes = build_tmp_bytes;
-            ProcessOptions options;
-            options.limits = sandbox_limits(std::max(1.0, seconds_left()), true);
-            options.prefix = settings_.no_sandbox ? std::vector<std::string>{}
-                                                  : sandbox_command(sandbox);
-            options.uid = settings_.no_sandbox ? 0 : sandbox_uid();
-            if (settings_.no_sandbox) options.folder = own.string();
-            options.stop = &interrupted;
-            std::vector<std::string> arguments = make_flags;
-            arguments.push_back("build/" + name);
-            outcomes[n] = run_process("/usr/bin/make", arguments, options);
+            try {
+                build(n);
+            } catch (...) {
+                const std::lock_guard<std::mutex> lock(failing);
+                if (!failure) failure = std::current_exception();
+            }
         }
     };
     std::vector<std::thread> threads;
@@ -1162,29 +1184,21 @@ void Grader::stage_and_build(const std::vector<std::string>& names) {
     for (int j = 0; j < jobs; ++j) threads.emplace_back(builder);
     for (std::thread& thread : threads) thread.join();
     if (interrupted) throw Interrupted{};
+    if (failure) std::rethrow_exception(failure);
     build_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() -
                                              build_start).count();
     std::ofstream log(settings_.out / "build.txt", std::ios::binary | std::ios::trunc);
     for (size_t n = 0; n < targets.size(); ++n) {
         const std::string& name = targets[n];
-        const Outcome& outcome = checked(outcomes[n]);
-        log << outcome.out << outcome.err;
-        // The binary, made by the sandbox: an ordinary file within bounds, or not built.
-        const fs::path built = builds / name / "build" / name;
-        if (fs::is_regular_file(fs::symlink_status(built, error)) &&
-            copy_untrusted(built, lab / "build" / name, build_file_bytes).empty()) {
-            fs::permissions(lab / "build" / name, fs::perms::owner_all | fs::perms::group_read |
-                            fs::perms::group_exec | fs::perms::others_read |
-                            fs::perms::others_exec, error);
-            if (cache_ && outcome.exit_status == 0) {
-                cache_->store_build(name, sources[name], (lab / "build" / name).string());
-                // The entry's binary from now on (another tree may have been first).
-                const std::string key =
-                    cache_->take_build(name, sources[name], (lab / "build" / name).string());
-                if (!key.empty()) build_keys_[name] = key;
-            }
+        if (!keys[n].empty()) build_keys_[name] = keys[n];
+        builds_reused_ += reused[n];
+        if (reused[n]) {
+            log << name << ": the class cache's binary of this source, byte for byte\n";
             continue;
         }
+        const Outcome& outcome = outcomes[n];
+        log << outcome.out << outcome.err;
+        if (made[n]) continue;
         // The compiler's first error in this step's file.
         std::string first;
         for (const std::string& line : lines_of(outcome.err + outcome.out)) {

@@ -1,5 +1,7 @@
 // class_cache.cpp: a class run's shared builds and runs (see class_cache.h).
 #include "tools/class_cache.h"
+#include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 #include <atomic>
 #include <cerrno>
@@ -74,6 +76,10 @@ std::string arguments_text(const std::string& key, const std::vector<std::string
 
 }  // namespace
 
+CacheLock::~CacheLock() {
+    if (fd_ >= 0) ::close(fd_);  // closing releases the flock
+}
+
 unsigned long long fnv1a_64(const std::string& bytes, unsigned long long hash) {
     for (unsigned char b : bytes) hash = (hash ^ b) * 1099511628211ULL;
     return hash;
@@ -83,6 +89,25 @@ ClassCache::ClassCache(const std::string& folder, const std::string& lab)
     : root_((fs::path(folder) / ("lab-" + hex(fnv1a_64(lab)))).string()) {
     fs::create_directories(fs::path(root_) / "build");
     fs::create_directories(fs::path(root_) / "run");
+}
+
+std::unique_ptr<CacheLock> ClassCache::lock_build(const std::string& step,
+                                                  const std::string& source,
+                                                  const volatile std::sig_atomic_t* stop) const {
+    constexpr int poll_ms = 20;  // how often a waiting tree looks again (and at `stop`)
+    const std::string key = step + "-" + hex(fnv1a_64(step + '\0' + source));
+    const fs::path path = fs::path(root_) / "build" / (key + ".lock");
+    const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0600);
+    if (fd < 0) return nullptr;
+    while (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        if (errno != EWOULDBLOCK && errno != EINTR) break;  // no lock here: build anyway
+        if (stop && *stop) {
+            ::close(fd);
+            return nullptr;
+        }
+        ::usleep(poll_ms * 1000);
+    }
+    return std::make_unique<CacheLock>(fd);
 }
 
 std::string ClassCache::take_build(const std::string& step, const std::string& source,

@@ -19,7 +19,9 @@
 //
 // Entries live under FOLDER/<lab fingerprint>/: a cache given to another lab is another cache.
 #pragma once
+#include <csignal>
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 #include "tools/process.h"
@@ -30,12 +32,29 @@ namespace ctlab {
 unsigned long long fnv1a_64(const std::string& bytes,
                             unsigned long long hash = 1469598103934665603ULL);
 
+// A build entry's lock (flock on its .lock file), held while one tree looks for, builds and
+// publishes a source: another tree with the same source waits, then takes the binary.
+class CacheLock {
+public:
+    explicit CacheLock(int fd) : fd_(fd) {}
+    ~CacheLock();
+    CacheLock(const CacheLock&) = delete;
+    CacheLock& operator=(const CacheLock&) = delete;
+
+private:
+    int fd_;
+};
+
 class ClassCache {
 public:
     // `folder` exists (build/grade made it); `lab` is the instructor's inputs as text (their
     // bytes, or names, sizes and times): it picks the subfolder this lab's entries live in.
     ClassCache(const std::string& folder, const std::string& lab);
 
+    // Waits until this step and source are no other tree's to build (null when `stop` became
+    // nonzero first, or no lock file can be made: then nothing is waited for).
+    std::unique_ptr<CacheLock> lock_build(const std::string& step, const std::string& source,
+                                          const volatile std::sig_atomic_t* stop) const;
     // The build entry of this step and source: its key, and its binary copied to `binary`;
     // "" when there is none (or a folder of that hash holds another source).
     std::string take_build(const std::string& step, const std::string& source,
