@@ -977,8 +977,12 @@ void grade_program_tree(const std::string& grade, const std::string& tree,
             auto number = [&](int group) {
                 return match[group].matched ? std::stoi(match[group]) : 0;
             };
-            const int passed = number(4) + number(7), total = number(5) + number(8);
-            student.steps[match[1]] = {passed, std::max(total, 1)};  // nothing ran: 0 of 1
+            // Its pictures, its counters and its verdict: a step whose pictures all pass but
+            // that still calls a stub (not started) does not pass, nor one where nothing ran.
+            const bool passing = match[2] == "passing";
+            const int passed = number(4) + number(7) + passing;
+            const int total = number(5) + number(8) + 1;
+            student.steps[match[1]] = {passed, total};
             student.statuses[match[1]] = match[2];
             step = match[1];
         } else if (std::regex_match(one, match, cache_line)) {
