@@ -3,7 +3,9 @@
 tools/make_class.sh says each tree must get (CLASS.expected.txt: NAME RESULT STEP WHAT), never
 against the grader's own view: every student's result and the steps it fails, summary.md's
 figures (students passing, per step), and its 'Identical programs' groups (trees that got the
-same mistake or hostile program hold the same source; no other trees do).
+same mistake or hostile program hold the same source; no other trees do; a mistake that leaves
+a stub in, whose output tests/check_mistakes.txt says shows "not started", is left out as the
+grader leaves out steps not started: the kit's stubs are alike in every tree).
 
   python3 tools/class_figures.py CLASS.expected.txt REPORT [--steps 01,02]
   --steps   the steps graded (grade --step): those alone must have figures
@@ -64,9 +66,14 @@ def main(argv):
 
     # Identical programs: the trees made with the same mistake (or hostile program), two or
     # more, and nothing else (the solution is the lab's own source: left out).
+    not_started = set()
+    for line in open("tests/check_mistakes.txt"):
+        fields = [field.strip() for field in line.split("|")]
+        if not line.startswith("#") and len(fields) >= 6 and fields[5].startswith("not started"):
+            not_started.add("mistake:" + fields[0])
     groups = {}
     for name, (result, step, what) in expected.items():
-        if what != "the solution":
+        if what != "the solution" and what not in not_started:
             groups.setdefault(what, set()).add(name)
     want_groups = {frozenset(names): what for what, names in groups.items() if len(names) > 1}
     found = {}
