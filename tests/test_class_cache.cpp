@@ -177,3 +177,19 @@ TEST_CASE("class cache: one tree at a time builds a source, the others wait for 
     held.reset();
     CHECK(classes.lock_build("02_threshold", "source", &stop) != nullptr);
 }
+
+TEST_CASE("class cache: past its size nothing more is stored, and grading goes on") {
+    const TempFolder cache("class_cache_test");
+    const TempFolder work("class_cache_work");
+    const ClassCache classes(cache.path(), "lab", 100);  // bytes
+    const std::string small = work.text_file("small", std::string(40, 'a'));
+    const std::string large = work.text_file("large", std::string(70, 'b'));
+    classes.store_build("02_threshold", "s1", small);  // 42 bytes: kept
+    CHECK(!classes.take_build("02_threshold", "s1", work.path("out1")).empty());
+    classes.store_build("02_threshold", "s2", large);  // 72 more: past 100
+    CHECK(classes.take_build("02_threshold", "s2", work.path("out2")).empty());
+    classes.store_build("03_depth_shading", "s3", small);  // 42 more: 84, still within
+    CHECK(!classes.take_build("03_depth_shading", "s3", work.path("out3")).empty());
+    CHECK(read_text(fs::path(cache.path()) / lab_folder(cache).filename() / "size.txt") ==
+          "84\n");
+}

@@ -2,6 +2,7 @@
 #include "tools/class_cache.h"
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 #include <atomic>
 #include <cerrno>
@@ -24,6 +25,8 @@ const char* const program_file = "program";    // ... and the binary built from 
 const char* const key_file = "key.txt";        // a run entry: its key text, whole
 const char* const outcome_file = "outcome.txt";
 const char* const files_folder = "files";       // what the run left in its output folder
+const char* const size_file = "size.txt";      // bytes stored so far, under size.lock
+constexpr size_t min_free_bytes = size_t(1) << 30;  // left on the cache's file system
 
 std::string hex(unsigned long long value) {
     char text[17];
@@ -85,10 +88,37 @@ unsigned long long fnv1a_64(const std::string& bytes, unsigned long long hash) {
     return hash;
 }
 
-ClassCache::ClassCache(const std::string& folder, const std::string& lab)
-    : root_((fs::path(folder) / ("lab-" + hex(fnv1a_64(lab)))).string()) {
+ClassCache::ClassCache(const std::string& folder, const std::string& lab, size_t max_bytes)
+    : root_((fs::path(folder) / ("lab-" + hex(fnv1a_64(lab)))).string()), max_bytes_(max_bytes) {
     fs::create_directories(fs::path(root_) / "build");
     fs::create_directories(fs::path(root_) / "run");
+}
+
+bool ClassCache::reserve(size_t bytes) const {
+    struct statvfs space {};
+    if (::statvfs(root_.c_str(), &space) != 0 ||
+        static_cast<unsigned long long>(space.f_bavail) * space.f_frsize <
+            static_cast<unsigned long long>(bytes) + min_free_bytes) {
+        return false;
+    }
+    const fs::path lock_path = fs::path(root_) / "size.lock";
+    const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0600);
+    if (fd < 0) return false;
+    const CacheLock held(fd);
+    while (::flock(fd, LOCK_EX) != 0) {
+        if (errno != EINTR) return false;
+    }
+    std::string text;
+    unsigned long long used = 0;
+    if (read_whole(fs::path(root_) / size_file, text) && !text.empty()) {
+        try {
+            used = std::stoull(text);
+        } catch (const std::exception&) {
+            return false;  // not a count we wrote: store nothing more
+        }
+    }
+    if (used + bytes > max_bytes_) return false;
+    return write_whole(fs::path(root_) / size_file, std::to_string(used + bytes) + "\n");
 }
 
 std::unique_ptr<CacheLock> ClassCache::lock_build(const std::string& step,
@@ -127,6 +157,8 @@ void ClassCache::store_build(const std::string& step, const std::string& source,
     const fs::path entry = fs::path(root_) / "build" / key;
     std::error_code error;
     if (fs::exists(entry, error)) return;
+    const uintmax_t binary_bytes = fs::file_size(binary, error);
+    if (error || !reserve(static_cast<size_t>(binary_bytes) + source.size())) return;
     const fs::path made = new_entry_folder(fs::path(root_) / "build");
     fs::copy_file(binary, made / program_file, error);
     if (error || !write_whole(made / source_file, source)) {
@@ -182,6 +214,12 @@ void ClassCache::store_run(const std::string& key, const std::vector<std::string
     const fs::path entry = fs::path(root_) / "run" / hex(fnv1a_64(text));
     std::error_code error;
     if (fs::exists(entry, error)) return;
+    size_t bytes = text.size() + outcome.out.size() + outcome.err.size();
+    for (const std::string& name : names) {
+        bytes += static_cast<size_t>(fs::file_size(fs::path(folder) / name, error));
+        if (error) return;
+    }
+    if (!reserve(bytes)) return;
     const fs::path made = new_entry_folder(fs::path(root_) / "run");
     fs::create_directory(made / files_folder, error);
     bool whole = !error;

@@ -18,6 +18,9 @@
 // With --no-sandbox nothing may be cached: an unconfined program could write into the cache.
 //
 // Entries live under FOLDER/<lab fingerprint>/: a cache given to another lab is another cache.
+// Its size is bounded (a step binary is some 9 MB, and a real class's sources are mostly its
+// students' own): past max_bytes, or with less than a GiB left on its file system, nothing more
+// is stored; grading goes on without it, slower, never otherwise.
 #pragma once
 #include <csignal>
 #include <cstddef>
@@ -49,7 +52,9 @@ class ClassCache {
 public:
     // `folder` exists (build/grade made it); `lab` is the instructor's inputs as text (their
     // bytes, or names, sizes and times): it picks the subfolder this lab's entries live in.
-    ClassCache(const std::string& folder, const std::string& lab);
+    static constexpr size_t default_max_bytes = size_t(4) << 30;
+    ClassCache(const std::string& folder, const std::string& lab,
+               size_t max_bytes = default_max_bytes);
 
     // Waits until this step and source are no other tree's to build (null when `stop` became
     // nonzero first, or no lock file can be made: then nothing is waited for).
@@ -77,7 +82,12 @@ public:
     static bool reusable(const ProcessResult& outcome);
 
 private:
+    // Counts `bytes` against the size (FOLDER/<lab>/size.txt, under a lock), or false when they
+    // would go past max_bytes_ or leave the file system too little.
+    bool reserve(size_t bytes) const;
+
     std::string root_;  // FOLDER/<lab fingerprint>
+    size_t max_bytes_;
 };
 
 }  // namespace ctlab
