@@ -110,9 +110,10 @@ COMMON_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(COMMON_SOURCES))
 MODULES        := $(BUILD)/ctlab_formats.so $(BUILD)/ctlab_window.so
 # tools/run_step.cpp, process.cpp and sandbox.cpp are no tools: they start the programs the
 # tests and tools run; compare, image_read and output_folder are the checker's and grader's
-# picture code (libctlab_tools: never linked into a step).
+# picture code, class_cache a class run's shared builds and runs (libctlab_tools: never linked
+# into a step).
 TOOL_LIB_SOURCES := tools/run_step.cpp tools/process.cpp tools/sandbox.cpp tools/compare.cpp \
-                    tools/image_read.cpp tools/output_folder.cpp
+                    tools/image_read.cpp tools/output_folder.cpp tools/class_cache.cpp
 TOOL_SOURCES   := $(filter-out $(TOOL_LIB_SOURCES),$(wildcard tools/*.cpp))
 TOOL_BINARIES  := $(patsubst tools/%.cpp,$(BUILD)/%,$(TOOL_SOURCES))
 TEST_SOURCES   := $(wildcard tests/*.cpp) tests/fuzz/targets.cpp  # targets: crash replays
@@ -125,6 +126,7 @@ LIBTOOLS       := $(BUILD)/libctlab_tools.a
 .PHONY: carry  # in a student tree: your functions forward into later steps
 .PHONY: carry-lab  # in the lab: a fixed function forward into the later steps
 .PHONY: check check-steps san  # grading this tree's programs, and one step with the sanitizers
+.PHONY: class-bench  # a generated class graded and checked: the README's class timing
 .PHONY: fuzz fuzz-build
 .PHONY: bench study peers  # measuring: speed, and error against run time
 .PHONY: gain  # part 3: each trick's CPU time per render against the step before it
@@ -163,6 +165,9 @@ help:
 	@echo "make san STEP=NN [ARGS='...']   build step NN with ASan and UBSan into build-san/ and"
 	@echo "                run it (on the phantom): a crash then names its line"
 	@echo "make check-student   make check inside student/ (generated first if missing)"
+	@echo "make class-bench [N=200 CLASS_JOBS=2]   N generated student trees graded in the"
+	@echo "                sandbox (build/grade --class) and checked against their mistakes:"
+	@echo "                wall and CPU time per tree (minutes: run it on an idle machine)"
 	@echo "make handouts   refresh the code listings in handouts/*.md from the steps' markers"
 	@echo "make screenshots   the README's pictures of the window's control panel (xvfb-run)"
 	@echo "make bench      time every step and view, 1 and 2 threads, cold and warm (the step"
@@ -263,6 +268,11 @@ else
 	$(BUILD)/bench --out out/bench.md
 	$(BUILD)/measured out/bench.md
 endif
+
+# N generated student trees graded in one command and checked against make_class's record of
+# their mistakes (tools/class_bench.sh): the README's class timing table.
+class-bench: $(BUILD)/grade $(BUILD)/check $(STEP_BINARIES) $(MODULES)
+	@sh tools/class_bench.sh $(BUILD) $(or $(N),200) $(or $(CLASS_JOBS),2)
 
 # The peers for make bench (PEERS=1): VolPack, VTK, a virtual X display for VTK (as root).
 peers:

@@ -23,6 +23,7 @@
 // Exit status: 0 every graded step passes, 1 some step does not, 2 bad input.
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
@@ -32,10 +33,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -48,6 +51,7 @@
 #include <unistd.h>
 #include "args.h"
 #include "ray_plot.h"
+#include "tools/class_cache.h"
 #include "tools/compare.h"
 #include "error.h"
 #include "image.h"
@@ -109,6 +113,10 @@ const char* const usage_text =
     "                    runs past it are not started\n"
     "  --no-sandbox      with --build where bubblewrap cannot run: run the programs anyway,\n"
     "                    with limits but unconfined (the instructor's explicit choice)\n"
+    "  --cache DIR       with --build: a class run's cache (build/grade --class makes one):\n"
+    "                    a step whose source another tree had byte for byte takes its binary,\n"
+    "                    and that binary's runs with the same arguments their outcome\n"
+    "                    (tools/class_cache.h); not with --no-sandbox\n"
     "  --help            this text\n"
     "\n"
     "Exit status: 0 every graded step passes, 1 some step does not, 2 bad input.\n";
@@ -126,6 +134,7 @@ struct Settings {
     bool build = false;          // a stranger's tree: built and run in the sandbox
     bool no_sandbox = false;     // --build without a sandbox, explicitly
     fs::path lab;                // the instructor's lab: Makefile, common/, its library
+    fs::path cache;              // --build: the class run's shared builds and runs, or ""
     int jobs = 2;
     double budget_s = default_budget_s;
 };
@@ -184,6 +193,9 @@ Settings parse_arguments(int argc, char** argv) {
         } else if (arg == "--lab") {
             settings.lab = value();
             if (settings.lab.empty()) throw InputError("--lab: expected a folder");
+        } else if (arg == "--cache") {
+            settings.cache = value();
+            if (settings.cache.empty()) throw InputError("--cache: expected a folder");
         } else if (arg == "--jobs") {
             settings.jobs = parse_int(arg, value(), 1, 256);
         } else if (arg == "--budget") {
@@ -201,6 +213,10 @@ Settings parse_arguments(int argc, char** argv) {
     }
     if (settings.build && has_bin) {
         throw InputError("--build builds the tree's steps itself: no --bin");
+    }
+    if (!settings.cache.empty() && (!settings.build || settings.no_sandbox)) {
+        throw InputError("--cache is for --build in the sandbox: an unconfined program could "
+                         "write into it");
     }
     if (!has_bin) settings.bin = settings.tree / "build";
     if (!has_reference) settings.reference = settings.tree / "data" / "reference";
@@ -818,6 +834,9 @@ private:
     fs::path reference_bin_;  // the solution's own step binaries, when this lab holds them
     std::map<std::string, std::string> not_built_;  // --build: step -> why it was not built
     double build_s_ = 0;  // --build: wall-clock seconds of the sandboxed build
+    std::unique_ptr<ClassCache> cache_;             // --cache: the class run's
+    std::map<std::string, std::string> build_keys_;  // step -> its cache entry, when it has one
+    int builds_ = 0, builds_reused_ = 0, runs_ = 0, runs_reused_ = 0;  // cache: report.txt
     std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
@@ -870,15 +889,42 @@ Outcome Grader::execute(const Step& step, const std::vector<std::string>& argume
                       std::to_string(static_cast<int>(settings_.budget_s)) + " s is used up\n";
         return outcome;
     }
+    // The same program with the same arguments ended so before (class_cache.h).
+    ++runs_;
+    const auto key = build_keys_.find(step.name);
+    if (cache_ && key != build_keys_.end() &&
+        cache_->take_run(key->second, arguments, folder.string(), outcome)) {
+        ++runs_reused_;
+        outcome.program = "/lab/build/" + step.name;
+        outcome.args = arguments;
+        for (const auto& [name, text] : {std::pair<const char*, const std::string*>{
+                                             "stdout.txt", &outcome.out},
+                                         {"stderr.txt", &outcome.err}}) {
+            std::ofstream log(folder / name, std::ios::binary | std::ios::trunc);
+            log << *text;
+        }
+        return outcome;
+    }
     const fs::path run_folder = stage_->root() / "run";
     std::error_code error;
     fs::remove_all(run_folder, error);
     fs::create_directory(run_folder);
     give_to_sandbox(run_folder.string());
+    // A run sees its own binary, the instructor's modules and data/, the volume and an empty
+    // /out: nothing of the tree's other steps, so that what it does depends on it alone.
     Sandbox sandbox;
-    sandbox.mounts = {{stage_->lab().string(), "/lab", false},
-                      {(stage_->root() / "volume").string(), "/volume", false},
-                      {run_folder.string(), "/out", true}};
+    const fs::path lab = stage_->lab();
+    sandbox.mounts = {{(lab / "data").string(), "/lab/data", false},
+                      {(lab / "build" / step.name).string(), "/lab/build/" + step.name, false}};
+    for (const char* module : lab_modules) {
+        if (fs::is_regular_file(lab / "build" / module, error)) {
+            sandbox.mounts.push_back({(lab / "build" / module).string(),
+                                      std::string("/lab/build/") + module, false});
+        }
+    }
+    sandbox.mounts.insert(sandbox.mounts.end(),
+                          {{(stage_->root() / "volume").string(), "/volume", false},
+                           {run_folder.string(), "/out", true}});
     sandbox.folder = "/lab";
     sandbox.tmp_bytes = run_tmp_bytes;
     ProcessOptions options;
@@ -907,6 +953,7 @@ Outcome Grader::execute(const Step& step, const std::vector<std::string>& argume
     // What it left in its folder, ordinary files only and within bounds, goes to `folder`.
     size_t files = 0, bytes = 0;
     std::string problem;
+    std::vector<std::string> copied;  // the names of the files copied out
     for (const fs::directory_entry& entry : fs::directory_iterator(run_folder, error)) {
         const fs::path name = entry.path().filename();
         if (++files > max_run_folder_files) {
@@ -922,7 +969,9 @@ Outcome Grader::execute(const Step& step, const std::vector<std::string>& argume
                       " in its output folder";
             break;
         }
-        copy_untrusted(entry.path(), folder / name, max_run_folder_bytes);
+        if (copy_untrusted(entry.path(), folder / name, max_run_folder_bytes).empty()) {
+            copied.push_back(name.string());
+        }
     }
     fs::remove_all(run_folder, error);
     if (!problem.empty()) {  // graded as a program that printed too much
@@ -935,7 +984,44 @@ Outcome Grader::execute(const Step& step, const std::vector<std::string>& argume
         std::ofstream log(folder / name, std::ios::binary | std::ios::trunc);
         log << *text;
     }
+    if (cache_ && key != build_keys_.end() && !settings_.no_sandbox) {
+        cache_->store_run(key->second, arguments, outcome, folder.string(), copied);
+    }
     return outcome;
+}
+
+// The instructor's inputs as text for the cache (class_cache.h): their bytes, the flags the
+// build adds, the volume and the run limits. Another lab, volume or timeout: another cache.
+std::string lab_fingerprint(const fs::path& lab, const Settings& settings) {
+    std::string text = std::string("san=") + (lab_has_sanitizers ? "1" : "0") +
+                       " timeout=" + std::to_string(settings.timeout_s) + " volume=" +
+                       settings.volume + " " + join(settings.volume_args) + "\n";
+    std::vector<fs::path> files;
+    std::error_code error;
+    for (const char* folder : {"common", "data/tf", "data/presets"}) {
+        for (const fs::directory_entry& entry :
+             fs::recursive_directory_iterator(lab / folder, error)) {
+            if (entry.is_regular_file(error)) files.push_back(entry.path());
+        }
+    }
+    std::sort(files.begin(), files.end());
+    files.insert(files.begin(), {lab / "Makefile", lab / "build" / "libctlab.a"});
+    for (const char* module : lab_modules) files.push_back(lab / "build" / module);
+    for (const fs::path& file : files) {
+        std::ifstream in(file, std::ios::binary);
+        std::ostringstream bytes;
+        bytes << in.rdbuf();
+        char hash[17];
+        std::snprintf(hash, sizeof hash, "%016llx", fnv1a_64(bytes.str()));
+        text += relative_to(file, lab) + " " + hash + "\n";
+    }
+    // A volume file: its size and time (an instructor's volume is not changed mid-class).
+    if (fs::is_regular_file(settings.volume, error)) {
+        text += "volume " + std::to_string(fs::file_size(settings.volume, error)) + " " +
+                std::to_string(fs::last_write_time(settings.volume, error)
+                                   .time_since_epoch().count()) + "\n";
+    }
+    return text;
 }
 
 void Grader::stage_and_build(const std::vector<std::string>& names) {
@@ -955,6 +1041,7 @@ void Grader::stage_and_build(const std::vector<std::string>& names) {
                              ": make, so students are built against the library as it is");
         }
     }
+    const auto build_start = std::chrono::steady_clock::now();
     stage_ = std::make_unique<Stage>();
     const fs::path lab = stage_->lab();
     fs::create_directories(lab / "steps");
@@ -981,52 +1068,137 @@ void Grader::stage_and_build(const std::vector<std::string>& names) {
         fs::copy(volume, stage_->root() / "volume" / volume.filename(),
                  fs::copy_options::recursive);
     }
+    if (!settings_.cache.empty()) {
+        cache_ = std::make_unique<ClassCache>(settings_.cache.string(),
+                                              lab_fingerprint(lab, settings_));
+    }
     // The student's sources: ordinary files only, never through a link.
     std::vector<std::string> targets;
+    std::map<std::string, std::string> sources;  // with the cache: each source's bytes
     for (const std::string& name : names) {
+        const fs::path source = lab / "steps" / (name + ".cpp");
         const std::string problem = copy_untrusted(settings_.tree / "steps" / (name + ".cpp"),
-                                                   lab / "steps" / (name + ".cpp"),
-                                                   max_source_bytes);
-        if (problem.empty()) {
-            targets.push_back("build/" + name);
-        } else {
+                                                   source, max_source_bytes);
+        if (!problem.empty()) {
             not_built_[name] = "steps/" + name + ".cpp " + problem;
+            continue;
         }
+        ++builds_;
+        if (cache_) sources[name] = read_bounded(source, max_source_bytes);
+        targets.push_back(name);
     }
-    give_to_sandbox((lab / "build").string());
-    if (targets.empty()) return;
 
-    Sandbox sandbox;
-    sandbox.mounts = {{lab.string(), "/lab", false}, {(lab / "build").string(), "/lab/build", true}};
-    sandbox.folder = "/lab";
-    sandbox.tmp_bytes = build_tmp_bytes;
-    ProcessOptions options;
-    options.limits = sandbox_limits(std::max(1.0, seconds_left()), true);
-    options.prefix = settings_.no_sandbox ? std::vector<std::string>{} : sandbox_command(sandbox);
-    options.uid = settings_.no_sandbox ? 0 : sandbox_uid();
-    if (settings_.no_sandbox) options.folder = lab.string();
-    // -o: the instructor's library is never remade (nor its objects looked for); -k: every
-    // step that compiles is built.
-    std::vector<std::string> arguments = {"--no-print-directory", "-k",
-                                          "-j" + std::to_string(settings_.jobs), "BUILD=build",
-                                          "WERROR=0", "-o", "build/libctlab.a"};
+    // Each step is built by itself, in a sandbox that sees its one source, the instructor's
+    // Makefile, common/, library and modules, and a writable build folder of its own: its
+    // binary is made from that source alone (no #include of another step's file), as the
+    // cache's key says. `jobs` steps at once. With the class cache, a source another tree
+    // built takes its binary; one another tree is building now is waited for (its lock).
+    const fs::path builds = stage_->root() / "builds";
+    // -o: the instructor's library is never remade (nor its objects looked for).
+    std::vector<std::string> make_flags = {"--no-print-directory", "BUILD=build", "WERROR=0",
+                                           "-o", "build/libctlab.a"};
     for (const char* module : lab_modules) {
-        arguments.insert(arguments.end(), {"-o", std::string("build/") + module});
+        make_flags.insert(make_flags.end(), {"-o", std::string("build/") + module});
     }
     // A sanitizer build of the lab (make SAN=1) has an instrumented library: the students'
     // steps are built the same way, or they would not link against it.
-    if (lab_has_sanitizers) arguments.push_back("SAN=1");
-    arguments.insert(arguments.end(), targets.begin(), targets.end());
-    options.stop = &interrupted;
-    const Outcome outcome = checked(run_process("/usr/bin/make", arguments, options));
-    build_s_ = outcome.seconds;
-    {
-        std::ofstream log(settings_.out / "build.txt", std::ios::binary | std::ios::trunc);
+    if (lab_has_sanitizers) make_flags.push_back("SAN=1");
+    std::vector<Outcome> outcomes(targets.size());
+    std::vector<std::string> keys(targets.size());  // the cache entry each binary came from
+    std::vector<char> reused(targets.size(), 0), made(targets.size(), 0);
+    std::atomic<size_t> next{0};
+    std::mutex failing;
+    std::exception_ptr failure;  // a builder's error, thrown again once all have ended
+    auto build = [&](size_t n) {
+        const std::string& name = targets[n];
+        const fs::path binary = lab / "build" / name;
+        std::unique_ptr<CacheLock> lock;
+        if (cache_) {
+            lock = cache_->lock_build(name, sources.at(name), &interrupted);
+            keys[n] = cache_->take_build(name, sources.at(name), binary.string());
+            if (!keys[n].empty()) {
+                reused[n] = made[n] = 1;
+                return;
+            }
+        }
+        std::error_code error;
+        const fs::path own = builds / name;
+        fs::create_directories(own / "steps");
+        fs::create_directories(own / "build");
+        fs::copy_file(lab / "steps" / (name + ".cpp"), own / "steps" / (name + ".cpp"));
+        fs::copy_file(lab / "build" / "libctlab.a", own / "build" / "libctlab.a");
+        for (const char* module : lab_modules) {
+            if (fs::is_regular_file(lab / "build" / module, error)) {
+                fs::copy_file(lab / "build" / module, own / "build" / module);
+            }
+        }
+        if (settings_.no_sandbox) {  // unconfined: the stage's own Makefile and common/
+            fs::create_symlink(lab / "Makefile", own / "Makefile");
+            fs::create_directory_symlink(lab / "common", own / "common");
+        }
+        give_to_sandbox((own / "build").string());
+        Sandbox sandbox;
+        sandbox.mounts = {{(lab / "Makefile").string(), "/lab/Makefile", false},
+                          {(lab / "common").string(), "/lab/common", false},
+                          {(own / "steps").string(), "/lab/steps", false},
+                          {(own / "build").string(), "/lab/build", true}};
+        sandbox.folder = "/lab";
+        sandbox.tmp_bytes = build_tmp_bytes;
+        ProcessOptions options;
+        options.limits = sandbox_limits(std::max(1.0, seconds_left()), true);
+        options.prefix = settings_.no_sandbox ? std::vector<std::string>{}
+                                              : sandbox_command(sandbox);
+        options.uid = settings_.no_sandbox ? 0 : sandbox_uid();
+        if (settings_.no_sandbox) options.folder = own.string();
+        options.stop = &interrupted;
+        std::vector<std::string> arguments = make_flags;
+        arguments.push_back("build/" + name);
+        outcomes[n] = run_process("/usr/bin/make", arguments, options);
+        // The binary, made by the sandbox: an ordinary file within bounds, or not built.
+        const fs::path built = own / "build" / name;
+        if (!fs::is_regular_file(fs::symlink_status(built, error)) ||
+            !copy_untrusted(built, binary, build_file_bytes).empty()) {
+            return;
+        }
+        fs::permissions(binary, fs::perms::owner_all | fs::perms::group_read |
+                        fs::perms::group_exec | fs::perms::others_read |
+                        fs::perms::others_exec, error);
+        made[n] = 1;
+        if (cache_ && outcomes[n].exit_status == 0) {
+            cache_->store_build(name, sources.at(name), binary.string());
+            keys[n] = cache_->take_build(name, sources.at(name), binary.string());
+        }
+    };
+    auto builder = [&] {
+        for (size_t n; (n = next++) < targets.size() && !interrupted;) {
+            try {
+                build(n);
+            } catch (...) {
+                const std::lock_guard<std::mutex> lock(failing);
+                if (!failure) failure = std::current_exception();
+            }
+        }
+    };
+    std::vector<std::thread> threads;
+    const int jobs = std::min(settings_.jobs, static_cast<int>(targets.size()));
+    for (int j = 0; j < jobs; ++j) threads.emplace_back(builder);
+    for (std::thread& thread : threads) thread.join();
+    if (interrupted) throw Interrupted{};
+    if (failure) std::rethrow_exception(failure);
+    build_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                             build_start).count();
+    std::ofstream log(settings_.out / "build.txt", std::ios::binary | std::ios::trunc);
+    for (size_t n = 0; n < targets.size(); ++n) {
+        const std::string& name = targets[n];
+        if (!keys[n].empty()) build_keys_[name] = keys[n];
+        builds_reused_ += reused[n];
+        if (reused[n]) {
+            log << name << ": the class cache's binary of this source, byte for byte\n";
+            continue;
+        }
+        const Outcome& outcome = outcomes[n];
         log << outcome.out << outcome.err;
-    }
-    for (const std::string& name : names) {
-        if (not_built_.count(name)) continue;
-        if (fs::is_regular_file(lab / "build" / name, error)) continue;
+        if (made[n]) continue;
         // The compiler's first error in this step's file.
         std::string first;
         for (const std::string& line : lines_of(outcome.err + outcome.out)) {
@@ -1037,8 +1209,8 @@ void Grader::stage_and_build(const std::vector<std::string>& names) {
             }
         }
         if (first.empty()) {
-            first = outcome.timed_out ? "the build " + outcome.stop_reason()
-                                      : "no error in steps/" + name + ".cpp (see build.txt)";
+            first = !outcome.stop_reason().empty() ? "the build " + outcome.stop_reason()
+                        : "no error in steps/" + name + ".cpp (see build.txt)";
         }
         not_built_[name] = "does not compile: " + first;
     }
@@ -1298,11 +1470,17 @@ void Grader::probe_rays(const Step& step, const Run& run, const std::string& vie
     for (std::string line; std::getline(lines, line);) {
         const std::vector<std::string> words = split_words(line.substr(0, line.find('#')));
         if (words.size() < 3 || words[0] != run.name || words[1] != view) continue;
+        // X,Y as --debug-pixel takes it: a bad one is the instructor's file at fault.
+        const size_t comma = words[2].find(',');
+        if (comma == std::string::npos) {
+            throw InputError(probes_path.string() + ": expected X,Y after '" + run.name + " " +
+                             view + "', got '" + words[2] + "'");
+        }
         Probe probe;
         probe.view = view;
-        if (std::sscanf(words[2].c_str(), "%d,%d", &probe.x, &probe.y) == 2) {
-            probes.push_back(probe);
-        }
+        probe.x = parse_int(probes_path.string() + ": x", words[2].substr(0, comma), 0, INT_MAX);
+        probe.y = parse_int(probes_path.string() + ": y", words[2].substr(comma + 1), 0, INT_MAX);
+        probes.push_back(probe);
     }
     std::vector<std::string> agreed;
     for (const Probe& probe : probes) {
@@ -1707,6 +1885,11 @@ int Grader::run() {
         std::snprintf(times, sizeof times, "time: build %.1f s, runs %.1f s\n", build_s_,
                       settings_.budget_s - seconds_left() - build_s_);
         report += times;
+        if (cache_) {  // what the class cache saved this tree (build/grade sums them)
+            report += "cache: builds reused " + std::to_string(builds_reused_) + "/" +
+                      std::to_string(builds_) + ", runs reused " +
+                      std::to_string(runs_reused_) + "/" + std::to_string(runs_) + "\n";
+        }
     }
     {
         const fs::path path = settings_.out / "report.txt";

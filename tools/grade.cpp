@@ -45,6 +45,7 @@
 #include "tools/image_read.h"
 #include "tools/output_folder.h"
 #include "tools/process.h"
+#include "tools/run_step.h"
 #include "tools/sandbox.h"
 
 using namespace ctlab;
@@ -101,6 +102,10 @@ const char* const usage_text =
     "  --step NN           --class: build and grade only step NN (again for more steps)\n"
     "  --regrade           --class: grade again the students a stopped run had finished\n"
     "                      (otherwise their reports are kept and they are skipped)\n"
+    "  --no-cache          --class: build and run every tree's steps, even a source another\n"
+    "                      tree had byte for byte (otherwise its binary is built once per class\n"
+    "                      run, in a sandbox that saw only that source, and its runs' outcomes\n"
+    "                      kept for the same arguments: tools/class_cache.h)\n"
     "  --no-sandbox        --class: where bubblewrap cannot run, build and run the trees'\n"
     "                      programs anyway, unconfined (otherwise they are not run)\n"
     "  --help              this text\n"
@@ -124,6 +129,7 @@ struct Settings {
     std::string timeout;                    // --class: build/check's --timeout (per run)
     std::vector<std::string> steps;         // --class: only these steps (--step NN, repeated)
     bool no_sandbox = false, regrade = false, has_class_flag = false;
+    bool no_cache = false;                  // --class: no class cache (tools/class_cache.h)
 };
 
 Settings parse_arguments(int argc, char** argv) {
@@ -169,6 +175,9 @@ Settings parse_arguments(int argc, char** argv) {
         } else if (arg == "--no-sandbox") {
             settings.no_sandbox = true;
             settings.has_class_flag = true;
+        } else if (arg == "--no-cache") {
+            settings.no_cache = true;
+            settings.has_class_flag = true;
         } else if (arg == "--regrade") {
             settings.regrade = true;
             settings.has_class_flag = true;
@@ -180,8 +189,8 @@ Settings parse_arguments(int argc, char** argv) {
     }
     if (settings.help) return settings;
     if (settings.has_class_flag && !settings.has_class) {
-        throw InputError("--jobs, --budget, --timeout, --no-sandbox and --regrade are for "
-                         "--class DIR");
+        throw InputError("--jobs, --budget, --timeout, --step, --no-sandbox, --no-cache and "
+                         "--regrade are for --class DIR");
     }
     if (settings.has_submission && settings.has_class) {
         throw InputError("--submission and --class: one at a time");
@@ -864,6 +873,8 @@ struct Student {
     std::map<std::string, std::pair<int, int>> steps;  // step -> (passed, total)
     std::vector<Row> rows;   // picture rows (not for a program graded by build/check)
     Folder pictures;
+    std::map<std::string, std::string> statuses;  // a tree's step -> build/check's status
+    int builds = 0, builds_reused = 0, runs = 0, runs_reused = 0;  // the class cache's share
 };
 
 // A file or folder name safe as one path component of the report folder.
@@ -912,12 +923,14 @@ int grade_jobs(const Settings& settings) {
 // ("-" where nothing ran), and exits 0 (all pass), 1 (some fail) or 2 (bad input, its first
 // stderr line the reason). Its tolerances are the manifest's per run, not --tol.
 void grade_program_tree(const std::string& grade, const std::string& tree,
-                        const Settings& settings, const OutputFolder& out, Student& student) {
+                        const Settings& settings, const std::string& cache,
+                        const OutputFolder& out, Student& student) {
     std::vector<std::string> arguments = {"--build", "--tree", tree, "--reference",
                                           settings.reference, "--out", out.path(),
                                           "--budget", std::to_string(settings.budget_s),
                                           "--jobs", std::to_string(grade_jobs(settings))};
     if (settings.no_sandbox) arguments.push_back("--no-sandbox");
+    if (!cache.empty()) arguments.insert(arguments.end(), {"--cache", cache});
     if (!settings.timeout.empty()) arguments.insert(arguments.end(), {"--timeout",
                                                                       settings.timeout});
     for (const std::string& step : settings.steps) arguments.insert(arguments.end(),
@@ -948,8 +961,11 @@ void grade_program_tree(const std::string& grade, const std::string& tree,
             report.append(chunk, static_cast<size_t>(in.gcount()));
         }
     }
-    const std::regex line("^([0-9]{2}_[a-z0-9_]+): [a-z ]+, pictures (-|([0-9]+)/([0-9]+)), "
+    const std::regex line("^([0-9]{2}_[a-z0-9_]+): ([a-z ]+), pictures (-|([0-9]+)/([0-9]+)), "
                           "counters (-|([0-9]+)/([0-9]+))$");
+    // "cache: builds reused A/B, runs reused C/D": what the class cache saved this tree.
+    const std::regex cache_line("^cache: builds reused ([0-9]+)/([0-9]+), runs reused "
+                                "([0-9]+)/([0-9]+)$");
     size_t start = 0;
     std::string step, reason;
     while (start < report.size()) {
@@ -961,9 +977,19 @@ void grade_program_tree(const std::string& grade, const std::string& tree,
             auto number = [&](int group) {
                 return match[group].matched ? std::stoi(match[group]) : 0;
             };
-            const int passed = number(3) + number(6), total = number(4) + number(7);
-            student.steps[match[1]] = {passed, std::max(total, 1)};  // nothing ran: 0 of 1
+            // Its pictures, its counters and its verdict: a step whose pictures all pass but
+            // that still calls a stub (not started) does not pass, nor one where nothing ran.
+            const bool passing = match[2] == "passing";
+            const int passed = number(4) + number(7) + passing;
+            const int total = number(5) + number(8) + 1;
+            student.steps[match[1]] = {passed, total};
+            student.statuses[match[1]] = match[2];
             step = match[1];
+        } else if (std::regex_match(one, match, cache_line)) {
+            student.builds_reused = std::stoi(match[1]);
+            student.builds = std::stoi(match[2]);
+            student.runs_reused = std::stoi(match[3]);
+            student.runs = std::stoi(match[4]);
         } else if (reason.empty() && one.rfind("  ", 0) == 0 && one.rfind("    ", 0) != 0) {
             reason = step + ": " + one.substr(2);  // the first problem: one line of reason
         }
@@ -987,8 +1013,10 @@ void write_graded(const OutputFolder& out, const Student& student) {
     std::string text = "result: " + student.result + "\nsource: " + student.source +
                        "\nnote: " + student.note + "\n";
     for (const auto& [step, score] : student.steps) {
+        const auto status = student.statuses.find(step);
         text += "step: " + step + " " + std::to_string(score.first) + " " +
-                std::to_string(score.second) + "\n";
+                std::to_string(score.second) +
+                (status == student.statuses.end() ? "" : " " + status->second) + "\n";
     }
     out.write(graded_mark, text);
 }
@@ -1015,6 +1043,10 @@ bool read_graded(const OutputFolder& out, Student& student) {
             std::string step;
             int passed = 0, total = 0;
             if (words >> step >> passed >> total) student.steps[step] = {passed, total};
+            std::string status;
+            if (std::getline(words >> std::ws, status) && !status.empty()) {
+                student.statuses[step] = status;
+            }
         }
     }
     return student.result == "pass" || student.result == "fail";
@@ -1028,7 +1060,7 @@ std::string score_text(int passed, int total) {
 
 void grade_student(const Folder& class_folder, const Entry& entry, const References& references,
                    const Settings& settings, const OutputFolder& out, const std::string& grade,
-                   Student& student) {
+                   const std::string& cache, Student& student) {
     const std::string shown = join(class_folder.shown, entry.name);
     if (entry.kind != Kind::folder) {
         student.result = "error";
@@ -1041,7 +1073,7 @@ void grade_student(const Folder& class_folder, const Entry& entry, const Referen
     Folder pictures = folder;
     if (is_student_tree(list_folder(folder))) {
         if (!grade.empty()) {
-            grade_program_tree(grade, shown, settings, out, student);
+            grade_program_tree(grade, shown, settings, cache, out, student);
             return;
         }
         try {
@@ -1074,6 +1106,64 @@ void grade_student(const Folder& class_folder, const Entry& entry, const Referen
     }
 }
 
+// Byte-identical step sources in several student trees, a plagiarism hint: one line per
+// group, "- NN_name: A, B, C hand in byte-identical steps/NN_name.cpp (...)". The lab's own
+// source (the solution, which no student has) and steps not started (the kit's stubs, alike in
+// every tree) are left out. Read as the trees' pictures are: by descriptor, no link followed.
+std::string identical_programs(const Folder& class_folder, const std::vector<const Entry*>& entries,
+                               const std::vector<Student>& students, const fs::path& lab_build) {
+    constexpr long long max_source_bytes = 4 << 20;  // build/check builds no larger source
+    // (step, size, hash) -> students; then each group split by its exact bytes.
+    std::map<std::tuple<std::string, size_t, unsigned long long>, std::vector<size_t>> same;
+    auto source_of = [&](size_t n, const std::string& step) {
+        const Folder tree = open_folder(*class_folder.fd, entries[n]->name,
+                                        join(class_folder.shown, entries[n]->name), false);
+        const Folder steps = open_folder(*tree.fd, "steps", join(tree.shown, "steps"), false);
+        return read_file_at(*steps.fd, step + ".cpp", join(steps.shown, step + ".cpp"),
+                            max_source_bytes);
+    };
+    std::map<std::string, std::vector<unsigned char>> lab_sources;
+    for (size_t n = 0; n < students.size(); ++n) {
+        if (students[n].source.rfind("program", 0) != 0) continue;  // a folder of pictures
+        for (const auto& [step, status] : students[n].statuses) {
+            if (status == "not started") continue;
+            if (!lab_sources.count(step)) {
+                std::ifstream in(lab_build.parent_path() / "steps" / (step + ".cpp"),
+                                 std::ios::binary);
+                lab_sources[step].assign(std::istreambuf_iterator<char>(in),
+                                         std::istreambuf_iterator<char>());
+            }
+            try {
+                const std::vector<unsigned char> bytes = source_of(n, step);
+                if (bytes == lab_sources[step]) continue;
+                same[{step, bytes.size(), fnv1a(bytes)}].push_back(n);
+            } catch (const InputError&) {
+                // gone or changed since it was graded: no claim
+            }
+        }
+    }
+    std::string lines;
+    for (const auto& [key, group] : same) {
+        if (group.size() < 2) continue;
+        const std::string& step = std::get<0>(key);
+        std::map<std::vector<unsigned char>, std::vector<size_t>> exact;
+        for (size_t n : group) {
+            try {
+                exact[source_of(n, step)].push_back(n);
+            } catch (const InputError&) {
+            }
+        }
+        for (const auto& [bytes, members] : exact) {
+            if (members.size() < 2) continue;
+            std::string names;
+            for (size_t n : members) names += (names.empty() ? "" : ", ") + students[n].name;
+            lines += "- " + step + ": " + names + " hand in byte-identical steps/" + step +
+                     ".cpp (" + students[members[0]].statuses.at(step) + ")\n";
+        }
+    }
+    return lines;
+}
+
 int check_class(const Settings& settings) {
     {
         std::error_code error;
@@ -1103,6 +1193,12 @@ int check_class(const Settings& settings) {
                     "their out/ pictures are graded (--no-sandbox runs them unconfined)\n",
                     sandbox_problem().c_str());
         grade.clear();
+    }
+    // The class cache: a step source two trees share byte for byte is built once, and its
+    // runs run once (tools/class_cache.h); only with the sandbox. Removed at the end.
+    std::unique_ptr<TempFolder> cache;
+    if (!grade.empty() && !settings.no_cache && !settings.no_sandbox) {
+        cache = std::make_unique<TempFolder>("class_cache");
     }
     // One slot per student, in the class folder's order; a stopped run's finished students
     // (students/NAME/graded.txt) are kept unless --regrade.
@@ -1139,7 +1235,7 @@ int check_class(const Settings& settings) {
             if (!slot.kept) {
                 try {
                     grade_student(class_folder, slot.entry, references, settings, *slot.out,
-                                  grade, student);
+                                  grade, cache ? cache->path() : "", student);
                 } catch (const InputError& error) {
                     student.result = "error";
                     student.note = error.what();
@@ -1227,6 +1323,15 @@ int check_class(const Settings& settings) {
     md += "- tolerance: " + tolerances_text(references, settings.tolerance) + " (8-bit units)\n";
     md += "- students: " + std::to_string(students.size()) + ", all steps pass: " +
           std::to_string(passing) + "\n";
+    int builds = 0, builds_reused = 0, runs = 0, runs_reused = 0;
+    for (const Student& student : students) {
+        builds += student.builds, builds_reused += student.builds_reused;
+        runs += student.runs, runs_reused += student.runs_reused;
+    }
+    const std::string cache_text = std::to_string(builds_reused) + " of " +
+        std::to_string(builds) + " step builds and " + std::to_string(runs_reused) + " of " +
+        std::to_string(runs) + " runs taken from another tree's byte-identical source";
+    if (cache) md += "- class cache: " + cache_text + " (tools/class_cache.h)\n";
     md += "- per student: `students/NAME/report.md`, failing pictures side by side (student | "
           "reference | heat map) in `students/NAME/pictures/`; for a student tree whose "
           "programs were run (build/check), `students/NAME/report.txt` and "
@@ -1321,11 +1426,25 @@ int check_class(const Settings& settings) {
     md += hints.empty() ? "None: no two students handed in the same failing picture.\n"
                         : "Two renders of the same mistake rarely match to the byte: worth a "
                           "look.\n\n" + hints;
+    std::vector<const Entry*> entries;
+    for (const Slot& slot : slots) entries.push_back(&slot.entry);
+    const std::string same_programs =
+        identical_programs(class_folder, entries, students, fs::path(grade).parent_path());
+    md += "\n## Identical programs\n\n";
+    md += same_programs.empty()
+              ? "None: no two student trees hold the same step source.\n"
+              : "Two students rarely write a step byte for byte alike: worth a look (the lab's "
+                "own source and steps not started, the kit's stubs, are left out).\n\n" +
+                    same_programs;
     out.write("summary.md", md);
 
     std::printf("%d students: %d pass, %d do not\n", static_cast<int>(students.size()), passing,
                 static_cast<int>(students.size()) - passing);
     if (!hints.empty()) std::printf("hint: byte-identical failing pictures, see summary.md\n");
+    if (!same_programs.empty()) {
+        std::printf("hint: byte-identical step sources in several trees, see summary.md\n");
+    }
+    if (cache) std::printf("class cache: %s\n", cache_text.c_str());
     std::printf("report: %s %s %s/\n", out.path("class.csv").c_str(),
                 out.path("summary.md").c_str(), students_out.path().c_str());
     return passing == static_cast<int>(students.size()) ? exit_pass : exit_fail;
