@@ -145,6 +145,16 @@ double ring_banding(const Image& image, const Image& reference, double out_to) {
     return std::sqrt(square / used);
 }
 
+// How many pixels of two pictures of one size differ in any channel (bit for bit).
+int differing_pixels(const Image& a, const Image& b) {
+    int differing = 0;
+    for (size_t n = 0; n < a.pixels.size(); ++n) {
+        const Rgb &p = a.pixels[n], &q = b.pixels[n];
+        if (p.r != q.r || p.g != q.g || p.b != q.b) ++differing;
+    }
+    return differing;
+}
+
 }  // namespace
 
 TEST_CASE("jitter: --jitter none draws step 11's picture bit for bit, with the same work") {
@@ -162,12 +172,7 @@ TEST_CASE("jitter: --jitter none draws step 11's picture bit for bit, with the s
             const RunResult eleven = render(step, flags, folder);
             const Image a = camera_pfm(folder, free_camera), b = camera_pfm(folder, step);
             REQUIRE(a.pixels.size() == b.pixels.size());
-            int differing = 0;
-            for (size_t n = 0; n < a.pixels.size(); ++n) {
-                const Rgb &p = a.pixels[n], &q = b.pixels[n];
-                if (p.r != q.r || p.g != q.g || p.b != q.b) ++differing;
-            }
-            CHECK(differing == 0);
+            CHECK(differing_pixels(a, b) == 0);
             for (const char* counter :
                  {"samples", "skipped", "leapt", "gradients", "terminated"}) {
                 CAPTURE(counter);
@@ -188,12 +193,7 @@ TEST_CASE("jitter: step 13's --jitter hash is step 12's picture, bit for bit, wi
     const RunResult thirteen = render(jitter_step, hash, folder);
     const Image a = camera_pfm(folder, hash_step), b = camera_pfm(folder, jitter_step);
     REQUIRE(a.pixels.size() == b.pixels.size());
-    int differing = 0;
-    for (size_t n = 0; n < a.pixels.size(); ++n) {
-        const Rgb &p = a.pixels[n], &q = b.pixels[n];
-        if (p.r != q.r || p.g != q.g || p.b != q.b) ++differing;
-    }
-    CHECK(differing == 0);
+    CHECK(differing_pixels(a, b) == 0);
     for (const char* counter : {"samples", "skipped", "gradients", "terminated"}) {
         CAPTURE(counter);
         CHECK(twelve.summary("camera").at(counter) == thirteen.summary("camera").at(counter));
