@@ -364,7 +364,7 @@ carry-lab: $(BUILD)/carry
 
 # The README's pictures of the window's control panel: steps 06 and 10 on a virtual X display
 # (xvfb-run), into handouts/panel_NN_name.png (tools/panel_screenshots.sh).
-screenshots: $(BUILD)/06_transfer_function $(BUILD)/17_free_leaping
+screenshots: $(BUILD)/06_transfer_function $(BUILD)/18_free_leaping
 	sh tools/panel_screenshots.sh $(BUILD) handouts
 
 # Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.

@@ -237,7 +237,7 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
                                   record.number("direction.k", 0)};
                 continue;
             case TraceKind::sample:
-            case TraceKind::bisection:  // step 13's halvings are samples of the ray too
+            case TraceKind::bisection:  // step 14's halvings are samples of the ray too
                 break;
             default:
                 if (second_order) continue;  // its marks are the first order's
@@ -246,7 +246,7 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
         switch (record.kind) {
             case TraceKind::hit:
                 if (record.has("t")) {
-                    // part 2's surface hit (step 13)
+                    // part 2's surface hit (step 14)
                     t = record.number("t", 0);
                     plot.marks.push_back({RayMark::hit, t, t});
                 } else if (!view.camera) {

@@ -1,11 +1,12 @@
-// 10_free_camera.cpp: part 2 begins: any view, from an orbit camera, by the slab method.
+// 10_free_camera.cpp: part 2 begins: any view, from an orbit camera.
 //
 // New here:   an orbit camera around the centre of the volume's box (--azimuth, --elevation,
 //             --zoom, --projection ortho|perspective, --fov, --size WxH); one ray per pixel in
-//             physical space, voxel (i, j, k) at (i*sx, j*sy, k*sz); where it enters and leaves
-//             the box of voxel centres (the slab method); samples every --step physical units,
-//             each read from its nearest voxel (part 1's way: step 11 interpolates). The light
-//             turns with the camera. Compositing, lighting and opacity correction are step 08's.
+//             physical space, voxel (i, j, k) at (i*sx, j*sy, k*sz); samples every --step
+//             physical units along it, those inside the box of voxel centres each read from
+//             its nearest voxel (part 1's way: step 12 interpolates; step 11 finds where the
+//             ray is in the box). The light turns with the camera. Compositing, lighting and
+//             opacity correction are step 08's.
 // Camera:     a proper camera: image x runs along `right` = forward x up. Part 1's top view is
 //             --azimuth 180 --elevation 90, its side view --azimuth 90 --elevation 0, and its
 //             front view the left-right mirror of --azimuth 0 --elevation 0 (that camera faces
@@ -13,7 +14,7 @@
 // Defaults:   azimuth 30, elevation 20, orthographic, 512x512, --fov 30 (perspective), light
 //             30 degrees to the right of the camera and 20 above it, a black background.
 // Builds on:  08_lit_compositing (lit front to back, a step in physical units; step 09's
-//             leaping along part 1's rays is not taken: step 17 leaps along a free ray).
+//             leaping along part 1's rays is not taken: step 18 leaps along a free ray).
 // Handout:    handouts/10_free_camera.md
 // Run:        make run STEP=10 ARGS="--azimuth 60 --projection perspective"
 // Reference:  data/reference/10_free_camera_camera.png: the default run, on the phantom.
@@ -40,9 +41,6 @@ constexpr double default_fov = 30;        // degrees, the perspective image's he
 constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
 constexpr const char* default_size = "512x512";  // pixels, columns x rows
 constexpr int max_image_side = 8192;             // pixels, --size limit per side
-// Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
-// rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
-constexpr double sample_count_slack = 1e-9;
 
 struct Params {
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
@@ -81,13 +79,6 @@ struct Camera {
 // A ray: origin + t * direction, direction of length 1, so t is a physical distance.
 struct Ray {
     Vec3d origin, direction;
-};
-
-// Where a ray is inside the box: t_entry <= t <= t_exit; hit false when it misses.
-struct Span {
-    bool hit = false;
-    double t_entry = 0, t_exit = 0;
-    int entry_axis = -1;  // the axis whose face the ray enters through; -1: it starts inside
 };
 
 // The box of voxel centres, 0 .. (n - 1) * spacing along each axis: every point in it has
@@ -159,56 +150,6 @@ static Ray camera_ray(const Camera& camera, int x, int y) {
 }
 //< lesson: camera
 
-//> lesson: slab
-// The slab method: along each axis the ray is between the two planes lo and hi for t from
-// (lo - o) / d to (hi - o) / d (swapped when d < 0). It is inside the box where it is inside
-// all three slabs: from the largest entry to the smallest exit. It misses when that interval
-// is empty or lies behind the origin; a camera inside the box starts at t = 0.
-// The stiff case: d = 0 or -0 (parallel to the planes). Then 1/d is +-infinity, and an origin
-// exactly on a plane gives 0 * infinity = NaN. So handle it first: the ray is inside that slab
-// for every t (on a plane counts as inside) or for none.
-static Span intersect_box(const Ray& ray, const Vec3d& low, const Vec3d& high) {
-    Span span;
-    double t_entry = -std::numeric_limits<double>::infinity();
-    double t_exit = std::numeric_limits<double>::infinity();
-    for (int axis = 0; axis < 3; ++axis) {
-        const double o = ray.origin[axis], d = ray.direction[axis];
-        if (d == 0) {  // true for -0 too
-            if (o < low[axis] || o > high[axis]) return span;  // beside the slab: a miss
-            continue;                                          // within it: no limit
-        }
-        double t_near = (low[axis] - o) / d, t_far = (high[axis] - o) / d;
-        if (t_near > t_far) std::swap(t_near, t_far);
-        if (t_near > t_entry) {
-            t_entry = t_near;
-            span.entry_axis = axis;
-        }
-        t_exit = std::min(t_exit, t_far);
-    }
-    if (t_entry > t_exit || t_exit < 0) return span;  // missed, or the box is behind
-    if (t_entry < 0) {                                // the origin is inside the box
-        t_entry = 0;
-        span.entry_axis = -1;
-    }
-    span.hit = true;
-    span.t_entry = t_entry;
-    span.t_exit = t_exit;
-    return span;
-}
-
-// The point where the ray enters, exactly on the face it crosses: o + t*d rounds, and a
-// sample a hair outside the face would read past the last voxel's centre.
-static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
-    const Vec3d point = ray.origin + span.t_entry * ray.direction;
-    double on_face[3] = {point.i, point.j, point.k};
-    if (span.entry_axis >= 0) {
-        const int axis = span.entry_axis;
-        on_face[axis] = ray.direction[axis] > 0 ? 0.0 : high[axis];
-    }
-    return {on_face[0], on_face[1], on_face[2]};
-}
-//< lesson: slab
-
 //> lesson: opacity_correction
 // The TF's opacity alpha holds for one unit of length. A sample that stands for `ratio` units
 // lets (1 - alpha)^ratio through, so its opacity is alpha' = 1 - (1 - alpha)^ratio. Computed
@@ -258,33 +199,6 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 }
 //< lesson: lookup_table
 
-// A ray's samples in voxel units, worked out once per ray: sample n is at first + n * per_step
-// (voxel coordinates: physical / spacing), for n = 0 .. count - 1.
-struct Walk {
-    Vec3d first, per_step;
-    long long count = 0;
-
-    Vec3d at(long long n) const {
-        const double s = double(n);
-        return {first.i + s * per_step.i, first.j + s * per_step.j, first.k + s * per_step.k};
-    }
-};
-
-//> lesson: walk
-// The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
-// the divisions by the spacing are done here, once per ray, not at every sample.
-static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span, double step) {
-    const Vec3d entry = entry_point(ray, span, box_high(volume));
-    Walk walk;
-    walk.first = {entry.i / volume.sx, entry.j / volume.sy, entry.k / volume.sz};
-    walk.per_step = {step * ray.direction.i / volume.sx, step * ray.direction.j / volume.sy,
-                     step * ray.direction.k / volume.sz};
-    walk.count = (long long)(std::floor((span.t_exit - span.t_entry) / step +
-                                        sample_count_slack)) + 1;
-    return walk;
-}
-//< lesson: walk
-
 //> lesson: gradient
 // The derivative along one axis at index n (of count samples, spacing apart); sample(m) reads
 // the volume at index m on that axis. Central inside, one-sided at the border: never outside.
@@ -332,25 +246,14 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// The ray's two trace records (given): where it starts, and where it meets the box. The entry
-// is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
-static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
-                      double step) {
-    if (!trace) return;
-    trace->ray(ray.origin, ray.direction);
-    if (!span.hit) {
-        trace->box_missed(high);
-        return;
-    }
-    const Vec3d in = entry_point(ray, span, high);
-    const Vec3d out = ray.origin + span.t_exit * ray.direction;
-    trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
-}
-
 //> lesson: front_to_back
-// Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
-// each read from its nearest voxel, classified by the table, lit by that voxel's gradient
-// where it is not transparent, composited front to back; early ray termination as in step 07.
+// Step 08's compositing along the camera's ray. The box lies within `reach` (half its diagonal)
+// of its centre, so samples are taken at whole steps before and after the point of the ray
+// nearest the centre, t_mid + m * step for |m * step| <= reach (and t >= 0: an eye inside the
+// box), and those inside the box of voxel centres count: each read from its nearest voxel,
+// classified by the table, lit by that voxel's gradient where it is not transparent, and
+// composited front to back; early ray termination as in step 07. A camera along an axis thus
+// samples the voxel centres as part 1 did. Step 11 finds where the ray is in the box instead.
 // Changed in step 10: along the camera's ray.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
@@ -358,22 +261,25 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
-    const Span span = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, span, high, params.step);
+    if (trace) trace->ray(ray.origin, ray.direction);
+    const double t_mid = dot(camera.centre - ray.origin, ray.direction);
+    const long long half_count = (long long)(std::floor(length(high) / 2 / params.step));
     Accumulated pixel;
-    if (!span.hit) return pixel;
-    const Walk walk = walk_through(volume, ray, span, params.step);
-    for (long long n = 0; n < walk.count; ++n) {
-        const Vec3d q = walk.at(n);  // voxel units
-        // The sample reads its nearest voxel (a half rounds up), kept inside the volume.
-        const Voxel voxel = {std::clamp(int(std::floor(q.i + 0.5)), 0, volume.nx - 1),
-                             std::clamp(int(std::floor(q.j + 0.5)), 0, volume.ny - 1),
-                             std::clamp(int(std::floor(q.k + 0.5)), 0, volume.nz - 1)};
-        const double t = span.t_entry + n * params.step;  // physical units along the ray
+    for (long long m = -half_count; m <= half_count; ++m) {
+        const double t = t_mid + m * params.step;  // physical units along the ray
+        if (t < 0) continue;                        // behind the eye
+        const Vec3d point = ray.origin + t * ray.direction;
+        if (point.i < 0 || point.i > high.i || point.j < 0 || point.j > high.j ||
+            point.k < 0 || point.k > high.k) {
+            continue;  // outside the box of voxel centres: nothing to read
+        }
+        // The sample reads its nearest voxel (a half rounds up).
+        const Voxel voxel = {int(std::floor(point.i / volume.sx + 0.5)),
+                             int(std::floor(point.j / volume.sy + 0.5)),
+                             int(std::floor(point.k / volume.sz + 0.5))};
         const float value = volume.at(voxel.i, voxel.j, voxel.k);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
-        const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
         if (sample.a == 0.0f) {
             ++work.skipped;
             if (trace) trace->sample(TraceSample(t, point, value).skipped());
@@ -394,9 +300,9 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
                               .colour(pixel.r, pixel.g, pixel.b)
                               .transparency(pixel.transparency));
         }
-        if (pixel.transparency < stop_below && n + 1 < walk.count) {
+        if (pixel.transparency < stop_below && m < half_count) {
             ++work.terminated;
-            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
+            if (trace) trace->stop(pixel.transparency, stop_below, half_count - m);
             break;
         }
     }

@@ -4,13 +4,13 @@
 // New here:   nothing to see: one program renders all four of part 3's bench cases, so that
 //             every later step can be timed and compared against it. Composite with the
 //             classic table, lit (part 2's light) or --unlit, or the maximum intensity
-//             (--mode mip, step 14's grey), from step 10's orbit camera and its flags,
+//             (--mode mip, step 15's grey), from step 10's orbit camera and its flags,
 //             trilinear samples every --step, early ray termination. The code is plain lesson
 //             code, part 2's unchanged: the dense volume, every gradient from the voxels,
 //             every sample read, no caches. Each trick of steps 31 on is measured against
 //             this step and renders its pictures within the manifest's tolerance.
-// Builds on:  17_free_leaping (camera, slab method, trilinear, lit compositing; its leaping
-//             over empty bricks goes, it is step 31's trick) and 14_projection_modes (MIP).
+// Builds on:  18_free_leaping (camera, slab method, trilinear, lit compositing; its leaping
+//             over empty bricks goes, it is step 31's trick) and 15_projection_modes (MIP).
 // Handout:    handouts/30_speed_baseline.md
 // Run:        make run STEP=30 ARGS="--mode mip --azimuth 180 --elevation 90 --size 256x256"
 // Reference:  data/reference/30_speed_baseline_camera.png: the default run (lit composite,
@@ -398,7 +398,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 12.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 13.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -491,7 +491,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
 //< lesson: composite
 
 //> lesson: mip
-// Case d: step 14's maximum intensity along the same samples, from the first sample (CT
+// Case d: step 15's maximum intensity along the same samples, from the first sample (CT
 // values go below 0), shown as grey; a ray that misses the box shows the background.
 // Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
 static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {

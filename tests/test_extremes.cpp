@@ -77,7 +77,7 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--threshold", "32767"});
     }
     if (step >= "04" && step < "06") all.push_back({"--light-angle", "180"});
-    const bool projection_modes = step.rfind("14", 0) == 0;  // grey: no transfer function
+    const bool projection_modes = step.rfind("15", 0) == 0;  // grey: no transfer function
     if (step >= "06" && !projection_modes) {
         all.push_back({"--skin-opacity", "1"});
         all.push_back({"--tf", "data/tf/transparent.tf"});
@@ -99,20 +99,20 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     // without leaping, the longest step unlit, and each step's own paths.
     if (ctlab_test::is_camera_step(step)) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
-        // Step 10 reads the nearest voxel only (11 on: --interpolation); step 17 leaps (part 3
+        // Steps 10 and 11 read the nearest voxel only (12 on: --interpolation); step 18 leaps (part 3
         // has no --no-leaping).
         std::vector<std::string> nearest = {"--azimuth", "-360"};
-        if (step >= "11") nearest.insert(nearest.begin(), {"--interpolation", "nearest"});
-        if (step.rfind("17", 0) == 0) nearest.push_back("--no-leaping");
+        if (step >= "12") nearest.insert(nearest.begin(), {"--interpolation", "nearest"});
+        if (step.rfind("18", 0) == 0) nearest.push_back("--no-leaping");
         all.push_back(nearest);
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
     }
     if (step >= "30") all.push_back({"--mode", "mip", "--elevation", "-90"});  // part 3's MIP
-    if (step.rfind("12", 0) == 0) {
+    if (step.rfind("13", 0) == 0) {
         all.push_back({"--jitter", "hash", "--zoom", "0.01"});
         all.push_back({"--jitter", "hash", "--show-jitter"});  // a trace with no ray
     }
-    if (step.rfind("13", 0) == 0) {
+    if (step.rfind("14", 0) == 0) {
         // The paths above with the hash's offsets: the default, blue noise, makes its 64x64
         // tile at start-up (0.11 s of CPU a run, measured: more than all the other steps' runs
         // of this test together). The default run on every fill and --jitter blue keep it.
@@ -125,12 +125,12 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--mode", "minip", "--slab", "2"});
         all.push_back({"--mode", "average", "--zoom", "100"});
     }
-    if (step.rfind("15", 0) == 0) {
+    if (step.rfind("16", 0) == 0) {
         all.push_back({"--iso", "32767", "--shininess", "1000"});
         all.push_back({"--iso", "-32768", "--clip", "0,0,1,0"});
         all.push_back({"--mode", "composite", "--clip", "1,1,1,-1"});
     }
-    if (step.rfind("16", 0) == 0) {
+    if (step.rfind("17", 0) == 0) {
         all.push_back({"--shadows", "ray", "--ao", "off"});
         all.push_back({"--shadows", "none", "--ao", "on"});
         all.push_back({"--shadows", "volume", "--ao", "on", "--light-angle", "180"});

@@ -1,4 +1,4 @@
-// test_isosurface.cpp: step 15 (the isosurface, Phong, the clipping plane) run as a program
+// test_isosurface.cpp: step 16 (the isosurface, Phong, the clipping plane) run as a program
 // (tools/run_step.h), against analytic volumes written here as raw int16 files: a sphere so
 // large that its surface is nearly flat across the volume (the bisected hit on it), a sphere
 // seen from many directions (its silhouette) and grazed, a slab cut by the clipping plane,
@@ -20,9 +20,9 @@ using namespace ctlab;
 
 namespace {
 
-const std::string iso_step = "15_isosurface";
+const std::string iso_step = "16_isosurface";
 
-// Runs step 15 on `volume_flags` with `flags`, --pfm into `folder`, two threads.
+// Runs step 16 on `volume_flags` with `flags`, --pfm into `folder`, two threads.
 RunResult run_iso(const std::vector<std::string>& volume_flags, std::vector<std::string> flags,
                   const TempFolder& folder) {
     flags.insert(flags.begin(), volume_flags.begin(), volume_flags.end());
@@ -464,7 +464,7 @@ TEST_CASE("isosurface: the default run matches its reference image, no NaN") {
     CHECK(non_finite_pixels(image) == 0);
     CHECK(summary_count(run.summary("camera"), "hits") > 0);
     CHECK(run.summary("camera").at("size") == "512x512");
-    const std::string path = "data/reference/15_isosurface_camera.png";
+    const std::string path = "data/reference/16_isosurface_camera.png";
     REQUIRE_MESSAGE(access(path.c_str(), R_OK) == 0, "missing " << path << ": make reference");
     const Comparison c = compare_images(image, read_image(path), 1, "the float render", path);
     INFO(comparison_line(c));

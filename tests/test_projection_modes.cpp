@@ -1,4 +1,4 @@
-// test_projection_modes.cpp: step 14 (MIP, MinIP, average along the free ray) run as a
+// test_projection_modes.cpp: step 15 (MIP, MinIP, average along the free ray) run as a
 // program (tools/run_step.h), against known answers: a linear ramp seen along each axis (the
 // largest, smallest and mean value of a column are closed forms), an oblique ray through it
 // (linear along the ray: the extremes are its end samples, the mean their midpoint), a slab of
@@ -18,7 +18,7 @@ using namespace ctlab;
 
 namespace {
 
-const std::string projection_step = "14_projection_modes";
+const std::string projection_step = "15_projection_modes";
 
 RunResult render(std::vector<std::string> flags, const TempFolder& folder) {
     flags.insert(flags.end(), {"--out", folder.path(), "--pfm", "--threads", "2"});

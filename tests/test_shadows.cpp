@@ -1,9 +1,9 @@
-// test_shadows.cpp: step 16 (shadow rays or a light-transmittance volume towards the light,
+// test_shadows.cpp: step 17 (shadow rays or a light-transmittance volume towards the light,
 // ambient occlusion) run as a program (tools/run_step.h) on volumes and transfer functions
 // written here: a homogeneous slab between the light and a surface (Beer-Lambert, by shadow
 // ray and by the light volume), a lone voxel in empty space (nothing blocks its light,
 // nothing is around it), a uniform block (ambient occlusion of a known medium), and the
-// phantom: shadows and occlusion off (step 11's picture, bit for bit), the light volume against
+// phantom: shadows and occlusion off (step 12's picture, bit for bit), the light volume against
 // the shadow rays (close, and far fewer reads).
 #include <doctest/doctest.h>
 #include <algorithm>
@@ -21,7 +21,7 @@ using namespace ctlab;
 
 namespace {
 
-const std::string shadows_step = "16_shadows";
+const std::string shadows_step = "17_shadows";
 
 RunResult run_shadows(const std::vector<std::string>& volume_flags,
                       std::vector<std::string> flags, const TempFolder& folder) {
@@ -203,16 +203,16 @@ TEST_CASE("shadows: ambient occlusion inside a uniform medium is (1 - alpha)^(ra
     CHECK(inside >= 30);
 }
 
-TEST_CASE("shadows: with shadows and occlusion off it is step 11's picture, bit for bit") {
+TEST_CASE("shadows: with shadows and occlusion off it is step 12's picture, bit for bit") {
     const TempFolder ten("shadows_step10"), fourteen("shadows_off");
     const std::vector<std::string> flags = {"--volume", "phantom", "--size", "128x96", "--zoom",
                                             "0.4", "--azimuth", "-50", "--threads", "2", "--pfm"};
     std::vector<std::string> a = flags, b = flags;
     a.insert(a.end(), {"--out", ten.path()});
     b.insert(b.end(), {"--out", fourteen.path(), "--shadows", "none", "--ao", "off"});
-    REQUIRE(run_step("11_trilinear", a).status == 0);
+    REQUIRE(run_step("12_trilinear", a).status == 0);
     REQUIRE(run_step(shadows_step, b).status == 0);
-    const Image p = read_pfm(step_output(ten.path(), "11_trilinear", "camera", "pfm"));
+    const Image p = read_pfm(step_output(ten.path(), "12_trilinear", "camera", "pfm"));
     const Image q = read_pfm(step_output(fourteen.path(), shadows_step, "camera", "pfm"));
     REQUIRE(p.pixels.size() == q.pixels.size());
     int differing = 0;
@@ -248,7 +248,7 @@ TEST_CASE("shadows: bad flags are refused with status 2, naming the flag") {
     }
 }
 
-// The phantom's picture of step 16 with these flags, at `size` pixels covering the default
+// The phantom's picture of step 17 with these flags, at `size` pixels covering the default
 // picture's field (and the run, for its counters).
 struct Picture {
     RunResult run;

@@ -9,12 +9,12 @@
 //              8-bit units (RMSE and max over every channel of every pixel)
 //   ert        early ray termination thresholds 0 .. 0.1 (steps 07 and 08, top view):
 //              time saved against error added
-//   jitter     step 13 (the free camera) at step 4 .. 1/2 with jitter none, hash and blue
+//   jitter     step 14 (the free camera) at step 4 .. 1/2 with jitter none, hash and blue
 //              noise, each with trilinear and nearest samples, against step 1/4 without
 //              jitter (trilinear): RMSE, and RMSE after a 5x5 blur
 //              (the rings and bands that survive it; noise does not)
-//   shadows    step 16: shadow rays, the light-transmittance volume and ambient occlusion,
-//              each against step 11's light (what it adds) with its time and samples read;
+//   shadows    step 17: shadow rays, the light-transmittance volume and ambient occlusion,
+//              each against step 12's light (what it adds) with its time and samples read;
 //              rays and volume at step 4 .. 1/2 against shadow rays at step 1/4
 //   precision  the cost of subnormal arithmetic on this machine, and of a float ray
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
@@ -556,7 +556,7 @@ void ert_study() {
             "8-bit (against front to back, T* = 0)", b2f.count("samples")});
 }
 
-// --- Jitter: step size x jitter x interpolation on the free camera (step 13) -------------
+// --- Jitter: step size x jitter x interpolation on the free camera (step 14) -------------
 
 // The difference image - reference (every channel), blurred by a box of (2 * radius + 1)^2
 // pixels: what is left is the low-frequency error the eye sees as bands and rings; fine noise
@@ -588,11 +588,11 @@ ImageError low_pass_error(const Image& image, const Image& reference, int radius
     return {std::sqrt(sum / count) * byte_units, largest * byte_units};
 }
 
-constexpr const char* jitter_step = "13_blue_noise";
+constexpr const char* jitter_step = "14_blue_noise";
 constexpr int jitter_blur_radius = 2;  // pixels: the low-pass box is 5 x 5
 
 void jitter_study() {
-    std::printf("jitter: step 13 on the phantom, the default camera at 256x256, no early "
+    std::printf("jitter: step 14 on the phantom, the default camera at 256x256, no early "
                 "termination, steps 4 .. 1/2 x jitter none/hash/blue x interpolation "
                 "trilinear/nearest, against step 1/4 without jitter, trilinear\n");
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
@@ -622,13 +622,13 @@ void jitter_study() {
     }
 }
 
-// --- Shadows: what blocked light costs and what it adds (step 16) --------------------------
+// --- Shadows: what blocked light costs and what it adds (step 17) --------------------------
 
-constexpr const char* shadows_step = "16_shadows";
+constexpr const char* shadows_step = "17_shadows";
 
 void shadows_study() {
-    std::printf("shadows: step 16 on the phantom, the default camera at 256x256: each kind of "
-                "blocked light against step 11's light; T_light by shadow rays and by the "
+    std::printf("shadows: step 17 on the phantom, the default camera at 256x256: each kind of "
+                "blocked light against step 12's light; T_light by shadow rays and by the "
                 "light-transmittance volume at steps 4 .. 1/2 (ambient occlusion off) against "
                 "shadow rays at step 1/4\n");
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
@@ -636,13 +636,13 @@ void shadows_study() {
         phantom_volume().flags +
         std::vector<std::string>{"--size", quick ? "64x64" : "256x256", "--zoom",
                                  quick ? "1" : "0.5"};
-    // What each adds: the difference from --shadows none --ao off (step 11's light, the same
-    // picture as step 11's), at the default step; the cost in time and samples read (the
+    // What each adds: the difference from --shadows none --ao off (step 12's light, the same
+    // picture as step 12's), at the default step; the cost in time and samples read (the
     // shadow rays', the occlusion probes' and the sweep's reads count as samples).
-    const std::string added = "8-bit (RMSE, max) vs step 11's light";
+    const std::string added = "8-bit (RMSE, max) vs step 12's light";
     const Run open = run(shadows_step, camera + std::vector<std::string>{
                              "--shadows", "none", "--ao", "off"}, true);
-    record({"shadows", "none, ao off (step 11's light)", "1", open.ms(), 0, 0, added,
+    record({"shadows", "none, ao off (step 12's light)", "1", open.ms(), 0, 0, added,
             open.count("samples")});
     for (const char* ao : {"off", "on"}) {
         for (const char* shadows : {"ray", "volume", "none"}) {
@@ -1363,7 +1363,7 @@ int run(int argc, char** argv) {
        << "\n";
     md << "## Early ray termination (top view; error added against T* = 0, 8-bit units)\n\n"
        << section("study:ert", written_by + "\n" + markdown_table("ert", "T*")) << "\n";
-    md << "## Jitter (step 13, the default camera at 256x256, T* = 0; error in 8-bit units "
+    md << "## Jitter (step 14, the default camera at 256x256, T* = 0; error in 8-bit units "
        << "against step 1/4 without jitter, trilinear; method: jitter, interpolation)\n\n"
        << section("study:jitter",
                   written_by + "\nRMSE and max of the difference:\n\n" +
@@ -1372,9 +1372,9 @@ int run(int argc, char** argv) {
                       "the eye sees; fine noise averages away):\n\n" +
                       markdown_table("jitter-lowpass", "step"))
        << "\n";
-    md << "## Shadows (step 16, the default camera at 256x256; error in 8-bit units)\n\n"
+    md << "## Shadows (step 17, the default camera at 256x256; error in 8-bit units)\n\n"
        << section("study:shadows",
-                  written_by + "\nWhat each adds: the difference from step 11's light "
+                  written_by + "\nWhat each adds: the difference from step 12's light "
                                "(`--shadows none --ao off`), at step 1; samples count every "
                                "read (the camera's rays, the shadow rays, the occlusion probes, "
                                "the light volume's sweep):\n\n" +

@@ -1,21 +1,22 @@
-// 13_blue_noise.cpp: the jitter's offsets spread evenly over the image: a blue-noise tile.
+// 11_slab_method.cpp: where a ray enters and leaves the volume's box: the slab method.
 //
-// New here:   step 12's hash gives each pixel its own offset, but white noise clumps: nearby
-//             pixels often get nearly the same offset, and the noise has coarse blotches. Here
-//             the offsets come from a 64 x 64 blue-noise tile, made at start-up by void and
-//             cluster and repeated over the image (--jitter blue, the default): neighbours get
-//             offsets far apart, and the noise is fine-grained. --jitter hash is step 12,
-//             --jitter none step 11; --show-jitter draws the offsets u themselves as grey.
-// Builds on:  12_jitter (the orbit camera, trilinear samples, lit front to back, each pixel's
-//             first sample moved by its offset).
-// Handout:    handouts/13_blue_noise.md
-// Run:        make run STEP=13 ARGS="--step 4 --jitter hash"
-// Reference:  data/reference/13_blue_noise_camera.png: the default run (blue noise, azimuth 30,
-//             elevation 20, orthographic, 512x512), on the phantom.
+// New here:   step 10 tested every sample along the ray for being inside the box of voxel
+//             centres; here each ray works out where it enters and leaves that box (the slab
+//             method, with its stiff case: a ray parallel to a face, d = 0 or -0), and its
+//             samples run from the entry, on the face it crosses, to the exit, --step
+//             physical units apart, in voxel units (the walk). Samples still read their
+//             nearest voxel (step 12 interpolates). The trace records where the ray meets the
+//             box, or that it misses it.
+// Defaults:   as step 10: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+//             30 degrees to the right of the camera and 20 above it, a black background.
+// Builds on:  10_free_camera (the orbit camera and its rays, nearest samples).
+// Handout:    handouts/11_slab_method.md
+// Run:        make run STEP=11 ARGS="--azimuth 60 --projection perspective"
+// Reference:  data/reference/11_slab_method_camera.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "13_blue_noise";
+constexpr const char* step_name = "11_slab_method";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -38,9 +39,6 @@ constexpr int max_image_side = 8192;             // pixels, --size limit per sid
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
-constexpr int tile_side = 64;           // pixels: the blue-noise tile, repeated over the image
-constexpr double tile_sigma = 1.5;      // pixels: void and cluster's Gaussian (Ulichney's 1.5)
-constexpr double initial_share = 0.1;   // of the tile's pixels in void and cluster's first pattern
 
 struct Params {
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
@@ -54,18 +52,8 @@ struct Params {
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
     std::string projection = "ortho";      // "ortho" or "perspective"
-    std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
-    bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
-    std::string jitter = "blue";           // "none", "hash" or "blue"
-    bool show_jitter = false;              // draw the offsets u as grey instead of the volume
-};
-
-// The per-pixel offsets of the first sample: by hash, or from the blue-noise tile.
-struct Jitter {
-    std::string mode = "none";  // "none", "hash" or "blue"
-    std::vector<float> tile;    // blue: tile_side * tile_side offsets in [0, 1), row by row
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -278,19 +266,7 @@ struct Walk {
     }
 };
 
-// The eight voxels around a point: the voxel at or below it (the low corner), how far the
-// point is past it along each axis (0..1), and the high corner, the next voxel along each
-// axis (at the last voxel of an axis: that voxel again).
-struct Cell {
-    int i = 0, j = 0, k = 0;           // the low corner
-    float fi = 0, fj = 0, fk = 0;      // the point's fractions past it
-    int i1 = 0, j1 = 0, k1 = 0;        // the high corner
-};
-
-// Given: a value fraction f of the way from a to b: a itself when f = 0.
-static float lerp(float a, float b, float f) { return a + f * (b - a); }
-
-//> lesson: trilinear
+//> lesson: walk
 // The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
 // the divisions by the spacing are done here, once per ray, not at every sample.
 static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span, double step) {
@@ -303,55 +279,14 @@ static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span,
                                         sample_count_slack)) + 1;
     return walk;
 }
-
-// Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
-// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
-static void low_corner(double u, int count, int* low, float* fraction) {
-    u = std::clamp(u, 0.0, double(count - 1));
-    *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
-    *fraction = float(u - *low);
-}
-
-static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
-    Cell cell;
-    // nearest: the point first moves to the nearest voxel centre (a half rounds up), so
-    // every fraction is 0 and the low corner is that voxel.
-    const Vec3d p = nearest ? Vec3d{std::floor(point.i + 0.5), std::floor(point.j + 0.5),
-                                    std::floor(point.k + 0.5)}
-                            : point;
-    low_corner(p.i, volume.nx, &cell.i, &cell.fi);
-    low_corner(p.j, volume.ny, &cell.j, &cell.fj);
-    low_corner(p.k, volume.nz, &cell.k, &cell.fk);
-    cell.i1 = std::min(cell.i + 1, volume.nx - 1);
-    cell.j1 = std::min(cell.j + 1, volume.ny - 1);
-    cell.k1 = std::min(cell.k + 1, volume.nz - 1);
-    return cell;
-}
-
-// Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
-// Exact for any field linear in i, j and k (and so in physical space).
-static float trilinear(const Volume& volume, const Cell& c) {
-    const float low_low = lerp(volume.at(c.i, c.j, c.k), volume.at(c.i1, c.j, c.k), c.fi);
-    const float high_low = lerp(volume.at(c.i, c.j1, c.k), volume.at(c.i1, c.j1, c.k), c.fi);
-    const float low_high = lerp(volume.at(c.i, c.j, c.k1), volume.at(c.i1, c.j, c.k1), c.fi);
-    const float high_high = lerp(volume.at(c.i, c.j1, c.k1), volume.at(c.i1, c.j1, c.k1), c.fi);
-    return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
-}
-
-// A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
-// low corner on it), or trilinear, eight.
-static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
-    return nearest ? float(volume.at(c.i, c.j, c.k)) : trilinear(volume, c);
-}
-//< lesson: trilinear
-
-// Given: lerp() for gradients.
-static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
+//< lesson: walk
 
 //> lesson: gradient
+// The derivative along one axis at index n (of count samples, spacing apart); sample(m) reads
+// the volume at index m on that axis. Central inside, one-sided at the border: never outside.
 template <class Sample>
 static float derivative(Sample sample, int n, int count, double spacing) {
-    if (count == 1) return 0.0f;
+    if (count == 1) return 0.0f;  // a volume one voxel thick has no slope along this axis
     if (n == 0) return float((sample(1) - sample(0)) / spacing);
     if (n == count - 1) return float((sample(n) - sample(n - 1)) / spacing);
     return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
@@ -368,27 +303,6 @@ static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
             derivative(along_j, j, volume.ny, volume.sy),
             derivative(along_k, k, volume.nz, volume.sz)};
 }
-
-// The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
-// values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
-static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
-    auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
-        return gradient_at(volume, Voxel{a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k}, work);
-    };
-    const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
-    const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
-    const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
-    const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
-    return lerp_vector(lerp_vector(low_low, high_low, c.fj), lerp_vector(low_high, high_high, c.fj),
-                       c.fk);
-}
-
-// A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
-// differences), else trilinear.
-static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
-    if (!nearest) return gradient_trilinear(volume, c, work);
-    return gradient_at(volume, Voxel{c.i, c.j, c.k}, work);
-}
 //< lesson: gradient
 
 //> lesson: shade
@@ -403,6 +317,7 @@ static float shade(Vec3 gradient, Vec3 to_light) {
 
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// Changed in step 10: in the camera's frame.
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -412,124 +327,6 @@ static Vec3 light_direction(const Camera& camera, double angle) {
            along_ray * axis(camera.forward);
 }
 //< lesson: shade
-
-//> lesson: hash
-// The PCG hash (Jarzynski and Olano, "Hash functions for GPU rendering", 2020): a multiply and
-// add as in a PCG random number generator, then a data-dependent shift and a multiply that mix
-// every input bit into every output bit. 32 bits in, 32 bits out.
-static uint32_t pcg_hash(uint32_t input) {
-    const uint32_t state = input * 747796405u + 2891336453u;
-    const uint32_t word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
-
-// White noise: pixel (x, y)'s own offset in [0, 1), the same in every run. The row is hashed
-// first, so that (x, y) and (y, x) differ. The top 24 bits fill a float's mantissa exactly:
-// 0 .. (2^24 - 1) / 2^24, never 1.
-static float hash_offset(int x, int y) {
-    const uint32_t bits = pcg_hash(uint32_t(x) + pcg_hash(uint32_t(y)));
-    return float(bits >> 8) * (1.0f / 16777216.0f);
-}
-//< lesson: hash
-
-// A binary pattern on the tile (which wraps around at its edges) and its energy: each 1 adds a
-// Gaussian of width tile_sigma around itself to every pixel's energy.
-struct Pattern {
-    std::vector<char> ones = std::vector<char>(tile_side * tile_side, 0);
-    std::vector<double> energy = std::vector<double>(tile_side * tile_side, 0.0);
-    int count = 0;  // how many 1s
-};
-
-//> lesson: blue_noise
-// Sets pixel p to 1 or back to 0, adding or taking away its Gaussian. The distance wraps around
-// the tile's edges, so the tile repeats without a seam.
-static void flip(Pattern& pattern, int p) {
-    const bool now_one = !pattern.ones[p];
-    pattern.ones[p] = now_one;
-    pattern.count += now_one ? 1 : -1;
-    const double sign = now_one ? 1.0 : -1.0;
-    const int px = p % tile_side, py = p / tile_side;
-    for (int y = 0; y < tile_side; ++y) {
-        const int dy = std::min(std::abs(y - py), tile_side - std::abs(y - py));
-        for (int x = 0; x < tile_side; ++x) {
-            const int dx = std::min(std::abs(x - px), tile_side - std::abs(x - px));
-            const double r2 = double(dx * dx + dy * dy);
-            pattern.energy[y * tile_side + x] +=
-                sign * std::exp(-r2 / (2 * tile_sigma * tile_sigma));
-        }
-    }
-}
-
-// The tightest cluster: the 1 with the most energy. The largest void: the 0 with the least.
-// Ties go to the first pixel, so the tile is the same in every run.
-static int tightest_cluster(const Pattern& pattern) {
-    int best = -1;
-    for (int p = 0; p < int(pattern.ones.size()); ++p) {
-        if (pattern.ones[p] && (best < 0 || pattern.energy[p] > pattern.energy[best])) best = p;
-    }
-    return best;
-}
-static int largest_void(const Pattern& pattern) {
-    int best = -1;
-    for (int p = 0; p < int(pattern.ones.size()); ++p) {
-        if (!pattern.ones[p] && (best < 0 || pattern.energy[p] < pattern.energy[best])) best = p;
-    }
-    return best;
-}
-
-// Void and cluster (Ulichney 1993): every pixel of the tile gets a rank, 0 .. side^2 - 1, such
-// that the pixels of any rank below r are spread evenly, with no clumps and no holes: blue
-// noise. The offset of rank r is (r + 0.5) / side^2: each offset once, evenly over [0, 1).
-static std::vector<float> blue_noise_tile() {
-    const int count = tile_side * tile_side;
-    // 1. A first pattern of about 10% of the pixels, picked by the hash: white noise.
-    Pattern pattern;
-    for (int p = 0; p < count; ++p) {
-        if (hash_offset(p % tile_side, p / tile_side) < initial_share) flip(pattern, p);
-    }
-    if (pattern.count == 0) flip(pattern, 0);
-    // 2. Even it out: move the tightest cluster into the largest void, until the largest void
-    //    is where that 1 came from (at most `count` moves, in case it never settles).
-    for (int move = 0; move < count; ++move) {
-        const int cluster = tightest_cluster(pattern);
-        flip(pattern, cluster);
-        const int gap = largest_void(pattern);
-        flip(pattern, gap);
-        if (gap == cluster) break;
-    }
-    std::vector<int> rank(count, -1);
-    // 3. The first pattern's 1s, ranked from the last: take away the tightest cluster each time.
-    Pattern taking = pattern;
-    for (int r = pattern.count - 1; r >= 0; --r) {
-        const int cluster = tightest_cluster(taking);
-        flip(taking, cluster);
-        rank[cluster] = r;
-    }
-    // 4. The rest, ranked from the first: fill the largest void each time. (Ulichney fills the
-    //    second half at the tightest cluster of 0s instead. That is the same pixel: the kernel
-    //    summed over the whole wrapped tile is the same at every pixel, so a 0's energy from
-    //    the 0s is that sum minus its energy from the 1s.)
-    for (int r = pattern.count; r < count; ++r) {
-        const int gap = largest_void(pattern);
-        flip(pattern, gap);
-        rank[gap] = r;
-    }
-    std::vector<float> tile(count);
-    for (int p = 0; p < count; ++p) tile[p] = float((rank[p] + 0.5) / count);
-    return tile;
-}
-//< lesson: blue_noise
-
-// Pixel (x, y)'s offset u in [0, 1): 0 without jitter. A tile that is not there (not made yet)
-// gives 0 too.
-// Changed in step 13: the blue-noise tile's offsets.
-static float jitter_offset(const Jitter& jitter, int x, int y) {
-    if (jitter.mode == "hash") return hash_offset(x, y);
-    if (jitter.mode == "blue" && jitter.tile.size() == size_t(tile_side * tile_side)) {
-        return jitter.tile[(y % tile_side) * tile_side + x % tile_side];
-    }
-    return 0.0f;
-}
 
 // The ray's two trace records (given): where it starts, and where it meets the box. The entry
 // is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
@@ -547,29 +344,13 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 }
 
 //> lesson: front_to_back
-// The walk moved by the pixel's offset: sample n at t_entry + (u + n) * step until t_exit.
-// A ray shorter than its offset gets no sample: it only grazes the box. With u = 0 this is
-// the walk unchanged, bit for bit (step 11's samples).
-static Walk jittered(Walk walk, const Span& span, double step, float u) {
-    const double offset = u * step;  // physical units from the entry to the first sample
-    const double length_inside = span.t_exit - span.t_entry;
-    walk.first = walk.first + double(u) * walk.per_step;
-    walk.count = length_inside < offset
-                     ? 0
-                     : (long long)(std::floor((length_inside - offset) / step +
-                                              sample_count_slack)) + 1;
-    return walk;
-}
-
-// Step 11's compositing, its samples moved by the pixel's offset u in [0, 1) from the jitter
-// (0: step 11's samples exactly): read by trilinear interpolation, classified by the table,
-// lit where it is not transparent, composited front to back; early ray termination as in
-// step 07.
-// Changed in step 12: the samples move by the pixel's jitter.
+// Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
+// each read from its nearest voxel, classified by the table, lit by that voxel's gradient
+// where it is not transparent, composited front to back; early ray termination as in step 07.
+// Changed in step 11: from the box's entry to its exit (the slab method), not a test per sample.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, Vec3 to_light,
-                                           const Params& params, const Jitter& jitter,
-                                           Work& work, Trace* trace) {
+                                           int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
+                                           Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
@@ -577,16 +358,15 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     trace_ray(trace, ray, span, high, params.step);
     Accumulated pixel;
     if (!span.hit) return pixel;
-    const float u = jitter_offset(jitter, x, y);
-    const double t_first = span.t_entry + u * params.step;  // the first sample's t
-    if (trace) trace->jitter(jitter.mode, u, t_first - span.t_entry);
-    const Walk walk = jittered(walk_through(volume, ray, span, params.step), span, params.step,
-                               u);
+    const Walk walk = walk_through(volume, ray, span, params.step);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
-        const Cell cell = cell_at(volume, q, params.nearest);
-        const double t = t_first + n * params.step;  // physical units along the ray
-        const float value = sample_value(volume, cell, params.nearest);
+        // The sample reads its nearest voxel (a half rounds up), kept inside the volume.
+        const Voxel voxel = {std::clamp(int(std::floor(q.i + 0.5)), 0, volume.nx - 1),
+                             std::clamp(int(std::floor(q.j + 0.5)), 0, volume.ny - 1),
+                             std::clamp(int(std::floor(q.k + 0.5)), 0, volume.nz - 1)};
+        const double t = span.t_entry + n * params.step;  // physical units along the ray
+        const float value = volume.at(voxel.i, voxel.j, voxel.k);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
@@ -597,7 +377,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         }
         double light = 1.0;  // unlit
         if (!params.unlit) {
-            light = shade(sample_gradient(volume, cell, params.nearest, work), to_light);
+            light = shade(gradient_at(volume, voxel, work), to_light);
         }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
@@ -631,8 +411,8 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 12's jitter with each pixel's offset from a blue-noise tile: "
-                             "the rings become fine, even noise.");
+        Args args(step_name, "The volume from an orbit camera: rays through the box in physical "
+                             "space, nearest samples, lit front to back.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -653,22 +433,15 @@ int main(int argc, char** argv) {
                         "degrees above the i-j plane; 90 looks down from the crown");
         args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
                         "ortho: pixels per voxel; perspective: walks the eye in (>1)");
-        args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
-                        "a sample's value: the eight voxels around it, or the nearest one");
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays (ortho) or rays from an eye (perspective)");
         args.add_double("--fov", &params.fov, 1, 170,
                         "perspective: the image's height as an angle, degrees (default 30)");
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
                         "WxH");
-        args.add_choice("--jitter", &params.jitter, {"none", "hash", "blue"},
-                        "the first sample's offset per pixel: none, a hash, a blue-noise tile");
-        args.add_switch("--show-jitter", &params.show_jitter,
-                        "draw each pixel's offset u (0..1) as grey instead of the volume");
         const Options options = args.parse(argc, argv);
-        params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 13 renders the camera's view; turn it with "
+            throw InputError("--view: step 11 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
@@ -687,14 +460,10 @@ int main(int argc, char** argv) {
         Lut lut = build_lut(tf, opacity_ratio(params));
 
         // --- View: the camera's image (its camera is made for each render: the window turns
-        // it, and previews at coarser pixels while it does), and each pixel's jitter (the
-        // blue-noise tile made once) ---
+        // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
-        Jitter jitter;
-        jitter.mode = params.jitter;
-        if (jitter.mode == "blue") jitter.tile = blue_noise_tile();
 
         // --- Light: towards it from every ray of a render (it turns with the camera), so
         // worked out once per render, as step 08 does once per view; none with --unlit ---
@@ -705,16 +474,8 @@ int main(int argc, char** argv) {
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
-            if (params.show_jitter) {  // the offset itself, no ray: the trace says so
-                const double u = jitter_offset(jitter, x, y);
-                if (trace) {
-                    trace->note({{"u", u}}, "shows the jitter offset u=%.6f (--show-jitter): "
-                                "no ray is cast", u);
-                }
-                return grey(u);
-            }
             return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
-                                                           params, jitter, work, trace));
+                                                           params, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
@@ -761,9 +522,7 @@ int main(int argc, char** argv) {
                    " correction=" + (params.no_correction ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
-                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +
-                   " jitter=" + params.jitter +
-                   (params.show_jitter ? " show_jitter=on" : "");
+                   " fov=" + summary_number(params.fov);
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

@@ -1,20 +1,23 @@
-// 12_jitter.cpp: the wood-grain rings of a fixed sample grid, turned into noise by jitter.
+// 18_free_leaping.cpp: step 09's leaping over empty bricks, along a free ray.
 //
-// New here:   every ray of step 11 samples at the same distances from where it enters the box,
-//             so a surface at a slowly changing depth shows rings. Here each pixel moves its
-//             first sample by u * step, u in [0, 1) its own, from a hash of the pixel (white
-//             noise: --jitter hash, a PCG hash); --jitter none is step 11. --show-jitter draws
-//             the offsets u themselves as grey. Step 13 spreads the offsets more evenly.
-// Builds on:  11_trilinear (the orbit camera, the slab method, trilinear samples, lit front to
-//             back).
-// Handout:    handouts/12_jitter.md
-// Run:        make run STEP=12 ARGS="--step 4 --jitter none"
-// Reference:  data/reference/12_jitter_camera.png: the default run (hash jitter, azimuth 30,
-//             elevation 20, orthographic, 512x512), on the phantom.
+// New here:   step 09 leapt over empty bricks along part 1's axis-aligned rays. A camera's ray
+//             crosses bricks at any angle, and one brick at a time would take ~40 leaps to
+//             cross the air around a head: each brick gets its reach, the cube of empty bricks
+//             around it, and a ray leaps out of that cube at once (the slab method again, in
+//             sample units). Every sample leapt over would have been transparent: the picture
+//             is step 12's (--no-leaping: every sample read), with fewer samples. It is an
+//             optimisation only, so it comes last in part 2, on step 12's composite (the
+//             renderer steps 14-17 extend without it).
+// Defaults:   as step 10: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+//             30 degrees right of the camera and 20 above it, a black background.
+// Builds on:  12_trilinear (the orbit camera, trilinear samples, lit front to back).
+// Handout:    handouts/18_free_leaping.md
+// Run:        make run STEP=18 ARGS="--no-leaping"
+// Reference:  data/reference/18_free_leaping_camera.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "12_jitter";
+constexpr const char* step_name = "18_free_leaping";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -46,6 +49,7 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
+    bool no_leaping = false;     // read every sample, even in bricks known to be empty
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
@@ -54,13 +58,6 @@ struct Params {
     bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
-    std::string jitter = "hash";           // "none" or "hash"
-    bool show_jitter = false;              // draw the offsets u as grey instead of the volume
-};
-
-// The per-pixel offsets of the first sample: none, or by hash.
-struct Jitter {
-    std::string mode = "none";  // "none" or "hash"
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -340,6 +337,97 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 }
 //< lesson: trilinear
 
+// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
+// the current table, how far the empty space around each brick reaches (see empty_reach); no
+// reach: leap over nothing.
+struct EmptySpace {
+    Bricks bricks;
+    std::vector<uint8_t> reach;  // per brick, 0: the table sees something in it
+
+    int reach_at(const Cell& cell) const {
+        return reach.empty() ? 0 : reach[bricks.index(cell.i, cell.j, cell.k)];
+    }
+};
+constexpr int max_reach = 32;           // bricks: a leap crosses at most 2 * 32 - 1 of them
+constexpr double leap_margin = 1e-6;    // voxels: a leap stops this far before a brick's face
+
+//> lesson: empty_space
+// Step 09's bricks that the table leaves wholly transparent, unchanged.
+static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
+    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
+    for (size_t n = 0; n < lut.entries.size(); ++n) {
+        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
+    }
+    std::vector<uint8_t> empty(bricks.count());
+    for (size_t b = 0; b < bricks.count(); ++b) {
+        const int low = bricks.ranges[b].min - lowest_ct_value;
+        const int high = bricks.ranges[b].max - lowest_ct_value;
+        empty[b] = opaque_before[high + 1] == opaque_before[low];
+    }
+    return empty;
+}
+
+// The bricks whose neighbours (26, at most) are all empty too: `empty` shrunk by one brick
+// on every side, one axis at a time. Past the volume's edge counts as empty (no ray samples
+// there).
+static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> empty) {
+    const size_t strides[3] = {1, size_t(bricks.bx), size_t(bricks.bx) * size_t(bricks.by)};
+    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
+    for (int axis = 0; axis < 3; ++axis) {
+        const std::vector<uint8_t> before = empty;
+        const size_t stride = strides[axis];
+        for (size_t b = 0; b < empty.size(); ++b) {
+            const int at = int(b / stride % size_t(counts[axis]));  // along this axis
+            if (at > 0) empty[b] &= before[b - stride];
+            if (at + 1 < counts[axis]) empty[b] &= before[b + stride];
+        }
+    }
+    return empty;
+}
+
+// Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
+// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
+// reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
+// A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
+// brick on every side.
+static std::vector<uint8_t> empty_reach(const Bricks& bricks, const std::vector<uint8_t>& empty) {
+    std::vector<uint8_t> reach = empty, cube = empty;  // 1 for an empty brick, 0 else
+    for (int r = 2; r <= max_reach; ++r) {
+        cube = shrink(bricks, cube);
+        bool any = false;
+        for (size_t b = 0; b < cube.size(); ++b) {
+            if (cube[b]) reach[b] = uint8_t(r);
+            any = any || cube[b];
+        }
+        if (!any) break;
+    }
+    return reach;
+}
+
+// The sample to go on from when sample n lies in a brick of reach r: the first one past the
+// faces of the cube of bricks r - 1 around it (the slab method again, in sample units: face
+// = first + t * per_step). Every sample before it is inside the cube, even after rounding:
+// the faces are taken leap_margin voxels inside. A cube that reaches the volume's edge has
+// no face there. At least n + 1, at most the ray's sample count.
+static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& cell, int reach,
+                           long long n) {
+    const int corner[3] = {cell.i, cell.j, cell.k};
+    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
+    double leave = std::numeric_limits<double>::infinity();  // in samples
+    for (int axis = 0; axis < 3; ++axis) {
+        const double d = walk.per_step[axis];
+        if (d == 0) continue;  // parallel to these faces: never leaves through them
+        const int brick = corner[axis] / brick_size;
+        const int face_brick = d > 0 ? brick + reach : brick - reach + 1;  // its first voxel
+        if (face_brick <= 0 || face_brick >= counts[axis]) continue;       // the volume's edge
+        const double face = face_brick * brick_size + (d > 0 ? -leap_margin : leap_margin);
+        leave = std::min(leave, (face - walk.first[axis]) / d);
+    }
+    if (!(leave < double(walk.count))) return walk.count;
+    return std::max(n + 1, (long long)std::ceil(leave));
+}
+//< lesson: empty_space
+
 // Given: lerp() for gradients.
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
@@ -398,6 +486,7 @@ static float shade(Vec3 gradient, Vec3 to_light) {
 
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// Changed in step 10: in the camera's frame.
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -407,31 +496,6 @@ static Vec3 light_direction(const Camera& camera, double angle) {
            along_ray * axis(camera.forward);
 }
 //< lesson: shade
-
-//> lesson: hash
-// The PCG hash (Jarzynski and Olano, "Hash functions for GPU rendering", 2020): a multiply and
-// add as in a PCG random number generator, then a data-dependent shift and a multiply that mix
-// every input bit into every output bit. 32 bits in, 32 bits out.
-static uint32_t pcg_hash(uint32_t input) {
-    const uint32_t state = input * 747796405u + 2891336453u;
-    const uint32_t word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
-
-// White noise: pixel (x, y)'s own offset in [0, 1), the same in every run. The row is hashed
-// first, so that (x, y) and (y, x) differ. The top 24 bits fill a float's mantissa exactly:
-// 0 .. (2^24 - 1) / 2^24, never 1.
-static float hash_offset(int x, int y) {
-    const uint32_t bits = pcg_hash(uint32_t(x) + pcg_hash(uint32_t(y)));
-    return float(bits >> 8) * (1.0f / 16777216.0f);
-}
-//< lesson: hash
-
-// Pixel (x, y)'s offset u in [0, 1): 0 without jitter.
-static float jitter_offset(const Jitter& jitter, int x, int y) {
-    if (jitter.mode == "hash") return hash_offset(x, y);
-    return 0.0f;
-}
 
 // The ray's two trace records (given): where it starts, and where it meets the box. The entry
 // is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
@@ -449,29 +513,16 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 }
 
 //> lesson: front_to_back
-// The walk moved by the pixel's offset: sample n at t_entry + (u + n) * step until t_exit.
-// A ray shorter than its offset gets no sample: it only grazes the box. With u = 0 this is
-// the walk unchanged, bit for bit (step 11's samples).
-static Walk jittered(Walk walk, const Span& span, double step, float u) {
-    const double offset = u * step;  // physical units from the entry to the first sample
-    const double length_inside = span.t_exit - span.t_entry;
-    walk.first = walk.first + double(u) * walk.per_step;
-    walk.count = length_inside < offset
-                     ? 0
-                     : (long long)(std::floor((length_inside - offset) / step +
-                                              sample_count_slack)) + 1;
-    return walk;
-}
-
-// Step 11's compositing, its samples moved by the pixel's offset u in [0, 1) from the jitter
-// (0: step 11's samples exactly): read by trilinear interpolation, classified by the table,
-// lit where it is not transparent, composited front to back; early ray termination as in
-// step 07.
-// Changed in step 12: the samples move by the pixel's jitter.
+// Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
+// each read by trilinear interpolation, classified by the table, lit where it is not
+// transparent, composited front to back; early ray termination as in step 07. Step 09's
+// leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
+// (leap_past), and every sample leapt over would have been transparent.
+// Changed in step 18: leaps over the empty cube around a sample.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, Vec3 to_light,
-                                           const Params& params, const Jitter& jitter,
-                                           Work& work, Trace* trace) {
+                                           int y, const Lut& lut, const EmptySpace& space,
+                                           Vec3 to_light, const Params& params, Work& work,
+                                           Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
@@ -479,15 +530,19 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     trace_ray(trace, ray, span, high, params.step);
     Accumulated pixel;
     if (!span.hit) return pixel;
-    const float u = jitter_offset(jitter, x, y);
-    const double t_first = span.t_entry + u * params.step;  // the first sample's t
-    if (trace) trace->jitter(jitter.mode, u, t_first - span.t_entry);
-    const Walk walk = jittered(walk_through(volume, ray, span, params.step), span, params.step,
-                               u);
+    const Walk walk = walk_through(volume, ray, span, params.step);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
-        const double t = t_first + n * params.step;  // physical units along the ray
+        const double t = span.t_entry + n * params.step;  // physical units along the ray
+        const int reach = space.reach_at(cell);
+        if (reach > 0) {
+            const long long next = leap_past(walk, space.bricks, cell, reach, n);
+            work.leapt += next - n;
+            if (trace) trace->leap(t, span.t_entry + (next - 1) * params.step, next - n, reach);
+            n = next - 1;
+            continue;
+        }
         const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
@@ -533,8 +588,8 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 11's orbit camera with each pixel's first sample moved by a "
-                             "random fraction of the step: rings become noise.");
+        Args args(step_name, "The volume from an orbit camera: rays through the box in physical "
+                             "space, trilinear samples, lit front to back.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -549,6 +604,8 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
+        args.add_switch("--no-leaping", &params.no_leaping,
+                        "read every sample, even in bricks the table leaves transparent");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
@@ -563,14 +620,10 @@ int main(int argc, char** argv) {
                         "perspective: the image's height as an angle, degrees (default 30)");
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
                         "WxH");
-        args.add_choice("--jitter", &params.jitter, {"none", "hash"},
-                        "the first sample's offset per pixel: none, or a hash of the pixel");
-        args.add_switch("--show-jitter", &params.show_jitter,
-                        "draw each pixel's offset u (0..1) as grey instead of the volume");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 12 renders the camera's view; turn it with "
+            throw InputError("--view: step 18 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
@@ -588,13 +641,20 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
+        // --- The bricks the table leaves empty ---
+        EmptySpace space;
+        if (!params.no_leaping) space.bricks = make_bricks(volume, brick_size, options.threads);
+        auto update_empty_space = [&] {
+            if (params.no_leaping) return;
+            space.reach = empty_reach(space.bricks, find_empty_bricks(space.bricks, lut));
+        };
+        update_empty_space();
+
         // --- View: the camera's image (its camera is made for each render: the window turns
-        // it, and previews at coarser pixels while it does), and each pixel's jitter ---
+        // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
-        Jitter jitter;
-        jitter.mode = params.jitter;
 
         // --- Light: towards it from every ray of a render (it turns with the camera), so
         // worked out once per render, as step 08 does once per view; none with --unlit ---
@@ -605,16 +665,8 @@ int main(int argc, char** argv) {
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
-            if (params.show_jitter) {  // the offset itself, no ray: the trace says so
-                const double u = jitter_offset(jitter, x, y);
-                if (trace) {
-                    trace->note({{"u", u}}, "shows the jitter offset u=%.6f (--show-jitter): "
-                                "no ray is cast", u);
-                }
-                return grey(u);
-            }
-            return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
-                                                           params, jitter, work, trace));
+            return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
+                                                           to_light, params, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
@@ -638,6 +690,7 @@ int main(int argc, char** argv) {
                              if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
+                             update_empty_space();
                          },
                          [&] { return summary_number(params.step); }};
         renderer.orbit.turn = [&](double azimuth, double elevation) {
@@ -659,11 +712,10 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
+                   " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
-                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +
-                   " jitter=" + params.jitter +
-                   (params.show_jitter ? " show_jitter=on" : "");
+                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation;
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

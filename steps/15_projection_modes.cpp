@@ -1,31 +1,24 @@
-// 11_trilinear.cpp: samples between the voxels, read by trilinear interpolation.
+// 15_projection_modes.cpp: maximum, minimum and average intensity along the free camera's ray.
 //
-// New here:   step 10 reads each sample from its nearest voxel, so the picture shows the voxel
-//             grid as steps. Here a sample is interpolated from the eight voxels around it
-//             (trilinear interpolation), and so is its gradient, from the eight voxels'
-//             gradients. --interpolation nearest is step 10's way.
-// Defaults:   as step 10: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
-//             30 degrees right of the camera and 20 above it, a black background.
-// Builds on:  10_free_camera (the orbit camera, the slab method, nearest samples).
-// Handout:    handouts/11_trilinear.md
-// Run:        make run STEP=11 ARGS="--interpolation nearest"
-// Reference:  data/reference/11_trilinear_camera.png: the default run, on the phantom.
+// New here:   no transfer function, no compositing: each ray reduces the values it samples
+//             inside the box to one number, the largest (MIP), the smallest (MinIP) or their
+//             mean (average, a simulated X-ray), shown as grey with part 1's mapping (the
+//             volume's min..max to black..white). --slab W keeps only the samples within W/2
+//             of the plane through the box's centre, facing the camera (a thin-slab projection).
+//             Step 12's table, light and compositing go.
+// Builds on:  12_trilinear (the orbit camera, the slab method, trilinear samples).
+// Handout:    handouts/15_projection_modes.md
+// Run:        make run STEP=15 ARGS="--mode minip --slab 20"
+// Reference:  data/reference/15_projection_modes_camera.png: the default run (MIP, azimuth 30,
+//             elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "11_trilinear";
-constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
-constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
-constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
-constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
-constexpr double unit_length = 1;     // physical length the TF opacities hold for: one voxel
-                                      // at spacing 1
+constexpr const char* step_name = "15_projection_modes";
+constexpr Rgb background = {0, 0, 0};  // a ray that meets no sample: black
 constexpr double default_step = 1;    // physical units between two samples along a ray
 constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
 constexpr double step_key_factor = 2;            // Up doubles the step, Down halves it
-constexpr double default_light_angle = 30;  // degrees to the right of the viewer
-constexpr double light_elevation = 20;      // degrees above the viewer, fixed
-constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
 constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
 constexpr double default_elevation = 20;  // degrees above the i-j plane
@@ -33,18 +26,15 @@ constexpr double default_fov = 30;        // degrees, the perspective image's he
 constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
 constexpr const char* default_size = "512x512";  // pixels, columns x rows
 constexpr int max_image_side = 8192;             // pixels, --size limit per side
+constexpr double max_slab = 1e5;                 // physical units, --slab limit
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
 
 struct Params {
-    std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
-    double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
-    double ert = default_ert;  // early ray termination threshold for T
+    std::string mode = "mip";    // "mip", "minip" or "average"
+    double slab = 0;             // physical units: only samples this thick a slab; 0: all
     double step = default_step;  // physical units between samples
-    double light_angle = default_light_angle;
-    bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
-    bool no_correction = false;  // use the TF opacities as they are, whatever the step
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
@@ -55,10 +45,12 @@ struct Params {
     std::string size = default_size;       // "WxH"
 };
 
-// What a ray has gathered so far, front to back (in double, as step 06 explains).
-struct Accumulated {
-    double r = 0, g = 0, b = 0;  // colour, each sample weighted by its opacity and T
-    double transparency = 1;     // T: the share of what lies further back that still shows
+// What a ray has gathered: the largest and smallest value, and the sum (in double: a long
+// ray adds thousands of values) and count of its samples for the mean.
+struct Projection {
+    float highest = 0, lowest = 0;
+    double sum = 0;
+    long long count = 0;  // samples inside the box (and the slab): 0 when the ray misses
 };
 
 // The camera, in physical space. forward, right and up are unit vectors at right angles.
@@ -204,54 +196,6 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
 }
 //< lesson: slab
 
-//> lesson: opacity_correction
-// The TF's opacity alpha holds for one unit of length. A sample that stands for `ratio` units
-// lets (1 - alpha)^ratio through, so its opacity is alpha' = 1 - (1 - alpha)^ratio. Computed
-// as -expm1(ratio * log1p(-alpha)): the plain form loses its digits when alpha or the result
-// is tiny. alpha = 0 stays 0 and alpha = 1 stays 1 (log1p(-1) would be -infinity).
-static float corrected_opacity(float alpha, double ratio) {
-    if (alpha <= 0.0f) return 0.0f;
-    if (alpha >= 1.0f) return 1.0f;
-    return float(-std::expm1(ratio * std::log1p(-double(alpha))));
-}
-
-// How many units of length one sample stands for (1 with --no-correction: the TF unchanged).
-static double opacity_ratio(const Params& params) {
-    return params.no_correction ? 1.0 : params.step / unit_length;
-}
-//< lesson: opacity_correction
-
-// The lookup table: one RGBA entry per CT value, -32768..32767. The entry of `value` is
-// entries[value - lowest_ct_value], so any int16 is a valid index. A new table is transparent.
-struct Lut {
-    std::vector<Rgba> entries = std::vector<Rgba>(ct_value_end - lowest_ct_value);
-};
-
-//> lesson: lookup_table
-// The colour a fraction f of the way from a to b (f = 0 gives a exactly).
-static Rgba mix(const Rgba& a, const Rgba& b, float f) {
-    return {a.r + f * (b.r - a.r), a.g + f * (b.g - a.g), a.b + f * (b.b - a.b),
-            a.a + f * (b.a - a.a)};
-}
-
-// The table of a transfer function: classifying a sample is then a single read. Values no
-// range covers stay transparent. A ramp goes linearly from its start at `from` to its end at
-// `to`. The opacities are corrected here, once per entry, for samples `ratio` units apart.
-// Changed in step 08: each entry's opacity corrected for the spacing.
-static Lut build_lut(const TransferFunction& tf, double ratio) {
-    Lut lut;  // every entry {0, 0, 0, 0}
-    for (const TfRange& range : tf.ranges) {
-        const float width = float(range.to - range.from);
-        for (int value = range.from; value < range.to; ++value) {
-            const float f = range.ramp ? float(value - range.from) / width : 0.0f;
-            Rgba& entry = lut.entries[value - lowest_ct_value];
-            entry = mix(range.start, range.end, f);
-            entry.a = corrected_opacity(entry.a, ratio);
-        }
-    }
-    return lut;
-}
-//< lesson: lookup_table
 
 // A ray's samples in voxel units, worked out once per ray: sample n is at first + n * per_step
 // (voxel coordinates: physical / spacing), for n = 0 .. count - 1.
@@ -332,74 +276,15 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 }
 //< lesson: trilinear
 
-// Given: lerp() for gradients.
-static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
-//> lesson: gradient
-template <class Sample>
-static float derivative(Sample sample, int n, int count, double spacing) {
-    if (count == 1) return 0.0f;
-    if (n == 0) return float((sample(1) - sample(0)) / spacing);
-    if (n == count - 1) return float((sample(n) - sample(n - 1)) / spacing);
-    return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
-}
 
-// The gradient of the CT values at voxel (i, j, k): it points into denser material.
-static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
-    const int i = voxel.i, j = voxel.j, k = voxel.k;
-    ++work.gradients;
-    auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
-    auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
-    auto along_k = [&](int m) { return double(volume.at(i, j, m)); };
-    return {derivative(along_i, i, volume.nx, volume.sx),
-            derivative(along_j, j, volume.ny, volume.sy),
-            derivative(along_k, k, volume.nz, volume.sz)};
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in part 1 (step
+// 00); trilinear values lie between voxel values, so within 0..1 too.
+// Changed in step 15: takes a trilinear (fractional) value.
+static float display_grey(const Volume& volume, double value) {
+    const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
+    return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
 }
-
-// The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
-// values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
-static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
-    auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
-        return gradient_at(volume, Voxel{a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k}, work);
-    };
-    const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
-    const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
-    const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
-    const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
-    return lerp_vector(lerp_vector(low_low, high_low, c.fj), lerp_vector(low_high, high_high, c.fj),
-                       c.fk);
-}
-
-// A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
-// differences), else trilinear.
-static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
-    if (!nearest) return gradient_trilinear(volume, c, work);
-    return gradient_at(volume, Voxel{c.i, c.j, c.k}, work);
-}
-//< lesson: gradient
-
-//> lesson: shade
-// Diffuse lighting: ambient + (1 - ambient) * max(0, N.L), N the outward normal -grad/|grad|.
-// A zero gradient (inside a uniform region) has no normal: such a point gets ambient only.
-static float shade(Vec3 gradient, Vec3 to_light) {
-    const float size = length(gradient);
-    if (size == 0.0f) return ambient;
-    const Vec3 normal = (-1.0f / size) * gradient;
-    return ambient + (1.0f - ambient) * std::max(0.0f, dot(normal, to_light));
-}
-
-// Unit direction towards the light, angle to the right of the camera and elevation above it:
-// step 08's light, in the camera's frame (so part 1's top and side views get the same light).
-// Changed in step 10: in the camera's frame.
-static Vec3 light_direction(const Camera& camera, double angle) {
-    const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
-    const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
-    const float along_ray = float(-std::cos(angle * degrees) * std::cos(light_elevation * degrees));
-    auto axis = [](const Vec3d& a) { return Vec3{float(a.i), float(a.j), float(a.k)}; };
-    return along_x * axis(camera.right) + (-along_y) * axis(camera.up) +
-           along_ray * axis(camera.forward);
-}
-//< lesson: shade
 
 // The ray's two trace records (given): where it starts, and where it meets the box. The entry
 // is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
@@ -416,87 +301,88 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
     trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
 
-//> lesson: front_to_back
-// Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
-// each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 07.
-// Changed in step 11: trilinear samples and gradients.
-static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
-                                           Trace* trace) {
-    const double stop_below = std::max(params.ert, min_transparency);
+//> lesson: projection
+// --slab: the part of the span within slab / 2 of the plane through the box's centre at right
+// angles to the view. Along the ray that distance grows by dot(direction, forward) per unit
+// of t: 1 for an orthographic ray, cos(angle to forward) > 0 for a perspective one.
+static Span within_slab(const Ray& ray, Span span, const Camera& camera, double slab,
+                        Trace* trace) {
+    const double rate = dot(ray.direction, camera.forward);
+    const double depth = dot(ray.origin - camera.centre, camera.forward);  // at t = 0
+    const double t_near = (-slab / 2 - depth) / rate, t_far = (slab / 2 - depth) / rate;
+    if (span.hit && t_near > span.t_entry) {
+        span.t_entry = t_near;
+        span.entry_axis = -1;  // inside the box: no face to put the entry on
+    }
+    span.t_exit = std::min(span.t_exit, t_far);
+    if (span.hit && span.t_entry > span.t_exit) span.hit = false;
+    if (trace) {
+        trace->note({{"slab", slab}, {"t", t_near}, {"t_end", t_far}}, "slab %g: t=%.6f..%.6f, %s",
+                    slab, t_near, t_far,
+                    span.hit ? "samples from the later entry to the earlier exit"
+                             : "no part of the box within it");
+    }
+    return span;
+}
+
+// One ray's projection: samples at t_entry + n * step until t_exit (step 12's), read by
+// trilinear interpolation; the largest, the smallest and the sum, all starting from the
+// first sample (not from 0: CT values go below 0). Only samples inside the box count: a ray
+// that misses it has none.
+static Projection project_ray(const Volume& volume, const Camera& camera, int x, int y,
+                              const Params& params, Work& work, Trace* trace) {
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
-    const Span span = intersect_box(ray, Vec3d{}, high);
+    Span span = intersect_box(ray, Vec3d{}, high);
     trace_ray(trace, ray, span, high, params.step);
-    Accumulated pixel;
-    if (!span.hit) return pixel;
+    if (params.slab > 0 && span.hit) span = within_slab(ray, span, camera, params.slab, trace);
+    Projection projection;
+    if (!span.hit) return projection;
     const Walk walk = walk_through(volume, ray, span, params.step);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
-        const Cell cell = cell_at(volume, q, params.nearest);
-        const double t = span.t_entry + n * params.step;  // physical units along the ray
-        const float value = sample_value(volume, cell, params.nearest);
-        const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
+        const float value =
+            sample_value(volume, cell_at(volume, q, params.nearest), params.nearest);
         ++work.samples;
-        const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
-        if (sample.a == 0.0f) {
-            ++work.skipped;
-            if (trace) trace->sample(TraceSample(t, point, value).skipped());
-            continue;
-        }
-        double light = 1.0;  // unlit
-        if (!params.unlit) {
-            light = shade(sample_gradient(volume, cell, params.nearest, work), to_light);
-        }
-        const double alpha = sample.a;
-        const double weight = pixel.transparency * alpha * light;
-        pixel.r += weight * sample.r;
-        pixel.g += weight * sample.g;
-        pixel.b += weight * sample.b;
-        pixel.transparency *= 1 - alpha;
+        if (projection.count == 0) projection.highest = projection.lowest = value;
+        projection.highest = std::max(projection.highest, value);
+        projection.lowest = std::min(projection.lowest, value);
+        projection.sum += value;
+        ++projection.count;
         if (trace) {
-            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
-                              .colour(pixel.r, pixel.g, pixel.b)
-                              .transparency(pixel.transparency));
-        }
-        if (pixel.transparency < stop_below && n + 1 < walk.count) {
-            ++work.terminated;
-            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
-            break;
+            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+            trace->sample(TraceSample(span.t_entry + n * params.step, p, value)
+                              .projection(projection.highest, projection.lowest,
+                                          projection.sum / projection.count));
         }
     }
-    return pixel;
+    return projection;
 }
 
-// What the ray left transparent shows the background: C + T*background.
-static Rgb over_background(const Accumulated& ray) {
-    return {float(ray.r + ray.transparency * background.r),
-            float(ray.g + ray.transparency * background.g),
-            float(ray.b + ray.transparency * background.b)};
+// The value the mode shows, as grey; a ray with no sample shows the background.
+static Rgb projection_grey(const Volume& volume, const Projection& projection,
+                           const std::string& mode) {
+    if (projection.count == 0) return background;
+    double value = projection.sum / projection.count;  // average
+    if (mode == "mip") value = projection.highest;
+    if (mode == "minip") value = projection.lowest;
+    return grey(display_grey(volume, value));
 }
-//< lesson: front_to_back
+//< lesson: projection
 
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "The volume from an orbit camera: rays through the box in physical "
-                             "space, trilinear samples, lit front to back.");
-        args.add_string("--tf", &params.tf_path,
-                        "transfer function file (default data/tf/classic.tf)");
-        args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
-                        "opacity of the range labelled skin (default: as the file says)");
-        args.add_double("--ert", &params.ert, 0, 1,
-                        "stop a ray once its transparency T is below this (0: never)");
+        Args args(step_name, "Maximum, minimum or average intensity along the rays of an orbit "
+                             "camera, as grey.");
+        args.add_choice("--mode", &params.mode, {"mip", "minip", "average"},
+                        "the largest value along the ray, the smallest, or their mean");
+        args.add_double("--slab", &params.slab, 0, max_slab,
+                        "only samples within a slab this thick (physical units) through the "
+                        "centre, facing the camera; 0: the whole box");
         args.add_double("--step", &params.step, min_step, max_step,
                         "physical units between two samples along a ray");
-        args.add_double("--light-angle", &params.light_angle, -180, 180,
-                        "light direction, degrees to the right of the camera (default 30; "
-                        "always 20 degrees above it)");
-        args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
-        args.add_switch("--no-correction", &params.no_correction,
-                        "use the TF opacities unchanged, whatever the step");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
@@ -514,7 +400,7 @@ int main(int argc, char** argv) {
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 11 renders the camera's view; turn it with "
+            throw InputError("--view: step 15 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
@@ -525,41 +411,24 @@ int main(int argc, char** argv) {
         const std::string refused = too_many_samples_along_box(volume, params.step);
         if (!refused.empty()) throw InputError(refused);
 
-        // --- Transfer function: the file (in the file's units), its table for this step size ---
-        TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
-        if (params.skin_opacity >= 0) {
-            set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
-        }
-        Lut lut = build_lut(tf, opacity_ratio(params));
-
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
-        renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
 
-        // --- Light: towards it from every ray of a render (it turns with the camera), so
-        // worked out once per render, as step 08 does once per view; none with --unlit ---
-        auto light_towards = [&](const Camera& camera) {
-            return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
-        };
-
         // --- Render: one ray per pixel ---
-        auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
-                         Trace* trace) {
-            return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
-                                                           params, work, trace));
+        auto pixel = [&](const Camera& camera, int x, int y, Work& work, Trace* trace) {
+            return projection_grey(volume, project_ray(volume, camera, x, y, params, work, trace),
+                                   params.mode);
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
-            const Vec3 to_light = light_towards(camera);
             return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
-                return pixel(camera, to_light, x, y, ray_work, nullptr);
+                return pixel(camera, x, y, ray_work, nullptr);
             });
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            const Camera camera = make_camera(volume, params, view);
-            return pixel(camera, light_towards(camera), x, y, work, trace);
+            return pixel(make_camera(volume, params, view), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
             return "samples " + summary_number(params.step) + " physical units apart";
@@ -571,7 +440,6 @@ int main(int argc, char** argv) {
                                  max_step);
                              if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
-                             lut = build_lut(tf, opacity_ratio(params));
                          },
                          [&] { return summary_number(params.step); }};
         renderer.orbit.turn = [&](double azimuth, double elevation) {
@@ -586,13 +454,7 @@ int main(int argc, char** argv) {
                    summary_number(params.elevation) + " zoom=" + summary_number(params.zoom);
         };
         renderer.settings = [&] {
-            const TfRange* skin = find_range(tf, skin_label);
-            return "tf=" + tf.source +
-                   " skin_opacity=" + (skin ? summary_number(skin->start.a) : std::string("none")) +
-                   " ert=" + summary_number(params.ert) +
-                   " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
-                   " lighting=" + (params.unlit ? "off" : "on") +
-                   " correction=" + (params.no_correction ? "off" : "on") +
+            return "mode=" + params.mode + " slab=" + summary_number(params.slab) +
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
                    " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation;

@@ -1,23 +1,21 @@
-// 17_free_leaping.cpp: step 09's leaping over empty bricks, along a free ray.
+// 16_isosurface.cpp: the surface where the volume crosses an iso value, lit with Phong, and
+// a clipping plane that cuts the volume open.
 //
-// New here:   step 09 leapt over empty bricks along part 1's axis-aligned rays. A camera's ray
-//             crosses bricks at any angle, and one brick at a time would take ~40 leaps to
-//             cross the air around a head: each brick gets its reach, the cube of empty bricks
-//             around it, and a ray leaps out of that cube at once (the slab method again, in
-//             sample units). Every sample leapt over would have been transparent: the picture
-//             is step 11's (--no-leaping: every sample read), with fewer samples. It is an
-//             optimisation only, so it comes last in part 2, on step 11's composite (the
-//             renderer steps 13-16 extend without it).
-// Defaults:   as step 10: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
-//             30 degrees right of the camera and 20 above it, a black background.
-// Builds on:  11_trilinear (the orbit camera, trilinear samples, lit front to back).
-// Handout:    handouts/17_free_leaping.md
-// Run:        make run STEP=17 ARGS="--no-leaping"
-// Reference:  data/reference/17_free_leaping_camera.png: the default run, on the phantom.
+// New here:   along the camera's ray, the first sample above --iso and the one before it
+//             bracket the crossing; bisection on the trilinear field narrows it to 1e-4 voxel;
+//             the surface there is lit with Phong (ambient, diffuse, specular, --shininess)
+//             from the trilinear central-difference gradient. Second, smaller idea:
+//             --clip nx,ny,nz,d keeps the half-space n.p <= d and cuts the rest away, in the
+//             iso render and in step 12's composite render (--mode composite).
+// Builds on:  12_trilinear (the orbit camera, the slab method, trilinear samples).
+// Handout:    handouts/16_isosurface.md
+// Run:        make run STEP=16 ARGS="--clip 0,-1,0,-100 --shininess 40"
+// Reference:  data/reference/16_isosurface_camera.png: the default run (iso 400, azimuth 30,
+//             elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "17_free_leaping";
+constexpr const char* step_name = "16_isosurface";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -40,6 +38,24 @@ constexpr int max_image_side = 8192;             // pixels, --size limit per sid
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
+constexpr int bone_iso = 400;            // CT value of the default surface: bone, as step 05
+constexpr int iso_key_step = 50;         // CT units per Up/Down key press (iso mode)
+constexpr double hit_tolerance = 1e-4;   // voxels (of the smallest spacing): bisection stops
+                                         // once the bracket is shorter than this
+constexpr float ambient_weight = 0.1f;   // Phong: light that reaches every surface
+constexpr float diffuse_weight = 0.6f;   // Phong: times N.L
+constexpr float specular_weight = 0.3f;  // Phong: times (R.V)^shininess; the three sum to 1
+constexpr double default_shininess = 20;  // Phong exponent: larger, a smaller sharper highlight
+constexpr Rgb surface_colour = {1, 1, 1};  // bone white, as the classic table's bone
+constexpr double max_clip_number = 1e6;    // --clip's numbers, physical units
+
+// The clipping plane: the volume is kept where dot(normal, p) <= distance, p in physical
+// units; normal has length 1, so distance is how far the plane lies from the origin along it.
+struct ClipPlane {
+    bool on = false;
+    Vec3d normal;
+    double distance = 0;
+};
 
 struct Params {
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
@@ -49,7 +65,6 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
-    bool no_leaping = false;     // read every sample, even in bricks known to be empty
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
@@ -58,6 +73,11 @@ struct Params {
     bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
+    std::string mode = "iso";              // "iso": the surface; "composite": step 12's picture
+    int iso = bone_iso;                    // the surface is where the value crosses this
+    double shininess = default_shininess;  // Phong exponent
+    std::string clip_text;                 // "nx,ny,nz,d" as given; "": no clipping plane
+    ClipPlane clip;                        // clip_text, read by parse_clip
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -88,6 +108,7 @@ struct Span {
     bool hit = false;
     double t_entry = 0, t_exit = 0;
     int entry_axis = -1;  // the axis whose face the ray enters through; -1: it starts inside
+    bool clipped = false;  // it enters through the clip plane (entry_axis is -1 then)
 };
 
 // The box of voxel centres, 0 .. (n - 1) * spacing along each axis: every point in it has
@@ -208,6 +229,35 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
     return {on_face[0], on_face[1], on_face[2]};
 }
 //< lesson: slab
+
+//> lesson: clip
+// The clipping plane cuts the ray's span in the box down to where n.p <= d. Along the ray
+// n.p grows at the rate n.direction, from n.origin at t = 0, and reaches d at the plane:
+//   t_plane = (d - n.origin) / (n.direction).
+// Growing (n.direction > 0), the ray leaves the kept side there: the span ends at t_plane.
+// Shrinking, it comes into the kept side there: the span starts at t_plane. Parallel to the
+// plane (n.direction = 0, no division), it is kept whole or cut away whole.
+static Span clip_span(const Ray& ray, Span span, const ClipPlane& clip, Trace* trace) {
+    if (!clip.on || !span.hit) return span;
+    const double rate = dot(clip.normal, ray.direction);     // d(n.p)/dt
+    const double room = clip.distance - dot(clip.normal, ray.origin);  // >= 0: origin kept
+    if (rate == 0) {
+        if (room < 0) span.hit = false;
+    } else if (rate > 0) {
+        span.t_exit = std::min(span.t_exit, room / rate);
+    } else if (room / rate > span.t_entry) {
+        span.t_entry = room / rate;
+        span.entry_axis = -1;
+        span.clipped = true;
+    }
+    if (span.t_entry > span.t_exit) span.hit = false;
+    if (trace) {
+        trace->clip(clip.normal, clip.distance, !span.hit, span.t_entry, span.t_exit,
+                    span.clipped);
+    }
+    return span;
+}
+//< lesson: clip
 
 //> lesson: opacity_correction
 // The TF's opacity alpha holds for one unit of length. A sample that stands for `ratio` units
@@ -337,97 +387,6 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 }
 //< lesson: trilinear
 
-// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
-// the current table, how far the empty space around each brick reaches (see empty_reach); no
-// reach: leap over nothing.
-struct EmptySpace {
-    Bricks bricks;
-    std::vector<uint8_t> reach;  // per brick, 0: the table sees something in it
-
-    int reach_at(const Cell& cell) const {
-        return reach.empty() ? 0 : reach[bricks.index(cell.i, cell.j, cell.k)];
-    }
-};
-constexpr int max_reach = 32;           // bricks: a leap crosses at most 2 * 32 - 1 of them
-constexpr double leap_margin = 1e-6;    // voxels: a leap stops this far before a brick's face
-
-//> lesson: empty_space
-// Step 09's bricks that the table leaves wholly transparent, unchanged.
-static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
-    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
-    for (size_t n = 0; n < lut.entries.size(); ++n) {
-        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
-    }
-    std::vector<uint8_t> empty(bricks.count());
-    for (size_t b = 0; b < bricks.count(); ++b) {
-        const int low = bricks.ranges[b].min - lowest_ct_value;
-        const int high = bricks.ranges[b].max - lowest_ct_value;
-        empty[b] = opaque_before[high + 1] == opaque_before[low];
-    }
-    return empty;
-}
-
-// The bricks whose neighbours (26, at most) are all empty too: `empty` shrunk by one brick
-// on every side, one axis at a time. Past the volume's edge counts as empty (no ray samples
-// there).
-static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> empty) {
-    const size_t strides[3] = {1, size_t(bricks.bx), size_t(bricks.bx) * size_t(bricks.by)};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    for (int axis = 0; axis < 3; ++axis) {
-        const std::vector<uint8_t> before = empty;
-        const size_t stride = strides[axis];
-        for (size_t b = 0; b < empty.size(); ++b) {
-            const int at = int(b / stride % size_t(counts[axis]));  // along this axis
-            if (at > 0) empty[b] &= before[b - stride];
-            if (at + 1 < counts[axis]) empty[b] &= before[b + stride];
-        }
-    }
-    return empty;
-}
-
-// Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
-// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
-// reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
-// A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
-// brick on every side.
-static std::vector<uint8_t> empty_reach(const Bricks& bricks, const std::vector<uint8_t>& empty) {
-    std::vector<uint8_t> reach = empty, cube = empty;  // 1 for an empty brick, 0 else
-    for (int r = 2; r <= max_reach; ++r) {
-        cube = shrink(bricks, cube);
-        bool any = false;
-        for (size_t b = 0; b < cube.size(); ++b) {
-            if (cube[b]) reach[b] = uint8_t(r);
-            any = any || cube[b];
-        }
-        if (!any) break;
-    }
-    return reach;
-}
-
-// The sample to go on from when sample n lies in a brick of reach r: the first one past the
-// faces of the cube of bricks r - 1 around it (the slab method again, in sample units: face
-// = first + t * per_step). Every sample before it is inside the cube, even after rounding:
-// the faces are taken leap_margin voxels inside. A cube that reaches the volume's edge has
-// no face there. At least n + 1, at most the ray's sample count.
-static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& cell, int reach,
-                           long long n) {
-    const int corner[3] = {cell.i, cell.j, cell.k};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    double leave = std::numeric_limits<double>::infinity();  // in samples
-    for (int axis = 0; axis < 3; ++axis) {
-        const double d = walk.per_step[axis];
-        if (d == 0) continue;  // parallel to these faces: never leaves through them
-        const int brick = corner[axis] / brick_size;
-        const int face_brick = d > 0 ? brick + reach : brick - reach + 1;  // its first voxel
-        if (face_brick <= 0 || face_brick >= counts[axis]) continue;       // the volume's edge
-        const double face = face_brick * brick_size + (d > 0 ? -leap_margin : leap_margin);
-        leave = std::min(leave, (face - walk.first[axis]) / d);
-    }
-    if (!(leave < double(walk.count))) return walk.count;
-    return std::max(n + 1, (long long)std::ceil(leave));
-}
-//< lesson: empty_space
-
 // Given: lerp() for gradients.
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
@@ -486,7 +445,6 @@ static float shade(Vec3 gradient, Vec3 to_light) {
 
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
-// Changed in step 10: in the camera's frame.
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -515,19 +473,18 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 //> lesson: front_to_back
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 07. Step 09's
-// leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
-// (leap_past), and every sample leapt over would have been transparent.
-// Changed in step 17: leaps over the empty cube around a sample.
+// transparent, composited front to back; early ray termination as in step 07. The span is the
+// clipped one (clip_span).
+// Changed in step 16: along the clipped span.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, const EmptySpace& space,
-                                           Vec3 to_light, const Params& params, Work& work,
+                                           int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
                                            Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
-    const Span span = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, span, high, params.step);
+    const Span box = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, box, high, params.step);
+    const Span span = clip_span(ray, box, params.clip, trace);
     Accumulated pixel;
     if (!span.hit) return pixel;
     const Walk walk = walk_through(volume, ray, span, params.step);
@@ -535,14 +492,6 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
         const double t = span.t_entry + n * params.step;  // physical units along the ray
-        const int reach = space.reach_at(cell);
-        if (reach > 0) {
-            const long long next = leap_past(walk, space.bricks, cell, reach, n);
-            work.leapt += next - n;
-            if (trace) trace->leap(t, span.t_entry + (next - 1) * params.step, next - n, reach);
-            n = next - 1;
-            continue;
-        }
         const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
@@ -584,12 +533,190 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: front_to_back
 
+// Where the ray meets the surface: `along` physical units past the entry, at `point` (voxel
+// units, as the walk's samples).
+struct SurfaceHit {
+    bool hit = false;
+    double along = 0;
+    Vec3d point;
+};
+
+//> lesson: bisection
+// The crossing between two points of the walk `below` (value <= iso) and `above` (value >
+// iso), in samples (2.5: halfway between samples 2 and 3): the midpoint of the bracket is read
+// by trilinear interpolation and replaces the end on its side, so the bracket always straddles
+// iso and halves each time. It stops when the bracket is shorter than `tolerance` (samples),
+// and the crossing is its midpoint, at most tolerance / 2 from the true one: 14 halvings from
+// a step of 1 to 1e-4. (The secant step would usually need fewer reads, but can creep in from
+// one end.) t_entry and step only turn samples into t for the trace. With nearest samples
+// (--interpolation nearest) the field is a staircase, and the crossing is where it steps.
+static double bisect(const Volume& volume, const Walk& walk, double below, double above,
+                     double iso, double tolerance, bool nearest, double t_entry, double step,
+                     Trace* trace) {
+    for (int iteration = 1; above - below > tolerance; ++iteration) {
+        const double middle = 0.5 * (below + above);
+        const Vec3d point = walk.first + middle * walk.per_step;  // voxel units
+        const float value = sample_value(volume, cell_at(volume, point, nearest), nearest);
+        const bool is_above = value > iso;
+        if (is_above) {
+            above = middle;
+        } else {
+            below = middle;
+        }
+        if (trace) {
+            trace->bisection(iteration, t_entry + middle * step, value, is_above,
+                             t_entry + below * step, t_entry + above * step);
+        }
+    }
+    return 0.5 * (below + above);
+}
+//< lesson: bisection
+
+//> lesson: phong
+// The three Phong terms at a surface point, for unit vectors: normal N (outward), to_light L,
+// to_viewer V. R is L mirrored about N; the highlight is where R points at the viewer. A light
+// behind the surface (N.L <= 0) leaves only the ambient term: no diffuse, no highlight.
+struct PhongTerms {
+    float ambient = 0, diffuse = 0, specular = 0;
+};
+
+static PhongTerms phong(Vec3 normal, Vec3 to_light, Vec3 to_viewer, double shininess) {
+    PhongTerms terms;
+    terms.ambient = ambient_weight;
+    const float n_dot_l = dot(normal, to_light);
+    if (n_dot_l <= 0.0f) return terms;
+    const Vec3 reflected = (2 * n_dot_l) * normal - to_light;
+    const float r_dot_v = std::max(0.0f, dot(reflected, to_viewer));
+    terms.diffuse = diffuse_weight * n_dot_l;
+    terms.specular = specular_weight * float(std::pow(double(r_dot_v), shininess));
+    return terms;
+}
+
+// The surface's colour lit: its own colour times ambient + diffuse, plus the white highlight.
+static Rgb lit_colour(const PhongTerms& terms) {
+    const float lit = terms.ambient + terms.diffuse;
+    return {surface_colour.r * lit + terms.specular, surface_colour.g * lit + terms.specular,
+            surface_colour.b * lit + terms.specular};
+}
+//< lesson: phong
+
+//> lesson: isosurface
+// Walk the ray as step 12 does, but instead of compositing, stop at the first sample above
+// iso: the crossing lies between it and the sample before (at or below iso), and bisection
+// finds it. A ray whose
+// first sample is already above iso starts inside the surface: it hits at its entry (on the
+// clip plane that is the cut face).
+static SurfaceHit first_crossing(const Volume& volume, const Ray& ray, const Span& span,
+                                 const Params& params, Work& work, Trace* trace) {
+    SurfaceHit hit;
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    const double smallest_spacing = std::min({volume.sx, volume.sy, volume.sz});
+    auto t = [&](double n) { return span.t_entry + n * params.step; };  // physical units
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const Cell cell = cell_at(volume, q, params.nearest);
+        const float value = sample_value(volume, cell, params.nearest);
+        ++work.samples;
+        if (trace) {
+            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+            trace->sample(TraceSample(t(n), p, value).iso(value > params.iso));
+        }
+        if (value <= params.iso) continue;
+        hit.hit = true;
+        double at = n;  // in samples
+        if (n > 0) {
+            if (trace) trace->bracket(t(n - 1), t(n), hit_tolerance);
+            at = bisect(volume, walk, n - 1, n, params.iso,
+                        hit_tolerance * smallest_spacing / params.step, params.nearest,
+                        span.t_entry, params.step, trace);
+        } else if (trace) {
+            trace->note({}, "the first sample is above iso: the ray starts inside, hit at its "
+                            "entry");
+        }
+        hit.along = at * params.step;
+        hit.point = walk.first + at * walk.per_step;
+        ++work.hits;
+        if (n + 1 < walk.count) ++work.terminated;
+        return hit;
+    }
+    if (trace) {
+        trace->note({{"iso", double(params.iso)}},
+                    "no crossing of iso %d: the pixel shows the background", params.iso);
+    }
+    return hit;
+}
+
+// One pixel of the iso render: the first crossing, its normal (the clip plane's on the cut
+// face, else -gradient / |gradient|) and Phong. A zero gradient has no normal: ambient only.
+static Rgb isosurface_ray(const Volume& volume, const Camera& camera, int x, int y,
+                          const Params& params, Work& work, Trace* trace) {
+    const Vec3d high = box_high(volume);
+    const Ray ray = camera_ray(camera, x, y);
+    const Span box = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, box, high, params.step);
+    const Span span = clip_span(ray, box, params.clip, trace);
+    if (!span.hit) return background;
+    const SurfaceHit hit = first_crossing(volume, ray, span, params, work, trace);
+    if (!hit.hit) return background;
+    auto to_float = [](const Vec3d& a) { return Vec3{float(a.i), float(a.j), float(a.k)}; };
+    Vec3 normal;
+    const char* source = "the clip plane";
+    if (span.clipped && hit.along == 0) {
+        normal = to_float(params.clip.normal);  // outward: the cut-away side is +normal
+    } else {
+        const Vec3 gradient = sample_gradient(
+            volume, cell_at(volume, hit.point, params.nearest), params.nearest, work);
+        const float size = length(gradient);
+        if (size > 0.0f) normal = (-1.0f / size) * gradient;
+        source = size > 0.0f ? "-gradient" : "none (zero gradient)";
+    }
+    const Vec3 to_light = light_direction(camera, params.light_angle);
+    const Vec3 to_viewer = -1.0f * to_float(ray.direction);
+    PhongTerms terms;
+    terms.ambient = ambient_weight;
+    if (length(normal) > 0.0f) terms = phong(normal, to_light, to_viewer, params.shininess);
+    const Rgb colour = lit_colour(terms);
+    if (trace) {
+        const Vec3d p = {hit.point.i * volume.sx, hit.point.j * volume.sy,
+                         hit.point.k * volume.sz};
+        trace->surface_hit(span.t_entry + hit.along, p, normal, source);
+        trace->phong(to_light, to_viewer, terms.ambient, terms.diffuse, terms.specular,
+                     params.shininess);
+    }
+    return colour;
+}
+//< lesson: isosurface
+
+// "nx,ny,nz,d" -> the plane n.p = d with n scaled to length 1 (d with it); a normal of length
+// 0 has no direction and is refused.
+static ClipPlane parse_clip(const std::string& text) {
+    double numbers[4] = {};
+    size_t start = 0;
+    for (int n = 0; n < 4; ++n) {
+        const size_t comma = n < 3 ? text.find(',', start) : std::string::npos;
+        if (n < 3 && comma == std::string::npos) {
+            throw InputError("--clip: expected NX,NY,NZ,D such as 1,0,0,128, got '" + text + "'");
+        }
+        numbers[n] = parse_double("--clip", text.substr(start, comma - start), -max_clip_number,
+                                  max_clip_number);
+        start = comma + 1;
+    }
+    const Vec3d normal = {numbers[0], numbers[1], numbers[2]};
+    const double size = length(normal);
+    if (size == 0) throw InputError("--clip: the normal (0, 0, 0) has no direction");
+    ClipPlane clip;
+    clip.on = true;
+    clip.normal = (1 / size) * normal;
+    clip.distance = numbers[3] / size;
+    return clip;
+}
+
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "The volume from an orbit camera: rays through the box in physical "
-                             "space, trilinear samples, lit front to back.");
+        Args args(step_name, "The first crossing of an iso value along the camera's rays, "
+                             "refined by bisection and lit with Phong; a clipping plane.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -604,8 +731,6 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
-        args.add_switch("--no-leaping", &params.no_leaping,
-                        "read every sample, even in bricks the table leaves transparent");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
@@ -620,14 +745,24 @@ int main(int argc, char** argv) {
                         "perspective: the image's height as an angle, degrees (default 30)");
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
                         "WxH");
+        args.add_choice("--mode", &params.mode, {"iso", "composite"},
+                        "the isosurface (iso) or step 12's composite picture");
+        args.add_int("--iso", &params.iso, -32768, 32767,
+                     "the surface's value, in the file's units (default 400: bone)");
+        args.add_double("--shininess", &params.shininess, 1, 1000,
+                        "Phong exponent: larger gives a smaller, sharper highlight");
+        args.add_string("--clip", &params.clip_text,
+                        "clipping plane NX,NY,NZ,D: keeps n.p <= D (physical units)",
+                        "NX,NY,NZ,D");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 17 renders the camera's view; turn it with "
+            throw InputError("--view: step 16 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
         parse_size(params.size, max_image_side, &width, &height);
+        if (!params.clip_text.empty()) params.clip = parse_clip(params.clip_text);
 
         // --- Volume ---
         const Volume volume = load_volume(options);
@@ -641,14 +776,7 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
-        // --- The bricks the table leaves empty ---
-        EmptySpace space;
-        if (!params.no_leaping) space.bricks = make_bricks(volume, brick_size, options.threads);
-        auto update_empty_space = [&] {
-            if (params.no_leaping) return;
-            space.reach = empty_reach(space.bricks, find_empty_bricks(space.bricks, lut));
-        };
-        update_empty_space();
+        const bool iso_mode = params.mode == "iso";
 
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does) ---
@@ -665,8 +793,11 @@ int main(int argc, char** argv) {
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
-            return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
-                                                           to_light, params, work, trace));
+            if (iso_mode) {
+                return isosurface_ray(volume, camera, x, y, params, work, trace);
+            }
+            return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
+                                                           params, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
@@ -690,9 +821,16 @@ int main(int argc, char** argv) {
                              if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
-                             update_empty_space();
                          },
                          [&] { return summary_number(params.step); }};
+        if (iso_mode) {  // Up/Down move the iso value instead of the step
+            renderer.knob = {"iso",
+                             [&](const View&, int steps) {
+                                 params.iso = std::clamp(params.iso + steps * iso_key_step,
+                                                         -32768, 32767);
+                             },
+                             [&] { return std::to_string(params.iso); }};
+        }
         renderer.orbit.turn = [&](double azimuth, double elevation) {
             params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
             params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
@@ -712,10 +850,14 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
-                   " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
-                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation;
+                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +
+                   " mode=" + params.mode +
+                   (iso_mode ? " step=" + summary_number(params.step)  // the knob's is printed
+                             : " iso=" + std::to_string(params.iso)) +
+                   " shininess=" + summary_number(params.shininess) +
+                   " clip=" + (params.clip.on ? params.clip_text : std::string("none"));
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

@@ -1,21 +1,20 @@
-// 15_isosurface.cpp: the surface where the volume crosses an iso value, lit with Phong, and
-// a clipping plane that cuts the volume open.
+// 13_jitter.cpp: the wood-grain rings of a fixed sample grid, turned into noise by jitter.
 //
-// New here:   along the camera's ray, the first sample above --iso and the one before it
-//             bracket the crossing; bisection on the trilinear field narrows it to 1e-4 voxel;
-//             the surface there is lit with Phong (ambient, diffuse, specular, --shininess)
-//             from the trilinear central-difference gradient. Second, smaller idea:
-//             --clip nx,ny,nz,d keeps the half-space n.p <= d and cuts the rest away, in the
-//             iso render and in step 11's composite render (--mode composite).
-// Builds on:  11_trilinear (the orbit camera, the slab method, trilinear samples).
-// Handout:    handouts/15_isosurface.md
-// Run:        make run STEP=15 ARGS="--clip 0,-1,0,-100 --shininess 40"
-// Reference:  data/reference/15_isosurface_camera.png: the default run (iso 400, azimuth 30,
+// New here:   every ray of step 12 samples at the same distances from where it enters the box,
+//             so a surface at a slowly changing depth shows rings. Here each pixel moves its
+//             first sample by u * step, u in [0, 1) its own, from a hash of the pixel (white
+//             noise: --jitter hash, a PCG hash); --jitter none is step 12. --show-jitter draws
+//             the offsets u themselves as grey. Step 14 spreads the offsets more evenly.
+// Builds on:  12_trilinear (the orbit camera, the slab method, trilinear samples, lit front to
+//             back).
+// Handout:    handouts/13_jitter.md
+// Run:        make run STEP=13 ARGS="--step 4 --jitter none"
+// Reference:  data/reference/13_jitter_camera.png: the default run (hash jitter, azimuth 30,
 //             elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "15_isosurface";
+constexpr const char* step_name = "13_jitter";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -38,24 +37,6 @@ constexpr int max_image_side = 8192;             // pixels, --size limit per sid
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
-constexpr int bone_iso = 400;            // CT value of the default surface: bone, as step 05
-constexpr int iso_key_step = 50;         // CT units per Up/Down key press (iso mode)
-constexpr double hit_tolerance = 1e-4;   // voxels (of the smallest spacing): bisection stops
-                                         // once the bracket is shorter than this
-constexpr float ambient_weight = 0.1f;   // Phong: light that reaches every surface
-constexpr float diffuse_weight = 0.6f;   // Phong: times N.L
-constexpr float specular_weight = 0.3f;  // Phong: times (R.V)^shininess; the three sum to 1
-constexpr double default_shininess = 20;  // Phong exponent: larger, a smaller sharper highlight
-constexpr Rgb surface_colour = {1, 1, 1};  // bone white, as the classic table's bone
-constexpr double max_clip_number = 1e6;    // --clip's numbers, physical units
-
-// The clipping plane: the volume is kept where dot(normal, p) <= distance, p in physical
-// units; normal has length 1, so distance is how far the plane lies from the origin along it.
-struct ClipPlane {
-    bool on = false;
-    Vec3d normal;
-    double distance = 0;
-};
 
 struct Params {
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
@@ -73,11 +54,13 @@ struct Params {
     bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
-    std::string mode = "iso";              // "iso": the surface; "composite": step 11's picture
-    int iso = bone_iso;                    // the surface is where the value crosses this
-    double shininess = default_shininess;  // Phong exponent
-    std::string clip_text;                 // "nx,ny,nz,d" as given; "": no clipping plane
-    ClipPlane clip;                        // clip_text, read by parse_clip
+    std::string jitter = "hash";           // "none" or "hash"
+    bool show_jitter = false;              // draw the offsets u as grey instead of the volume
+};
+
+// The per-pixel offsets of the first sample: none, or by hash.
+struct Jitter {
+    std::string mode = "none";  // "none" or "hash"
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -108,7 +91,6 @@ struct Span {
     bool hit = false;
     double t_entry = 0, t_exit = 0;
     int entry_axis = -1;  // the axis whose face the ray enters through; -1: it starts inside
-    bool clipped = false;  // it enters through the clip plane (entry_axis is -1 then)
 };
 
 // The box of voxel centres, 0 .. (n - 1) * spacing along each axis: every point in it has
@@ -229,35 +211,6 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
     return {on_face[0], on_face[1], on_face[2]};
 }
 //< lesson: slab
-
-//> lesson: clip
-// The clipping plane cuts the ray's span in the box down to where n.p <= d. Along the ray
-// n.p grows at the rate n.direction, from n.origin at t = 0, and reaches d at the plane:
-//   t_plane = (d - n.origin) / (n.direction).
-// Growing (n.direction > 0), the ray leaves the kept side there: the span ends at t_plane.
-// Shrinking, it comes into the kept side there: the span starts at t_plane. Parallel to the
-// plane (n.direction = 0, no division), it is kept whole or cut away whole.
-static Span clip_span(const Ray& ray, Span span, const ClipPlane& clip, Trace* trace) {
-    if (!clip.on || !span.hit) return span;
-    const double rate = dot(clip.normal, ray.direction);     // d(n.p)/dt
-    const double room = clip.distance - dot(clip.normal, ray.origin);  // >= 0: origin kept
-    if (rate == 0) {
-        if (room < 0) span.hit = false;
-    } else if (rate > 0) {
-        span.t_exit = std::min(span.t_exit, room / rate);
-    } else if (room / rate > span.t_entry) {
-        span.t_entry = room / rate;
-        span.entry_axis = -1;
-        span.clipped = true;
-    }
-    if (span.t_entry > span.t_exit) span.hit = false;
-    if (trace) {
-        trace->clip(clip.normal, clip.distance, !span.hit, span.t_entry, span.t_exit,
-                    span.clipped);
-    }
-    return span;
-}
-//< lesson: clip
 
 //> lesson: opacity_correction
 // The TF's opacity alpha holds for one unit of length. A sample that stands for `ratio` units
@@ -455,6 +408,31 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
+//> lesson: hash
+// The PCG hash (Jarzynski and Olano, "Hash functions for GPU rendering", 2020): a multiply and
+// add as in a PCG random number generator, then a data-dependent shift and a multiply that mix
+// every input bit into every output bit. 32 bits in, 32 bits out.
+static uint32_t pcg_hash(uint32_t input) {
+    const uint32_t state = input * 747796405u + 2891336453u;
+    const uint32_t word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// White noise: pixel (x, y)'s own offset in [0, 1), the same in every run. The row is hashed
+// first, so that (x, y) and (y, x) differ. The top 24 bits fill a float's mantissa exactly:
+// 0 .. (2^24 - 1) / 2^24, never 1.
+static float hash_offset(int x, int y) {
+    const uint32_t bits = pcg_hash(uint32_t(x) + pcg_hash(uint32_t(y)));
+    return float(bits >> 8) * (1.0f / 16777216.0f);
+}
+//< lesson: hash
+
+// Pixel (x, y)'s offset u in [0, 1): 0 without jitter.
+static float jitter_offset(const Jitter& jitter, int x, int y) {
+    if (jitter.mode == "hash") return hash_offset(x, y);
+    return 0.0f;
+}
+
 // The ray's two trace records (given): where it starts, and where it meets the box. The entry
 // is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
 static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3d& high,
@@ -471,27 +449,45 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 }
 
 //> lesson: front_to_back
-// Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
-// each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 07. The span is the
-// clipped one (clip_span).
-// Changed in step 15: along the clipped span.
+// The walk moved by the pixel's offset: sample n at t_entry + (u + n) * step until t_exit.
+// A ray shorter than its offset gets no sample: it only grazes the box. With u = 0 this is
+// the walk unchanged, bit for bit (step 12's samples).
+static Walk jittered(Walk walk, const Span& span, double step, float u) {
+    const double offset = u * step;  // physical units from the entry to the first sample
+    const double length_inside = span.t_exit - span.t_entry;
+    walk.first = walk.first + double(u) * walk.per_step;
+    walk.count = length_inside < offset
+                     ? 0
+                     : (long long)(std::floor((length_inside - offset) / step +
+                                              sample_count_slack)) + 1;
+    return walk;
+}
+
+// Step 12's compositing, its samples moved by the pixel's offset u in [0, 1) from the jitter
+// (0: step 12's samples exactly): read by trilinear interpolation, classified by the table,
+// lit where it is not transparent, composited front to back; early ray termination as in
+// step 07.
+// Changed in step 13: the samples move by the pixel's jitter.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
-                                           Trace* trace) {
+                                           int y, const Lut& lut, Vec3 to_light,
+                                           const Params& params, const Jitter& jitter,
+                                           Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
-    const Span box = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, box, high, params.step);
-    const Span span = clip_span(ray, box, params.clip, trace);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
     Accumulated pixel;
     if (!span.hit) return pixel;
-    const Walk walk = walk_through(volume, ray, span, params.step);
+    const float u = jitter_offset(jitter, x, y);
+    const double t_first = span.t_entry + u * params.step;  // the first sample's t
+    if (trace) trace->jitter(jitter.mode, u, t_first - span.t_entry);
+    const Walk walk = jittered(walk_through(volume, ray, span, params.step), span, params.step,
+                               u);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
-        const double t = span.t_entry + n * params.step;  // physical units along the ray
+        const double t = t_first + n * params.step;  // physical units along the ray
         const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
@@ -533,190 +529,12 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: front_to_back
 
-// Where the ray meets the surface: `along` physical units past the entry, at `point` (voxel
-// units, as the walk's samples).
-struct SurfaceHit {
-    bool hit = false;
-    double along = 0;
-    Vec3d point;
-};
-
-//> lesson: bisection
-// The crossing between two points of the walk `below` (value <= iso) and `above` (value >
-// iso), in samples (2.5: halfway between samples 2 and 3): the midpoint of the bracket is read
-// by trilinear interpolation and replaces the end on its side, so the bracket always straddles
-// iso and halves each time. It stops when the bracket is shorter than `tolerance` (samples),
-// and the crossing is its midpoint, at most tolerance / 2 from the true one: 14 halvings from
-// a step of 1 to 1e-4. (The secant step would usually need fewer reads, but can creep in from
-// one end.) t_entry and step only turn samples into t for the trace. With nearest samples
-// (--interpolation nearest) the field is a staircase, and the crossing is where it steps.
-static double bisect(const Volume& volume, const Walk& walk, double below, double above,
-                     double iso, double tolerance, bool nearest, double t_entry, double step,
-                     Trace* trace) {
-    for (int iteration = 1; above - below > tolerance; ++iteration) {
-        const double middle = 0.5 * (below + above);
-        const Vec3d point = walk.first + middle * walk.per_step;  // voxel units
-        const float value = sample_value(volume, cell_at(volume, point, nearest), nearest);
-        const bool is_above = value > iso;
-        if (is_above) {
-            above = middle;
-        } else {
-            below = middle;
-        }
-        if (trace) {
-            trace->bisection(iteration, t_entry + middle * step, value, is_above,
-                             t_entry + below * step, t_entry + above * step);
-        }
-    }
-    return 0.5 * (below + above);
-}
-//< lesson: bisection
-
-//> lesson: phong
-// The three Phong terms at a surface point, for unit vectors: normal N (outward), to_light L,
-// to_viewer V. R is L mirrored about N; the highlight is where R points at the viewer. A light
-// behind the surface (N.L <= 0) leaves only the ambient term: no diffuse, no highlight.
-struct PhongTerms {
-    float ambient = 0, diffuse = 0, specular = 0;
-};
-
-static PhongTerms phong(Vec3 normal, Vec3 to_light, Vec3 to_viewer, double shininess) {
-    PhongTerms terms;
-    terms.ambient = ambient_weight;
-    const float n_dot_l = dot(normal, to_light);
-    if (n_dot_l <= 0.0f) return terms;
-    const Vec3 reflected = (2 * n_dot_l) * normal - to_light;
-    const float r_dot_v = std::max(0.0f, dot(reflected, to_viewer));
-    terms.diffuse = diffuse_weight * n_dot_l;
-    terms.specular = specular_weight * float(std::pow(double(r_dot_v), shininess));
-    return terms;
-}
-
-// The surface's colour lit: its own colour times ambient + diffuse, plus the white highlight.
-static Rgb lit_colour(const PhongTerms& terms) {
-    const float lit = terms.ambient + terms.diffuse;
-    return {surface_colour.r * lit + terms.specular, surface_colour.g * lit + terms.specular,
-            surface_colour.b * lit + terms.specular};
-}
-//< lesson: phong
-
-//> lesson: isosurface
-// Walk the ray as step 11 does, but instead of compositing, stop at the first sample above
-// iso: the crossing lies between it and the sample before (at or below iso), and bisection
-// finds it. A ray whose
-// first sample is already above iso starts inside the surface: it hits at its entry (on the
-// clip plane that is the cut face).
-static SurfaceHit first_crossing(const Volume& volume, const Ray& ray, const Span& span,
-                                 const Params& params, Work& work, Trace* trace) {
-    SurfaceHit hit;
-    const Walk walk = walk_through(volume, ray, span, params.step);
-    const double smallest_spacing = std::min({volume.sx, volume.sy, volume.sz});
-    auto t = [&](double n) { return span.t_entry + n * params.step; };  // physical units
-    for (long long n = 0; n < walk.count; ++n) {
-        const Vec3d q = walk.at(n);  // voxel units
-        const Cell cell = cell_at(volume, q, params.nearest);
-        const float value = sample_value(volume, cell, params.nearest);
-        ++work.samples;
-        if (trace) {
-            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
-            trace->sample(TraceSample(t(n), p, value).iso(value > params.iso));
-        }
-        if (value <= params.iso) continue;
-        hit.hit = true;
-        double at = n;  // in samples
-        if (n > 0) {
-            if (trace) trace->bracket(t(n - 1), t(n), hit_tolerance);
-            at = bisect(volume, walk, n - 1, n, params.iso,
-                        hit_tolerance * smallest_spacing / params.step, params.nearest,
-                        span.t_entry, params.step, trace);
-        } else if (trace) {
-            trace->note({}, "the first sample is above iso: the ray starts inside, hit at its "
-                            "entry");
-        }
-        hit.along = at * params.step;
-        hit.point = walk.first + at * walk.per_step;
-        ++work.hits;
-        if (n + 1 < walk.count) ++work.terminated;
-        return hit;
-    }
-    if (trace) {
-        trace->note({{"iso", double(params.iso)}},
-                    "no crossing of iso %d: the pixel shows the background", params.iso);
-    }
-    return hit;
-}
-
-// One pixel of the iso render: the first crossing, its normal (the clip plane's on the cut
-// face, else -gradient / |gradient|) and Phong. A zero gradient has no normal: ambient only.
-static Rgb isosurface_ray(const Volume& volume, const Camera& camera, int x, int y,
-                          const Params& params, Work& work, Trace* trace) {
-    const Vec3d high = box_high(volume);
-    const Ray ray = camera_ray(camera, x, y);
-    const Span box = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, box, high, params.step);
-    const Span span = clip_span(ray, box, params.clip, trace);
-    if (!span.hit) return background;
-    const SurfaceHit hit = first_crossing(volume, ray, span, params, work, trace);
-    if (!hit.hit) return background;
-    auto to_float = [](const Vec3d& a) { return Vec3{float(a.i), float(a.j), float(a.k)}; };
-    Vec3 normal;
-    const char* source = "the clip plane";
-    if (span.clipped && hit.along == 0) {
-        normal = to_float(params.clip.normal);  // outward: the cut-away side is +normal
-    } else {
-        const Vec3 gradient = sample_gradient(
-            volume, cell_at(volume, hit.point, params.nearest), params.nearest, work);
-        const float size = length(gradient);
-        if (size > 0.0f) normal = (-1.0f / size) * gradient;
-        source = size > 0.0f ? "-gradient" : "none (zero gradient)";
-    }
-    const Vec3 to_light = light_direction(camera, params.light_angle);
-    const Vec3 to_viewer = -1.0f * to_float(ray.direction);
-    PhongTerms terms;
-    terms.ambient = ambient_weight;
-    if (length(normal) > 0.0f) terms = phong(normal, to_light, to_viewer, params.shininess);
-    const Rgb colour = lit_colour(terms);
-    if (trace) {
-        const Vec3d p = {hit.point.i * volume.sx, hit.point.j * volume.sy,
-                         hit.point.k * volume.sz};
-        trace->surface_hit(span.t_entry + hit.along, p, normal, source);
-        trace->phong(to_light, to_viewer, terms.ambient, terms.diffuse, terms.specular,
-                     params.shininess);
-    }
-    return colour;
-}
-//< lesson: isosurface
-
-// "nx,ny,nz,d" -> the plane n.p = d with n scaled to length 1 (d with it); a normal of length
-// 0 has no direction and is refused.
-static ClipPlane parse_clip(const std::string& text) {
-    double numbers[4] = {};
-    size_t start = 0;
-    for (int n = 0; n < 4; ++n) {
-        const size_t comma = n < 3 ? text.find(',', start) : std::string::npos;
-        if (n < 3 && comma == std::string::npos) {
-            throw InputError("--clip: expected NX,NY,NZ,D such as 1,0,0,128, got '" + text + "'");
-        }
-        numbers[n] = parse_double("--clip", text.substr(start, comma - start), -max_clip_number,
-                                  max_clip_number);
-        start = comma + 1;
-    }
-    const Vec3d normal = {numbers[0], numbers[1], numbers[2]};
-    const double size = length(normal);
-    if (size == 0) throw InputError("--clip: the normal (0, 0, 0) has no direction");
-    ClipPlane clip;
-    clip.on = true;
-    clip.normal = (1 / size) * normal;
-    clip.distance = numbers[3] / size;
-    return clip;
-}
-
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "The first crossing of an iso value along the camera's rays, "
-                             "refined by bisection and lit with Phong; a clipping plane.");
+        Args args(step_name, "Step 12's orbit camera with each pixel's first sample moved by a "
+                             "random fraction of the step: rings become noise.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -745,24 +563,18 @@ int main(int argc, char** argv) {
                         "perspective: the image's height as an angle, degrees (default 30)");
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
                         "WxH");
-        args.add_choice("--mode", &params.mode, {"iso", "composite"},
-                        "the isosurface (iso) or step 11's composite picture");
-        args.add_int("--iso", &params.iso, -32768, 32767,
-                     "the surface's value, in the file's units (default 400: bone)");
-        args.add_double("--shininess", &params.shininess, 1, 1000,
-                        "Phong exponent: larger gives a smaller, sharper highlight");
-        args.add_string("--clip", &params.clip_text,
-                        "clipping plane NX,NY,NZ,D: keeps n.p <= D (physical units)",
-                        "NX,NY,NZ,D");
+        args.add_choice("--jitter", &params.jitter, {"none", "hash"},
+                        "the first sample's offset per pixel: none, or a hash of the pixel");
+        args.add_switch("--show-jitter", &params.show_jitter,
+                        "draw each pixel's offset u (0..1) as grey instead of the volume");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 15 renders the camera's view; turn it with "
+            throw InputError("--view: step 13 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
         parse_size(params.size, max_image_side, &width, &height);
-        if (!params.clip_text.empty()) params.clip = parse_clip(params.clip_text);
 
         // --- Volume ---
         const Volume volume = load_volume(options);
@@ -776,13 +588,13 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
 
-        const bool iso_mode = params.mode == "iso";
-
         // --- View: the camera's image (its camera is made for each render: the window turns
-        // it, and previews at coarser pixels while it does) ---
+        // it, and previews at coarser pixels while it does), and each pixel's jitter ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
+        Jitter jitter;
+        jitter.mode = params.jitter;
 
         // --- Light: towards it from every ray of a render (it turns with the camera), so
         // worked out once per render, as step 08 does once per view; none with --unlit ---
@@ -793,11 +605,16 @@ int main(int argc, char** argv) {
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
-            if (iso_mode) {
-                return isosurface_ray(volume, camera, x, y, params, work, trace);
+            if (params.show_jitter) {  // the offset itself, no ray: the trace says so
+                const double u = jitter_offset(jitter, x, y);
+                if (trace) {
+                    trace->note({{"u", u}}, "shows the jitter offset u=%.6f (--show-jitter): "
+                                "no ray is cast", u);
+                }
+                return grey(u);
             }
             return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
-                                                           params, work, trace));
+                                                           params, jitter, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
@@ -823,14 +640,6 @@ int main(int argc, char** argv) {
                              lut = build_lut(tf, opacity_ratio(params));
                          },
                          [&] { return summary_number(params.step); }};
-        if (iso_mode) {  // Up/Down move the iso value instead of the step
-            renderer.knob = {"iso",
-                             [&](const View&, int steps) {
-                                 params.iso = std::clamp(params.iso + steps * iso_key_step,
-                                                         -32768, 32767);
-                             },
-                             [&] { return std::to_string(params.iso); }};
-        }
         renderer.orbit.turn = [&](double azimuth, double elevation) {
             params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
             params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
@@ -853,11 +662,8 @@ int main(int argc, char** argv) {
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
                    " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +
-                   " mode=" + params.mode +
-                   (iso_mode ? " step=" + summary_number(params.step)  // the knob's is printed
-                             : " iso=" + std::to_string(params.iso)) +
-                   " shininess=" + summary_number(params.shininess) +
-                   " clip=" + (params.clip.on ? params.clip_text : std::string("none"));
+                   " jitter=" + params.jitter +
+                   (params.show_jitter ? " show_jitter=on" : "");
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

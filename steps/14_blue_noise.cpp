@@ -1,24 +1,21 @@
-// 16_shadows.cpp: light that is blocked: shadows towards the light, and ambient occlusion.
+// 14_blue_noise.cpp: the jitter's offsets spread evenly over the image: a blue-noise tile.
 //
-// New here:   every lit sample of step 11's composite asks how much of the light reaches it
-//             through the volume, T_light = product of (1 - alpha) towards the light
-//             (Beer-Lambert, with the opacity-corrected table), which darkens the diffuse
-//             light: --shadows ray marches a shadow ray from the sample; --shadows volume
-//             reads T_light
-//             trilinearly from a light-transmittance volume swept once per render, slice by
-//             slice from the light's side. Ambient occlusion (--ao on): the mean transmittance
-//             over a short distance in six directions darkens the ambient light.
-//             --shadows none --ao off is step 11's picture.
-// Builds on:  11_trilinear (the orbit camera, the slab method, trilinear samples, lit front to
-//             back).
-// Handout:    handouts/16_shadows.md
-// Run:        make run STEP=16 ARGS="--light-angle 70 --ao off"
-// Reference:  data/reference/16_shadows_camera.png: the default run (shadow rays and ambient
-//             occlusion, azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// New here:   step 13's hash gives each pixel its own offset, but white noise clumps: nearby
+//             pixels often get nearly the same offset, and the noise has coarse blotches. Here
+//             the offsets come from a 64 x 64 blue-noise tile, made at start-up by void and
+//             cluster and repeated over the image (--jitter blue, the default): neighbours get
+//             offsets far apart, and the noise is fine-grained. --jitter hash is step 13,
+//             --jitter none step 12; --show-jitter draws the offsets u themselves as grey.
+// Builds on:  13_jitter (the orbit camera, trilinear samples, lit front to back, each pixel's
+//             first sample moved by its offset).
+// Handout:    handouts/14_blue_noise.md
+// Run:        make run STEP=14 ARGS="--step 4 --jitter hash"
+// Reference:  data/reference/14_blue_noise_camera.png: the default run (blue noise, azimuth 30,
+//             elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "16_shadows";
+constexpr const char* step_name = "14_blue_noise";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -41,9 +38,9 @@ constexpr int max_image_side = 8192;             // pixels, --size limit per sid
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
-constexpr double min_light_transmittance = 1e-4;  // a shadow ray stops below this: dark enough
-constexpr double occlusion_radius = 4;  // physical units around a sample ambient occlusion sees
-constexpr double occlusion_step = 1;    // physical units between its samples
+constexpr int tile_side = 64;           // pixels: the blue-noise tile, repeated over the image
+constexpr double tile_sigma = 1.5;      // pixels: void and cluster's Gaussian (Ulichney's 1.5)
+constexpr double initial_share = 0.1;   // of the tile's pixels in void and cluster's first pattern
 
 struct Params {
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
@@ -61,9 +58,14 @@ struct Params {
     bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
-    std::string shadows = "ray";  // "ray": a shadow ray per lit sample; "volume": read from a
-                                  // light-transmittance volume; "none"
-    std::string ao = "on";        // "on": ambient occlusion; "off"
+    std::string jitter = "blue";           // "none", "hash" or "blue"
+    bool show_jitter = false;              // draw the offsets u as grey instead of the volume
+};
+
+// The per-pixel offsets of the first sample: by hash, or from the blue-noise tile.
+struct Jitter {
+    std::string mode = "none";  // "none", "hash" or "blue"
+    std::vector<float> tile;    // blue: tile_side * tile_side offsets in [0, 1), row by row
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -390,6 +392,15 @@ static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, W
 //< lesson: gradient
 
 //> lesson: shade
+// Diffuse lighting: ambient + (1 - ambient) * max(0, N.L), N the outward normal -grad/|grad|.
+// A zero gradient (inside a uniform region) has no normal: such a point gets ambient only.
+static float shade(Vec3 gradient, Vec3 to_light) {
+    const float size = length(gradient);
+    if (size == 0.0f) return ambient;
+    const Vec3 normal = (-1.0f / size) * gradient;
+    return ambient + (1.0f - ambient) * std::max(0.0f, dot(normal, to_light));
+}
+
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
 static Vec3 light_direction(const Camera& camera, double angle) {
@@ -402,158 +413,123 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// --shadows volume: T_light at every voxel centre for one light direction, in the volume's
-// layout, so a sample's Cell reads it as it reads the values.
-using LightVolume = std::vector<float>;
+//> lesson: hash
+// The PCG hash (Jarzynski and Olano, "Hash functions for GPU rendering", 2020): a multiply and
+// add as in a PCG random number generator, then a data-dependent shift and a multiply that mix
+// every input bit into every output bit. 32 bits in, 32 bits out.
+static uint32_t pcg_hash(uint32_t input) {
+    const uint32_t state = input * 747796405u + 2891336453u;
+    const uint32_t word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
 
-// What light that is blocked needs beside step 11's table: ambient occlusion's own table
-// (corrected for occlusion_step) and, with --shadows volume, the light-transmittance volume of
-// the current light (empty otherwise).
-struct Blocking {
-    Lut occlusion_lut;
-    LightVolume light;
-    Vec3d light_towards;  // the light direction `light` was swept for
+// White noise: pixel (x, y)'s own offset in [0, 1), the same in every run. The row is hashed
+// first, so that (x, y) and (y, x) differ. The top 24 bits fill a float's mantissa exactly:
+// 0 .. (2^24 - 1) / 2^24, never 1.
+static float hash_offset(int x, int y) {
+    const uint32_t bits = pcg_hash(uint32_t(x) + pcg_hash(uint32_t(y)));
+    return float(bits >> 8) * (1.0f / 16777216.0f);
+}
+//< lesson: hash
+
+// A binary pattern on the tile (which wraps around at its edges) and its energy: each 1 adds a
+// Gaussian of width tile_sigma around itself to every pixel's energy.
+struct Pattern {
+    std::vector<char> ones = std::vector<char>(tile_side * tile_side, 0);
+    std::vector<double> energy = std::vector<double>(tile_side * tile_side, 0.0);
+    int count = 0;  // how many 1s
 };
 
-//> lesson: shadow
-// How much of the light reaches `point` (physical units): march from it towards the light,
-// `step` physical units at a time, to where that ray leaves the box, multiplying the
-// transparencies of the samples met, T_light = product of (1 - alpha). The table's alphas are
-// corrected for the step, so through a homogeneous medium T_light = (1 - alpha)^(distance /
-// unit) = exp(-sigma d), Beer-Lambert with sigma = -ln(1 - alpha) per unit. The sample itself
-// (n = 0) is left out (it would shadow itself); the march stops once T_light is below
-// min_light_transmittance.
-static double light_transmittance(const Volume& volume, const Lut& lut, const Vec3d& point,
-                                  const Vec3d& to_light, double step, Work& work) {
-    const Ray ray = {point, to_light};
-    const Span span = intersect_box(ray, Vec3d{}, box_high(volume));
-    if (!span.hit) return 1;
-    const Walk walk = walk_through(volume, ray, span, step);
-    double transmittance = 1;
-    for (long long n = 1; n < walk.count; ++n) {
-        const Cell cell = cell_at(volume, walk.at(n), false);  // trilinear, whatever the camera
-        ++work.samples;
-        const float value = trilinear(volume, cell);
-        transmittance *= 1 - lut.entries[int(double(value) - lowest_ct_value)].a;
-        if (transmittance < min_light_transmittance) break;
-    }
-    return transmittance;
-}
-
-// The light-transmittance volume for the directional light `to_light` (unit, physical): every
-// shadow ray's answer at once, T_light at every voxel centre, swept slice by slice from the
-// light's side. The slices lie across the axis a the light crosses fastest (the largest
-// |L_a| / s_a); the slice nearest the light gets all of it. A voxel p of the next slice gets
-// what reached q = p + d L on the slice before (d = s_a / |L_a| physical units away), times
-// what the segment between lets through: T(p) = T(q) * (1 - alpha_d(v(q))), the table's
-// alphas corrected for d. q is at most one voxel off p across the slice, and the light is
-// directional: every q is the same offset from its p, so T(q) and v(q) are bilinear reads
-// with the same four neighbours and weights everywhere. A q outside the box: the light came
-// in through a side face, T = 1 (the bit of material between that face and p is missed). One
-// read per voxel, once per light direction; each slice's rows in parallel.
-static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
-                               const Vec3d& to_light, bool corrected, int threads, Work& work) {
-    const int counts[3] = {volume.nx, volume.ny, volume.nz};
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
-    const size_t strides[3] = {1, size_t(volume.nx), size_t(volume.nx) * volume.ny};  // as volume.data
-    int a = 0;
-    for (int axis = 1; axis < 3; ++axis) {
-        if (std::fabs(to_light[axis]) / spacing[axis] > std::fabs(to_light[a]) / spacing[a]) {
-            a = axis;
+//> lesson: blue_noise
+// Sets pixel p to 1 or back to 0, adding or taking away its Gaussian. The distance wraps around
+// the tile's edges, so the tile repeats without a seam.
+static void flip(Pattern& pattern, int p) {
+    const bool now_one = !pattern.ones[p];
+    pattern.ones[p] = now_one;
+    pattern.count += now_one ? 1 : -1;
+    const double sign = now_one ? 1.0 : -1.0;
+    const int px = p % tile_side, py = p / tile_side;
+    for (int y = 0; y < tile_side; ++y) {
+        const int dy = std::min(std::abs(y - py), tile_side - std::abs(y - py));
+        for (int x = 0; x < tile_side; ++x) {
+            const int dx = std::min(std::abs(x - px), tile_side - std::abs(x - px));
+            const double r2 = double(dx * dx + dy * dy);
+            pattern.energy[y * tile_side + x] +=
+                sign * std::exp(-r2 / (2 * tile_sigma * tile_sigma));
         }
     }
-    const int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2;  // across the slice, b the faster in memory
-    const double d = spacing[a] / std::fabs(to_light[a]);
-    const Lut segment = build_lut(tf, corrected ? d / unit_length : 1.0);
-    const double shift_b = d * to_light[b] / spacing[b];  // voxels, at most 1 either way
-    const double shift_c = d * to_light[c] / spacing[c];
-    const int offset_b = int(std::floor(shift_b)), offset_c = int(std::floor(shift_c));
-    const float fb = float(shift_b - offset_b), fc = float(shift_c - offset_c);  // 0..1
-    // q's low corner is inside, and so is its high corner unless its weight is 0.
-    auto inside = [](int low, float f, int count) {
-        return low >= 0 && (low + 1 < count || (low + 1 == count && f == 0));
-    };
-    const int towards = to_light[a] > 0 ? 1 : -1;  // from a slice to the one before it
-    LightVolume light(volume.data.size(), 1.0f);
-    const int nearest = towards > 0 ? counts[a] - 1 : 0;  // the slice nearest the light
-    for (int u = nearest - towards; u >= 0 && u < counts[a]; u -= towards) {
-        const size_t here = size_t(u) * strides[a], before = size_t(u + towards) * strides[a];
-        parallel_rows(counts[c], threads, work, [&](int w, Work& row_work) {
-            const int low_c = w + offset_c;
-            if (!inside(low_c, fc, counts[c])) return;  // the whole row stays 1
-            const size_t dc = low_c + 1 < counts[c] ? strides[c] : 0;
-            const int v_first = std::max(0, -offset_b);  // the row's voxels whose q is inside
-            int v_end = counts[b];
-            while (v_end > v_first && !inside(v_end - 1 + offset_b, fb, counts[b])) --v_end;
-            for (int v = v_first; v < v_end; ++v) {
-                const int low_b = v + offset_b;
-                const size_t db = low_b + 1 < counts[b] ? strides[b] : 0;
-                const size_t at = before + size_t(low_b) * strides[b] + size_t(low_c) * strides[c];
-                auto bilinear = [&](const auto* data) {
-                    return lerp(lerp(data[at], data[at + db], fb),
-                                lerp(data[at + dc], data[at + dc + db], fb), fc);
-                };
-                const float value = bilinear(volume.data.data());
-                light[here + size_t(v) * strides[b] + size_t(w) * strides[c]] =
-                    bilinear(light.data()) *
-                    (1 - segment.entries[int(double(value) - lowest_ct_value)].a);
-            }
-            row_work.samples += uint64_t(std::max(0, v_end - v_first));
-        });
+}
+
+// The tightest cluster: the 1 with the most energy. The largest void: the 0 with the least.
+// Ties go to the first pixel, so the tile is the same in every run.
+static int tightest_cluster(const Pattern& pattern) {
+    int best = -1;
+    for (int p = 0; p < int(pattern.ones.size()); ++p) {
+        if (pattern.ones[p] && (best < 0 || pattern.energy[p] > pattern.energy[best])) best = p;
     }
-    return light;
+    return best;
 }
-
-// T_light at a sample from the light-transmittance volume: a trilinear read through the
-// sample's cell, as trilinear() reads the values.
-static double light_from_volume(const Volume& volume, const LightVolume& light, const Cell& c) {
-    auto at = [&](int i, int j, int k) { return light[volume.index(i, j, k)]; };
-    const float low_low = lerp(at(c.i, c.j, c.k), at(c.i1, c.j, c.k), c.fi);
-    const float high_low = lerp(at(c.i, c.j1, c.k), at(c.i1, c.j1, c.k), c.fi);
-    const float low_high = lerp(at(c.i, c.j, c.k1), at(c.i1, c.j, c.k1), c.fi);
-    const float high_high = lerp(at(c.i, c.j1, c.k1), at(c.i1, c.j1, c.k1), c.fi);
-    return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
-}
-
-// Ambient occlusion: how open the space around `q` (voxel units) is. Along each of the six
-// axis directions, the transmittance over occlusion_radius physical units (samples
-// occlusion_step apart, the table's alphas corrected for that step), stopping at the box's
-// faces (nothing out there blocks); their mean, 1 in empty surroundings, less where material
-// around the sample would block light coming from all sides.
-static double ambient_occlusion(const Volume& volume, const Lut& occlusion_lut, const Vec3d& q,
-                                Work& work) {
-    const int counts[3] = {volume.nx, volume.ny, volume.nz};
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
-    double sum = 0;
-    for (int axis = 0; axis < 3; ++axis) {
-        for (const double sign : {1.0, -1.0}) {
-            double transmittance = 1;
-            for (double t = occlusion_step; t <= occlusion_radius; t += occlusion_step) {
-                double p[3] = {q.i, q.j, q.k};
-                p[axis] += sign * t / spacing[axis];
-                if (p[axis] < 0 || p[axis] > counts[axis] - 1) break;  // outside the box
-                const float value = trilinear(volume, cell_at(volume, {p[0], p[1], p[2]}, false));
-                ++work.samples;
-                transmittance *= 1 - occlusion_lut.entries[int(double(value) - lowest_ct_value)].a;
-            }
-            sum += transmittance;
-        }
+static int largest_void(const Pattern& pattern) {
+    int best = -1;
+    for (int p = 0; p < int(pattern.ones.size()); ++p) {
+        if (!pattern.ones[p] && (best < 0 || pattern.energy[p] < pattern.energy[best])) best = p;
     }
-    return sum / 6;
+    return best;
 }
 
-// Step 11's light, blocked: the diffuse part only as far as T_light lets it through, the
-// ambient part as far as the surroundings are open.
-static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching,
-                           double occlusion) {
-    const float size = length(gradient);
-    const float open = float(occlusion) * ambient;
-    if (size == 0.0f) return open;
-    const Vec3 normal = (-1.0f / size) * gradient;
-    return open + (1.0f - ambient) * float(light_reaching) *
-                      std::max(0.0f, dot(normal, to_light));
+// Void and cluster (Ulichney 1993): every pixel of the tile gets a rank, 0 .. side^2 - 1, such
+// that the pixels of any rank below r are spread evenly, with no clumps and no holes: blue
+// noise. The offset of rank r is (r + 0.5) / side^2: each offset once, evenly over [0, 1).
+static std::vector<float> blue_noise_tile() {
+    const int count = tile_side * tile_side;
+    // 1. A first pattern of about 10% of the pixels, picked by the hash: white noise.
+    Pattern pattern;
+    for (int p = 0; p < count; ++p) {
+        if (hash_offset(p % tile_side, p / tile_side) < initial_share) flip(pattern, p);
+    }
+    if (pattern.count == 0) flip(pattern, 0);
+    // 2. Even it out: move the tightest cluster into the largest void, until the largest void
+    //    is where that 1 came from (at most `count` moves, in case it never settles).
+    for (int move = 0; move < count; ++move) {
+        const int cluster = tightest_cluster(pattern);
+        flip(pattern, cluster);
+        const int gap = largest_void(pattern);
+        flip(pattern, gap);
+        if (gap == cluster) break;
+    }
+    std::vector<int> rank(count, -1);
+    // 3. The first pattern's 1s, ranked from the last: take away the tightest cluster each time.
+    Pattern taking = pattern;
+    for (int r = pattern.count - 1; r >= 0; --r) {
+        const int cluster = tightest_cluster(taking);
+        flip(taking, cluster);
+        rank[cluster] = r;
+    }
+    // 4. The rest, ranked from the first: fill the largest void each time. (Ulichney fills the
+    //    second half at the tightest cluster of 0s instead. That is the same pixel: the kernel
+    //    summed over the whole wrapped tile is the same at every pixel, so a 0's energy from
+    //    the 0s is that sum minus its energy from the 1s.)
+    for (int r = pattern.count; r < count; ++r) {
+        const int gap = largest_void(pattern);
+        flip(pattern, gap);
+        rank[gap] = r;
+    }
+    std::vector<float> tile(count);
+    for (int p = 0; p < count; ++p) tile[p] = float((rank[p] + 0.5) / count);
+    return tile;
 }
-//< lesson: shadow
+//< lesson: blue_noise
+
+// Pixel (x, y)'s offset u in [0, 1): 0 without jitter. A tile that is not there (not made yet)
+// gives 0 too.
+// Changed in step 14: the blue-noise tile's offsets.
+static float jitter_offset(const Jitter& jitter, int x, int y) {
+    if (jitter.mode == "hash") return hash_offset(x, y);
+    if (jitter.mode == "blue" && jitter.tile.size() == size_t(tile_side * tile_side)) {
+        return jitter.tile[(y % tile_side) * tile_side + x % tile_side];
+    }
+    return 0.0f;
+}
 
 // The ray's two trace records (given): where it starts, and where it meets the box. The entry
 // is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
@@ -571,16 +547,29 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 }
 
 //> lesson: front_to_back
-// Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
-// each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 07. A lit sample's
-// light is blocked: shade_blocked() with T_light (a shadow ray, or the light volume) and its
-// ambient occlusion.
-// Changed in step 16: a lit sample's light is blocked.
+// The walk moved by the pixel's offset: sample n at t_entry + (u + n) * step until t_exit.
+// A ray shorter than its offset gets no sample: it only grazes the box. With u = 0 this is
+// the walk unchanged, bit for bit (step 12's samples).
+static Walk jittered(Walk walk, const Span& span, double step, float u) {
+    const double offset = u * step;  // physical units from the entry to the first sample
+    const double length_inside = span.t_exit - span.t_entry;
+    walk.first = walk.first + double(u) * walk.per_step;
+    walk.count = length_inside < offset
+                     ? 0
+                     : (long long)(std::floor((length_inside - offset) / step +
+                                              sample_count_slack)) + 1;
+    return walk;
+}
+
+// Step 12's compositing, its samples moved by the pixel's offset u in [0, 1) from the jitter
+// (0: step 12's samples exactly): read by trilinear interpolation, classified by the table,
+// lit where it is not transparent, composited front to back; early ray termination as in
+// step 07.
+// Changed in step 13: the samples move by the pixel's jitter.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light,
-                                           const Blocking& blocking,
-                                           const Params& params, Work& work, Trace* trace) {
+                                           const Params& params, const Jitter& jitter,
+                                           Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
@@ -588,15 +577,15 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     trace_ray(trace, ray, span, high, params.step);
     Accumulated pixel;
     if (!span.hit) return pixel;
-    const Walk walk = walk_through(volume, ray, span, params.step);
-    const Vec3d light_d = {to_light.i, to_light.j, to_light.k};
-    const Vec3d towards = params.unlit ? Vec3d{} : (1 / length(light_d)) * light_d;  // unit
-    const bool shadow_rays = params.shadows == "ray", light_volume = params.shadows == "volume";
-    const bool occlusion_on = params.ao == "on";
+    const float u = jitter_offset(jitter, x, y);
+    const double t_first = span.t_entry + u * params.step;  // the first sample's t
+    if (trace) trace->jitter(jitter.mode, u, t_first - span.t_entry);
+    const Walk walk = jittered(walk_through(volume, ray, span, params.step), span, params.step,
+                               u);
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
-        const double t = span.t_entry + n * params.step;  // physical units along the ray
+        const double t = t_first + n * params.step;  // physical units along the ray
         const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
@@ -607,17 +596,8 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             continue;
         }
         double light = 1.0;  // unlit
-        double light_t = 1, occlusion = 1;  // nothing blocks the light, nothing around
-        const uint64_t samples_before = work.samples;
         if (!params.unlit) {
-            if (shadow_rays) {
-                light_t = light_transmittance(volume, lut, point, towards, params.step, work);
-            } else if (light_volume) {
-                light_t = light_from_volume(volume, blocking.light, cell);
-            }
-            if (occlusion_on) occlusion = ambient_occlusion(volume, blocking.occlusion_lut, q, work);
-            light = shade_blocked(sample_gradient(volume, cell, params.nearest, work),
-                                  to_light, light_t, occlusion);
+            light = shade(sample_gradient(volume, cell, params.nearest, work), to_light);
         }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
@@ -626,9 +606,8 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         pixel.b += weight * sample.b;
         pixel.transparency *= 1 - alpha;
         if (trace) {
-            trace->sample(TraceSample(t, point, value).rgba(sample)
-                              .shadow(light_t, occlusion, work.samples - samples_before, 0)
-                              .light(light).colour(pixel.r, pixel.g, pixel.b)
+            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
+                              .colour(pixel.r, pixel.g, pixel.b)
                               .transparency(pixel.transparency));
         }
         if (pixel.transparency < stop_below && n + 1 < walk.count) {
@@ -652,9 +631,8 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 11's lit compositing with light that is blocked: shadow rays "
-                             "(or a light-transmittance volume) towards the light and ambient "
-                             "occlusion.");
+        Args args(step_name, "Step 13's jitter with each pixel's offset from a blue-noise tile: "
+                             "the rings become fine, even noise.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -683,15 +661,14 @@ int main(int argc, char** argv) {
                         "perspective: the image's height as an angle, degrees (default 30)");
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
                         "WxH");
-        args.add_choice("--shadows", &params.shadows, {"ray", "volume", "none"},
-                        "T_light by a shadow ray from every lit sample, from a light-"
-                        "transmittance volume swept once per render, or none");
-        args.add_choice("--ao", &params.ao, {"on", "off"},
-                        "ambient occlusion from the opacity around every lit sample");
+        args.add_choice("--jitter", &params.jitter, {"none", "hash", "blue"},
+                        "the first sample's offset per pixel: none, a hash, a blue-noise tile");
+        args.add_switch("--show-jitter", &params.show_jitter,
+                        "draw each pixel's offset u (0..1) as grey instead of the volume");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 16 renders the camera's view; turn it with "
+            throw InputError("--view: step 14 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
@@ -708,14 +685,16 @@ int main(int argc, char** argv) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
-        Blocking blocking;
-        blocking.occlusion_lut = build_lut(tf, occlusion_step / unit_length);
 
         // --- View: the camera's image (its camera is made for each render: the window turns
-        // it, and previews at coarser pixels while it does) ---
+        // it, and previews at coarser pixels while it does), and each pixel's jitter (the
+        // blue-noise tile made once) ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
+        Jitter jitter;
+        jitter.mode = params.jitter;
+        if (jitter.mode == "blue") jitter.tile = blue_noise_tile();
 
         // --- Light: towards it from every ray of a render (it turns with the camera), so
         // worked out once per render, as step 08 does once per view; none with --unlit ---
@@ -723,39 +702,29 @@ int main(int argc, char** argv) {
             return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
         };
 
-        // --- The light-transmittance volume (--shadows volume): the light turns with the
-        // camera (light_towards), so every render sweeps it again, in the render's time and
-        // work; a traced ray reuses it while the light has not moved ---
-        auto sweep_for = [&](const Camera& camera, Work& work, bool again) {
-            if (params.shadows != "volume" || params.unlit) return;
-            const Vec3 l = light_towards(camera);
-            const Vec3d light_d = {l.i, l.j, l.k};
-            const Vec3d towards = (1 / length(light_d)) * light_d;  // unit, in double
-            const Vec3d moved = towards - blocking.light_towards;
-            if (!again && !blocking.light.empty() && dot(moved, moved) == 0) return;
-            blocking.light = sweep_light(volume, tf, towards, !params.no_correction,
-                                         options.threads, work);
-            blocking.light_towards = towards;
-        };
-
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
+            if (params.show_jitter) {  // the offset itself, no ray: the trace says so
+                const double u = jitter_offset(jitter, x, y);
+                if (trace) {
+                    trace->note({{"u", u}}, "shows the jitter offset u=%.6f (--show-jitter): "
+                                "no ray is cast", u);
+                }
+                return grey(u);
+            }
             return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
-                                                           blocking, params, work, trace));
+                                                           params, jitter, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
             const Vec3 to_light = light_towards(camera);
-            sweep_for(camera, work, true);
             return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
                 return pixel(camera, to_light, x, y, ray_work, nullptr);
             });
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Camera camera = make_camera(volume, params, view);
-            Work sweep_work;  // not this ray's
-            sweep_for(camera, sweep_work, false);
             return pixel(camera, light_towards(camera), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
@@ -793,8 +762,8 @@ int main(int argc, char** argv) {
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
                    " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +
-                   " shadows=" + params.shadows +
-                   " ao=" + params.ao;
+                   " jitter=" + params.jitter +
+                   (params.show_jitter ? " show_jitter=on" : "");
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---
