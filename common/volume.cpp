@@ -165,6 +165,13 @@ ValueMap choose_map(const ValueRange& range, const std::string& name) {
     }
     // Divided before subtracting: high - low may overflow a double (floats near +-1e308).
     map.scale = range.high / levels - range.low / levels;
+    // The two quotients can round to one double although high > low: values a few units in
+    // the last place apart, or subnormal values only (found by make fuzz: 0 and 1.4e-321).
+    // Then the difference first; where that underflows too, the smallest double: every
+    // subnormal is a whole multiple of it, so they map to whole levels without loss.
+    if (map.scale == 0)
+        map.scale = std::max((range.high - range.low) / levels,
+                             std::numeric_limits<double>::denorm_min());
     map.offset = range.low - lowest * map.scale;
     if (!std::isfinite(map.scale) || !(map.scale > 0) || !std::isfinite(map.offset)) {
         throw InputError("'" + name + "' has values over too wide a range to map into int16");

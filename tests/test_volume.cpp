@@ -4,6 +4,8 @@
 #include <sys/stat.h>
 #include <algorithm>
 #include <climits>
+#include <cstring>
+#include <limits>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -916,4 +918,24 @@ TEST_CASE("args: --preset NAME applies data/presets/NAME.preset; the command lin
     }
     CHECK(contains(parse_error({"--preset", "nope"}), "--preset: no data/presets/nope.preset"));
     CHECK(contains(parse_error({"--preset", "../x"}), "--preset: expected a name"));
+}
+
+// Two ranges whose int16 map's scale, high/65535 - low/65535, rounds to 0 although the values
+// differ (make fuzz found the first): both load, every value on a level of its own, in order.
+TEST_CASE("volume: values a few units in the last place apart, or subnormal only, still map") {
+    const double smallest = std::numeric_limits<double>::denorm_min();
+    const double huge = 1e300;
+    for (const std::vector<double>& values :
+         {std::vector<double>{0.0, 287 * smallest, 2 * smallest},
+          std::vector<double>{huge, std::nextafter(huge, 2 * huge), huge}}) {
+        CAPTURE(values[1]);
+        std::vector<unsigned char> bytes(values.size() * sizeof(double));
+        std::memcpy(bytes.data(), values.data(), bytes.size());  // little-endian machine
+        RawFormat format = format_of(int(values.size()), 1, 1);
+        format.type = SampleType::float64;
+        const Volume volume = volume_from_bytes(bytes, format, "memory");
+        CHECK(volume.at(0, 0, 0) < volume.at(1, 0, 0));
+        if (values[2] != values[0]) CHECK(volume.at(2, 0, 0) < volume.at(1, 0, 0));
+        CHECK(volume.map.to_file(volume.at(0, 0, 0)) == doctest::Approx(values[0]));
+    }
 }
