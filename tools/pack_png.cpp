@@ -6,30 +6,14 @@
 //   build/pack_png FILE...
 //
 // Each file is read, written again beside itself and renamed into place (write_png), then
-// read back and compared byte for byte per channel. Exits 0, or 2 with one line naming the file.
+// read back and compared (tools/compare.h: no channel may differ). Exits 0, or 2 with one
+// line naming the file.
 #include <cstdio>
 #include <string>
 #include "error.h"
 #include "image.h"
+#include "tools/compare.h"
 #include "tools/image_read.h"
-
-namespace {
-
-bool same_pixels(const ctlab::Image& a, const ctlab::Image& b) {
-    if (a.width != b.width || a.height != b.height) return false;
-    for (int y = 0; y < a.height; ++y)
-        for (int x = 0; x < a.width; ++x) {
-            const ctlab::Rgb& p = a.at(x, y);
-            const ctlab::Rgb& q = b.at(x, y);
-            if (ctlab::to_byte(p.r) != ctlab::to_byte(q.r) ||
-                ctlab::to_byte(p.g) != ctlab::to_byte(q.g) ||
-                ctlab::to_byte(p.b) != ctlab::to_byte(q.b))
-                return false;
-        }
-    return true;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
     if (argc < 2) {
@@ -41,7 +25,8 @@ int main(int argc, char** argv) {
             const std::string path = argv[a];
             const ctlab::Image image = ctlab::read_image_file(path, false);
             ctlab::write_png(image, path);
-            if (!same_pixels(image, ctlab::read_image_file(path, false)))
+            const ctlab::Image written = ctlab::read_image_file(path, false);
+            if (ctlab::compare_images(written, image, 0, path, path).max_abs != 0)
                 throw ctlab::InputError(path + ": its pixels changed when written again");
         }
         return 0;
