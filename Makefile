@@ -362,9 +362,9 @@ carry-lab: export CTLAB_FROM := $(value FROM)
 carry-lab: $(BUILD)/carry
 	@'$(BUILD)/carry' --lab --function "$$CTLAB_FUNCTION" --from "$$CTLAB_FROM"
 
-# The README's pictures of the window's control panel: steps 06 and 18 on a virtual X display
+# The README's pictures of the window's control panel: steps 06 and 22 on a virtual X display
 # (xvfb-run), into handouts/panel_NN_name.png (tools/panel_screenshots.sh).
-screenshots: $(BUILD)/06_transfer_function $(BUILD)/18_free_leaping
+screenshots: $(BUILD)/06_transfer_function $(BUILD)/22_free_leaping
 	sh tools/panel_screenshots.sh $(BUILD) handouts
 
 # Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.

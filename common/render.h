@@ -102,7 +102,7 @@ public:
     TraceSample& skipped();                                  // "transparent: skipped"
     TraceSample& iso(bool above);                            // step 16: "> iso" or "<= iso"
     TraceSample& rgba(const Rgba& colour);                   // the table's colour and alpha
-    // Step 17: light reaching the sample, ambient occlusion, the shadow ray's work.
+    // Step 19: light reaching the sample, ambient occlusion, the shadow ray's work.
     TraceSample& shadow(double light_transmittance, double occlusion,
                         unsigned long long samples, unsigned long long leapt);
     TraceSample& light(double light);                        // L

@@ -14,7 +14,7 @@
 // Defaults:   azimuth 30, elevation 20, orthographic, 512x512, --fov 30 (perspective), light
 //             30 degrees to the right of the camera and 20 above it, a black background.
 // Builds on:  08_lit_compositing (lit front to back, a step in physical units; step 09's
-//             leaping along part 1's rays is not taken: step 18 leaps along a free ray).
+//             leaping along part 1's rays is not taken: step 22 leaps along a free ray).
 // Handout:    handouts/10_free_camera.md
 // Run:        make run STEP=10 ARGS="--azimuth 60 --projection perspective"
 // Reference:  data/reference/10_free_camera_camera.png: the default run, on the phantom.

@@ -1,6 +1,6 @@
 // 31_empty_space_skipping.cpp: the first trick: leap over space that cannot change the pixel.
 //
-// New here:   step 18's empty-space leaping, brought back into part 3's renderer and timed on
+// New here:   step 22's empty-space leaping, brought back into part 3's renderer and timed on
 //             its own: the volume's min-max bricks (common/bricks.h, 8 voxels a side, made
 //             once per volume) and, for the table, each empty brick's reach (the cube of
 //             empty bricks around it). A composite ray in an empty brick leaps to where it
@@ -527,7 +527,7 @@ struct Scene {
 };
 
 //> lesson: composite
-// Case a, b and c: step 30's compositing with step 18's leaping: a sample in an empty brick
+// Case a, b and c: step 30's compositing with step 22's leaping: a sample in an empty brick
 // leaps past the empty cube around it (leap_past), and every sample leapt over would have
 // been transparent.
 // Changed in step 31: the leaping is this step's trick.

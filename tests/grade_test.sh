@@ -294,21 +294,21 @@ for stem in 07_compositing_order 08_lit_compositing; do
         "data/reference/${stem}_side.png" "$bref/"
     grep "^$stem: " data/reference/manifest.txt >> "$bref/manifest.txt"
 done
-cp data/reference/18_free_leaping_camera.png "$bref/"
-echo "18_free_leaping: tol=3" >> "$bref/manifest.txt"
+cp data/reference/22_free_leaping_camera.png "$bref/"
+echo "22_free_leaping: tol=3" >> "$bref/manifest.txt"
 for ert in 0 0.3; do
     "$build/check" --bin "$build" --reference "$bref" --out "$work/both_$ert" --step 07 \
-        --step 08 --step 18 --args "--ert $ert" > "$work/both_$ert.log" 2>&1
+        --step 08 --step 22 --args "--ert $ert" > "$work/both_$ert.log" 2>&1
     mkdir -p "$work/both_sub_$ert"
     cp "$work/both_$ert"/07_compositing_order/*.png "$work/both_$ert"/08_lit_compositing/*.png \
         "$work/both_sub_$ert/"
-    "$build/18_free_leaping" --volume phantom --no-window --out "$work/both_sub_$ert" \
+    "$build/22_free_leaping" --volume phantom --no-window --out "$work/both_sub_$ert" \
         > /dev/null 2>&1
     "$checker" --submission "$work/both_sub_$ert" --reference "$bref" > "$work/both_check_$ert.log" 2>&1
 done
 grep -q '^07_compositing_order: [a-z]*, pictures 3/3,' "$work/both_0/report.txt" &&
     grep -q '^08_lit_compositing: [a-z]*, pictures 3/3,' "$work/both_0/report.txt" &&
-    grep -q '^18_free_leaping: [a-z]*, pictures 1/1,' "$work/both_0/report.txt" &&
+    grep -q '^22_free_leaping: [a-z]*, pictures 1/1,' "$work/both_0/report.txt" &&
     grep -q '^7 expected: 7 pass, 0 fail, 0 damaged, 0 error, 0 missing; 0 extra; result=pass$' \
         "$work/both_check_0.log"
 check $? "--ert 0 passes both modes: $(cat "$work/both_0/report.txt" "$work/both_check_0.log")"

@@ -232,7 +232,7 @@ fi
 
 # --- The ray panel stays on a 1024x768 screen ------------------------------------------------
 for case in "05_interpolated_hits --view front --window-script click:128:30,shot,quit" \
-            "18_free_leaping --window-script click:256:256,shot,quit"; do
+            "22_free_leaping --window-script click:256:256,shot,quit"; do
     set -- $case
     step=$build/$1
     shift
@@ -263,7 +263,7 @@ if command -v xdotool > /dev/null 2>&1; then
     xvfb sh "$0" --xdotool "$step" "$work/drag/drag.log" drag --view top \
         > "$work/drag.out" 2>&1 &
     drag=$!
-    step10=$build/18_free_leaping
+    step10=$build/22_free_leaping
     xvfb sh "$0" --xdotool "$step10" "$work/type/type.log" type --size 128x128 \
         > "$work/type.out" 2>&1
     typed=$?
@@ -299,7 +299,7 @@ if command -v xdotool > /dev/null 2>&1; then
     check "real input: the text field run completes (status $typed; $(cat "$work/type.out"))" \
         [ "$typed" -eq 0 ]
     check "real input: typing 96x80 into --size renders 96x80" \
-        grep -q '^step=18_free_leaping view=camera size=96x80 ' "$work/type/type.log"
+        grep -q '^step=22_free_leaping view=camera size=96x80 ' "$work/type/type.log"
     check "real input: q quits" grep -qx 'window: key=q' "$work/type/type.log"
 else
     echo "panel test: real X input SKIPPED (package xdotool not installed)"

@@ -99,11 +99,11 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     // without leaping, the longest step unlit, and each step's own paths.
     if (ctlab_test::is_camera_step(step)) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
-        // Steps 10 and 11 read the nearest voxel only (12 on: --interpolation); step 18 leaps (part 3
+        // Steps 10 and 11 read the nearest voxel only (12 on: --interpolation); step 22 leaps (part 3
         // has no --no-leaping).
         std::vector<std::string> nearest = {"--azimuth", "-360"};
         if (step >= "12") nearest.insert(nearest.begin(), {"--interpolation", "nearest"});
-        if (step.rfind("18", 0) == 0) nearest.push_back("--no-leaping");
+        if (step.rfind("22", 0) == 0) nearest.push_back("--no-leaping");
         all.push_back(nearest);
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
     }
@@ -131,7 +131,7 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--iso", "-32768", "--clip", "0,0,1,0"});
         all.push_back({"--mode", "composite", "--clip", "1,1,1,-1"});
     }
-    if (step.rfind("17", 0) == 0) {
+    if (step.rfind("19", 0) == 0) {
         all.push_back({"--shadows", "ray", "--ao", "off"});
         all.push_back({"--shadows", "none", "--ao", "on"});
         all.push_back({"--shadows", "volume", "--ao", "on", "--light-angle", "180"});

@@ -1,5 +1,5 @@
 // test_free_camera.cpp: steps 10, 11, 12 and 18 (the orbit camera, the slab method, trilinear
-// samples, leaping along a free ray; most cases on step 18, which has them all) run as programs
+// samples, leaping along a free ray; most cases on step 22, which has them all) run as programs
 // (tools/run_step.h): its pictures along the three axes against part 1's (step 08), the slab
 // method's stiff cases seen in its traces and float images, trilinear samples on a linear ramp
 // against the closed form, and a sphere whose silhouette has the same radius from every
@@ -21,7 +21,7 @@ using namespace ctlab;
 
 namespace {
 
-const std::string free_camera = "18_free_leaping";
+const std::string free_camera = "22_free_leaping";
 const std::string part1 = "08_lit_compositing";
 
 // Runs a step with --pfm into `folder` and returns its result; the image is read separately.
@@ -395,7 +395,7 @@ TEST_CASE("free camera: the default run matches its reference image, no NaN") {
     CHECK(non_finite_pixels(image) == 0);
     CHECK(summary_count(run.summary("camera"), "samples") > 0);
     CHECK(run.summary("camera").at("size") == "512x512");
-    const std::string path = "data/reference/18_free_leaping_camera.png";
+    const std::string path = "data/reference/22_free_leaping_camera.png";
     REQUIRE_MESSAGE(access(path.c_str(), R_OK) == 0, "missing " << path << ": make reference");
     const Image reference = read_image(path);
     const Comparison c = compare_images(image, reference, 1, "the float render", path);
@@ -465,9 +465,9 @@ TEST_CASE("free camera: leaping over empty bricks never changes the picture") {
 
 // The re-cut of part 2: step 11 (the slab method, nearest samples) is step 12 with
 // --interpolation nearest, and
-// step 12 is step 18 with --no-leaping, bit for bit, with the same work where they read the
+// step 12 is step 22 with --no-leaping, bit for bit, with the same work where they read the
 // same samples: each step adds its one idea without touching the picture of the one before.
-TEST_CASE("free camera: step 11 is step 12's nearest picture, step 12 is step 18's unleapt") {
+TEST_CASE("free camera: step 11 is step 12's nearest picture, step 12 is step 22's unleapt") {
     const std::vector<std::string> phantom = {"--volume", "phantom"};
     const std::vector<std::string> small = {"--size", "160x128", "--azimuth", "40"};
     auto with = [&](std::vector<std::string> flags) {

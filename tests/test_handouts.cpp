@@ -161,6 +161,15 @@ TEST_CASE("every step has a handout, and handouts/README.md links to each") {
                       "missing handouts/" << step.stem << ".md");
         CHECK_MESSAGE(index.find("(" + step.stem + ".md)") != std::string::npos,
                       "handouts/README.md does not link to " << step.stem << ".md");
+        // The title and the index's link text carry the step's number: a renumbered step
+        // must not keep its old one.
+        if (fs::exists("handouts/" + step.stem + ".md")) {
+            const std::string handout = lesson::read_text("handouts/" + step.stem + ".md");
+            CHECK_MESSAGE(handout.rfind("# " + step.number + " \u00b7 ", 0) == 0,
+                          "its title does not start with '# " << step.number << " \u00b7'");
+        }
+        CHECK_MESSAGE(index.find("[" + step.number + " \u00b7 ") != std::string::npos,
+                      "handouts/README.md has no link text '[" << step.number << " \u00b7'");
     }
 }
 

@@ -207,7 +207,7 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
         {"09_empty_space",
          {"--view", "front", "--debug-pixel", "128,30"},
          "09_empty_space_front_ray_128_30"},
-        {"18_free_leaping", {"--debug-pixel", "280,300"}, "18_free_leaping_camera_ray_280_300"},
+        {"22_free_leaping", {"--debug-pixel", "280,300"}, "22_free_leaping_camera_ray_280_300"},
     };
     for (const Case& c : cases) {
         CAPTURE(c.step);
@@ -272,7 +272,7 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
     }
 }
 
-TEST_CASE("step 05 marks the interpolated crossing, step 09 its leaps, step 18 the box") {
+TEST_CASE("step 05 marks the interpolated crossing, step 09 its leaps, step 22 the box") {
     ctlab::TempFolder out("ray_plot_marks");
     const auto flags = [&](std::vector<std::string> more) {
         std::vector<std::string> all = {"--volume", "phantom", "--out", out.path()};
@@ -292,8 +292,8 @@ TEST_CASE("step 05 marks the interpolated crossing, step 09 its leaps, step 18 t
         0);
     CHECK(!lines_starting(read_text(out.path("09_empty_space_front_ray_128_30.txt")), "mark leapt ")
                .empty());
-    REQUIRE(run_step("18_free_leaping", flags({"--debug-pixel", "280,300"})).status == 0);
-    CHECK(lines_starting(read_text(out.path("18_free_leaping_camera_ray_280_300.txt")), "mark box ")
+    REQUIRE(run_step("22_free_leaping", flags({"--debug-pixel", "280,300"})).status == 0);
+    CHECK(lines_starting(read_text(out.path("22_free_leaping_camera_ray_280_300.txt")), "mark box ")
               .size() == 1);
 }
 

@@ -1,4 +1,4 @@
-// test_shadows.cpp: step 17 (shadow rays or a light-transmittance volume towards the light,
+// test_shadows.cpp: step 19 (shadow rays or a light-transmittance volume towards the light,
 // ambient occlusion) run as a program (tools/run_step.h) on volumes and transfer functions
 // written here: a homogeneous slab between the light and a surface (Beer-Lambert, by shadow
 // ray and by the light volume), a lone voxel in empty space (nothing blocks its light,
@@ -21,7 +21,7 @@ using namespace ctlab;
 
 namespace {
 
-const std::string shadows_step = "17_shadows";
+const std::string shadows_step = "19_shadows";
 
 RunResult run_shadows(const std::vector<std::string>& volume_flags,
                       std::vector<std::string> flags, const TempFolder& folder) {
@@ -248,7 +248,7 @@ TEST_CASE("shadows: bad flags are refused with status 2, naming the flag") {
     }
 }
 
-// The phantom's picture of step 17 with these flags, at `size` pixels covering the default
+// The phantom's picture of step 19 with these flags, at `size` pixels covering the default
 // picture's field (and the run, for its counters).
 struct Picture {
     RunResult run;

@@ -158,5 +158,5 @@ TEST_CASE("tf units: a float volume with its threshold and TF in file units look
     const double lit_tolerance = 0.03;
     check_same_picture("08_lit_compositing", pair, folder, {}, {"--tf", tf}, lit_tolerance);
     check_same_picture("09_empty_space", pair, folder, {}, {"--tf", tf}, lit_tolerance);
-    check_same_picture("18_free_leaping", pair, folder, {}, {"--tf", tf}, lit_tolerance);
+    check_same_picture("22_free_leaping", pair, folder, {}, {"--tf", tf}, lit_tolerance);
 }

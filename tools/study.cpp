@@ -13,7 +13,7 @@
 //              noise, each with trilinear and nearest samples, against step 1/4 without
 //              jitter (trilinear): RMSE, and RMSE after a 5x5 blur
 //              (the rings and bands that survive it; noise does not)
-//   shadows    step 17: shadow rays, the light-transmittance volume and ambient occlusion,
+//   shadows    step 19: shadow rays, the light-transmittance volume and ambient occlusion,
 //              each against step 12's light (what it adds) with its time and samples read;
 //              rays and volume at step 4 .. 1/2 against shadow rays at step 1/4
 //   precision  the cost of subnormal arithmetic on this machine, and of a float ray
@@ -622,12 +622,12 @@ void jitter_study() {
     }
 }
 
-// --- Shadows: what blocked light costs and what it adds (step 17) --------------------------
+// --- Shadows: what blocked light costs and what it adds (step 19) --------------------------
 
-constexpr const char* shadows_step = "17_shadows";
+constexpr const char* shadows_step = "19_shadows";
 
 void shadows_study() {
-    std::printf("shadows: step 17 on the phantom, the default camera at 256x256: each kind of "
+    std::printf("shadows: step 19 on the phantom, the default camera at 256x256: each kind of "
                 "blocked light against step 12's light; T_light by shadow rays and by the "
                 "light-transmittance volume at steps 4 .. 1/2 (ambient occlusion off) against "
                 "shadow rays at step 1/4\n");
@@ -1372,7 +1372,7 @@ int run(int argc, char** argv) {
                       "the eye sees; fine noise averages away):\n\n" +
                       markdown_table("jitter-lowpass", "step"))
        << "\n";
-    md << "## Shadows (step 17, the default camera at 256x256; error in 8-bit units)\n\n"
+    md << "## Shadows (step 19, the default camera at 256x256; error in 8-bit units)\n\n"
        << section("study:shadows",
                   written_by + "\nWhat each adds: the difference from step 12's light "
                                "(`--shadows none --ao off`), at step 1; samples count every "

@@ -1,23 +1,24 @@
-// 18_free_leaping.cpp: step 09's leaping over empty bricks, along a free ray.
+// 19_shadows.cpp: light that is blocked: shadows towards the light, and ambient occlusion.
 //
-// New here:   step 09 leapt over empty bricks along part 1's axis-aligned rays. A camera's ray
-//             crosses bricks at any angle, and one brick at a time would take ~40 leaps to
-//             cross the air around a head: each brick gets its reach, the cube of empty bricks
-//             around it, and a ray leaps out of that cube at once (the slab method again, in
-//             sample units). Every sample leapt over would have been transparent: the picture
-//             is step 12's (--no-leaping: every sample read), with fewer samples. It is an
-//             optimisation only, so it comes last in part 2, on step 12's composite (the
-//             renderer steps 14-17 extend without it).
-// Defaults:   as step 10: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
-//             30 degrees right of the camera and 20 above it, a black background.
-// Builds on:  12_trilinear (the orbit camera, trilinear samples, lit front to back).
-// Handout:    handouts/18_free_leaping.md
-// Run:        make run STEP=18 ARGS="--no-leaping"
-// Reference:  data/reference/18_free_leaping_camera.png: the default run, on the phantom.
+// New here:   every lit sample of step 12's composite asks how much of the light reaches it
+//             through the volume, T_light = product of (1 - alpha) towards the light
+//             (Beer-Lambert, with the opacity-corrected table), which darkens the diffuse
+//             light: --shadows ray marches a shadow ray from the sample; --shadows volume
+//             reads T_light
+//             trilinearly from a light-transmittance volume swept once per render, slice by
+//             slice from the light's side. Ambient occlusion (--ao on): the mean transmittance
+//             over a short distance in six directions darkens the ambient light.
+//             --shadows none --ao off is step 12's picture.
+// Builds on:  12_trilinear (the orbit camera, the slab method, trilinear samples, lit front to
+//             back).
+// Handout:    handouts/19_shadows.md
+// Run:        make run STEP=19 ARGS="--light-angle 70 --ao off"
+// Reference:  data/reference/19_shadows_camera.png: the default run (shadow rays and ambient
+//             occlusion, azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "18_free_leaping";
+constexpr const char* step_name = "19_shadows";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -40,6 +41,9 @@ constexpr int max_image_side = 8192;             // pixels, --size limit per sid
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
+constexpr double min_light_transmittance = 1e-4;  // a shadow ray stops below this: dark enough
+constexpr double occlusion_radius = 4;  // physical units around a sample ambient occlusion sees
+constexpr double occlusion_step = 1;    // physical units between its samples
 
 struct Params {
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
@@ -49,7 +53,6 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
-    bool no_leaping = false;     // read every sample, even in bricks known to be empty
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
     double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
@@ -58,6 +61,9 @@ struct Params {
     bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
+    std::string shadows = "ray";  // "ray": a shadow ray per lit sample; "volume": read from a
+                                  // light-transmittance volume; "none"
+    std::string ao = "on";        // "on": ambient occlusion; "off"
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -337,97 +343,6 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 }
 //< lesson: trilinear
 
-// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
-// the current table, how far the empty space around each brick reaches (see empty_reach); no
-// reach: leap over nothing.
-struct EmptySpace {
-    Bricks bricks;
-    std::vector<uint8_t> reach;  // per brick, 0: the table sees something in it
-
-    int reach_at(const Cell& cell) const {
-        return reach.empty() ? 0 : reach[bricks.index(cell.i, cell.j, cell.k)];
-    }
-};
-constexpr int max_reach = 32;           // bricks: a leap crosses at most 2 * 32 - 1 of them
-constexpr double leap_margin = 1e-6;    // voxels: a leap stops this far before a brick's face
-
-//> lesson: empty_space
-// Step 09's bricks that the table leaves wholly transparent, unchanged.
-static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
-    std::vector<int> opaque_before(lut.entries.size() + 1, 0);
-    for (size_t n = 0; n < lut.entries.size(); ++n) {
-        opaque_before[n + 1] = opaque_before[n] + (lut.entries[n].a > 0.0f ? 1 : 0);
-    }
-    std::vector<uint8_t> empty(bricks.count());
-    for (size_t b = 0; b < bricks.count(); ++b) {
-        const int low = bricks.ranges[b].min - lowest_ct_value;
-        const int high = bricks.ranges[b].max - lowest_ct_value;
-        empty[b] = opaque_before[high + 1] == opaque_before[low];
-    }
-    return empty;
-}
-
-// The bricks whose neighbours (26, at most) are all empty too: `empty` shrunk by one brick
-// on every side, one axis at a time. Past the volume's edge counts as empty (no ray samples
-// there).
-static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> empty) {
-    const size_t strides[3] = {1, size_t(bricks.bx), size_t(bricks.bx) * size_t(bricks.by)};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    for (int axis = 0; axis < 3; ++axis) {
-        const std::vector<uint8_t> before = empty;
-        const size_t stride = strides[axis];
-        for (size_t b = 0; b < empty.size(); ++b) {
-            const int at = int(b / stride % size_t(counts[axis]));  // along this axis
-            if (at > 0) empty[b] &= before[b - stride];
-            if (at + 1 < counts[axis]) empty[b] &= before[b + stride];
-        }
-    }
-    return empty;
-}
-
-// Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
-// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
-// reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
-// A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
-// brick on every side.
-static std::vector<uint8_t> empty_reach(const Bricks& bricks, const std::vector<uint8_t>& empty) {
-    std::vector<uint8_t> reach = empty, cube = empty;  // 1 for an empty brick, 0 else
-    for (int r = 2; r <= max_reach; ++r) {
-        cube = shrink(bricks, cube);
-        bool any = false;
-        for (size_t b = 0; b < cube.size(); ++b) {
-            if (cube[b]) reach[b] = uint8_t(r);
-            any = any || cube[b];
-        }
-        if (!any) break;
-    }
-    return reach;
-}
-
-// The sample to go on from when sample n lies in a brick of reach r: the first one past the
-// faces of the cube of bricks r - 1 around it (the slab method again, in sample units: face
-// = first + t * per_step). Every sample before it is inside the cube, even after rounding:
-// the faces are taken leap_margin voxels inside. A cube that reaches the volume's edge has
-// no face there. At least n + 1, at most the ray's sample count.
-static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& cell, int reach,
-                           long long n) {
-    const int corner[3] = {cell.i, cell.j, cell.k};
-    const int counts[3] = {bricks.bx, bricks.by, bricks.bz};
-    double leave = std::numeric_limits<double>::infinity();  // in samples
-    for (int axis = 0; axis < 3; ++axis) {
-        const double d = walk.per_step[axis];
-        if (d == 0) continue;  // parallel to these faces: never leaves through them
-        const int brick = corner[axis] / brick_size;
-        const int face_brick = d > 0 ? brick + reach : brick - reach + 1;  // its first voxel
-        if (face_brick <= 0 || face_brick >= counts[axis]) continue;       // the volume's edge
-        const double face = face_brick * brick_size + (d > 0 ? -leap_margin : leap_margin);
-        leave = std::min(leave, (face - walk.first[axis]) / d);
-    }
-    if (!(leave < double(walk.count))) return walk.count;
-    return std::max(n + 1, (long long)std::ceil(leave));
-}
-//< lesson: empty_space
-
 // Given: lerp() for gradients.
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
@@ -475,18 +390,8 @@ static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, W
 //< lesson: gradient
 
 //> lesson: shade
-// Diffuse lighting: ambient + (1 - ambient) * max(0, N.L), N the outward normal -grad/|grad|.
-// A zero gradient (inside a uniform region) has no normal: such a point gets ambient only.
-static float shade(Vec3 gradient, Vec3 to_light) {
-    const float size = length(gradient);
-    if (size == 0.0f) return ambient;
-    const Vec3 normal = (-1.0f / size) * gradient;
-    return ambient + (1.0f - ambient) * std::max(0.0f, dot(normal, to_light));
-}
-
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
-// Changed in step 10: in the camera's frame.
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -496,6 +401,159 @@ static Vec3 light_direction(const Camera& camera, double angle) {
            along_ray * axis(camera.forward);
 }
 //< lesson: shade
+
+// --shadows volume: T_light at every voxel centre for one light direction, in the volume's
+// layout, so a sample's Cell reads it as it reads the values.
+using LightVolume = std::vector<float>;
+
+// What light that is blocked needs beside step 12's table: ambient occlusion's own table
+// (corrected for occlusion_step) and, with --shadows volume, the light-transmittance volume of
+// the current light (empty otherwise).
+struct Blocking {
+    Lut occlusion_lut;
+    LightVolume light;
+    Vec3d light_towards;  // the light direction `light` was swept for
+};
+
+//> lesson: shadow
+// How much of the light reaches `point` (physical units): march from it towards the light,
+// `step` physical units at a time, to where that ray leaves the box, multiplying the
+// transparencies of the samples met, T_light = product of (1 - alpha). The table's alphas are
+// corrected for the step, so through a homogeneous medium T_light = (1 - alpha)^(distance /
+// unit) = exp(-sigma d), Beer-Lambert with sigma = -ln(1 - alpha) per unit. The sample itself
+// (n = 0) is left out (it would shadow itself); the march stops once T_light is below
+// min_light_transmittance.
+static double light_transmittance(const Volume& volume, const Lut& lut, const Vec3d& point,
+                                  const Vec3d& to_light, double step, Work& work) {
+    const Ray ray = {point, to_light};
+    const Span span = intersect_box(ray, Vec3d{}, box_high(volume));
+    if (!span.hit) return 1;
+    const Walk walk = walk_through(volume, ray, span, step);
+    double transmittance = 1;
+    for (long long n = 1; n < walk.count; ++n) {
+        const Cell cell = cell_at(volume, walk.at(n), false);  // trilinear, whatever the camera
+        ++work.samples;
+        const float value = trilinear(volume, cell);
+        transmittance *= 1 - lut.entries[int(double(value) - lowest_ct_value)].a;
+        if (transmittance < min_light_transmittance) break;
+    }
+    return transmittance;
+}
+
+// The light-transmittance volume for the directional light `to_light` (unit, physical): every
+// shadow ray's answer at once, T_light at every voxel centre, swept slice by slice from the
+// light's side. The slices lie across the axis a the light crosses fastest (the largest
+// |L_a| / s_a); the slice nearest the light gets all of it. A voxel p of the next slice gets
+// what reached q = p + d L on the slice before (d = s_a / |L_a| physical units away), times
+// what the segment between lets through: T(p) = T(q) * (1 - alpha_d(v(q))), the table's
+// alphas corrected for d. q is at most one voxel off p across the slice, and the light is
+// directional: every q is the same offset from its p, so T(q) and v(q) are bilinear reads
+// with the same four neighbours and weights everywhere. A q outside the box: the light came
+// in through a side face, T = 1 (the bit of material between that face and p is missed). One
+// read per voxel, once per light direction; each slice's rows in parallel.
+static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
+                               const Vec3d& to_light, bool corrected, int threads, Work& work) {
+    const int counts[3] = {volume.nx, volume.ny, volume.nz};
+    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
+    const size_t strides[3] = {1, size_t(volume.nx), size_t(volume.nx) * volume.ny};  // as volume.data
+    int a = 0;
+    for (int axis = 1; axis < 3; ++axis) {
+        if (std::fabs(to_light[axis]) / spacing[axis] > std::fabs(to_light[a]) / spacing[a]) {
+            a = axis;
+        }
+    }
+    const int b = a == 0 ? 1 : 0, c = a == 2 ? 1 : 2;  // across the slice, b the faster in memory
+    const double d = spacing[a] / std::fabs(to_light[a]);
+    const Lut segment = build_lut(tf, corrected ? d / unit_length : 1.0);
+    const double shift_b = d * to_light[b] / spacing[b];  // voxels, at most 1 either way
+    const double shift_c = d * to_light[c] / spacing[c];
+    const int offset_b = int(std::floor(shift_b)), offset_c = int(std::floor(shift_c));
+    const float fb = float(shift_b - offset_b), fc = float(shift_c - offset_c);  // 0..1
+    // q's low corner is inside, and so is its high corner unless its weight is 0.
+    auto inside = [](int low, float f, int count) {
+        return low >= 0 && (low + 1 < count || (low + 1 == count && f == 0));
+    };
+    const int towards = to_light[a] > 0 ? 1 : -1;  // from a slice to the one before it
+    LightVolume light(volume.data.size(), 1.0f);
+    const int nearest = towards > 0 ? counts[a] - 1 : 0;  // the slice nearest the light
+    for (int u = nearest - towards; u >= 0 && u < counts[a]; u -= towards) {
+        const size_t here = size_t(u) * strides[a], before = size_t(u + towards) * strides[a];
+        parallel_rows(counts[c], threads, work, [&](int w, Work& row_work) {
+            const int low_c = w + offset_c;
+            if (!inside(low_c, fc, counts[c])) return;  // the whole row stays 1
+            const size_t dc = low_c + 1 < counts[c] ? strides[c] : 0;
+            const int v_first = std::max(0, -offset_b);  // the row's voxels whose q is inside
+            int v_end = counts[b];
+            while (v_end > v_first && !inside(v_end - 1 + offset_b, fb, counts[b])) --v_end;
+            for (int v = v_first; v < v_end; ++v) {
+                const int low_b = v + offset_b;
+                const size_t db = low_b + 1 < counts[b] ? strides[b] : 0;
+                const size_t at = before + size_t(low_b) * strides[b] + size_t(low_c) * strides[c];
+                auto bilinear = [&](const auto* data) {
+                    return lerp(lerp(data[at], data[at + db], fb),
+                                lerp(data[at + dc], data[at + dc + db], fb), fc);
+                };
+                const float value = bilinear(volume.data.data());
+                light[here + size_t(v) * strides[b] + size_t(w) * strides[c]] =
+                    bilinear(light.data()) *
+                    (1 - segment.entries[int(double(value) - lowest_ct_value)].a);
+            }
+            row_work.samples += uint64_t(std::max(0, v_end - v_first));
+        });
+    }
+    return light;
+}
+
+// T_light at a sample from the light-transmittance volume: a trilinear read through the
+// sample's cell, as trilinear() reads the values.
+static double light_from_volume(const Volume& volume, const LightVolume& light, const Cell& c) {
+    auto at = [&](int i, int j, int k) { return light[volume.index(i, j, k)]; };
+    const float low_low = lerp(at(c.i, c.j, c.k), at(c.i1, c.j, c.k), c.fi);
+    const float high_low = lerp(at(c.i, c.j1, c.k), at(c.i1, c.j1, c.k), c.fi);
+    const float low_high = lerp(at(c.i, c.j, c.k1), at(c.i1, c.j, c.k1), c.fi);
+    const float high_high = lerp(at(c.i, c.j1, c.k1), at(c.i1, c.j1, c.k1), c.fi);
+    return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
+}
+
+// Ambient occlusion: how open the space around `q` (voxel units) is. Along each of the six
+// axis directions, the transmittance over occlusion_radius physical units (samples
+// occlusion_step apart, the table's alphas corrected for that step), stopping at the box's
+// faces (nothing out there blocks); their mean, 1 in empty surroundings, less where material
+// around the sample would block light coming from all sides.
+static double ambient_occlusion(const Volume& volume, const Lut& occlusion_lut, const Vec3d& q,
+                                Work& work) {
+    const int counts[3] = {volume.nx, volume.ny, volume.nz};
+    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
+    double sum = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+        for (const double sign : {1.0, -1.0}) {
+            double transmittance = 1;
+            for (double t = occlusion_step; t <= occlusion_radius; t += occlusion_step) {
+                double p[3] = {q.i, q.j, q.k};
+                p[axis] += sign * t / spacing[axis];
+                if (p[axis] < 0 || p[axis] > counts[axis] - 1) break;  // outside the box
+                const float value = trilinear(volume, cell_at(volume, {p[0], p[1], p[2]}, false));
+                ++work.samples;
+                transmittance *= 1 - occlusion_lut.entries[int(double(value) - lowest_ct_value)].a;
+            }
+            sum += transmittance;
+        }
+    }
+    return sum / 6;
+}
+
+// Step 12's light, blocked: the diffuse part only as far as T_light lets it through, the
+// ambient part as far as the surroundings are open.
+static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching,
+                           double occlusion) {
+    const float size = length(gradient);
+    const float open = float(occlusion) * ambient;
+    if (size == 0.0f) return open;
+    const Vec3 normal = (-1.0f / size) * gradient;
+    return open + (1.0f - ambient) * float(light_reaching) *
+                      std::max(0.0f, dot(normal, to_light));
+}
+//< lesson: shadow
 
 // The ray's two trace records (given): where it starts, and where it meets the box. The entry
 // is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
@@ -515,14 +573,14 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 //> lesson: front_to_back
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 07. Step 09's
-// leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
-// (leap_past), and every sample leapt over would have been transparent.
-// Changed in step 18: leaps over the empty cube around a sample.
+// transparent, composited front to back; early ray termination as in step 07. A lit sample's
+// light is blocked: shade_blocked() with T_light (a shadow ray, or the light volume) and its
+// ambient occlusion.
+// Changed in step 19: a lit sample's light is blocked.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, const EmptySpace& space,
-                                           Vec3 to_light, const Params& params, Work& work,
-                                           Trace* trace) {
+                                           int y, const Lut& lut, Vec3 to_light,
+                                           const Blocking& blocking,
+                                           const Params& params, Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
@@ -531,18 +589,14 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     Accumulated pixel;
     if (!span.hit) return pixel;
     const Walk walk = walk_through(volume, ray, span, params.step);
+    const Vec3d light_d = {to_light.i, to_light.j, to_light.k};
+    const Vec3d towards = params.unlit ? Vec3d{} : (1 / length(light_d)) * light_d;  // unit
+    const bool shadow_rays = params.shadows == "ray", light_volume = params.shadows == "volume";
+    const bool occlusion_on = params.ao == "on";
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
         const double t = span.t_entry + n * params.step;  // physical units along the ray
-        const int reach = space.reach_at(cell);
-        if (reach > 0) {
-            const long long next = leap_past(walk, space.bricks, cell, reach, n);
-            work.leapt += next - n;
-            if (trace) trace->leap(t, span.t_entry + (next - 1) * params.step, next - n, reach);
-            n = next - 1;
-            continue;
-        }
         const float value = sample_value(volume, cell, params.nearest);
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
@@ -553,8 +607,17 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             continue;
         }
         double light = 1.0;  // unlit
+        double light_t = 1, occlusion = 1;  // nothing blocks the light, nothing around
+        const uint64_t samples_before = work.samples;
         if (!params.unlit) {
-            light = shade(sample_gradient(volume, cell, params.nearest, work), to_light);
+            if (shadow_rays) {
+                light_t = light_transmittance(volume, lut, point, towards, params.step, work);
+            } else if (light_volume) {
+                light_t = light_from_volume(volume, blocking.light, cell);
+            }
+            if (occlusion_on) occlusion = ambient_occlusion(volume, blocking.occlusion_lut, q, work);
+            light = shade_blocked(sample_gradient(volume, cell, params.nearest, work),
+                                  to_light, light_t, occlusion);
         }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
@@ -563,8 +626,9 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         pixel.b += weight * sample.b;
         pixel.transparency *= 1 - alpha;
         if (trace) {
-            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
-                              .colour(pixel.r, pixel.g, pixel.b)
+            trace->sample(TraceSample(t, point, value).rgba(sample)
+                              .shadow(light_t, occlusion, work.samples - samples_before, 0)
+                              .light(light).colour(pixel.r, pixel.g, pixel.b)
                               .transparency(pixel.transparency));
         }
         if (pixel.transparency < stop_below && n + 1 < walk.count) {
@@ -588,8 +652,9 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "The volume from an orbit camera: rays through the box in physical "
-                             "space, trilinear samples, lit front to back.");
+        Args args(step_name, "Step 12's lit compositing with light that is blocked: shadow rays "
+                             "(or a light-transmittance volume) towards the light and ambient "
+                             "occlusion.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -604,8 +669,6 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
-        args.add_switch("--no-leaping", &params.no_leaping,
-                        "read every sample, even in bricks the table leaves transparent");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
                         "degrees around the vertical; 0 faces the face, 90 looks along +i");
         args.add_double("--elevation", &params.elevation, -90, 90,
@@ -620,10 +683,15 @@ int main(int argc, char** argv) {
                         "perspective: the image's height as an angle, degrees (default 30)");
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
                         "WxH");
+        args.add_choice("--shadows", &params.shadows, {"ray", "volume", "none"},
+                        "T_light by a shadow ray from every lit sample, from a light-"
+                        "transmittance volume swept once per render, or none");
+        args.add_choice("--ao", &params.ao, {"on", "off"},
+                        "ambient occlusion from the opacity around every lit sample");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 18 renders the camera's view; turn it with "
+            throw InputError("--view: step 19 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
@@ -640,15 +708,8 @@ int main(int argc, char** argv) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
-
-        // --- The bricks the table leaves empty ---
-        EmptySpace space;
-        if (!params.no_leaping) space.bricks = make_bricks(volume, brick_size, options.threads);
-        auto update_empty_space = [&] {
-            if (params.no_leaping) return;
-            space.reach = empty_reach(space.bricks, find_empty_bricks(space.bricks, lut));
-        };
-        update_empty_space();
+        Blocking blocking;
+        blocking.occlusion_lut = build_lut(tf, occlusion_step / unit_length);
 
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does) ---
@@ -662,21 +723,39 @@ int main(int argc, char** argv) {
             return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
         };
 
+        // --- The light-transmittance volume (--shadows volume): the light turns with the
+        // camera (light_towards), so every render sweeps it again, in the render's time and
+        // work; a traced ray reuses it while the light has not moved ---
+        auto sweep_for = [&](const Camera& camera, Work& work, bool again) {
+            if (params.shadows != "volume" || params.unlit) return;
+            const Vec3 l = light_towards(camera);
+            const Vec3d light_d = {l.i, l.j, l.k};
+            const Vec3d towards = (1 / length(light_d)) * light_d;  // unit, in double
+            const Vec3d moved = towards - blocking.light_towards;
+            if (!again && !blocking.light.empty() && dot(moved, moved) == 0) return;
+            blocking.light = sweep_light(volume, tf, towards, !params.no_correction,
+                                         options.threads, work);
+            blocking.light_towards = towards;
+        };
+
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
-            return over_background(composite_front_to_back(volume, camera, x, y, lut, space,
-                                                           to_light, params, work, trace));
+            return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
+                                                           blocking, params, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
             const Vec3 to_light = light_towards(camera);
+            sweep_for(camera, work, true);
             return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
                 return pixel(camera, to_light, x, y, ray_work, nullptr);
             });
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Camera camera = make_camera(volume, params, view);
+            Work sweep_work;  // not this ray's
+            sweep_for(camera, sweep_work, false);
             return pixel(camera, light_towards(camera), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
@@ -690,7 +769,6 @@ int main(int argc, char** argv) {
                              if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
                              lut = build_lut(tf, opacity_ratio(params));
-                             update_empty_space();
                          },
                          [&] { return summary_number(params.step); }};
         renderer.orbit.turn = [&](double azimuth, double elevation) {
@@ -712,10 +790,11 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
-                   " leaping=" + (params.no_leaping ? "off" : "on") +
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
-                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation;
+                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +
+                   " shadows=" + params.shadows +
+                   " ao=" + params.ao;
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---
