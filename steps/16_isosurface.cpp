@@ -1,17 +1,15 @@
-// 16_isosurface.cpp: the surface where the volume crosses an iso value, lit with Phong, and
-// a clipping plane that cuts the volume open.
+// 16_isosurface.cpp: the surface where the volume crosses an iso value, found by bisection.
 //
-// New here:   along the camera's ray, the first sample above --iso and the one before it
-//             bracket the crossing; bisection on the trilinear field narrows it to 1e-4 voxel;
-//             the surface there is lit with Phong (ambient, diffuse, specular, --shininess)
-//             from the trilinear central-difference gradient. Second, smaller idea:
-//             --clip nx,ny,nz,d keeps the half-space n.p <= d and cuts the rest away, in the
-//             iso render and in step 12's composite render (--mode composite).
+// New here:   along the camera's ray, the first sample above --iso (default 400: bone) and
+//             the one before it bracket the crossing; bisection on the trilinear field narrows
+//             it to 1e-4 voxel. There the surface is lit as step 12 lights a sample (shade(),
+//             from the trilinear gradient). --mode composite is step 12's picture.
+// Defaults:   as step 12: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+//             30 degrees right of the camera and 20 above it, a black background.
 // Builds on:  12_trilinear (the orbit camera, the slab method, trilinear samples).
 // Handout:    handouts/16_isosurface.md
-// Run:        make run STEP=16 ARGS="--clip 0,-1,0,-100 --shininess 40"
-// Reference:  data/reference/16_isosurface_camera.png: the default run (iso 400, azimuth 30,
-//             elevation 20, orthographic, 512x512), on the phantom.
+// Run:        make run STEP=16 ARGS="--iso 0"
+// Reference:  data/reference/16_isosurface_camera.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
@@ -40,22 +38,7 @@ constexpr int max_image_side = 8192;             // pixels, --size limit per sid
 constexpr double sample_count_slack = 1e-9;
 constexpr int bone_iso = 400;            // CT value of the default surface: bone, as step 05
 constexpr int iso_key_step = 50;         // CT units per Up/Down key press (iso mode)
-constexpr double hit_tolerance = 1e-4;   // voxels (of the smallest spacing): bisection stops
-                                         // once the bracket is shorter than this
-constexpr float ambient_weight = 0.1f;   // Phong: light that reaches every surface
-constexpr float diffuse_weight = 0.6f;   // Phong: times N.L
-constexpr float specular_weight = 0.3f;  // Phong: times (R.V)^shininess; the three sum to 1
-constexpr double default_shininess = 20;  // Phong exponent: larger, a smaller sharper highlight
-constexpr Rgb surface_colour = {1, 1, 1};  // bone white, as the classic table's bone
-constexpr double max_clip_number = 1e6;    // --clip's numbers, physical units
-
-// The clipping plane: the volume is kept where dot(normal, p) <= distance, p in physical
-// units; normal has length 1, so distance is how far the plane lies from the origin along it.
-struct ClipPlane {
-    bool on = false;
-    Vec3d normal;
-    double distance = 0;
-};
+constexpr double hit_tolerance = 1e-4;   // voxels (smallest spacing): bisection's end
 
 struct Params {
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
@@ -75,9 +58,6 @@ struct Params {
     std::string size = default_size;       // "WxH"
     std::string mode = "iso";              // "iso": the surface; "composite": step 12's picture
     int iso = bone_iso;                    // the surface is where the value crosses this
-    double shininess = default_shininess;  // Phong exponent
-    std::string clip_text;                 // "nx,ny,nz,d" as given; "": no clipping plane
-    ClipPlane clip;                        // clip_text, read by parse_clip
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -108,7 +88,6 @@ struct Span {
     bool hit = false;
     double t_entry = 0, t_exit = 0;
     int entry_axis = -1;  // the axis whose face the ray enters through; -1: it starts inside
-    bool clipped = false;  // it enters through the clip plane (entry_axis is -1 then)
 };
 
 // The box of voxel centres, 0 .. (n - 1) * spacing along each axis: every point in it has
@@ -229,35 +208,6 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
     return {on_face[0], on_face[1], on_face[2]};
 }
 //< lesson: slab
-
-//> lesson: clip
-// The clipping plane cuts the ray's span in the box down to where n.p <= d. Along the ray
-// n.p grows at the rate n.direction, from n.origin at t = 0, and reaches d at the plane:
-//   t_plane = (d - n.origin) / (n.direction).
-// Growing (n.direction > 0), the ray leaves the kept side there: the span ends at t_plane.
-// Shrinking, it comes into the kept side there: the span starts at t_plane. Parallel to the
-// plane (n.direction = 0, no division), it is kept whole or cut away whole.
-static Span clip_span(const Ray& ray, Span span, const ClipPlane& clip, Trace* trace) {
-    if (!clip.on || !span.hit) return span;
-    const double rate = dot(clip.normal, ray.direction);     // d(n.p)/dt
-    const double room = clip.distance - dot(clip.normal, ray.origin);  // >= 0: origin kept
-    if (rate == 0) {
-        if (room < 0) span.hit = false;
-    } else if (rate > 0) {
-        span.t_exit = std::min(span.t_exit, room / rate);
-    } else if (room / rate > span.t_entry) {
-        span.t_entry = room / rate;
-        span.entry_axis = -1;
-        span.clipped = true;
-    }
-    if (span.t_entry > span.t_exit) span.hit = false;
-    if (trace) {
-        trace->clip(clip.normal, clip.distance, !span.hit, span.t_entry, span.t_exit,
-                    span.clipped);
-    }
-    return span;
-}
-//< lesson: clip
 
 //> lesson: opacity_correction
 // The TF's opacity alpha holds for one unit of length. A sample that stands for `ratio` units
@@ -445,6 +395,7 @@ static float shade(Vec3 gradient, Vec3 to_light) {
 
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// Changed in step 10: in the camera's frame.
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -473,18 +424,17 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 //> lesson: front_to_back
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 07. The span is the
-// clipped one (clip_span).
-// Changed in step 16: along the clipped span.
+// transparent, composited front to back; early ray termination as in step 07.
+// Changed in step 12: trilinear samples and gradients.
+// Changed in step 16: step 12's again (this step builds on 12, not on 13-14's jitter).
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
                                            Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
-    const Span box = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, box, high, params.step);
-    const Span span = clip_span(ray, box, params.clip, trace);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
     Accumulated pixel;
     if (!span.hit) return pixel;
     const Walk walk = walk_through(volume, ray, span, params.step);
@@ -533,8 +483,7 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: front_to_back
 
-// Where the ray meets the surface: `along` physical units past the entry, at `point` (voxel
-// units, as the walk's samples).
+// Where the ray meets the surface: `along` physical units past the entry, at `point` (voxels).
 struct SurfaceHit {
     bool hit = false;
     double along = 0;
@@ -542,14 +491,11 @@ struct SurfaceHit {
 };
 
 //> lesson: bisection
-// The crossing between two points of the walk `below` (value <= iso) and `above` (value >
-// iso), in samples (2.5: halfway between samples 2 and 3): the midpoint of the bracket is read
-// by trilinear interpolation and replaces the end on its side, so the bracket always straddles
-// iso and halves each time. It stops when the bracket is shorter than `tolerance` (samples),
-// and the crossing is its midpoint, at most tolerance / 2 from the true one: 14 halvings from
-// a step of 1 to 1e-4. (The secant step would usually need fewer reads, but can creep in from
-// one end.) t_entry and step only turn samples into t for the trace. With nearest samples
-// (--interpolation nearest) the field is a staircase, and the crossing is where it steps.
+// The crossing between the walk's points `below` (value <= iso) and `above` (value > iso), in
+// samples (2.5: halfway between samples 2 and 3): the bracket's midpoint, read by trilinear
+// interpolation, replaces the end on its side, so the bracket straddles iso and halves each
+// time, until it is shorter than `tolerance` (samples): 14 halvings from a step of 1 to 1e-4.
+// The crossing is its midpoint. t_entry and step only turn samples into t for the trace.
 static double bisect(const Volume& volume, const Walk& walk, double below, double above,
                      double iso, double tolerance, bool nearest, double t_entry, double step,
                      Trace* trace) {
@@ -558,11 +504,8 @@ static double bisect(const Volume& volume, const Walk& walk, double below, doubl
         const Vec3d point = walk.first + middle * walk.per_step;  // voxel units
         const float value = sample_value(volume, cell_at(volume, point, nearest), nearest);
         const bool is_above = value > iso;
-        if (is_above) {
-            above = middle;
-        } else {
-            below = middle;
-        }
+        if (is_above) above = middle;  // the crossing lies before the midpoint
+        else below = middle;
         if (trace) {
             trace->bisection(iteration, t_entry + middle * step, value, is_above,
                              t_entry + below * step, t_entry + above * step);
@@ -572,40 +515,11 @@ static double bisect(const Volume& volume, const Walk& walk, double below, doubl
 }
 //< lesson: bisection
 
-//> lesson: phong
-// The three Phong terms at a surface point, for unit vectors: normal N (outward), to_light L,
-// to_viewer V. R is L mirrored about N; the highlight is where R points at the viewer. A light
-// behind the surface (N.L <= 0) leaves only the ambient term: no diffuse, no highlight.
-struct PhongTerms {
-    float ambient = 0, diffuse = 0, specular = 0;
-};
-
-static PhongTerms phong(Vec3 normal, Vec3 to_light, Vec3 to_viewer, double shininess) {
-    PhongTerms terms;
-    terms.ambient = ambient_weight;
-    const float n_dot_l = dot(normal, to_light);
-    if (n_dot_l <= 0.0f) return terms;
-    const Vec3 reflected = (2 * n_dot_l) * normal - to_light;
-    const float r_dot_v = std::max(0.0f, dot(reflected, to_viewer));
-    terms.diffuse = diffuse_weight * n_dot_l;
-    terms.specular = specular_weight * float(std::pow(double(r_dot_v), shininess));
-    return terms;
-}
-
-// The surface's colour lit: its own colour times ambient + diffuse, plus the white highlight.
-static Rgb lit_colour(const PhongTerms& terms) {
-    const float lit = terms.ambient + terms.diffuse;
-    return {surface_colour.r * lit + terms.specular, surface_colour.g * lit + terms.specular,
-            surface_colour.b * lit + terms.specular};
-}
-//< lesson: phong
-
 //> lesson: isosurface
 // Walk the ray as step 12 does, but instead of compositing, stop at the first sample above
 // iso: the crossing lies between it and the sample before (at or below iso), and bisection
-// finds it. A ray whose
-// first sample is already above iso starts inside the surface: it hits at its entry (on the
-// clip plane that is the cut face).
+// finds it. A ray whose first sample is already above iso starts inside the surface: it hits
+// at its entry.
 static SurfaceHit first_crossing(const Volume& volume, const Ray& ray, const Span& span,
                                  const Params& params, Work& work, Trace* trace) {
     SurfaceHit hit;
@@ -646,77 +560,42 @@ static SurfaceHit first_crossing(const Volume& volume, const Ray& ray, const Spa
     return hit;
 }
 
-// One pixel of the iso render: the first crossing, its normal (the clip plane's on the cut
-// face, else -gradient / |gradient|) and Phong. A zero gradient has no normal: ambient only.
+// One pixel of the iso render: the first crossing, its normal -gradient / |gradient|, lit by
+// step 12's shade(), a white surface. A zero gradient has no normal: ambient only.
 static Rgb isosurface_ray(const Volume& volume, const Camera& camera, int x, int y,
                           const Params& params, Work& work, Trace* trace) {
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
-    const Span box = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, box, high, params.step);
-    const Span span = clip_span(ray, box, params.clip, trace);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
     if (!span.hit) return background;
     const SurfaceHit hit = first_crossing(volume, ray, span, params, work, trace);
     if (!hit.hit) return background;
-    auto to_float = [](const Vec3d& a) { return Vec3{float(a.i), float(a.j), float(a.k)}; };
+    const Vec3 gradient = sample_gradient(volume, cell_at(volume, hit.point, params.nearest),
+                                          params.nearest, work);
+    const float size = length(gradient);
     Vec3 normal;
-    const char* source = "the clip plane";
-    if (span.clipped && hit.along == 0) {
-        normal = to_float(params.clip.normal);  // outward: the cut-away side is +normal
-    } else {
-        const Vec3 gradient = sample_gradient(
-            volume, cell_at(volume, hit.point, params.nearest), params.nearest, work);
-        const float size = length(gradient);
-        if (size > 0.0f) normal = (-1.0f / size) * gradient;
-        source = size > 0.0f ? "-gradient" : "none (zero gradient)";
-    }
+    if (size > 0.0f) normal = (-1.0f / size) * gradient;
+    const char* source = size > 0.0f ? "-gradient" : "none (zero gradient)";
     const Vec3 to_light = light_direction(camera, params.light_angle);
-    const Vec3 to_viewer = -1.0f * to_float(ray.direction);
-    PhongTerms terms;
-    terms.ambient = ambient_weight;
-    if (length(normal) > 0.0f) terms = phong(normal, to_light, to_viewer, params.shininess);
-    const Rgb colour = lit_colour(terms);
+    const float light = shade(gradient, to_light);
+    const Rgb colour = {light, light, light};  // a white surface
     if (trace) {
         const Vec3d p = {hit.point.i * volume.sx, hit.point.j * volume.sy,
                          hit.point.k * volume.sz};
         trace->surface_hit(span.t_entry + hit.along, p, normal, source);
-        trace->phong(to_light, to_viewer, terms.ambient, terms.diffuse, terms.specular,
-                     params.shininess);
+        trace->gradient(gradient, light);
     }
     return colour;
 }
 //< lesson: isosurface
-
-// "nx,ny,nz,d" -> the plane n.p = d with n scaled to length 1 (d with it); a normal of length
-// 0 has no direction and is refused.
-static ClipPlane parse_clip(const std::string& text) {
-    double numbers[4] = {};
-    size_t start = 0;
-    for (int n = 0; n < 4; ++n) {
-        const size_t comma = n < 3 ? text.find(',', start) : std::string::npos;
-        if (n < 3 && comma == std::string::npos) {
-            throw InputError("--clip: expected NX,NY,NZ,D such as 1,0,0,128, got '" + text + "'");
-        }
-        numbers[n] = parse_double("--clip", text.substr(start, comma - start), -max_clip_number,
-                                  max_clip_number);
-        start = comma + 1;
-    }
-    const Vec3d normal = {numbers[0], numbers[1], numbers[2]};
-    const double size = length(normal);
-    if (size == 0) throw InputError("--clip: the normal (0, 0, 0) has no direction");
-    ClipPlane clip;
-    clip.on = true;
-    clip.normal = (1 / size) * normal;
-    clip.distance = numbers[3] / size;
-    return clip;
-}
 
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
         Args args(step_name, "The first crossing of an iso value along the camera's rays, "
-                             "refined by bisection and lit with Phong; a clipping plane.");
+                             "refined by bisection and lit as step 12 lights a sample.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -749,11 +628,6 @@ int main(int argc, char** argv) {
                         "the isosurface (iso) or step 12's composite picture");
         args.add_int("--iso", &params.iso, -32768, 32767,
                      "the surface's value, in the file's units (default 400: bone)");
-        args.add_double("--shininess", &params.shininess, 1, 1000,
-                        "Phong exponent: larger gives a smaller, sharper highlight");
-        args.add_string("--clip", &params.clip_text,
-                        "clipping plane NX,NY,NZ,D: keeps n.p <= D (physical units)",
-                        "NX,NY,NZ,D");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
@@ -762,7 +636,6 @@ int main(int argc, char** argv) {
         }
         int width = 0, height = 0;
         parse_size(params.size, max_image_side, &width, &height);
-        if (!params.clip_text.empty()) params.clip = parse_clip(params.clip_text);
 
         // --- Volume ---
         const Volume volume = load_volume(options);
@@ -824,12 +697,9 @@ int main(int argc, char** argv) {
                          },
                          [&] { return summary_number(params.step); }};
         if (iso_mode) {  // Up/Down move the iso value instead of the step
-            renderer.knob = {"iso",
-                             [&](const View&, int steps) {
-                                 params.iso = std::clamp(params.iso + steps * iso_key_step,
-                                                         -32768, 32767);
-                             },
-                             [&] { return std::to_string(params.iso); }};
+            renderer.knob = {"iso", [&](const View&, int steps) {
+                params.iso = std::clamp(params.iso + steps * iso_key_step, -32768, 32767);
+            }, [&] { return std::to_string(params.iso); }};
         }
         renderer.orbit.turn = [&](double azimuth, double elevation) {
             params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
@@ -855,9 +725,7 @@ int main(int argc, char** argv) {
                    " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +
                    " mode=" + params.mode +
                    (iso_mode ? " step=" + summary_number(params.step)  // the knob's is printed
-                             : " iso=" + std::to_string(params.iso)) +
-                   " shininess=" + summary_number(params.shininess) +
-                   " clip=" + (params.clip.on ? params.clip_text : std::string("none"));
+                             : " iso=" + std::to_string(params.iso));
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

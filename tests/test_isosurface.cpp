@@ -1,8 +1,9 @@
-// test_isosurface.cpp: step 16 (the isosurface, Phong, the clipping plane) run as a program
-// (tools/run_step.h), against analytic volumes written here as raw int16 files: a sphere so
-// large that its surface is nearly flat across the volume (the bisected hit on it), a sphere
-// seen from many directions (its silhouette) and grazed, a slab cut by the clipping plane,
-// and a linear ramp whose Phong terms are computed by hand below.
+// test_isosurface.cpp: steps 16 (the isosurface), 17 (Phong) and 18 (the clipping plane) run
+// as programs (tools/run_step.h), against analytic volumes written here as raw int16 files: a
+// sphere so large that its surface is nearly flat across the volume (the bisected hit on it), a
+// sphere seen from many directions (its silhouette) and grazed, a linear ramp whose diffuse and
+// Phong terms are computed by hand below, and a slab cut by the clipping plane. Each feature is
+// tested in the step that brings it, and again in the steps after it that keep it.
 #include <doctest/doctest.h>
 #include <unistd.h>
 #include <algorithm>
@@ -20,21 +21,24 @@ using namespace ctlab;
 
 namespace {
 
-const std::string iso_step = "16_isosurface";
+const std::string iso_step = "16_isosurface";       // the first crossing, bisected
+const std::string phong_step = "17_phong";           // Phong's terms
+const std::string clip_step = "18_clipping_plane";   // the clipping plane
+const std::vector<std::string> surface_steps = {iso_step, phong_step, clip_step};
 
-// Runs step 16 on `volume_flags` with `flags`, --pfm into `folder`, two threads.
-RunResult run_iso(const std::vector<std::string>& volume_flags, std::vector<std::string> flags,
-                  const TempFolder& folder) {
+// Runs `step` on `volume_flags` with `flags`, --pfm into `folder`, two threads.
+RunResult run_iso(const std::string& step, const std::vector<std::string>& volume_flags,
+                  std::vector<std::string> flags, const TempFolder& folder) {
     flags.insert(flags.begin(), volume_flags.begin(), volume_flags.end());
     flags.insert(flags.end(), {"--out", folder.path(), "--pfm", "--threads", "2"});
-    RunResult run = run_step(iso_step, flags);
+    RunResult run = run_step(step, flags);
     INFO(run.command() << "\n" << run.err);
     REQUIRE(run.status == 0);
     return run;
 }
 
-Image picture(const TempFolder& folder) {
-    return read_pfm(step_output(folder.path(), iso_step, "camera", "pfm"));
+Image picture(const std::string& step, const TempFolder& folder) {
+    return read_pfm(step_output(folder.path(), step, "camera", "pfm"));
 }
 
 // A volume of nx x ny x nz voxels at spacing 1, value(i, j, k) rounded to int16.
@@ -116,6 +120,14 @@ bool traced_phong(const PixelTrace& trace, TracedPhong* phong) {
                        &phong->ambient, &phong->diffuse, &phong->specular) == 9;
 }
 
+// Step 16's traced light at the hit, step 12's shade(): "gradient=(GI, GJ, GK) shade=S".
+bool traced_shade(const PixelTrace& trace, double* shade) {
+    const std::string line = line_starting(trace, "gradient=(");
+    double gi = 0, gj = 0, gk = 0;
+    return std::sscanf(line.c_str(), "gradient=(%lf, %lf, %lf) shade=%lf", &gi, &gj, &gk,
+                       shade) == 4;
+}
+
 int non_finite_pixels(const Image& image) {
     int count = 0;
     for (const Rgb& p : image.pixels) {
@@ -151,30 +163,33 @@ TEST_CASE("isosurface: the bisected hit lies on a large analytic sphere within 1
                           {"-70", "45", "ortho", "0.7", "20,10"},
                           {"123", "75", "perspective", "1", "20,17"},
                           {"10", "35", "perspective", "2.5", "20,14"}};
-    for (const Case& c : cases) {
-        CAPTURE(std::string(c.azimuth));
-        CAPTURE(std::string(c.elevation));
-        CAPTURE(std::string(c.projection));
-        const RunResult run = run_iso(raw,
-                                      {"--azimuth", c.azimuth, "--elevation", c.elevation,
-                                       "--projection", c.projection, "--step", c.step, "--size",
-                                       "40x40", "--debug-pixel", c.pixel},
-                                      folder);
-        REQUIRE(run.traces.size() == 1);
-        const PixelTrace& trace = run.traces[0];
-        TracedHit hit;
-        REQUIRE(traced_hit(trace, &hit));
-        CHECK(std::fabs(distance(hit.p, centre) - radius) < 1e-3);
-        // Bisection from a bracket of one step to 1e-4 voxel: ceil(log2(step / 1e-4)) halvings,
-        // each traced.
-        const int halvings = int(std::ceil(std::log2(std::stod(c.step) / 1e-4)));
-        CHECK(bisection_lines(trace) == halvings);
-        CHECK(line_starting(trace, "crossing between").size() > 0);
-        // The normal is the sphere's outward one, (p - c) / R, from the gradient.
-        const Point outward = {(hit.p.i - centre.i) / radius, (hit.p.j - centre.j) / radius,
-                               (hit.p.k - centre.k) / radius};
-        CHECK(distance(hit.normal, outward) < 2e-3);
-        CHECK(non_finite_pixels(picture(folder)) == 0);
+    for (const std::string& step : surface_steps) {
+        for (const Case& c : cases) {
+            CAPTURE(step);
+            CAPTURE(std::string(c.azimuth));
+            CAPTURE(std::string(c.elevation));
+            CAPTURE(std::string(c.projection));
+            const RunResult run = run_iso(
+                step, raw,
+                {"--azimuth", c.azimuth, "--elevation", c.elevation, "--projection",
+                 c.projection, "--step", c.step, "--size", "40x40", "--debug-pixel", c.pixel},
+                folder);
+            REQUIRE(run.traces.size() == 1);
+            const PixelTrace& trace = run.traces[0];
+            TracedHit hit;
+            REQUIRE(traced_hit(trace, &hit));
+            CHECK(std::fabs(distance(hit.p, centre) - radius) < 1e-3);
+            // Bisection from a bracket of one step to 1e-4 voxel: ceil(log2(step / 1e-4))
+            // halvings, each traced.
+            const int halvings = int(std::ceil(std::log2(std::stod(c.step) / 1e-4)));
+            CHECK(bisection_lines(trace) == halvings);
+            CHECK(line_starting(trace, "crossing between").size() > 0);
+            // The normal is the sphere's outward one, (p - c) / R, from the gradient.
+            const Point outward = {(hit.p.i - centre.i) / radius, (hit.p.j - centre.j) / radius,
+                                   (hit.p.k - centre.k) / radius};
+            CHECK(distance(hit.normal, outward) < 2e-3);
+            CHECK(non_finite_pixels(picture(step, folder)) == 0);
+        }
     }
 }
 
@@ -192,25 +207,30 @@ TEST_CASE("isosurface: a sphere's silhouette has the same radius from every dire
     const std::vector<std::string> raw = write_raw_volume(volume, folder.path("sphere.raw"));
     const char* directions[][2] = {{"0", "0"},     {"30", "20"},  {"90", "0"},   {"180", "90"},
                                    {"-45", "-60"}, {"123", "37"}, {"200", "-5"}, {"17", "89"}};
-    double smallest = 1e9, largest = 0;
-    for (const auto& direction : directions) {
-        CAPTURE(std::string(direction[0]));
-        CAPTURE(std::string(direction[1]));
-        const RunResult run = run_iso(raw,
-                                      {"--azimuth", direction[0], "--elevation", direction[1],
-                                       "--size", "64x64", "--step", "0.5", "--iso", "300"},
-                                      folder);
-        const Image image = picture(folder);
-        CHECK(non_finite_pixels(image) == 0);
-        int inside = 0;
-        for (const Rgb& p : image.pixels) inside += !is_background(p);
-        CHECK(summary_count(run.summary("camera"), "hits") == unsigned(inside));
-        const double seen = std::sqrt(inside / 3.14159265358979323846);  // pixels
-        CHECK(std::fabs(seen - radius) < 0.5);
-        smallest = std::min(smallest, seen);
-        largest = std::max(largest, seen);
+    // Step 16 finds the surface; step 18, with all of it, still does (17 lights it only).
+    for (const std::string& step : {iso_step, clip_step}) {
+        CAPTURE(step);
+        double smallest = 1e9, largest = 0;
+        for (const auto& direction : directions) {
+            CAPTURE(std::string(direction[0]));
+            CAPTURE(std::string(direction[1]));
+            const RunResult run = run_iso(
+                step, raw,
+                {"--azimuth", direction[0], "--elevation", direction[1], "--size", "64x64",
+                 "--step", "0.5", "--iso", "300"},
+                folder);
+            const Image image = picture(step, folder);
+            CHECK(non_finite_pixels(image) == 0);
+            int inside = 0;
+            for (const Rgb& p : image.pixels) inside += !is_background(p);
+            CHECK(summary_count(run.summary("camera"), "hits") == unsigned(inside));
+            const double seen = std::sqrt(inside / 3.14159265358979323846);  // pixels
+            CHECK(std::fabs(seen - radius) < 0.5);
+            smallest = std::min(smallest, seen);
+            largest = std::max(largest, seen);
+        }
+        CHECK(largest - smallest < 0.5);
     }
-    CHECK(largest - smallest < 0.5);
 }
 
 TEST_CASE("isosurface: rays grazing a sphere hit it on its surface or miss it, never NaN") {
@@ -228,55 +248,60 @@ TEST_CASE("isosurface: rays grazing a sphere hit it on its surface or miss it, n
     });
     const TempFolder folder("isosurface_grazing");
     const std::vector<std::string> raw = write_raw_volume(volume, folder.path("sphere.raw"));
-    for (const char* step : {"0.25", "1"}) {
-        // The four grazing pixels traced in one run.
-        const char* pixels[] = {"51,31", "51,30", "12,31", "31,12"};
-        std::vector<std::string> flags = {"--azimuth", "0",  "--elevation", "0",  "--size",
-                                          "64x64",     "--step", step,     "--iso", "300"};
-        for (const char* pixel : pixels) flags.insert(flags.end(), {"--debug-pixel", pixel});
-        const RunResult run = run_iso(raw, flags, folder);
-        REQUIRE(run.traces.size() == 4);
-        CHECK(run.out.find("nan") == std::string::npos);
-        CHECK(non_finite_pixels(picture(folder)) == 0);
-        for (int p = 0; p < 4; ++p) {
-            const char* pixel = pixels[p];
-            CAPTURE(std::string(step));
-            CAPTURE(std::string(pixel));
-            const PixelTrace& trace = run.traces[p];
-            CHECK(std::to_string(trace.x) + "," + std::to_string(trace.y) == pixel);
-            Point origin, direction;
-            REQUIRE(traced_ray(trace, &origin, &direction));
-            // The ray's closest distance to the centre, from its origin and unit direction.
-            const Point to_centre = {centre.i - origin.i, centre.j - origin.j,
-                                     centre.k - origin.k};
-            const double along = to_centre.i * direction.i + to_centre.j * direction.j +
-                                 to_centre.k * direction.k;
-            const Point closest = {origin.i + along * direction.i,
-                                   origin.j + along * direction.j,
-                                   origin.k + along * direction.k};
-            const double passes = distance(closest, centre);
-            CAPTURE(passes);
-            REQUIRE(std::fabs(passes - radius) < 0.03);  // these pixels graze
-            TracedHit hit;
-            const bool hit_found = traced_hit(trace, &hit);
-            if (passes > radius) {
-                CHECK_FALSE(hit_found);
-                CHECK(is_background(trace.rgb));
-            } else if (std::string(step) == "0.25") {
-                // Samples 0.25 apart land inside a chord of 1.9: it must be found.
-                REQUIRE(hit_found);
+    for (const std::string& iso_program : {iso_step, clip_step}) {
+        for (const char* step : {"0.25", "1"}) {
+            CAPTURE(iso_program);
+            // The four grazing pixels traced in one run.
+            const char* pixels[] = {"51,31", "51,30", "12,31", "31,12"};
+            std::vector<std::string> flags = {"--azimuth", "0",  "--elevation", "0",  "--size",
+                                              "64x64",     "--step", step,     "--iso", "300"};
+            for (const char* pixel : pixels) {
+                flags.insert(flags.end(), {"--debug-pixel", pixel});
             }
-            if (hit_found) {
-                // Near grazing the crossing slides along the ray, but stays on the sphere.
-                CHECK(std::fabs(distance(hit.p, centre) - radius) < 0.02);
-                CHECK(std::isfinite(hit.normal.i + hit.normal.j + hit.normal.k));
-                CHECK(!is_background(trace.rgb));
+            const RunResult run = run_iso(iso_program, raw, flags, folder);
+            REQUIRE(run.traces.size() == 4);
+            CHECK(run.out.find("nan") == std::string::npos);
+            CHECK(non_finite_pixels(picture(iso_program, folder)) == 0);
+            for (int p = 0; p < 4; ++p) {
+                const char* pixel = pixels[p];
+                CAPTURE(std::string(step));
+                CAPTURE(std::string(pixel));
+                const PixelTrace& trace = run.traces[p];
+                CHECK(std::to_string(trace.x) + "," + std::to_string(trace.y) == pixel);
+                Point origin, direction;
+                REQUIRE(traced_ray(trace, &origin, &direction));
+                // The ray's closest distance to the centre, from its origin and unit direction.
+                const Point to_centre = {centre.i - origin.i, centre.j - origin.j,
+                                         centre.k - origin.k};
+                const double along = to_centre.i * direction.i + to_centre.j * direction.j +
+                                     to_centre.k * direction.k;
+                const Point closest = {origin.i + along * direction.i,
+                                       origin.j + along * direction.j,
+                                       origin.k + along * direction.k};
+                const double passes = distance(closest, centre);
+                CAPTURE(passes);
+                REQUIRE(std::fabs(passes - radius) < 0.03);  // these pixels graze
+                TracedHit hit;
+                const bool hit_found = traced_hit(trace, &hit);
+                if (passes > radius) {
+                    CHECK_FALSE(hit_found);
+                    CHECK(is_background(trace.rgb));
+                } else if (std::string(step) == "0.25") {
+                    // Samples 0.25 apart land inside a chord of 1.9: it must be found.
+                    REQUIRE(hit_found);
+                }
+                if (hit_found) {
+                    // Near grazing the crossing slides along the ray, but stays on the sphere.
+                    CHECK(std::fabs(distance(hit.p, centre) - radius) < 0.02);
+                    CHECK(std::isfinite(hit.normal.i + hit.normal.j + hit.normal.k));
+                    CHECK(!is_background(trace.rgb));
+                }
             }
         }
     }
 }
 
-TEST_CASE("isosurface: the clipping plane removes exactly its half-space, iso and composite") {
+TEST_CASE("clipping plane (step 18): it removes exactly its half-space, iso and composite") {
     // A slab of bone (1000) for 8 <= k < 24 in air (-1000), 32^3 voxels at spacing 1. Seen
     // along +i (azimuth 90, elevation 0) at zoom 1, pixel (x, y) is the ray along the row of
     // voxels j = x, k = y.
@@ -293,8 +318,8 @@ TEST_CASE("isosurface: the clipping plane removes exactly its half-space, iso an
         // Unclipped: the slab's rows, every column.
         std::vector<std::string> flags = side;
         flags.insert(flags.end(), {"--mode", mode});
-        run_iso(raw, flags, folder);
-        Image image = picture(folder);
+        run_iso(clip_step, raw, flags, folder);
+        Image image = picture(clip_step, folder);
         for (int y = 0; y < 32; ++y)
             for (int x = 0; x < 32; ++x) {
                 CAPTURE(x);
@@ -305,8 +330,8 @@ TEST_CASE("isosurface: the clipping plane removes exactly its half-space, iso an
         // cut away whole.
         std::vector<std::string> clipped = flags;
         clipped.insert(clipped.end(), {"--clip", "0,1,0,12.5"});
-        run_iso(raw, clipped, folder);
-        image = picture(folder);
+        run_iso(clip_step, raw, clipped, folder);
+        image = picture(clip_step, folder);
         for (int y = 0; y < 32; ++y)
             for (int x = 0; x < 32; ++x) {
                 CAPTURE(x);
@@ -316,8 +341,8 @@ TEST_CASE("isosurface: the clipping plane removes exactly its half-space, iso an
         // An oblique one, not normalised: (j + k) / sqrt(2) <= 30.5 / sqrt(2), i.e. j + k <= 30.5.
         clipped = flags;
         clipped.insert(clipped.end(), {"--clip", "0,3,3,91.5"});
-        run_iso(raw, clipped, folder);
-        image = picture(folder);
+        run_iso(clip_step, raw, clipped, folder);
+        image = picture(clip_step, folder);
         for (int y = 0; y < 32; ++y)
             for (int x = 0; x < 32; ++x) {
                 CAPTURE(x);
@@ -327,12 +352,12 @@ TEST_CASE("isosurface: the clipping plane removes exactly its half-space, iso an
         // A plane across the rays: i >= 10.25 kept (-i <= -10.25). The rays start on it.
         clipped = flags;
         clipped.insert(clipped.end(), {"--clip", "-1,0,0,-10.25", "--debug-pixel", "5,12"});
-        const RunResult run = run_iso(raw, clipped, folder);
+        const RunResult run = run_iso(clip_step, raw, clipped, folder);
         REQUIRE(run.traces.size() == 1);
         CHECK(line_starting(run.traces[0], "clip ").find("t=") != std::string::npos);
         CHECK(line_starting(run.traces[0], "clip ").find("entering through the plane") !=
               std::string::npos);
-        image = picture(folder);
+        image = picture(clip_step, folder);
         for (int y = 0; y < 32; ++y)
             for (int x = 0; x < 32; ++x) CHECK(is_background(image.at(x, y)) == !in_slab(y));
         if (mode == "iso") {
@@ -351,123 +376,187 @@ TEST_CASE("isosurface: the clipping plane removes exactly its half-space, iso an
     // A plane that leaves nothing of the volume: the background everywhere, every trace says so.
     std::vector<std::string> nothing = side;
     nothing.insert(nothing.end(), {"--clip", "1,0,0,-1", "--debug-pixel", "16,16"});
-    const RunResult run = run_iso(raw, nothing, folder);
-    for (const Rgb& p : picture(folder).pixels) CHECK(is_background(p));
+    const RunResult run = run_iso(clip_step, raw, nothing, folder);
+    for (const Rgb& p : picture(clip_step, folder).pixels) CHECK(is_background(p));
     REQUIRE(run.traces.size() == 1);
     CHECK(line_starting(run.traces[0], "clip ").find("cut away") != std::string::npos);
     CHECK(summary_count(run.summary("camera"), "samples") == 0);
 }
 
-TEST_CASE("isosurface: the Phong terms equal the hand-computed ones for a known normal, light "
-          "and view") {
-    // f = 400 + 50 (i - 10) + 100 (k - 10) on 21^3 voxels at spacing 1: gradient (50, 0, 100)
-    // everywhere (central and one-sided differences are exact on a ramp), so the outward
-    // normal is N = -(1, 0, 2) / sqrt(5) = (-0.447214, 0, -0.894427). The camera looks down
-    // +k (azimuth 180, elevation 90): V = (0, 0, -1), right = +i, up = -j. --light-angle 0
-    // puts the light 20 degrees above the viewer: L = (0, -sin 20, -cos 20)
-    // = (0, -0.342020, -0.939693).
-    //   N.L = 0.894427 * 0.939693 = 0.840487
+namespace {
+
+// f = 400 + 50 (i - 10) + 100 (k - 10) on 21^3 voxels at spacing 1: gradient (50, 0, 100)
+// everywhere (central and one-sided differences are exact on a ramp), so the outward normal is
+// N = -(1, 0, 2) / sqrt(5) = (-0.447214, 0, -0.894427). The camera looks down +k (azimuth 180,
+// elevation 90): V = (0, 0, -1), right = +i, up = -j. --light-angle 0 puts the light 20
+// degrees above the viewer: L = (0, -sin 20, -cos 20) = (0, -0.342020, -0.939693), and
+//   N.L = 0.894427 * 0.939693 = 0.840487.
+// At --light-angle 180 the light comes from behind the volume: L = (0, -0.342020, 0.939693),
+// N.L = -0.840487 < 0.
+Volume ramp_volume() {
+    return analytic_volume(21, 21, 21, [](int i, int, int k) {
+        return 400 + 50.0 * (i - 10) + 100.0 * (k - 10);
+    });
+}
+const std::vector<std::string> ramp_view = {"--azimuth", "180", "--elevation", "90", "--size",
+                                            "21x21", "--debug-pixel", "7,9"};
+
+// The hit of the ramp's pixel (7, 9): on the plane f = 400, with the normal N above.
+void check_ramp_hit(const PixelTrace& trace) {
+    TracedHit hit;
+    REQUIRE(traced_hit(trace, &hit));
+    // On the plane f = 400: 50 (i - 10) + 100 (k - 10) = 0, found to 1e-4 voxel.
+    CHECK(std::fabs(50 * (hit.p.i - 10) + 100 * (hit.p.k - 10)) < 100 * 1e-4);
+    CHECK(hit.normal.i == doctest::Approx(-0.447214).epsilon(1e-5));
+    CHECK(hit.normal.j == 0);
+    CHECK(hit.normal.k == doctest::Approx(-0.894427).epsilon(1e-5));
+}
+
+}  // namespace
+
+TEST_CASE("isosurface (step 16): the surface is lit as step 12 lights a sample, by hand") {
+    // Step 12's shade(): ambient 0.1 + (1 - 0.1) max(0, N.L) on a white surface:
+    //   light angle 0: 0.1 + 0.9 * 0.840487 = 0.856438; light angle 180: ambient only, 0.1.
+    const TempFolder folder("isosurface_diffuse");
+    const std::vector<std::string> raw =
+        write_raw_volume(ramp_volume(), folder.path("ramp.raw"));
+    for (const auto& [light_angle, lit] : {std::pair<const char*, double>{"0", 0.856438},
+                                           std::pair<const char*, double>{"180", 0.1}}) {
+        CAPTURE(std::string(light_angle));
+        std::vector<std::string> flags = ramp_view;
+        flags.insert(flags.end(), {"--light-angle", light_angle});
+        const RunResult run = run_iso(iso_step, raw, flags, folder);
+        REQUIRE(run.traces.size() == 1);
+        const PixelTrace& trace = run.traces[0];
+        check_ramp_hit(trace);
+        double shade = -1;
+        REQUIRE(traced_shade(trace, &shade));
+        CHECK(shade == doctest::Approx(lit).epsilon(1e-5));
+        CHECK(trace.rgb.r == doctest::Approx(lit).epsilon(1e-5));
+        CHECK(trace.rgb.g == doctest::Approx(lit).epsilon(1e-5));
+        CHECK(picture(iso_step, folder).at(7, 9).b == doctest::Approx(lit).epsilon(1e-5));
+    }
+}
+
+TEST_CASE("Phong (steps 17, 18): the terms equal the hand-computed ones for a known normal, "
+          "light and view") {
+    // With L and N as above (light angle 0):
     //   R = 2 (N.L) N - L = (-0.751755, 0.342020, -0.563817), R.V = 0.563817
     //   ambient 0.1; diffuse 0.6 * 0.840487 = 0.504292;
     //   specular 0.3 * 0.563817^4 = 0.3 * 0.101054 = 0.030316 (shininess 4)
     //   pixel: white surface, 0.1 + 0.504292 + 0.030316 = 0.634608 in every channel.
-    // At --light-angle 180 the light comes from behind the volume: L = (0, -0.342020, 0.939693),
-    // N.L = -0.840487 < 0: ambient only, 0.1.
-    const Volume volume = analytic_volume(21, 21, 21, [](int i, int, int k) {
-        return 400 + 50.0 * (i - 10) + 100.0 * (k - 10);
-    });
+    // Light angle 180: N.L < 0, ambient only, 0.1.
     const TempFolder folder("isosurface_phong");
-    const std::vector<std::string> raw = write_raw_volume(volume, folder.path("ramp.raw"));
+    const std::vector<std::string> raw =
+        write_raw_volume(ramp_volume(), folder.path("ramp.raw"));
     struct Case {
         const char* light_angle;
         double ambient, diffuse, specular;
     };
-    for (const Case& c : {Case{"0", 0.1, 0.504292, 0.030316}, Case{"180", 0.1, 0, 0}}) {
-        CAPTURE(std::string(c.light_angle));
-        const RunResult run = run_iso(raw,
-                                      {"--azimuth", "180", "--elevation", "90", "--size",
-                                       "21x21", "--shininess", "4", "--light-angle",
-                                       c.light_angle, "--debug-pixel", "7,9"},
-                                      folder);
-        REQUIRE(run.traces.size() == 1);
-        const PixelTrace& trace = run.traces[0];
-        TracedHit hit;
-        REQUIRE(traced_hit(trace, &hit));
-        // On the plane f = 400: 50 (i - 10) + 100 (k - 10) = 0, found to 1e-4 voxel.
-        CHECK(std::fabs(50 * (hit.p.i - 10) + 100 * (hit.p.k - 10)) < 100 * 1e-4);
-        CHECK(hit.normal.i == doctest::Approx(-0.447214).epsilon(1e-5));
-        CHECK(hit.normal.j == 0);
-        CHECK(hit.normal.k == doctest::Approx(-0.894427).epsilon(1e-5));
-        TracedPhong phong;
-        REQUIRE(traced_phong(trace, &phong));
-        CHECK(phong.to_viewer.i == 0);
-        CHECK(phong.to_viewer.k == doctest::Approx(-1).epsilon(1e-6));
-        CHECK(phong.to_light.j == doctest::Approx(-0.342020).epsilon(1e-5));
-        CHECK(phong.ambient == doctest::Approx(c.ambient).epsilon(1e-5));
-        CHECK(phong.diffuse == doctest::Approx(c.diffuse).epsilon(1e-5));
-        CHECK(phong.specular == doctest::Approx(c.specular).epsilon(1e-4));
-        const double lit = c.ambient + c.diffuse + c.specular;
-        CHECK(trace.rgb.r == doctest::Approx(lit).epsilon(1e-5));
-        CHECK(trace.rgb.g == doctest::Approx(lit).epsilon(1e-5));
-        CHECK(picture(folder).at(7, 9).b == doctest::Approx(lit).epsilon(1e-5));
+    for (const std::string& step : {phong_step, clip_step}) {
+        for (const Case& c : {Case{"0", 0.1, 0.504292, 0.030316}, Case{"180", 0.1, 0, 0}}) {
+            CAPTURE(step);
+            CAPTURE(std::string(c.light_angle));
+            std::vector<std::string> flags = ramp_view;
+            flags.insert(flags.end(), {"--shininess", "4", "--light-angle", c.light_angle});
+            const RunResult run = run_iso(step, raw, flags, folder);
+            REQUIRE(run.traces.size() == 1);
+            const PixelTrace& trace = run.traces[0];
+            check_ramp_hit(trace);
+            TracedPhong phong;
+            REQUIRE(traced_phong(trace, &phong));
+            CHECK(phong.to_viewer.i == 0);
+            CHECK(phong.to_viewer.k == doctest::Approx(-1).epsilon(1e-6));
+            CHECK(phong.to_light.j == doctest::Approx(-0.342020).epsilon(1e-5));
+            CHECK(phong.ambient == doctest::Approx(c.ambient).epsilon(1e-5));
+            CHECK(phong.diffuse == doctest::Approx(c.diffuse).epsilon(1e-5));
+            CHECK(phong.specular == doctest::Approx(c.specular).epsilon(1e-4));
+            const double lit = c.ambient + c.diffuse + c.specular;
+            CHECK(trace.rgb.r == doctest::Approx(lit).epsilon(1e-5));
+            CHECK(trace.rgb.g == doctest::Approx(lit).epsilon(1e-5));
+            CHECK(picture(step, folder).at(7, 9).b == doctest::Approx(lit).epsilon(1e-5));
+        }
     }
 }
 
 TEST_CASE("isosurface: the picture and the work do not depend on the thread count") {
-    const TempFolder one("isosurface_threads1"), three("isosurface_threads3");
-    std::vector<Summary> summaries;
-    for (const TempFolder* folder : {&one, &three}) {
-        const RunResult run = run_step(iso_step, {"--volume", "phantom", "--size", "96x80",
-                                                  "--zoom", "0.3", "--projection", "perspective",
-                                                  "--clip", "0,-1,0,-110", "--out",
-                                                  folder->path(), "--pfm", "--threads",
-                                                  folder == &one ? "1" : "3"});
-        REQUIRE(run.status == 0);
-        summaries.push_back(run.summary("camera"));
-    }
-    const Image a = picture(one), b = picture(three);
-    CHECK(std::equal(a.pixels.begin(), a.pixels.end(), b.pixels.begin(),
-                     [](const Rgb& p, const Rgb& q) {
-                         return p.r == q.r && p.g == q.g && p.b == q.b;
-                     }));
-    for (const char* counter : {"samples", "leapt", "gradients", "terminated", "hits"}) {
-        CAPTURE(counter);
-        CHECK(summaries[0].at(counter) == summaries[1].at(counter));
+    // Step 16's surface, and step 18's with a clipping plane.
+    for (const std::string& step : {iso_step, clip_step}) {
+        CAPTURE(step);
+        const TempFolder one("isosurface_threads1"), three("isosurface_threads3");
+        std::vector<Summary> summaries;
+        for (const TempFolder* folder : {&one, &three}) {
+            std::vector<std::string> flags = {"--volume", "phantom", "--size", "96x80",
+                                              "--zoom", "0.3", "--projection", "perspective",
+                                              "--out", folder->path(), "--pfm", "--threads",
+                                              folder == &one ? "1" : "3"};
+            if (step == clip_step) flags.insert(flags.end(), {"--clip", "0,-1,0,-110"});
+            const RunResult run = run_step(step, flags);
+            REQUIRE(run.status == 0);
+            summaries.push_back(run.summary("camera"));
+        }
+        const Image a = picture(step, one), b = picture(step, three);
+        CHECK(std::equal(a.pixels.begin(), a.pixels.end(), b.pixels.begin(),
+                         [](const Rgb& p, const Rgb& q) {
+                             return p.r == q.r && p.g == q.g && p.b == q.b;
+                         }));
+        for (const char* counter : {"samples", "leapt", "gradients", "terminated", "hits"}) {
+            CAPTURE(counter);
+            CHECK(summaries[0].at(counter) == summaries[1].at(counter));
+        }
     }
 }
 
 TEST_CASE("isosurface: bad flags are refused with status 2, naming the flag") {
-    for (const std::vector<std::string>& flags :
-         std::vector<std::vector<std::string>>{{"--clip", "1,0,0"},
-                                               {"--clip", "0,0,0,5"},
-                                               {"--clip", "1,0,0,x"},
-                                               {"--clip", "1,0,0,1e9"},
-                                               {"--clip", "1,,0,3"},
-                                               {"--mode", "mip"},
-                                               {"--shininess", "0"},
-                                               {"--iso", "40000"},
-                                               {"--view", "top"}}) {
-        std::vector<std::string> args = {"--volume", "phantom", "--no-window"};
-        args.insert(args.end(), flags.begin(), flags.end());
-        const RunResult run = run_step(iso_step, args);
+    using Flags = std::vector<std::string>;
+    // Each step refuses bad values of its own flags and of the earlier steps' it keeps.
+    const std::vector<std::pair<std::string, std::vector<Flags>>> cases = {
+        {iso_step, {{"--mode", "mip"}, {"--iso", "40000"}, {"--view", "top"}}},
+        {phong_step, {{"--shininess", "0"}, {"--iso", "40000"}}},
+        {clip_step,
+         {{"--clip", "1,0,0"}, {"--clip", "0,0,0,5"}, {"--clip", "1,0,0,x"},
+          {"--clip", "1,0,0,1e9"}, {"--clip", "1,,0,3"}, {"--mode", "mip"},
+          {"--shininess", "0"}, {"--iso", "40000"}, {"--view", "top"}}}};
+    for (const auto& [step, all] : cases) {
+        for (const Flags& flags : all) {
+            Flags args = {"--volume", "phantom", "--no-window"};
+            args.insert(args.end(), flags.begin(), flags.end());
+            const RunResult run = run_step(step, args);
+            CAPTURE(run.command());
+            CAPTURE(run.err);
+            CHECK(run.status == 2);
+            CHECK(run.err.find("error: " + flags[0]) != std::string::npos);
+        }
+    }
+    // A flag of a later step is not one of an earlier step's.
+    const std::vector<std::pair<std::string, Flags>> later = {
+        {iso_step, {"--shininess", "40"}}, {phong_step, {"--clip", "1,0,0,5"}}};
+    for (const auto& [step, flag] : later) {
+        Flags args = {"--volume", "phantom", "--no-window"};
+        args.insert(args.end(), flag.begin(), flag.end());
+        const RunResult run = run_step(step, args);
         CAPTURE(run.command());
         CAPTURE(run.err);
         CHECK(run.status == 2);
-        CHECK(run.err.find("error: " + flags[0]) != std::string::npos);
     }
 }
 
-TEST_CASE("isosurface: the default run matches its reference image, no NaN") {
-    const TempFolder folder("isosurface_golden");
-    const RunResult run = run_iso({"--volume", "phantom"}, {}, folder);
-    const Image image = picture(folder);
-    CHECK(non_finite_pixels(image) == 0);
-    CHECK(summary_count(run.summary("camera"), "hits") > 0);
-    CHECK(run.summary("camera").at("size") == "512x512");
-    const std::string path = "data/reference/16_isosurface_camera.png";
-    REQUIRE_MESSAGE(access(path.c_str(), R_OK) == 0, "missing " << path << ": make reference");
-    const Comparison c = compare_images(image, read_image(path), 1, "the float render", path);
-    INFO(comparison_line(c));
-    CHECK(c.max_abs <= 2);
-    CHECK(c.over_tol_pct <= 0.1);
+TEST_CASE("isosurface: each step's default run matches its reference image, no NaN") {
+    for (const std::string& step : surface_steps) {
+        CAPTURE(step);
+        const TempFolder folder("isosurface_golden");
+        const RunResult run = run_iso(step, {"--volume", "phantom"}, {}, folder);
+        const Image image = picture(step, folder);
+        CHECK(non_finite_pixels(image) == 0);
+        CHECK(summary_count(run.summary("camera"), "hits") > 0);
+        CHECK(run.summary("camera").at("size") == "512x512");
+        const std::string path = "data/reference/" + step + "_camera.png";
+        REQUIRE_MESSAGE(access(path.c_str(), R_OK) == 0,
+                        "missing " << path << ": make reference");
+        const Comparison c =
+            compare_images(image, read_image(path), 1, "the float render", path);
+        INFO(comparison_line(c));
+        CHECK(c.max_abs <= 2);
+        CHECK(c.over_tol_pct <= 0.1);
+    }
 }
