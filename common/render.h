@@ -164,12 +164,12 @@ public:
     // background_n.
     void back_to_front(int background_n);
     void gradient(const Vec3& gradient, double shade);  // steps 04-05: the light at the hit
-    // Step 16: the Phong terms at the hit (L and V unit vectors towards light and viewer).
+    // Step 17: the Phong terms at the hit (L and V unit vectors towards light and viewer).
     void phong(const Vec3& to_light, const Vec3& to_viewer, double ambient, double diffuse,
                double specular, double shininess);
     // Step 14: the jitter's u (0..1) and how far past the entry the first sample lies.
     void jitter(const std::string& mode, double u, double past_entry);
-    // Step 16: the clip plane n.p <= d; the ray's span left by it (from, to), entering
+    // Step 18: the clip plane n.p <= d; the ray's span left by it (from, to), entering
     // through the plane or not, or (cut_away) none of it.
     void clip(const Vec3d& normal, double d, bool cut_away, double from = 0, double to = 0,
               bool entering = false);
