@@ -126,10 +126,15 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--mode", "minip", "--slab", "2"});
         all.push_back({"--mode", "average", "--zoom", "100"});
     }
-    if (step.rfind("16", 0) == 0) {
-        all.push_back({"--iso", "32767", "--shininess", "1000"});
-        all.push_back({"--iso", "-32768", "--clip", "0,0,1,0"});
-        all.push_back({"--mode", "composite", "--clip", "1,1,1,-1"});
+    // Steps 16-18: the iso value at both ends of int16 (no crossing; every ray starts inside);
+    // 17 on with the largest --shininess, 18 with clipping planes in both modes.
+    if (step >= "16" && step < "19") {
+        std::vector<std::string> highest = {"--iso", "32767"}, lowest = {"--iso", "-32768"};
+        if (step >= "17") highest.insert(highest.end(), {"--shininess", "1000"});
+        if (step >= "18") lowest.insert(lowest.end(), {"--clip", "0,0,1,0"});
+        all.push_back(highest);
+        all.push_back(lowest);
+        if (step >= "18") all.push_back({"--mode", "composite", "--clip", "1,1,1,-1"});
     }
     if (step.rfind("19", 0) == 0) {
         all.push_back({"--shadows", "ray", "--ao", "off"});
