@@ -578,13 +578,13 @@ static Rgb isosurface_ray(const Volume& volume, const Camera& camera, int x, int
     if (size > 0.0f) normal = (-1.0f / size) * gradient;
     const char* source = size > 0.0f ? "-gradient" : "none (zero gradient)";
     const Vec3 to_light = light_direction(camera, params.light_angle);
-    const float light = shade(gradient, to_light);
-    const Rgb colour = {light, light, light};  // a white surface
+    const float lit = shade(gradient, to_light);
+    const Rgb colour = {lit, lit, lit};  // a white surface
     if (trace) {
         const Vec3d p = {hit.point.i * volume.sx, hit.point.j * volume.sy,
                          hit.point.k * volume.sz};
         trace->surface_hit(span.t_entry + hit.along, p, normal, source);
-        trace->gradient(gradient, light);
+        trace->gradient(gradient, lit);
     }
     return colour;
 }
