@@ -5,6 +5,8 @@
 //             the surface shines where R points at the viewer, (R.V)^shininess, a white
 //             highlight that --shininess makes smaller and sharper. Ambient, diffuse and
 //             specular get the weights 0.1, 0.6 and 0.3.
+// Defaults:   as step 12: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+//             30 degrees right of the camera and 20 above it, a black background.
 // Builds on:  16_isosurface (the first crossing of --iso, bisected on the trilinear field).
 // Handout:    handouts/17_phong.md
 // Run:        make run STEP=17 ARGS="--shininess 80"

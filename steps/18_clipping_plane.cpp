@@ -5,6 +5,8 @@
 //             iso render and in step 12's composite render (--mode composite). Where the iso
 //             render's ray starts inside the surface on the plane, the cut face is lit with
 //             the plane's normal.
+// Defaults:   as step 12: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+//             30 degrees right of the camera and 20 above it, a black background.
 // Builds on:  17_phong (the first crossing of --iso, bisected, lit with Phong).
 // Handout:    handouts/18_clipping_plane.md
 // Run:        make run STEP=18 ARGS="--clip 0,-1,0,-100 --mode composite"
