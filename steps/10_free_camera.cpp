@@ -7,10 +7,7 @@
 //             its nearest voxel (part 1's way: step 12 interpolates; step 11 finds where the
 //             ray is in the box). The light turns with the camera. Compositing, lighting and
 //             opacity correction are step 08's.
-// Camera:     a proper camera: image x runs along `right` = forward x up. Part 1's top view is
-//             --azimuth 180 --elevation 90, its side view --azimuth 90 --elevation 0, and its
-//             front view the left-right mirror of --azimuth 0 --elevation 0 (that camera faces
-//             the face, so the patient's right, +i, is on its left).
+// Camera:     a proper camera (right = forward x up); the handout maps part 1's views onto it.
 // Defaults:   azimuth 30, elevation 20, orthographic, 512x512, --fov 30 (perspective), light
 //             30 degrees to the right of the camera and 20 above it, a black background.
 // Builds on:  08_lit_compositing (lit front to back, a step in physical units; step 09's
@@ -235,13 +232,14 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 //< lesson: shade
 
 //> lesson: front_to_back
-// Step 08's compositing along the camera's ray. The box lies within `reach` (half its diagonal)
-// of its centre, so samples are taken at whole steps before and after the point of the ray
-// nearest the centre, t_mid + m * step for |m * step| <= reach (and t >= 0: an eye inside the
-// box), and those inside the box of voxel centres count: each read from its nearest voxel,
-// classified by the table, lit by that voxel's gradient where it is not transparent, and
-// composited front to back; early ray termination as in step 07. A camera along an axis thus
-// samples the voxel centres as part 1 did. Step 11 finds where the ray is in the box instead.
+// Step 08's compositing along the camera's ray, at whole steps before and after the point of
+// the ray nearest the box's centre: t_mid + m * step for |m * step| <= reach (half the box's
+// diagonal) and t >= 0 (an eye inside the box). Only samples inside the box of voxel centres
+// count (step 11 finds where the ray is in the box instead); a camera along an axis thus
+// samples the voxel centres as part 1 did.
+// Each sample is read from its nearest voxel, classified by the table, lit by that voxel's
+// gradient where it is not transparent, and composited front to back; early ray termination
+// as in step 07.
 // Changed in step 10: along the camera's ray.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,

@@ -7,8 +7,6 @@
 //             physical units apart, in voxel units (the walk). Samples still read their
 //             nearest voxel (step 12 interpolates). The trace records where the ray meets the
 //             box, or that it misses it.
-// Defaults:   as step 10: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
-//             30 degrees to the right of the camera and 20 above it, a black background.
 // Builds on:  10_free_camera (the orbit camera and its rays, nearest samples).
 // Handout:    handouts/11_slab_method.md
 // Run:        make run STEP=11 ARGS="--azimuth 60 --projection perspective"
@@ -332,9 +330,10 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 }
 
 //> lesson: front_to_back
-// Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
-// each read from its nearest voxel, classified by the table, lit by that voxel's gradient
-// where it is not transparent, composited front to back; early ray termination as in step 07.
+// Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit.
+// Each sample is read from its nearest voxel, classified by the table, lit by that voxel's
+// gradient where it is not transparent, and composited front to back; early ray termination
+// as in step 07.
 // Changed in step 11: from the box's entry to its exit (the slab method), not a test per sample.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
