@@ -11,6 +11,7 @@
 #include <vector>
 #include "args.h"
 #include "bricks.h"
+#include "camera_flags.h"
 #include "error.h"
 #include "image.h"
 #include "not_done.h"

@@ -9,6 +9,7 @@
 #include <array>
 #include <cstdint>
 #include <cstdio>
+#include <cmath>
 #include <cstring>
 #include <functional>
 #include <vector>
@@ -254,6 +255,19 @@ void write_pfm(const Image& image, const std::string& path) {
     write_output_file(path, [&](std::FILE* file) {
         return std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
     });
+}
+
+Image scaled_difference(const Image& a, const Image& b, float scale, double* largest) {
+    Image difference(a.width, a.height);
+    *largest = 0;
+    for (size_t n = 0; n < a.pixels.size(); ++n) {
+        const Rgb& p = a.pixels[n];
+        const Rgb& q = b.pixels[n];
+        const Rgb d = {std::abs(p.r - q.r), std::abs(p.g - q.g), std::abs(p.b - q.b)};
+        *largest = std::max({*largest, double(d.r), double(d.g), double(d.b)});
+        difference.pixels[n] = {scale * d.r, scale * d.g, scale * d.b};
+    }
+    return difference;
 }
 
 }  // namespace ctlab

@@ -43,6 +43,11 @@ void write_png(const Image& image, const std::string& path,
 // file renamed into place like write_png. For tests and tools that need more than 8 bits.
 void write_pfm(const Image& image, const std::string& path);
 
+// |a - b| per channel times `scale` (a picture of where two renders of one view differ), and
+// in *largest the largest |a - b| of any channel of any pixel, before the scaling. a and b
+// have the same size.
+Image scaled_difference(const Image& a, const Image& b, float scale, double* largest);
+
 // Reads a PNG (any bit depth stb_image reads) or a PPM (P6 or P3, maxval up to 65535) as
 // 0..1 RGB.
 // Throws InputError naming the file and the problem.

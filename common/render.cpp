@@ -2,6 +2,7 @@
 // are short.
 #include "render.h"
 #include <cctype>
+#include <cmath>
 #include <condition_variable>
 #include <mutex>
 #include <cstdarg>
@@ -326,6 +327,15 @@ void Trace::back_to_front(int background_n) {
     line.field("background_n", background_n);
     line.record().back_to_front = true;
     keep(std::move(line.record()));
+}
+
+void Trace::orders_apart(const Rgb& f2b, const Rgb& b2f) {
+    const double apart = std::max({std::abs(double(f2b.r) - b2f.r), std::abs(double(f2b.g) - b2f.g),
+                                   std::abs(double(f2b.b) - b2f.b)});
+    note({{"f2b.r", f2b.r}, {"f2b.g", f2b.g}, {"f2b.b", f2b.b}, {"b2f.r", b2f.r},
+          {"b2f.g", b2f.g}, {"b2f.b", b2f.b}, {"apart", apart}},
+         "both orders: f2b rgb=(%.6f, %.6f, %.6f) b2f rgb=(%.6f, %.6f, %.6f), apart by %.3g",
+         f2b.r, f2b.g, f2b.b, b2f.r, b2f.g, b2f.b, apart);
 }
 
 void Trace::gradient(const Vec3& gradient, double shade) {

@@ -163,6 +163,9 @@ public:
     // Step 07: the samples after this are the same ray back to front, from sample
     // background_n.
     void back_to_front(int background_n);
+    // Step 07's --order both, after the second order: the pixel of each order and the largest
+    // difference of a channel between them.
+    void orders_apart(const Rgb& f2b, const Rgb& b2f);
     void gradient(const Vec3& gradient, double shade);  // steps 04-05: the light at the hit
     // Step 17: the Phong terms at the hit (L and V unit vectors towards light and viewer).
     void phong(const Vec3& to_light, const Vec3& to_viewer, double ambient, double diffuse,

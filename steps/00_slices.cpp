@@ -25,12 +25,16 @@ struct Display {
 };
 
 // Linear: (value - min) / (max - min), in floating point (integer division would give 0).
+static float display_grey(const Volume& volume, int value) {
+    const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
+    return range > 0 ? float(value - volume.min_value) / float(range) : 0.0f;
+}
+
+// The linear map's table: display_grey() of every value the volume holds.
 static Display linear_display(const Volume& volume) {
     Display display{volume.min_value, {}};
-    const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     for (int value = volume.min_value; value <= volume.max_value; ++value) {
-        const float grey = range > 0 ? float(value - volume.min_value) / float(range) : 0.0f;
-        display.grey_of.push_back(grey);
+        display.grey_of.push_back(display_grey(volume, value));
     }
     return display;
 }

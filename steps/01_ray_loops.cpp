@@ -11,11 +11,13 @@ using namespace ctlab;
 
 constexpr const char* step_name = "01_ray_loops";
 
-// CT value -> grey 0..1: (value - min) / (max - min) in floating point, as in step 00.
+//> lesson: display_mapping
+// Linear: (value - min) / (max - min), in floating point (integer division would give 0).
 static float display_grey(const Volume& volume, int value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float(value - volume.min_value) / float(range) : 0.0f;
 }
+//< lesson: display_mapping
 
 //> lesson: mip_rays
 // Top view: pixel (x, y) is the column (i, j); the ray runs down k, from the crown.
@@ -92,11 +94,11 @@ int main(int argc, char** argv) {
 
         // --- Render: the pixel loops, and one ray for --debug-pixel ---
         Renderer renderer;
-        renderer.image = [&](const View& view, Work& work) {
-            return render_mip(volume, view, options.threads, work);
-        };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             return grey(display_grey(volume, mip_ray(volume, view, x, y, work, trace)));
+        };
+        renderer.image = [&](const View& view, Work& work) {
+            return render_mip(volume, view, options.threads, work);
         };
 
         // --- Output: a PNG and a summary line per view, then the preview window ---

@@ -164,16 +164,7 @@ static Image compare_orders(const Options& options, const Volume& volume, const 
     const Image b2f = render_image(view, options.threads, b2f_work, [&](int x, int y, Work& w) {
         return composite_back_to_front(volume, view, x, y, lut, w, nullptr);
     });
-    Image diff(view.width, view.height);
-    comparison.max_diff = 0;
-    for (size_t n = 0; n < f2b.pixels.size(); ++n) {
-        const Rgb& a = f2b.pixels[n];
-        const Rgb& b = b2f.pixels[n];
-        const Rgb d = {std::abs(a.r - b.r), std::abs(a.g - b.g), std::abs(a.b - b.b)};
-        comparison.max_diff = std::max({comparison.max_diff, double(d.r), double(d.g),
-                                        double(d.b)});
-        diff.pixels[n] = {diff_scale * d.r, diff_scale * d.g, diff_scale * d.b};
-    }
+    const Image diff = scaled_difference(f2b, b2f, diff_scale, &comparison.max_diff);
     comparison.ert_skipped_fraction = 1 - double(f2b_work.samples) / double(b2f_work.samples);
     write_png(diff, options.out + "/" + options.step + "_" + view.name + "_diff.png");
     work.add(f2b_work);
@@ -187,14 +178,7 @@ static void trace_both_orders(const Volume& volume, const View& view, int x, int
                               const Lut& lut, const Rgb& f2b, Trace* trace) {
     trace->back_to_front(view.ray_length - 1);
     Work b2f_work;
-    const Rgb b2f = composite_back_to_front(volume, view, x, y, lut, b2f_work, trace);
-    const double difference = std::max({std::abs(double(f2b.r) - b2f.r),
-                                        std::abs(double(f2b.g) - b2f.g),
-                                        std::abs(double(f2b.b) - b2f.b)});
-    trace->note({{"f2b.r", f2b.r}, {"f2b.g", f2b.g}, {"f2b.b", f2b.b}, {"b2f.r", b2f.r},
-                 {"b2f.g", b2f.g}, {"b2f.b", b2f.b}, {"apart", difference}},
-                "both orders: f2b rgb=(%.6f, %.6f, %.6f) b2f rgb=(%.6f, %.6f, %.6f), apart by %.3g",
-                f2b.r, f2b.g, f2b.b, b2f.r, b2f.g, b2f.b, difference);
+    trace->orders_apart(f2b, composite_back_to_front(volume, view, x, y, lut, b2f_work, trace));
 }
 
 int main(int argc, char** argv) {

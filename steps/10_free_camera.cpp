@@ -7,10 +7,7 @@
 //             its nearest voxel (part 1's way: step 12 interpolates; step 11 finds where the
 //             ray is in the box). The light turns with the camera. Compositing, lighting and
 //             opacity correction are step 08's.
-// Camera:     a proper camera: image x runs along `right` = forward x up. Part 1's top view is
-//             --azimuth 180 --elevation 90, its side view --azimuth 90 --elevation 0, and its
-//             front view the left-right mirror of --azimuth 0 --elevation 0 (that camera faces
-//             the face, so the patient's right, +i, is on its left).
+// Camera:     a proper camera (right = forward x up); the handout maps part 1's views onto it.
 // Defaults:   azimuth 30, elevation 20, orthographic, 512x512, --fov 30 (perspective), light
 //             30 degrees to the right of the camera and 20 above it, a black background.
 // Builds on:  08_lit_compositing (lit front to back, a step in physical units; step 09's
@@ -35,14 +32,8 @@ constexpr double default_light_angle = 30;  // degrees to the right of the viewe
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
-constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
-constexpr double default_elevation = 20;  // degrees above the i-j plane
-constexpr double default_fov = 30;        // degrees, the perspective image's height
-constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
-constexpr const char* default_size = "512x512";  // pixels, columns x rows
-constexpr int max_image_side = 8192;             // pixels, --size limit per side
 
-struct Params {
+struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, --fov, --size
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
     double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
     double ert = default_ert;  // early ray termination threshold for T
@@ -50,12 +41,6 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
-    double azimuth = default_azimuth;      // degrees
-    double elevation = default_elevation;  // degrees, -90..90
-    double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
-    std::string projection = "ortho";      // "ortho" or "perspective"
-    double fov = default_fov;              // degrees, perspective only
-    std::string size = default_size;       // "WxH"
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -247,13 +232,14 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 //< lesson: shade
 
 //> lesson: front_to_back
-// Step 08's compositing along the camera's ray. The box lies within `reach` (half its diagonal)
-// of its centre, so samples are taken at whole steps before and after the point of the ray
-// nearest the centre, t_mid + m * step for |m * step| <= reach (and t >= 0: an eye inside the
-// box), and those inside the box of voxel centres count: each read from its nearest voxel,
-// classified by the table, lit by that voxel's gradient where it is not transparent, and
-// composited front to back; early ray termination as in step 07. A camera along an axis thus
-// samples the voxel centres as part 1 did. Step 11 finds where the ray is in the box instead.
+// Step 08's compositing along the camera's ray, at whole steps before and after the point of
+// the ray nearest the box's centre: t_mid + m * step for |m * step| <= reach (half the box's
+// diagonal) and t >= 0 (an eye inside the box). Only samples inside the box of voxel centres
+// count (step 11 finds where the ray is in the box instead); a camera along an axis thus
+// samples the voxel centres as part 1 did.
+// Each sample is read from its nearest voxel, classified by the table, lit by that voxel's
+// gradient where it is not transparent, and composited front to back; early ray termination
+// as in step 07.
 // Changed in step 10: along the camera's ray.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
@@ -337,25 +323,9 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
-        args.add_double("--azimuth", &params.azimuth, -360, 360,
-                        "degrees around the vertical; 0 faces the face, 90 looks along +i");
-        args.add_double("--elevation", &params.elevation, -90, 90,
-                        "degrees above the i-j plane; 90 looks down from the crown");
-        args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
-                        "ortho: pixels per voxel; perspective: walks the eye in (>1)");
-        args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
-                        "parallel rays (ortho) or rays from an eye (perspective)");
-        args.add_double("--fov", &params.fov, 1, 170,
-                        "perspective: the image's height as an angle, degrees (default 30)");
-        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
-                        "WxH");
+        add_camera_flags(args, &params);  // common/camera_flags.h
         const Options options = args.parse(argc, argv);
-        if (options.view != "all") {
-            throw InputError("--view: step 10 renders the camera's view; turn it with "
-                             "--azimuth and --elevation instead");
-        }
-        int width = 0, height = 0;
-        parse_size(params.size, max_image_side, &width, &height);
+        const View camera_image = camera_view(options, params);  // --size; no --view
 
         // --- Volume ---
         const Volume volume = load_volume(options);
@@ -373,7 +343,7 @@ int main(int argc, char** argv) {
         // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
-        renderer.views = {make_camera_view(width, height)};
+        renderer.views = {camera_image};
 
         // --- Light: towards it from every ray of a render (it turns with the camera), so
         // worked out once per render, as step 08 does once per view; none with --unlit ---
@@ -411,17 +381,7 @@ int main(int argc, char** argv) {
                              lut = build_lut(tf, opacity_ratio(params));
                          },
                          [&] { return summary_number(params.step); }};
-        renderer.orbit.turn = [&](double azimuth, double elevation) {
-            params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
-            params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
-        };
-        renderer.orbit.zoom = [&](double factor) {
-            params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
-        };
-        renderer.orbit.value = [&] {
-            return "azimuth=" + summary_number(params.azimuth) + " elevation=" +
-                   summary_number(params.elevation) + " zoom=" + summary_number(params.zoom);
-        };
+        renderer.orbit = camera_orbit(&params);  // the window's drag and wheel
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "tf=" + tf.source +
@@ -430,9 +390,7 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
-                   " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
-                   " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
-                   " fov=" + summary_number(params.fov);
+                   camera_settings(params);
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

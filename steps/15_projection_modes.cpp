@@ -1,12 +1,13 @@
 // 15_projection_modes.cpp: maximum, minimum and average intensity along the free camera's ray.
 //
-// New here:   no transfer function, no compositing: each ray reduces the values it samples
-//             inside the box to one number, the largest (MIP), the smallest (MinIP) or their
+// New here:   --mode: how a ray reduces the values it samples inside the box to a pixel.
+//             Step 12's compositing is one way (--mode composite); the others need no transfer
+//             function: the largest value (mip, the default), the smallest (minip) or their
 //             mean (average, a simulated X-ray), shown as grey with part 1's mapping (the
 //             volume's min..max to black..white). --slab W keeps only the samples within W/2
 //             of the plane through the box's centre, facing the camera (a thin-slab projection).
-//             Step 12's table, light and compositing go.
-// Builds on:  12_trilinear (the orbit camera, the slab method, trilinear samples).
+// Builds on:  12_trilinear (the orbit camera, the slab method, trilinear samples, lit front to
+//             back: --mode composite).
 // Handout:    handouts/15_projection_modes.md
 // Run:        make run STEP=15 ARGS="--mode minip --slab 20"
 // Reference:  data/reference/15_projection_modes_camera.png: the default run (MIP, azimuth 30,
@@ -15,34 +16,42 @@
 using namespace ctlab;
 
 constexpr const char* step_name = "15_projection_modes";
-constexpr Rgb background = {0, 0, 0};  // a ray that meets no sample: black
+constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
+constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
+constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
+constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
+constexpr double unit_length = 1;     // physical length the TF opacities hold for: one voxel
+                                      // at spacing 1
 constexpr double default_step = 1;    // physical units between two samples along a ray
 constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
 constexpr double step_key_factor = 2;            // Up doubles the step, Down halves it
+constexpr double default_light_angle = 30;  // degrees to the right of the viewer
+constexpr double light_elevation = 20;      // degrees above the viewer, fixed
+constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
-constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
-constexpr double default_elevation = 20;  // degrees above the i-j plane
-constexpr double default_fov = 30;        // degrees, the perspective image's height
-constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
-constexpr const char* default_size = "512x512";  // pixels, columns x rows
-constexpr int max_image_side = 8192;             // pixels, --size limit per side
 constexpr double max_slab = 1e5;                 // physical units, --slab limit
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
 
-struct Params {
-    std::string mode = "mip";    // "mip", "minip" or "average"
+struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, --fov, --size
+    std::string mode = "mip";    // "mip", "minip", "average" or "composite" (step 12's)
     double slab = 0;             // physical units: only samples this thick a slab; 0: all
+    std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
+    double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
+    double ert = default_ert;  // early ray termination threshold for T
     double step = default_step;  // physical units between samples
-    double azimuth = default_azimuth;      // degrees
-    double elevation = default_elevation;  // degrees, -90..90
-    double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
-    std::string projection = "ortho";      // "ortho" or "perspective"
+    double light_angle = default_light_angle;
+    bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
+    bool no_correction = false;  // use the TF opacities as they are, whatever the step
     std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
     bool nearest = false;                     // interpolation == "nearest"
-    double fov = default_fov;              // degrees, perspective only
-    std::string size = default_size;       // "WxH"
+};
+
+// What a ray has gathered so far, front to back (in double, as step 06 explains).
+struct Accumulated {
+    double r = 0, g = 0, b = 0;  // colour, each sample weighted by its opacity and T
+    double transparency = 1;     // T: the share of what lies further back that still shows
 };
 
 // What a ray has gathered: the largest and smallest value, and the sum (in double: a long
@@ -196,6 +205,54 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
 }
 //< lesson: slab
 
+//> lesson: opacity_correction
+// The TF's opacity alpha holds for one unit of length. A sample that stands for `ratio` units
+// lets (1 - alpha)^ratio through, so its opacity is alpha' = 1 - (1 - alpha)^ratio. Computed
+// as -expm1(ratio * log1p(-alpha)): the plain form loses its digits when alpha or the result
+// is tiny. alpha = 0 stays 0 and alpha = 1 stays 1 (log1p(-1) would be -infinity).
+static float corrected_opacity(float alpha, double ratio) {
+    if (alpha <= 0.0f) return 0.0f;
+    if (alpha >= 1.0f) return 1.0f;
+    return float(-std::expm1(ratio * std::log1p(-double(alpha))));
+}
+
+// How many units of length one sample stands for (1 with --no-correction: the TF unchanged).
+static double opacity_ratio(const Params& params) {
+    return params.no_correction ? 1.0 : params.step / unit_length;
+}
+//< lesson: opacity_correction
+
+// The lookup table: one RGBA entry per CT value, -32768..32767. The entry of `value` is
+// entries[value - lowest_ct_value], so any int16 is a valid index. A new table is transparent.
+struct Lut {
+    std::vector<Rgba> entries = std::vector<Rgba>(ct_value_end - lowest_ct_value);
+};
+
+//> lesson: lookup_table
+// The colour a fraction f of the way from a to b (f = 0 gives a exactly).
+static Rgba mix(const Rgba& a, const Rgba& b, float f) {
+    return {a.r + f * (b.r - a.r), a.g + f * (b.g - a.g), a.b + f * (b.b - a.b),
+            a.a + f * (b.a - a.a)};
+}
+
+// The table of a transfer function: classifying a sample is then a single read. Values no
+// range covers stay transparent. A ramp goes linearly from its start at `from` to its end at
+// `to`. The opacities are corrected here, once per entry, for samples `ratio` units apart.
+// Changed in step 08: each entry's opacity corrected for the spacing.
+static Lut build_lut(const TransferFunction& tf, double ratio) {
+    Lut lut;  // every entry {0, 0, 0, 0}
+    for (const TfRange& range : tf.ranges) {
+        const float width = float(range.to - range.from);
+        for (int value = range.from; value < range.to; ++value) {
+            const float f = range.ramp ? float(value - range.from) / width : 0.0f;
+            Rgba& entry = lut.entries[value - lowest_ct_value];
+            entry = mix(range.start, range.end, f);
+            entry.a = corrected_opacity(entry.a, ratio);
+        }
+    }
+    return lut;
+}
+//< lesson: lookup_table
 
 // A ray's samples in voxel units, worked out once per ray: sample n is at first + n * per_step
 // (voxel coordinates: physical / spacing), for n = 0 .. count - 1.
@@ -276,7 +333,74 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 }
 //< lesson: trilinear
 
+// Given: lerp() for gradients.
+static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
+//> lesson: gradient
+template <class Sample>
+static float derivative(Sample sample, int n, int count, double spacing) {
+    if (count == 1) return 0.0f;
+    if (n == 0) return float((sample(1) - sample(0)) / spacing);
+    if (n == count - 1) return float((sample(n) - sample(n - 1)) / spacing);
+    return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
+}
+
+// The gradient of the CT values at voxel (i, j, k): it points into denser material.
+static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
+    const int i = voxel.i, j = voxel.j, k = voxel.k;
+    ++work.gradients;
+    auto along_i = [&](int m) { return double(volume.at(m, j, k)); };
+    auto along_j = [&](int m) { return double(volume.at(i, m, k)); };
+    auto along_k = [&](int m) { return double(volume.at(i, j, m)); };
+    return {derivative(along_i, i, volume.nx, volume.sx),
+            derivative(along_j, j, volume.ny, volume.sy),
+            derivative(along_k, k, volume.nz, volume.sz)};
+}
+
+// The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
+// values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
+static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
+    auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
+        return gradient_at(volume, Voxel{a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k}, work);
+    };
+    const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
+    const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
+    const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
+    const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
+    return lerp_vector(lerp_vector(low_low, high_low, c.fj), lerp_vector(low_high, high_high, c.fj),
+                       c.fk);
+}
+
+// A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
+// differences), else trilinear.
+static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
+    if (!nearest) return gradient_trilinear(volume, c, work);
+    return gradient_at(volume, Voxel{c.i, c.j, c.k}, work);
+}
+//< lesson: gradient
+
+//> lesson: shade
+// Diffuse lighting: ambient + (1 - ambient) * max(0, N.L), N the outward normal -grad/|grad|.
+// A zero gradient (inside a uniform region) has no normal: such a point gets ambient only.
+static float shade(Vec3 gradient, Vec3 to_light) {
+    const float size = length(gradient);
+    if (size == 0.0f) return ambient;
+    const Vec3 normal = (-1.0f / size) * gradient;
+    return ambient + (1.0f - ambient) * std::max(0.0f, dot(normal, to_light));
+}
+
+// Unit direction towards the light, angle to the right of the camera and elevation above it:
+// step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// Changed in step 10: in the camera's frame.
+static Vec3 light_direction(const Camera& camera, double angle) {
+    const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
+    const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
+    const float along_ray = float(-std::cos(angle * degrees) * std::cos(light_elevation * degrees));
+    auto axis = [](const Vec3d& a) { return Vec3{float(a.i), float(a.j), float(a.k)}; };
+    return along_x * axis(camera.right) + (-along_y) * axis(camera.up) +
+           along_ray * axis(camera.forward);
+}
+//< lesson: shade
 
 // CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in part 1 (step
 // 00); trilinear values lie between voxel values, so within 0..1 too.
@@ -300,6 +424,68 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
     const Vec3d out = ray.origin + span.t_exit * ray.direction;
     trace->box(high, span.t_entry, in, span.entry_axis, span.t_exit, out, step);
 }
+
+//> lesson: front_to_back
+// Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
+// each read by trilinear interpolation, classified by the table, lit where it is not
+// transparent, composited front to back; early ray termination as in step 07.
+// Changed in step 12: trilinear samples and gradients.
+// Changed in step 15: step 12's again, without step 13's jitter (this step builds on 12).
+static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
+                                           int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
+                                           Trace* trace) {
+    const double stop_below = std::max(params.ert, min_transparency);
+    const Vec3d high = box_high(volume);
+    const Ray ray = camera_ray(camera, x, y);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
+    Accumulated pixel;
+    if (!span.hit) return pixel;
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const Cell cell = cell_at(volume, q, params.nearest);
+        const double t = span.t_entry + n * params.step;  // physical units along the ray
+        const float value = sample_value(volume, cell, params.nearest);
+        const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
+        ++work.samples;
+        const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+        if (sample.a == 0.0f) {
+            ++work.skipped;
+            if (trace) trace->sample(TraceSample(t, point, value).skipped());
+            continue;
+        }
+        double light = 1.0;  // unlit
+        if (!params.unlit) {
+            light = shade(sample_gradient(volume, cell, params.nearest, work), to_light);
+        }
+        const double alpha = sample.a;
+        const double weight = pixel.transparency * alpha * light;
+        pixel.r += weight * sample.r;
+        pixel.g += weight * sample.g;
+        pixel.b += weight * sample.b;
+        pixel.transparency *= 1 - alpha;
+        if (trace) {
+            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
+                              .colour(pixel.r, pixel.g, pixel.b)
+                              .transparency(pixel.transparency));
+        }
+        if (pixel.transparency < stop_below && n + 1 < walk.count) {
+            ++work.terminated;
+            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
+            break;
+        }
+    }
+    return pixel;
+}
+
+// What the ray left transparent shows the background: C + T*background.
+static Rgb over_background(const Accumulated& ray) {
+    return {float(ray.r + ray.transparency * background.r),
+            float(ray.g + ray.transparency * background.g),
+            float(ray.b + ray.transparency * background.b)};
+}
+//< lesson: front_to_back
 
 //> lesson: projection
 // --slab: the part of the span within slab / 2 of the plane through the box's centre at right
@@ -375,60 +561,81 @@ int main(int argc, char** argv) {
         // --- Options: the shared flags plus this step's own ---
         Params params;
         Args args(step_name, "Maximum, minimum or average intensity along the rays of an orbit "
-                             "camera, as grey.");
-        args.add_choice("--mode", &params.mode, {"mip", "minip", "average"},
-                        "the largest value along the ray, the smallest, or their mean");
+                             "camera, as grey; or step 12's lit compositing.");
+        args.add_choice("--mode", &params.mode, {"mip", "minip", "average", "composite"},
+                        "the largest value along the ray, the smallest, their mean, or step "
+                        "12's compositing");
         args.add_double("--slab", &params.slab, 0, max_slab,
                         "only samples within a slab this thick (physical units) through the "
-                        "centre, facing the camera; 0: the whole box");
+                        "centre, facing the camera; 0: the whole box (not with composite)");
+        args.add_string("--tf", &params.tf_path,
+                        "transfer function file (default data/tf/classic.tf)");
+        args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
+                        "opacity of the range labelled skin (default: as the file says)");
+        args.add_double("--ert", &params.ert, 0, 1,
+                        "stop a ray once its transparency T is below this (0: never)");
         args.add_double("--step", &params.step, min_step, max_step,
                         "physical units between two samples along a ray");
-        args.add_double("--azimuth", &params.azimuth, -360, 360,
-                        "degrees around the vertical; 0 faces the face, 90 looks along +i");
-        args.add_double("--elevation", &params.elevation, -90, 90,
-                        "degrees above the i-j plane; 90 looks down from the crown");
-        args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
-                        "ortho: pixels per voxel; perspective: walks the eye in (>1)");
+        args.add_double("--light-angle", &params.light_angle, -180, 180,
+                        "light direction, degrees to the right of the camera (default 30; "
+                        "always 20 degrees above it)");
+        args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
+        args.add_switch("--no-correction", &params.no_correction,
+                        "use the TF opacities unchanged, whatever the step");
         args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
                         "a sample's value: the eight voxels around it, or the nearest one");
-        args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
-                        "parallel rays (ortho) or rays from an eye (perspective)");
-        args.add_double("--fov", &params.fov, 1, 170,
-                        "perspective: the image's height as an angle, degrees (default 30)");
-        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
-                        "WxH");
+        add_camera_flags(args, &params);  // common/camera_flags.h
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
-        if (options.view != "all") {
-            throw InputError("--view: step 15 renders the camera's view; turn it with "
-                             "--azimuth and --elevation instead");
+        const View camera_image = camera_view(options, params);  // --size; no --view
+        if (params.slab > 0 && params.mode == "composite") {
+            throw InputError("--slab: with --mode mip, minip or average, not composite");
         }
-        int width = 0, height = 0;
-        parse_size(params.size, max_image_side, &width, &height);
 
         // --- Volume ---
         const Volume volume = load_volume(options);
         const std::string refused = too_many_samples_along_box(volume, params.step);
         if (!refused.empty()) throw InputError(refused);
 
+        // --- Transfer function: the file (in the file's units), its table for this step size ---
+        TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
+        if (params.skin_opacity >= 0) {
+            set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
+        }
+        Lut lut = build_lut(tf, opacity_ratio(params));
+
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
-        renderer.views = {make_camera_view(width, height)};
+        if (params.mode == "composite") renderer.transfer_function = &tf;  // the ray picture
+        renderer.views = {camera_image};
+
+        // --- Light: towards it from every ray of a render (it turns with the camera), so
+        // worked out once per render, as step 08 does once per view; none with --unlit ---
+        auto light_towards = [&](const Camera& camera) {
+            return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
+        };
 
         // --- Render: one ray per pixel ---
-        auto pixel = [&](const Camera& camera, int x, int y, Work& work, Trace* trace) {
-            return projection_grey(volume, project_ray(volume, camera, x, y, params, work, trace),
-                                   params.mode);
+        auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
+                         Trace* trace) {
+            if (params.mode != "composite") {
+                return projection_grey(volume, project_ray(volume, camera, x, y, params, work,
+                                                           trace), params.mode);
+            }
+            return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
+                                                           params, work, trace));
         };
         renderer.image = [&](const View& view, Work& work) {
             const Camera camera = make_camera(volume, params, view);
+            const Vec3 to_light = light_towards(camera);
             return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
-                return pixel(camera, x, y, ray_work, nullptr);
+                return pixel(camera, to_light, x, y, ray_work, nullptr);
             });
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            return pixel(make_camera(volume, params, view), x, y, work, trace);
+            const Camera camera = make_camera(volume, params, view);
+            return pixel(camera, light_towards(camera), x, y, work, trace);
         };
         renderer.ray_samples = [&](const View&) {
             return "samples " + summary_number(params.step) + " physical units apart";
@@ -440,24 +647,19 @@ int main(int argc, char** argv) {
                                  max_step);
                              if (!too_many_samples_along_box(volume, step).empty()) return;  // keep it
                              params.step = step;
+                             lut = build_lut(tf, opacity_ratio(params));
                          },
                          [&] { return summary_number(params.step); }};
-        renderer.orbit.turn = [&](double azimuth, double elevation) {
-            params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
-            params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
-        };
-        renderer.orbit.zoom = [&](double factor) {
-            params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
-        };
-        renderer.orbit.value = [&] {
-            return "azimuth=" + summary_number(params.azimuth) + " elevation=" +
-                   summary_number(params.elevation) + " zoom=" + summary_number(params.zoom);
-        };
+        renderer.orbit = camera_orbit(&params);  // the window's drag and wheel
         renderer.settings = [&] {
-            return "mode=" + params.mode + " slab=" + summary_number(params.slab) +
-                   " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
-                   " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
-                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation;
+            const TfRange* skin = find_range(tf, skin_label);
+            return "mode=" + params.mode + " slab=" + summary_number(params.slab) + " tf=" + tf.source +
+                   " skin_opacity=" + (skin ? summary_number(skin->start.a) : std::string("none")) +
+                   " ert=" + summary_number(params.ert) +
+                   " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
+                   " lighting=" + (params.unlit ? "off" : "on") +
+                   " correction=" + (params.no_correction ? "off" : "on") +
+                   camera_settings(params) + " interpolation=" + params.interpolation;
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

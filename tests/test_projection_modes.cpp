@@ -2,7 +2,8 @@
 // program (tools/run_step.h), against known answers: a linear ramp seen along each axis (the
 // largest, smallest and mean value of a column are closed forms), an oblique ray through it
 // (linear along the ray: the extremes are its end samples, the mean their midpoint), a slab of
-// it, and rays that miss the box or meet only part of it (only samples inside the box count).
+// it, and rays that miss the box or meet only part of it (only samples inside the box count);
+// --mode composite is step 12 pixel for pixel.
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <cmath>
@@ -277,6 +278,7 @@ TEST_CASE("projection modes: bad --mode and --slab are refused with status 2") {
          std::vector<std::vector<std::string>>{{"--mode", "max"},
                                                {"--slab", "-1"},
                                                {"--slab", "nan"},
+                                               {"--slab", "5", "--mode", "composite"},
                                                {"--view", "front"}}) {
         std::vector<std::string> args = {"--volume", "phantom"};
         args.insert(args.end(), flags.begin(), flags.end());
@@ -285,4 +287,30 @@ TEST_CASE("projection modes: bad --mode and --slab are refused with status 2") {
         CHECK(run.status == 2);
         CHECK(run.err.find("error: " + flags[0]) != std::string::npos);
     }
+}
+
+TEST_CASE("projection modes: --mode composite is step 12's compositing, pixel for pixel") {
+    const TempFolder folder("projection_composite");
+    const std::vector<std::string> scene = {"--volume", "phantom", "--size", "48x40",
+                                            "--azimuth", "33", "--elevation", "-21"};
+    std::vector<std::string> flags = scene;
+    flags.insert(flags.end(), {"--mode", "composite"});
+    render(flags, folder);
+    const Image composite = picture(folder);
+    flags = scene;
+    flags.insert(flags.end(), {"--out", folder.path(), "--pfm", "--threads", "2"});
+    const RunResult run = run_step("12_trilinear", flags);
+    REQUIRE(run.status == 0);
+    const Image trilinear = read_pfm(step_output(folder.path(), "12_trilinear", "camera", "pfm"));
+    REQUIRE(composite.pixels.size() == trilinear.pixels.size());
+    int differing = 0;
+    for (size_t n = 0; n < composite.pixels.size(); ++n) {
+        const Rgb& a = composite.pixels[n];
+        const Rgb& b = trilinear.pixels[n];
+        differing += a.r != b.r || a.g != b.g || a.b != b.b;
+    }
+    CHECK(differing == 0);
+    int lit = 0;  // not a black picture on both sides
+    for (const Rgb& p : trilinear.pixels) lit += p.r > 0.05f;
+    CHECK(lit > 100);
 }
