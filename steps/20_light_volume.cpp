@@ -1,24 +1,22 @@
-// 19_shadows.cpp: light that is blocked: shadows towards the light, and ambient occlusion.
+// 20_light_volume.cpp: every shadow ray's answer at once: a light-transmittance volume.
 //
-// New here:   every lit sample of step 12's composite asks how much of the light reaches it
-//             through the volume, T_light = product of (1 - alpha) towards the light
-//             (Beer-Lambert, with the opacity-corrected table), which darkens the diffuse
-//             light: --shadows ray marches a shadow ray from the sample; --shadows volume
-//             reads T_light
-//             trilinearly from a light-transmittance volume swept once per render, slice by
-//             slice from the light's side. Ambient occlusion (--ao on): the mean transmittance
-//             over a short distance in six directions darkens the ambient light.
-//             --shadows none --ao off is step 12's picture.
-// Builds on:  12_trilinear (the orbit camera, the slab method, trilinear samples, lit front to
-//             back).
-// Handout:    handouts/19_shadows.md
-// Run:        make run STEP=19 ARGS="--light-angle 70 --ao off"
-// Reference:  data/reference/19_shadows_camera.png: the default run (shadow rays and ambient
-//             occlusion, azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// New here:   step 19 marches a shadow ray from every lit sample, and neighbouring samples'
+//             rays cross much the same material. For a directional light, T_light can be
+//             worked out once per render for every voxel centre, swept slice by slice from
+//             the light's side, T(p) = T(q) * (1 - alpha_d(v(q))); each lit sample then reads
+//             it trilinearly, as it reads its value: one read instead of a march.
+//             --shadows volume (the default) does so; --shadows ray is step 19's.
+// Defaults:   --shadows volume.
+//             As step 12: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the
+//             light 30 degrees right of the camera and 20 above it, a black background.
+// Builds on:  19_shadow_rays (a shadow ray per lit sample over step 12's lit composite).
+// Handout:    handouts/20_light_volume.md
+// Run:        make run STEP=20 ARGS="--shadows ray"
+// Reference:  data/reference/20_light_volume_camera.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "19_shadows";
+constexpr const char* step_name = "20_light_volume";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -42,8 +40,6 @@ constexpr int max_image_side = 8192;             // pixels, --size limit per sid
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
 constexpr double min_light_transmittance = 1e-4;  // a shadow ray stops below this: dark enough
-constexpr double occlusion_radius = 4;  // physical units around a sample ambient occlusion sees
-constexpr double occlusion_step = 1;    // physical units between its samples
 
 struct Params {
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
@@ -61,9 +57,8 @@ struct Params {
     bool nearest = false;                     // interpolation == "nearest"
     double fov = default_fov;              // degrees, perspective only
     std::string size = default_size;       // "WxH"
-    std::string shadows = "ray";  // "ray": a shadow ray per lit sample; "volume": read from a
-                                  // light-transmittance volume; "none"
-    std::string ao = "on";        // "on": ambient occlusion; "off"
+    std::string shadows = "volume";  // "volume": read from a light-transmittance volume;
+                                     // "ray": a shadow ray per lit sample; "none"
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -402,20 +397,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// --shadows volume: T_light at every voxel centre for one light direction, in the volume's
-// layout, so a sample's Cell reads it as it reads the values.
-using LightVolume = std::vector<float>;
-
-// What light that is blocked needs beside step 12's table: ambient occlusion's own table
-// (corrected for occlusion_step) and, with --shadows volume, the light-transmittance volume of
-// the current light (empty otherwise).
-struct Blocking {
-    Lut occlusion_lut;
-    LightVolume light;
-    Vec3d light_towards;  // the light direction `light` was swept for
-};
-
-//> lesson: shadow
+//> lesson: shadow_ray
 // How much of the light reaches `point` (physical units): march from it towards the light,
 // `step` physical units at a time, to where that ray leaves the box, multiplying the
 // transparencies of the samples met, T_light = product of (1 - alpha). The table's alphas are
@@ -440,6 +422,29 @@ static double light_transmittance(const Volume& volume, const Lut& lut, const Ve
     return transmittance;
 }
 
+// Step 12's light, blocked: the diffuse part only as far as T_light lets it through.
+// With all of it (T_light = 1) it is step 12's shade(), bit for bit.
+static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching) {
+    const float size = length(gradient);
+    if (size == 0.0f) return ambient;
+    const Vec3 normal = (-1.0f / size) * gradient;
+    return ambient + (1.0f - ambient) * float(light_reaching) *
+                         std::max(0.0f, dot(normal, to_light));
+}
+//< lesson: shadow_ray
+
+// --shadows volume: T_light at every voxel centre for one light direction, in the volume's
+// layout, so a sample's Cell reads it as it reads the values.
+using LightVolume = std::vector<float>;
+
+// What light that is blocked needs beside step 12's table: with --shadows volume, the
+// light-transmittance volume of the current light (empty otherwise).
+struct Blocking {
+    LightVolume light;
+    Vec3d light_towards;  // the light direction `light` was swept for
+};
+
+//> lesson: light_volume
 // The light-transmittance volume for the directional light `to_light` (unit, physical): every
 // shadow ray's answer at once, T_light at every voxel centre, swept slice by slice from the
 // light's side. The slices lie across the axis a the light crosses fastest (the largest
@@ -514,46 +519,7 @@ static double light_from_volume(const Volume& volume, const LightVolume& light, 
     const float high_high = lerp(at(c.i, c.j1, c.k1), at(c.i1, c.j1, c.k1), c.fi);
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
 }
-
-// Ambient occlusion: how open the space around `q` (voxel units) is. Along each of the six
-// axis directions, the transmittance over occlusion_radius physical units (samples
-// occlusion_step apart, the table's alphas corrected for that step), stopping at the box's
-// faces (nothing out there blocks); their mean, 1 in empty surroundings, less where material
-// around the sample would block light coming from all sides.
-static double ambient_occlusion(const Volume& volume, const Lut& occlusion_lut, const Vec3d& q,
-                                Work& work) {
-    const int counts[3] = {volume.nx, volume.ny, volume.nz};
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
-    double sum = 0;
-    for (int axis = 0; axis < 3; ++axis) {
-        for (const double sign : {1.0, -1.0}) {
-            double transmittance = 1;
-            for (double t = occlusion_step; t <= occlusion_radius; t += occlusion_step) {
-                double p[3] = {q.i, q.j, q.k};
-                p[axis] += sign * t / spacing[axis];
-                if (p[axis] < 0 || p[axis] > counts[axis] - 1) break;  // outside the box
-                const float value = trilinear(volume, cell_at(volume, {p[0], p[1], p[2]}, false));
-                ++work.samples;
-                transmittance *= 1 - occlusion_lut.entries[int(double(value) - lowest_ct_value)].a;
-            }
-            sum += transmittance;
-        }
-    }
-    return sum / 6;
-}
-
-// Step 12's light, blocked: the diffuse part only as far as T_light lets it through, the
-// ambient part as far as the surroundings are open.
-static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching,
-                           double occlusion) {
-    const float size = length(gradient);
-    const float open = float(occlusion) * ambient;
-    if (size == 0.0f) return open;
-    const Vec3 normal = (-1.0f / size) * gradient;
-    return open + (1.0f - ambient) * float(light_reaching) *
-                      std::max(0.0f, dot(normal, to_light));
-}
-//< lesson: shadow
+//< lesson: light_volume
 
 // The ray's two trace records (given): where it starts, and where it meets the box. The entry
 // is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
@@ -574,9 +540,8 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
 // transparent, composited front to back; early ray termination as in step 07. A lit sample's
-// light is blocked: shade_blocked() with T_light (a shadow ray, or the light volume) and its
-// ambient occlusion.
-// Changed in step 19: a lit sample's light is blocked.
+// light is blocked: shade_blocked() with T_light, from a shadow ray or the light volume.
+// Changed in step 20: T_light read from the light volume.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light,
                                            const Blocking& blocking,
@@ -592,7 +557,6 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
     const Vec3d light_d = {to_light.i, to_light.j, to_light.k};
     const Vec3d towards = params.unlit ? Vec3d{} : (1 / length(light_d)) * light_d;  // unit
     const bool shadow_rays = params.shadows == "ray", light_volume = params.shadows == "volume";
-    const bool occlusion_on = params.ao == "on";
     for (long long n = 0; n < walk.count; ++n) {
         const Vec3d q = walk.at(n);  // voxel units
         const Cell cell = cell_at(volume, q, params.nearest);
@@ -607,7 +571,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             continue;
         }
         double light = 1.0;  // unlit
-        double light_t = 1, occlusion = 1;  // nothing blocks the light, nothing around
+        double light_t = 1;  // nothing blocks the light
         const uint64_t samples_before = work.samples;
         if (!params.unlit) {
             if (shadow_rays) {
@@ -615,9 +579,8 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             } else if (light_volume) {
                 light_t = light_from_volume(volume, blocking.light, cell);
             }
-            if (occlusion_on) occlusion = ambient_occlusion(volume, blocking.occlusion_lut, q, work);
             light = shade_blocked(sample_gradient(volume, cell, params.nearest, work),
-                                  to_light, light_t, occlusion);
+                                  to_light, light_t);
         }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;
@@ -627,7 +590,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         pixel.transparency *= 1 - alpha;
         if (trace) {
             trace->sample(TraceSample(t, point, value).rgba(sample)
-                              .shadow(light_t, occlusion, work.samples - samples_before, 0)
+                              .shadow(light_t, work.samples - samples_before, 0)
                               .light(light).colour(pixel.r, pixel.g, pixel.b)
                               .transparency(pixel.transparency));
         }
@@ -652,9 +615,8 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 12's lit compositing with light that is blocked: shadow rays "
-                             "(or a light-transmittance volume) towards the light and ambient "
-                             "occlusion.");
+        Args args(step_name, "Step 19's shadows with T_light read from a light-transmittance "
+                             "volume, swept once per render from the light's side.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -685,13 +647,11 @@ int main(int argc, char** argv) {
                         "WxH");
         args.add_choice("--shadows", &params.shadows, {"ray", "volume", "none"},
                         "T_light by a shadow ray from every lit sample, from a light-"
-                        "transmittance volume swept once per render, or none");
-        args.add_choice("--ao", &params.ao, {"on", "off"},
-                        "ambient occlusion from the opacity around every lit sample");
+                        "transmittance volume swept once per render (default), or none");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 19 renders the camera's view; turn it with "
+            throw InputError("--view: step 20 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
@@ -709,7 +669,6 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params));
         Blocking blocking;
-        blocking.occlusion_lut = build_lut(tf, occlusion_step / unit_length);
 
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does) ---
@@ -793,8 +752,7 @@ int main(int argc, char** argv) {
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
                    " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +
-                   " shadows=" + params.shadows +
-                   " ao=" + params.ao;
+                   " shadows=" + params.shadows;
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---
