@@ -387,6 +387,7 @@ static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, W
 //> lesson: shade
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// Changed in step 10: in the camera's frame.
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -452,7 +453,7 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
 // transparent, composited front to back; early ray termination as in step 07. A lit sample's
-// light is blocked: shade_blocked() with T_light, what its shadow ray lets through.
+// light is blocked: shade_blocked() with T_light, the light that reaches it (--shadows).
 // Changed in step 19: a lit sample's light is blocked.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light,

@@ -1,10 +1,9 @@
 // 20_light_volume.cpp: every shadow ray's answer at once: a light-transmittance volume.
 //
-// New here:   step 19 marches a shadow ray from every lit sample, and neighbouring samples'
-//             rays cross much the same material. For a directional light, T_light can be
-//             worked out once per render for every voxel centre, swept slice by slice from
-//             the light's side, T(p) = T(q) * (1 - alpha_d(v(q))); each lit sample then reads
-//             it trilinearly, as it reads its value: one read instead of a march.
+// New here:   neighbouring samples' shadow rays (step 19) cross much the same material. For a
+//             directional light, T_light is worked out once per render at every voxel centre,
+//             swept slice by slice from the light's side, T(p) = T(q) * (1 - alpha_d(v(q))),
+//             and a lit sample reads it trilinearly: one read instead of a march.
 //             --shadows volume (the default) does so; --shadows ray is step 19's.
 // Defaults:   --shadows volume.
 //             As step 12: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the
@@ -387,6 +386,7 @@ static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, W
 //> lesson: shade
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// Changed in step 10: in the camera's frame.
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -540,7 +540,7 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
 // transparent, composited front to back; early ray termination as in step 07. A lit sample's
-// light is blocked: shade_blocked() with T_light, from a shadow ray or the light volume.
+// light is blocked: shade_blocked() with T_light, the light that reaches it (--shadows).
 // Changed in step 20: T_light read from the light volume.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light,

@@ -389,6 +389,7 @@ static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, W
 //> lesson: shade
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// Changed in step 10: in the camera's frame.
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
