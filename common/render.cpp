@@ -79,11 +79,17 @@ TraceSample& TraceSample::rgba(const Rgba& colour) {
     has_rgba_ = true, rgba_ = colour;
     return *this;
 }
+TraceSample& TraceSample::shadow(double light_transmittance, unsigned long long samples,
+                                 unsigned long long leapt) {
+    has_shadow_ = true;
+    light_transmittance_ = light_transmittance;
+    shadow_samples_ = samples, shadow_leapt_ = leapt;
+    return *this;
+}
 TraceSample& TraceSample::shadow(double light_transmittance, double occlusion,
                                  unsigned long long samples, unsigned long long leapt) {
-    has_shadow_ = true;
-    light_transmittance_ = light_transmittance, occlusion_ = occlusion;
-    shadow_samples_ = samples, shadow_leapt_ = leapt;
+    shadow(light_transmittance, samples, leapt);
+    has_occlusion_ = true, occlusion_ = occlusion;
     return *this;
 }
 TraceSample& TraceSample::light(double light) {
@@ -159,10 +165,13 @@ TraceRecord TraceSample::record() const {
         line.field("rgba.a", rgba_.a);
     }
     if (has_shadow_) {
-        line.print(" light_T=%.6f ao=%.6f (%llu shadow samples, %llu leapt)",
-                   light_transmittance_, occlusion_, shadow_samples_, shadow_leapt_);
+        line.print(" light_T=%.6f", light_transmittance_);
         line.field("light_T", light_transmittance_);
-        line.field("ao", occlusion_);
+        if (has_occlusion_) {
+            line.print(" ao=%.6f", occlusion_);
+            line.field("ao", occlusion_);
+        }
+        line.print(" (%llu shadow samples, %llu leapt)", shadow_samples_, shadow_leapt_);
         line.field("shadow_samples", double(shadow_samples_));
         line.field("shadow_leapt", double(shadow_leapt_));
     }

@@ -102,7 +102,10 @@ public:
     TraceSample& skipped();                                  // "transparent: skipped"
     TraceSample& iso(bool above);                            // step 16: "> iso" or "<= iso"
     TraceSample& rgba(const Rgba& colour);                   // the table's colour and alpha
-    // Step 19: light reaching the sample, ambient occlusion, the shadow ray's work.
+    // Steps 19-20: light reaching the sample and the shadow ray's work; step 21 adds
+    // ambient occlusion (its probes' reads counted with the shadow ray's).
+    TraceSample& shadow(double light_transmittance, unsigned long long samples,
+                        unsigned long long leapt);
     TraceSample& shadow(double light_transmittance, double occlusion,
                         unsigned long long samples, unsigned long long leapt);
     TraceSample& light(double light);                        // L
@@ -121,7 +124,7 @@ private:
     double value_ = 0;
     Verdict verdict_ = Verdict::none;
     bool has_grey_ = false, has_max_ = false, has_projection_ = false, has_rgba_ = false;
-    bool has_shadow_ = false, has_light_ = false, has_colour_ = false;
+    bool has_shadow_ = false, has_occlusion_ = false, has_light_ = false, has_colour_ = false;
     bool has_transparency_ = false;
     double grey_ = 0, highest_ = 0, lowest_ = 0, mean_ = 0;
     Rgba rgba_;

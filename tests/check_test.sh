@@ -90,9 +90,11 @@ while IFS='|' read -r name step view script expect shows; do
     # The reference's own picture planted where the run writes: it must be gone before the run.
     mkdir -p "$work/out/$name/$stem" &&
         cp "data/reference/${stem}_$view.png" "$work/out/$name/$stem/" || bad "$name: no plant"
-    # Part 2's steps have one view, the camera's: there is no --view to choose.
-    view_flag="--view $view"; [ "$view" = camera ] && view_flag=
-    "$build/check" --bin "$work/bin/$name" --step "$step" $view_flag --volume "$phantom" \
+    # A part-2 step has one view, the camera's, and no --view to choose it.
+    view_flags="--view $view"
+    [ "$view" = camera ] && view_flags=
+    # shellcheck disable=SC2086  # view_flags: no words or two
+    "$build/check" --bin "$work/bin/$name" --step "$step" $view_flags --volume "$phantom" \
         --out "$work/out/$name" > "$work/$name.log" 2>&1
     status=$?
     case "$expect" in

@@ -181,7 +181,7 @@ fi
 for signal in TERM INT HUP QUIT USR1 ALRM; do
     for delay in 0.05 0.2 0.4; do
         rm -rf "$work/sig"
-        "$build/19_shadows" --volume phantom --no-window --view all --out "$work/sig" \
+        "$build/21_ambient_occlusion" --volume phantom --no-window --view all --out "$work/sig" \
             > /dev/null 2>&1 &
         pid=$!
         sleep "$delay"

@@ -136,8 +136,10 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back(lowest);
         if (step >= "18") all.push_back({"--mode", "composite", "--clip", "1,1,1,-1"});
     }
-    if (step.rfind("19", 0) == 0) {
-        all.push_back({"--shadows", "ray", "--ao", "off"});
+    // Blocked light: each step's own way (the light behind the head), and in step 21, which
+    // has them all, occlusion alone and with the light volume.
+    if (step >= "19" && step < "21") all.push_back({"--light-angle", "180"});
+    if (step.rfind("21", 0) == 0) {
         all.push_back({"--shadows", "none", "--ao", "on"});
         all.push_back({"--shadows", "volume", "--ao", "on", "--light-angle", "180"});
     }

@@ -1,10 +1,11 @@
-// test_shadows.cpp: step 19 (shadow rays or a light-transmittance volume towards the light,
-// ambient occlusion) run as a program (tools/run_step.h) on volumes and transfer functions
-// written here: a homogeneous slab between the light and a surface (Beer-Lambert, by shadow
-// ray and by the light volume), a lone voxel in empty space (nothing blocks its light,
-// nothing is around it), a uniform block (ambient occlusion of a known medium), and the
-// phantom: shadows and occlusion off (step 12's picture, bit for bit), the light volume against
-// the shadow rays (close, and far fewer reads).
+// test_shadows.cpp: blocked light, each idea in the step that brings it, run as a program
+// (tools/run_step.h) on volumes and transfer functions written here. Step 19, shadow rays: a
+// homogeneous slab between the light and a surface (Beer-Lambert), a lone voxel in empty space
+// (nothing blocks its light), --shadows none is step 12's picture bit for bit. Step 20, the
+// light-transmittance volume: the same slab (Beer-Lambert again, close to the shadow ray), and
+// on the phantom close to the shadow rays' picture for far fewer reads. Step 21, ambient
+// occlusion: the lone voxel (nothing around it), a uniform block (a known medium). Each later
+// step with its new idea off renders the step before's picture, bit for bit.
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <cmath>
@@ -21,13 +22,15 @@ using namespace ctlab;
 
 namespace {
 
-const std::string shadows_step = "19_shadows";
+const std::string shadow_rays_step = "19_shadow_rays";
+const std::string light_volume_step = "20_light_volume";
+const std::string ambient_occlusion_step = "21_ambient_occlusion";
 
-RunResult run_shadows(const std::vector<std::string>& volume_flags,
+RunResult run_shadows(const std::string& step, const std::vector<std::string>& volume_flags,
                       std::vector<std::string> flags, const TempFolder& folder) {
     flags.insert(flags.begin(), volume_flags.begin(), volume_flags.end());
     flags.insert(flags.end(), {"--out", folder.path(), "--pfm", "--threads", "2"});
-    RunResult run = run_step(shadows_step, flags);
+    RunResult run = run_step(step, flags);
     INFO(run.command() << "\n" << run.err);
     REQUIRE(run.status == 0);
     return run;
@@ -52,68 +55,109 @@ std::vector<std::string> tf_flags(const TempFolder& folder, const std::string& r
     return {"--tf", path};
 }
 
-// A composited sample of the trace: "t=T p=(I, J, K) value=V rgba=(...) light_T=X ao=Y (N shadow
-// samples, M leapt) ...".
+// A composited sample of the trace, from its records (full precision): where it is, its value,
+// the light reaching it, its ambient occlusion (-1 before step 21) and how many samples its
+// shadow ray (and occlusion probes) read.
 struct LitSample {
     double t = 0, i = 0, j = 0, k = 0, value = 0, light_t = -1, occlusion = -1;
     int shadow_samples = -1;
 };
 std::vector<LitSample> lit_samples(const PixelTrace& trace) {
     std::vector<LitSample> samples;
-    for (const std::string& line : trace.lines) {
-        const size_t light = line.find("light_T=");
-        if (light == std::string::npos) continue;
+    for (const TraceRecord& record : trace.records) {
+        if (record.kind != TraceKind::sample || !record.has("light_T")) continue;
         LitSample s;
-        if (std::sscanf(line.c_str(), "t=%lf p=(%lf, %lf, %lf) value=%lf", &s.t, &s.i, &s.j, &s.k,
-                        &s.value) == 5 &&
-            std::sscanf(line.c_str() + light, "light_T=%lf ao=%lf (%d shadow samples)",
-                        &s.light_t, &s.occlusion, &s.shadow_samples) == 3) {
-            samples.push_back(s);
-        }
+        s.t = record.number("t", 0);
+        s.i = record.number("p.i", 0);
+        s.j = record.number("p.j", 0);
+        s.k = record.number("p.k", 0);
+        s.value = record.number("value", 0);
+        s.light_t = record.number("light_T", -1);
+        s.occlusion = record.number("ao", -1);
+        s.shadow_samples = int(record.number("shadow_samples", -1));
+        samples.push_back(s);
     }
     return samples;
 }
 
+// The largest difference between two pictures of the same size, over every channel of every
+// pixel (0: bit for bit).
+float largest_difference(const Image& p, const Image& q) {
+    REQUIRE(p.pixels.size() == q.pixels.size());
+    float largest = 0;
+    for (size_t n = 0; n < p.pixels.size(); ++n) {
+        largest = std::max({largest, std::fabs(p.pixels[n].r - q.pixels[n].r),
+                            std::fabs(p.pixels[n].g - q.pixels[n].g),
+                            std::fabs(p.pixels[n].b - q.pixels[n].b)});
+    }
+    return largest;
+}
+
 }  // namespace
 
-TEST_CASE("shadows: a homogeneous slab between the light and a surface lets exp(-sigma d) "
-          "through (Beer-Lambert)") {
-    // 24 x 32 x 40 voxels at spacing 1. Air 2000 (transparent), a slab of 3000 for
-    // 10 <= k <= 20 (the table's boundary 2500 falls half-way between voxels: the slab is
-    // 11 units thick, 9.5 <= k <= 20.5), a surface of 1000 from k = 36 on (seen from
-    // k = 35.5, where the value falls below 1500). Opacity 0.05 per unit in the slab:
-    // sigma = -ln(0.95); the surface's 1e-4 hardly blocks its own light.
-    // The camera looks down +k (azimuth 180, elevation 90; right = +i, image y = +j); the
-    // light (--light-angle 0) comes from 20 degrees above the viewer:
-    // L = (0, -sin 20, -cos 20), so the shadow ray crosses the slab over d = 11 / cos 20.
-    const Volume volume = filled_volume(24, 32, 40, [](int, int, int k) {
-        return k >= 10 && k <= 20 ? 3000 : k >= 36 ? 1000 : 2000;
-    });
-    const TempFolder folder("shadows_slab");
-    const std::vector<std::string> raw = write_raw_volume(volume, folder.path("slab.raw"));
-    const std::vector<std::string> tf = tf_flags(folder,
-                                                 "0 1500 constant 1 1 1 0.0001\n"
-                                                 "2500 3500 constant 1 1 1 0.05\n");
+namespace {
+
+// 24 x 32 x 40 voxels at spacing 1. Air 2000 (transparent), a slab of 3000 for 10 <= k <= 20
+// (the table's boundary 2500 falls half-way between voxels: the slab is 11 units thick, 9.5
+// <= k <= 20.5), a surface of 1000 from k = 36 on (seen from k = 35.5, where the value falls
+// below 1500). Opacity 0.05 per unit in the slab: sigma = -ln(0.95); the surface's 1e-4
+// hardly blocks its own light. The camera looks down +k (azimuth 180, elevation 90; right =
+// +i, image y = +j); the light (--light-angle 0) comes from 20 degrees above the viewer:
+// L = (0, -sin 20, -cos 20), so the shadow ray crosses the slab over d = 11 / cos 20.
+struct Slab {
+    TempFolder folder{"shadows_slab"};
+    std::vector<std::string> raw, flags;
     const double sigma = -std::log(0.95);
-    const double d = 11 / std::cos(20 * 3.14159265358979323846 / 180);
+    const double cos_light = std::cos(20 * 3.14159265358979323846 / 180);
+    const double d = 11 / cos_light;
     const double step = 0.25;
-    std::vector<std::string> flags = tf;
-    flags.insert(flags.end(), {"--azimuth", "180", "--elevation", "90", "--size", "24x32",
-                               "--light-angle", "0", "--step", "0.25", "--ert", "0", "--ao",
-                               "off", "--debug-pixel", "12,24"});
-    const RunResult run = run_shadows(raw, flags, folder);
-    REQUIRE(run.traces.size() == 1);
-    const std::vector<LitSample> samples = lit_samples(run.traces[0]);
-    // The first surface sample, k = 35.75: its shadow ray goes up through the slab.
+
+    Slab() {
+        const Volume volume = filled_volume(24, 32, 40, [](int, int, int k) {
+            return k >= 10 && k <= 20 ? 3000 : k >= 36 ? 1000 : 2000;
+        });
+        raw = write_raw_volume(volume, folder.path("slab.raw"));
+        flags = tf_flags(folder, "0 1500 constant 1 1 1 0.0001\n"
+                                 "2500 3500 constant 1 1 1 0.05\n");
+        flags.insert(flags.end(), {"--azimuth", "180", "--elevation", "90", "--size", "24x32",
+                                   "--light-angle", "0", "--step", "0.25", "--ert", "0",
+                                   "--debug-pixel", "12,24"});
+    }
+    // The traced ray's lit samples, `step` run with `extra` flags.
+    std::vector<LitSample> samples(const std::string& step,
+                                   const std::vector<std::string>& extra) const {
+        std::vector<std::string> all = flags;
+        all.insert(all.end(), extra.begin(), extra.end());
+        const RunResult run = run_shadows(step, raw, all, folder);
+        REQUIRE(run.traces.size() == 1);
+        return lit_samples(run.traces[0]);
+    }
+};
+
+// The first sample on the surface (value below 1500), where the shadow ray crosses the slab.
+size_t first_surface_sample(const std::vector<LitSample>& samples) {
     const auto surface = std::find_if(samples.begin(), samples.end(),
                                       [](const LitSample& s) { return s.value < 1500; });
     REQUIRE(surface != samples.end());
-    CHECK(surface->k == doctest::Approx(35.75));
-    CAPTURE(surface->light_t);
+    return size_t(surface - samples.begin());
+}
+
+}  // namespace
+
+TEST_CASE("shadow rays (step 19): a homogeneous slab between the light and a surface lets "
+          "exp(-sigma d) through (Beer-Lambert)") {
+    const Slab slab;
+    const std::vector<LitSample> samples = slab.samples(shadow_rays_step, {});
+    // The first surface sample, k = 35.75: its shadow ray goes up through the slab.
+    const LitSample& surface = samples[first_surface_sample(samples)];
+    CHECK(surface.k == doctest::Approx(35.75));
+    CHECK(surface.occlusion == -1);  // no ambient occlusion before step 21
+    CAPTURE(surface.light_t);
     // Samples 0.25 apart count the slab to within one sample: |ln T + sigma d| <= sigma h.
     // The surface's own 1e-4 adds at most 1e-4 * 0.5 / cos 20 to -ln T.
-    CHECK(std::fabs(std::log(surface->light_t) + sigma * d) <= sigma * step + 1e-4);
-    CHECK(surface->light_t == doctest::Approx(std::exp(-sigma * d)).epsilon(0.01));
+    CHECK(std::fabs(std::log(surface.light_t) + slab.sigma * slab.d) <=
+          slab.sigma * slab.step + 1e-4);
+    CHECK(surface.light_t == doctest::Approx(std::exp(-slab.sigma * slab.d)).epsilon(0.01));
     // The slab's own samples: the light has crossed part of the slab only; the first one, at
     // its top (k = 9.5), nothing but air.
     const auto top = std::find_if(samples.begin(), samples.end(),
@@ -121,38 +165,43 @@ TEST_CASE("shadows: a homogeneous slab between the light and a surface lets exp(
     REQUIRE(top != samples.end());
     CHECK(top->k == doctest::Approx(9.5));
     CHECK(top->light_t == 1.0);
+    // Without shadow rays nothing blocks it: T_light = 1 everywhere, and no sample is read.
+    for (const LitSample& s : slab.samples(shadow_rays_step, {"--shadows", "none"})) {
+        CHECK(s.light_t == 1.0);
+        CHECK(s.shadow_samples == 0);
+    }
+}
+
+TEST_CASE("light volume (step 20): on the slab it gives Beer-Lambert too, within one segment "
+          "of the shadow ray, for one read per voxel") {
     // The light-transmittance volume, swept slice by slice along k (the axis the light
     // crosses fastest) in segments d = 1 / cos 20 long: the slab's 11 slices of 3000 each
     // take (0.95)^d, so below the slab T_light = 0.95^(11 d) = exp(-sigma d) to float
     // rounding; it agrees with the shadow ray's answer to within one of its samples' optical
     // depth, sigma * step.
-    std::vector<std::string> volume_flags = flags;
-    volume_flags.insert(volume_flags.end(), {"--shadows", "volume"});
-    const RunResult swept = run_shadows(raw, volume_flags, folder);
-    REQUIRE(swept.traces.size() == 1);
-    const std::vector<LitSample> from_volume = lit_samples(swept.traces[0]);
+    const Slab slab;
+    const std::vector<LitSample> samples = slab.samples(light_volume_step, {"--shadows", "ray"});
+    const std::vector<LitSample> from_volume = slab.samples(light_volume_step, {});
     REQUIRE(from_volume.size() == samples.size());
-    const LitSample& below = from_volume[size_t(surface - samples.begin())];
+    const size_t surface = first_surface_sample(samples);
+    const LitSample& below = from_volume[surface];
     CHECK(below.k == doctest::Approx(35.75));
     CAPTURE(below.light_t);
-    CHECK(below.light_t == doctest::Approx(std::exp(-sigma * d)).epsilon(1e-5));
-    CHECK(std::fabs(std::log(below.light_t) - std::log(surface->light_t)) <= sigma * step + 1e-4);
+    CHECK(below.light_t == doctest::Approx(std::exp(-slab.sigma * slab.d)).epsilon(1e-5));
+    CHECK(std::fabs(std::log(below.light_t) - std::log(samples[surface].light_t)) <=
+          slab.sigma * slab.step + 1e-4);
     CHECK(below.shadow_samples == 0);  // one trilinear read, no march
     // Inside the slab T_light falls along the ray: the volume, sampled every d along k and
     // read trilinearly, is within one segment's optical depth (sigma d) of the shadow ray.
     for (size_t n = 0; n < samples.size(); ++n) {
         CAPTURE(samples[n].k);
         CHECK(std::fabs(std::log(from_volume[n].light_t) - std::log(samples[n].light_t)) <=
-              sigma * (step + 1 / std::cos(20 * 3.14159265358979323846 / 180)) + 1e-4);
+              slab.sigma * (slab.step + 1 / slab.cos_light) + 1e-4);
     }
-    // Without shadow rays nothing blocks it: T_light = 1 everywhere.
-    flags.insert(flags.end(), {"--shadows", "none"});
-    const RunResult open = run_shadows(raw, flags, folder);
-    REQUIRE(open.traces.size() == 1);
-    for (const LitSample& s : lit_samples(open.traces[0])) CHECK(s.light_t == 1.0);
 }
 
-TEST_CASE("shadows: a lone voxel in empty space gets all the light, T_light = 1 and AO = 1") {
+TEST_CASE("shadow rays and ambient occlusion (steps 19, 21): a lone voxel in empty space gets "
+          "all the light, T_light = 1 and AO = 1") {
     // One voxel of 1000 (opacity 0.5) at (12, 16, 20) in air (2000, transparent). The ray of
     // pixel (12, 16) from above reads it at its centre: every occlusion probe (1 to 4 units
     // along each axis) lands on a voxel centre of air, every shadow-ray sample within 1 unit
@@ -166,18 +215,30 @@ TEST_CASE("shadows: a lone voxel in empty space gets all the light, T_light = 1 
     std::vector<std::string> flags = tf_flags(folder, "500 1500 constant 1 1 1 0.5\n");
     flags.insert(flags.end(), {"--azimuth", "180", "--elevation", "90", "--size", "24x32",
                                "--light-angle", "0", "--debug-pixel", "12,16"});
-    const RunResult run = run_shadows(raw, flags, folder);
-    REQUIRE(run.traces.size() == 1);
-    const std::vector<LitSample> samples = lit_samples(run.traces[0]);
-    REQUIRE(samples.size() == 1);
-    CHECK(samples[0].k == 20);
-    CHECK(samples[0].light_t == 1.0);
-    CHECK(samples[0].occlusion == 1.0);
-    CHECK(samples[0].shadow_samples > 20);  // the probes and the shadow ray did read
+    int marched = 0;
+    for (const std::string& step : {shadow_rays_step, ambient_occlusion_step}) {
+        CAPTURE(step);
+        const RunResult run = run_shadows(step, raw, flags, folder);
+        REQUIRE(run.traces.size() == 1);
+        const std::vector<LitSample> samples = lit_samples(run.traces[0]);
+        REQUIRE(samples.size() == 1);
+        CHECK(samples[0].k == doctest::Approx(20));
+        CHECK(samples[0].light_t == 1.0);
+        if (step == shadow_rays_step) {
+            CHECK(samples[0].occlusion == -1);
+            CHECK(samples[0].shadow_samples > 0);  // the shadow ray did read
+            marched = samples[0].shadow_samples;
+        } else {
+            CHECK(samples[0].occlusion == 1.0);
+            // The shadow ray's reads and the 24 occlusion probes (4 in each of 6 directions,
+            // all inside the box here).
+            CHECK(samples[0].shadow_samples == marched + 24);
+        }
+    }
 }
 
-TEST_CASE("shadows: ambient occlusion inside a uniform medium is (1 - alpha)^(radius / unit) "
-          "in every direction") {
+TEST_CASE("ambient occlusion (step 21): inside a uniform medium it is (1 - alpha)^(radius / "
+          "unit) in every direction") {
     // A uniform block of 1000 (opacity 0.1 per unit), 24 x 32 x 40: a sample at least 4 units
     // from every face sees the medium over the whole occlusion radius (4 units, samples 1
     // apart) in all six directions: AO = 0.9^4 = 0.6561.
@@ -187,7 +248,7 @@ TEST_CASE("shadows: ambient occlusion inside a uniform medium is (1 - alpha)^(ra
     std::vector<std::string> flags = tf_flags(folder, "500 1500 constant 1 1 1 0.1\n");
     flags.insert(flags.end(), {"--azimuth", "180", "--elevation", "90", "--size", "24x32",
                                "--light-angle", "0", "--ert", "0", "--debug-pixel", "12,16"});
-    const RunResult run = run_shadows(raw, flags, folder);
+    const RunResult run = run_shadows(ambient_occlusion_step, raw, flags, folder);
     REQUIRE(run.traces.size() == 1);
     int inside = 0;
     for (const LitSample& s : lit_samples(run.traces[0])) {
@@ -203,52 +264,82 @@ TEST_CASE("shadows: ambient occlusion inside a uniform medium is (1 - alpha)^(ra
     CHECK(inside >= 30);
 }
 
-TEST_CASE("shadows: with shadows and occlusion off it is step 12's picture, bit for bit") {
-    const TempFolder ten("shadows_step10"), fourteen("shadows_off");
-    const std::vector<std::string> flags = {"--volume", "phantom", "--size", "128x96", "--zoom",
-                                            "0.4", "--azimuth", "-50", "--threads", "2", "--pfm"};
-    std::vector<std::string> a = flags, b = flags;
-    a.insert(a.end(), {"--out", ten.path()});
-    b.insert(b.end(), {"--out", fourteen.path(), "--shadows", "none", "--ao", "off"});
-    REQUIRE(run_step("12_trilinear", a).status == 0);
-    REQUIRE(run_step(shadows_step, b).status == 0);
-    const Image p = read_pfm(step_output(ten.path(), "12_trilinear", "camera", "pfm"));
-    const Image q = read_pfm(step_output(fourteen.path(), shadows_step, "camera", "pfm"));
-    REQUIRE(p.pixels.size() == q.pixels.size());
-    int differing = 0;
-    for (size_t n = 0; n < p.pixels.size(); ++n) {
-        differing += p.pixels[n].r != q.pixels[n].r || p.pixels[n].g != q.pixels[n].g ||
-                     p.pixels[n].b != q.pixels[n].b;
+namespace {
+
+// A small phantom picture (128x96, turned to azimuth -50) of `step` with `extra` flags.
+Image small_picture(const std::string& step, const std::vector<std::string>& extra,
+                    const TempFolder& folder) {
+    std::vector<std::string> flags = {"--volume", "phantom", "--size", "128x96", "--zoom",
+                                      "0.4", "--azimuth", "-50", "--threads", "2", "--pfm",
+                                      "--out", folder.path()};
+    flags.insert(flags.end(), extra.begin(), extra.end());
+    const RunResult run = run_step(step, flags);
+    INFO(run.command() << "\n" << run.err);
+    REQUIRE(run.status == 0);
+    return read_pfm(step_output(folder.path(), step, "camera", "pfm"));
+}
+
+}  // namespace
+
+TEST_CASE("shadows: each step with its new idea off is the step it builds on, bit for bit; "
+          "with it on the picture only darkens") {
+    const TempFolder folder("shadows_off");
+    const Image step_12 = small_picture("12_trilinear", {}, folder);
+    const Image rays = small_picture(shadow_rays_step, {}, folder);
+    const Image swept = small_picture(light_volume_step, {}, folder);
+    // Step 19 without shadow rays is step 12; step 20 with them is step 19; step 21 without
+    // ambient occlusion is step 20, either way of finding T_light; all three with no shadows
+    // at all are step 12.
+    CHECK(largest_difference(small_picture(shadow_rays_step, {"--shadows", "none"}, folder),
+                             step_12) == 0);
+    CHECK(largest_difference(small_picture(light_volume_step, {"--shadows", "ray"}, folder),
+                             rays) == 0);
+    CHECK(largest_difference(small_picture(light_volume_step, {"--shadows", "none"}, folder),
+                             step_12) == 0);
+    CHECK(largest_difference(small_picture(ambient_occlusion_step, {"--ao", "off"}, folder), rays) == 0);
+    CHECK(largest_difference(small_picture(ambient_occlusion_step, {"--ao", "off", "--shadows",
+                                                            "volume"}, folder),
+                             swept) == 0);
+    CHECK(largest_difference(small_picture(ambient_occlusion_step, {"--ao", "off", "--shadows",
+                                                            "none"}, folder),
+                             step_12) == 0);
+    // With each on, the picture only darkens: blocked light is never more light.
+    const Image occluded = small_picture(ambient_occlusion_step, {}, folder);
+    for (const auto& [darker_image, lighter_image] :
+         std::vector<std::pair<const Image*, const Image*>>{
+             {&rays, &step_12}, {&swept, &step_12}, {&occluded, &rays}}) {
+        int darker = 0, lighter = 0;
+        for (size_t n = 0; n < step_12.pixels.size(); ++n) {
+            darker += darker_image->pixels[n].r < lighter_image->pixels[n].r;
+            lighter += darker_image->pixels[n].r > lighter_image->pixels[n].r + 1e-6f;
+        }
+        CHECK(lighter == 0);
+        CHECK(darker > 500);
     }
-    CHECK(differing == 0);
-    // With them on the picture only darkens: blocked light is never more light.
-    REQUIRE(run_step(shadows_step, {"--volume", "phantom", "--size", "128x96", "--zoom", "0.4",
-                                    "--azimuth", "-50", "--threads", "2", "--pfm", "--out",
-                                    fourteen.path()})
-                .status == 0);
-    const Image r = read_pfm(step_output(fourteen.path(), shadows_step, "camera", "pfm"));
-    int darker = 0, lighter = 0;
-    for (size_t n = 0; n < p.pixels.size(); ++n) {
-        darker += r.pixels[n].r < p.pixels[n].r;
-        lighter += r.pixels[n].r > p.pixels[n].r + 1e-6f;
-    }
-    CHECK(lighter == 0);
-    CHECK(darker > 500);
 }
 
 TEST_CASE("shadows: bad flags are refused with status 2, naming the flag") {
-    for (const std::vector<std::string>& flags :
-         std::vector<std::vector<std::string>>{{"--shadows", "map"}, {"--ao", "yes"}}) {
+    const std::vector<std::pair<std::string, std::vector<std::string>>> refused = {
+        {shadow_rays_step, {"--shadows", "map"}},
+        {shadow_rays_step, {"--shadows", "volume"}},  // step 20's
+        {shadow_rays_step, {"--ao", "on"}},           // step 21's
+        {light_volume_step, {"--shadows", "map"}},
+        {light_volume_step, {"--ao", "on"}},
+        {ambient_occlusion_step, {"--ao", "yes"}}};
+    for (const auto& [step, flags] : refused) {
         std::vector<std::string> args = {"--volume", "phantom", "--no-window"};
         args.insert(args.end(), flags.begin(), flags.end());
-        const RunResult run = run_step(shadows_step, args);
+        const RunResult run = run_step(step, args);
         CAPTURE(run.command());
         CHECK(run.status == 2);
-        CHECK(run.err.find("error: " + flags[0]) != std::string::npos);
+        // "error: --shadows: ..." for a bad value, "error: unknown option '--ao'" for a flag
+        // of a later step: either way the flag is named.
+        CHECK(run.err.find("error: ") != std::string::npos);
+        CHECK(run.err.find(flags[0]) != std::string::npos);
     }
 }
 
-// The phantom's picture of step 19 with these flags, at `size` pixels covering the default
+// The phantom's picture of step 20 with these flags, at `size` pixels covering the default
 // picture's field (and the run, for its counters).
 struct Picture {
     RunResult run;
@@ -265,19 +356,19 @@ Picture phantom_picture(const std::vector<std::string>& extra, const TempFolder&
                                       "--pfm", "--out", folder.path()};
     flags.insert(flags.end(), extra.begin(), extra.end());
     Picture picture;
-    picture.run = run_step(shadows_step, flags);
+    picture.run = run_step(light_volume_step, flags);
     INFO(picture.run.command() << "\n" << picture.run.err);
     REQUIRE(picture.run.status == 0);
-    picture.image = read_pfm(step_output(folder.path(), shadows_step, "camera", "pfm"));
+    picture.image = read_pfm(step_output(folder.path(), light_volume_step, "camera", "pfm"));
     return picture;
 }
 
-TEST_CASE("shadows: the light-transmittance volume gives the shadow rays' picture for one read "
-          "per voxel, where the shadow rays read per lit sample") {
+TEST_CASE("light volume (step 20): it gives the shadow rays' picture for one read per voxel, "
+          "where the shadow rays read per lit sample") {
     const TempFolder folder("shadows_volume");
-    const Picture rays = phantom_picture({"--ao", "off"}, folder);
-    const Picture swept = phantom_picture({"--ao", "off", "--shadows", "volume"}, folder);
-    const Picture open = phantom_picture({"--ao", "off", "--shadows", "none"}, folder);
+    const Picture rays = phantom_picture({"--shadows", "ray"}, folder);
+    const Picture swept = phantom_picture({}, folder);
+    const Picture open = phantom_picture({"--shadows", "none"}, folder);
     // What the shadows add (the picture without them against with them) and how far the
     // volume is from the rays, both as the mean difference over every channel of every pixel.
     auto mean_difference = [](const Image& p, const Image& q) {
@@ -305,9 +396,9 @@ TEST_CASE("shadows: the light-transmittance volume gives the shadow rays' pictur
     CHECK(sweep <= voxels);
     CHECK(sweep > voxels / 2);
     const unsigned long long marched = rays.count("samples") - open.count("samples");
-    const Picture rays_512 = phantom_picture({"--ao", "off"}, folder, 512);
-    const Picture swept_512 = phantom_picture({"--ao", "off", "--shadows", "volume"}, folder, 512);
-    const Picture open_512 = phantom_picture({"--ao", "off", "--shadows", "none"}, folder, 512);
+    const Picture rays_512 = phantom_picture({"--shadows", "ray"}, folder, 512);
+    const Picture swept_512 = phantom_picture({}, folder, 512);
+    const Picture open_512 = phantom_picture({"--shadows", "none"}, folder, 512);
     const unsigned long long marched_512 = rays_512.count("samples") - open_512.count("samples");
     CHECK(swept_512.count("samples") - open_512.count("samples") == sweep);
     CAPTURE(marched);

@@ -92,6 +92,12 @@ constexpr double isosurface_budget_ms = 15;  // target: step 16 (the isosurface)
 const char* const first_camera_step = "10_";  // part 2 begins: camera views only from here
 const char* const camera_step = "22_";       // the composite camera step's number (leaping)
 const char* const isosurface_step = "16_";   // checked once a step 16_* exists
+// Blocked light: a default picture usable in the window (shadow rays are allowed longer).
+constexpr double shadow_rays_budget_ms = 1000;  // target: steps 19 and 21, 2 threads
+constexpr double light_volume_budget_ms = 200;  // target: step 20 (the light volume), 2 threads
+const char* const shadow_rays_step = "19_";
+const char* const light_volume_step = "20_";
+const char* const occlusion_step = "21_";  // shadow rays and ambient occlusion
 
 // The steps: every steps/NN_name.cpp (make bench runs from the repository). Part 2's steps
 // take --view all too and render one view, "camera": their default run (see camera_budget_ms)
@@ -526,6 +532,9 @@ std::string camera_targets(const std::vector<Row>& rows) {
     };
     row(camera_step, "free camera, composite", camera_budget_ms);
     row(isosurface_step, "isosurface", isosurface_budget_ms);
+    row(shadow_rays_step, "shadow rays", shadow_rays_budget_ms);
+    row(light_volume_step, "light volume", light_volume_budget_ms);
+    row(occlusion_step, "shadow rays and ambient occlusion", shadow_rays_budget_ms);
     return out.str();
 }
 

@@ -13,9 +13,10 @@
 //              noise, each with trilinear and nearest samples, against step 1/4 without
 //              jitter (trilinear): RMSE, and RMSE after a 5x5 blur
 //              (the rings and bands that survive it; noise does not)
-//   shadows    step 19: shadow rays, the light-transmittance volume and ambient occlusion,
-//              each against step 12's light (what it adds) with its time and samples read;
-//              rays and volume at step 4 .. 1/2 against shadow rays at step 1/4
+//   shadows    steps 19-21: shadow rays, the light-transmittance volume and ambient
+//              occlusion, each against step 12's light (what it adds) with its time and
+//              samples read (step 21, which has them all); rays and volume at step 4 .. 1/2
+//              against shadow rays at step 1/4 (step 20)
 //   precision  the cost of subnormal arithmetic on this machine, and of a float ray
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
 //              error measured here (handouts/numerics.md quotes them)
@@ -622,14 +623,17 @@ void jitter_study() {
     }
 }
 
-// --- Shadows: what blocked light costs and what it adds (step 19) --------------------------
+// --- Shadows: what blocked light costs and what it adds (steps 19-21) ----------------------
 
-constexpr const char* shadows_step = "19_shadows";
+// Step 21 has every kind of blocked light (--shadows ray|volume|none, --ao on|off); step 20
+// has shadow rays and the light volume, without ambient occlusion.
+constexpr const char* shadows_step = "21_ambient_occlusion";
+constexpr const char* light_volume_step = "20_light_volume";
 
 void shadows_study() {
-    std::printf("shadows: step 19 on the phantom, the default camera at 256x256: each kind of "
-                "blocked light against step 12's light; T_light by shadow rays and by the "
-                "light-transmittance volume at steps 4 .. 1/2 (ambient occlusion off) against "
+    std::printf("shadows: steps 20 and 21 on the phantom, the default camera at 256x256: "
+                "each kind of blocked light against step 12's light; T_light by shadow rays "
+                "and by the light-transmittance volume at steps 4 .. 1/2 (step 20) against "
                 "shadow rays at step 1/4\n");
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     const std::vector<std::string> camera =
@@ -658,16 +662,16 @@ void shadows_study() {
     // off), the camera's step and the shadow rays' the same, against shadow rays at step 1/4.
     // Both carry the camera's step error; "shadows-volume" is the light volume's own error,
     // against the shadow rays at the same step.
-    const std::vector<std::string> no_ao = camera + std::vector<std::string>{"--ao", "off"};
-    const Run reference = run(shadows_step, no_ao + std::vector<std::string>{
+    const std::vector<std::string>& no_ao = camera;  // step 20 has no ambient occlusion
+    const Run reference = run(light_volume_step, no_ao + std::vector<std::string>{
                                   "--step", "0.25", "--shadows", "ray", "--threads",
                                   std::to_string(cores)});
     for (const double step : {4.0, 2.0, 1.0, 0.5}) {
         const std::vector<std::string> at_step = no_ao + std::vector<std::string>{
                                                      "--step", text_of("%g", step)};
-        const Run rays = run(shadows_step, at_step + std::vector<std::string>{
+        const Run rays = run(light_volume_step, at_step + std::vector<std::string>{
                                  "--shadows", "ray"}, true);
-        const Run swept = run(shadows_step, at_step + std::vector<std::string>{
+        const Run swept = run(light_volume_step, at_step + std::vector<std::string>{
                                   "--shadows", "volume"}, true);
         for (const Run* image : {&rays, &swept}) {
             const ImageError error = image_error(image->image(), reference.image());
@@ -1372,15 +1376,17 @@ int run(int argc, char** argv) {
                       "the eye sees; fine noise averages away):\n\n" +
                       markdown_table("jitter-lowpass", "step"))
        << "\n";
-    md << "## Shadows (step 19, the default camera at 256x256; error in 8-bit units)\n\n"
+    md << "## Shadows (steps 19-21, the default camera at 256x256; error in 8-bit units)\n\n"
        << section("study:shadows",
-                  written_by + "\nWhat each adds: the difference from step 12's light "
+                  written_by + "\nWhat each adds: step 21 with each kind of blocked light "
+                               "(`ray, ao off` is step 19's default picture, `volume, ao off` "
+                               "step 20's, `ray, ao on` step 21's), against step 12's light "
                                "(`--shadows none --ao off`), at step 1; samples count every "
                                "read (the camera's rays, the shadow rays, the occlusion probes, "
                                "the light volume's sweep):\n\n" +
                       markdown_table("shadows", "step") +
-                      "\nT_light by shadow rays and by the light-transmittance volume, "
-                      "ambient occlusion off, against shadow rays at step 1/4 (error at equal "
+                      "\nT_light by shadow rays and by the light-transmittance volume (step "
+                      "20), against shadow rays at step 1/4 (error at equal "
                       "time: compare the ms column):\n\n" +
                       markdown_table("shadows-error", "step") +
                       "\nThe light volume's own error: against the shadow rays at the same "

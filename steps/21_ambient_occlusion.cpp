@@ -1,24 +1,21 @@
-// 19_shadows.cpp: light that is blocked: shadows towards the light, and ambient occlusion.
+// 21_ambient_occlusion.cpp: light from everywhere, blocked nearby: ambient occlusion.
 //
-// New here:   every lit sample of step 12's composite asks how much of the light reaches it
-//             through the volume, T_light = product of (1 - alpha) towards the light
-//             (Beer-Lambert, with the opacity-corrected table), which darkens the diffuse
-//             light: --shadows ray marches a shadow ray from the sample; --shadows volume
-//             reads T_light
-//             trilinearly from a light-transmittance volume swept once per render, slice by
-//             slice from the light's side. Ambient occlusion (--ao on): the mean transmittance
-//             over a short distance in six directions darkens the ambient light.
-//             --shadows none --ao off is step 12's picture.
-// Builds on:  12_trilinear (the orbit camera, the slab method, trilinear samples, lit front to
-//             back).
-// Handout:    handouts/19_shadows.md
-// Run:        make run STEP=19 ARGS="--light-angle 70 --ao off"
-// Reference:  data/reference/19_shadows_camera.png: the default run (shadow rays and ambient
-//             occlusion, azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// New here:   step 20's lit samples get their diffuse light as far as T_light lets it
+//             through; the ambient light stands for light from every side at once, and a
+//             sample in a fold gets less of it. Ambient occlusion (--ao on): the mean
+//             transmittance over a short distance in the six axis directions darkens the
+//             ambient term. --ao off is step 20's light.
+// Defaults:   --shadows ray (step 19's exact T_light) --ao on.
+//             As step 12: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the
+//             light 30 degrees right of the camera and 20 above it, a black background.
+// Builds on:  20_light_volume (shadow rays or the light volume over step 12's composite).
+// Handout:    handouts/21_ambient_occlusion.md
+// Run:        make run STEP=21 ARGS="--shadows volume --light-angle 70"
+// Reference:  data/reference/21_ambient_occlusion_camera.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "19_shadows";
+constexpr const char* step_name = "21_ambient_occlusion";
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
@@ -392,6 +389,7 @@ static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, W
 //> lesson: shade
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
 // step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// Changed in step 10: in the camera's frame.
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -402,20 +400,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// --shadows volume: T_light at every voxel centre for one light direction, in the volume's
-// layout, so a sample's Cell reads it as it reads the values.
-using LightVolume = std::vector<float>;
-
-// What light that is blocked needs beside step 12's table: ambient occlusion's own table
-// (corrected for occlusion_step) and, with --shadows volume, the light-transmittance volume of
-// the current light (empty otherwise).
-struct Blocking {
-    Lut occlusion_lut;
-    LightVolume light;
-    Vec3d light_towards;  // the light direction `light` was swept for
-};
-
-//> lesson: shadow
+//> lesson: shadow_ray
 // How much of the light reaches `point` (physical units): march from it towards the light,
 // `step` physical units at a time, to where that ray leaves the box, multiplying the
 // transparencies of the samples met, T_light = product of (1 - alpha). The table's alphas are
@@ -440,6 +425,34 @@ static double light_transmittance(const Volume& volume, const Lut& lut, const Ve
     return transmittance;
 }
 
+// Step 12's light, blocked: the diffuse part only as far as T_light lets it through, the
+// ambient part as far as the surroundings are open.
+// Changed in step 21: the ambient term as far as the surroundings are open.
+static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching,
+                           double occlusion) {
+    const float size = length(gradient);
+    const float open = float(occlusion) * ambient;
+    if (size == 0.0f) return open;
+    const Vec3 normal = (-1.0f / size) * gradient;
+    return open + (1.0f - ambient) * float(light_reaching) *
+                      std::max(0.0f, dot(normal, to_light));
+}
+//< lesson: shadow_ray
+
+// --shadows volume: T_light at every voxel centre for one light direction, in the volume's
+// layout, so a sample's Cell reads it as it reads the values.
+using LightVolume = std::vector<float>;
+
+// What light that is blocked needs beside step 12's table: with --shadows volume, the
+// light-transmittance volume of the current light (empty otherwise), and ambient occlusion's
+// own table (corrected for occlusion_step).
+struct Blocking {
+    LightVolume light;
+    Vec3d light_towards;  // the light direction `light` was swept for
+    Lut occlusion_lut;
+};
+
+//> lesson: light_volume
 // The light-transmittance volume for the directional light `to_light` (unit, physical): every
 // shadow ray's answer at once, T_light at every voxel centre, swept slice by slice from the
 // light's side. The slices lie across the axis a the light crosses fastest (the largest
@@ -514,7 +527,9 @@ static double light_from_volume(const Volume& volume, const LightVolume& light, 
     const float high_high = lerp(at(c.i, c.j1, c.k1), at(c.i1, c.j1, c.k1), c.fi);
     return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
 }
+//< lesson: light_volume
 
+//> lesson: ambient_occlusion
 // Ambient occlusion: how open the space around `q` (voxel units) is. Along each of the six
 // axis directions, the transmittance over occlusion_radius physical units (samples
 // occlusion_step apart, the table's alphas corrected for that step), stopping at the box's
@@ -541,19 +556,7 @@ static double ambient_occlusion(const Volume& volume, const Lut& occlusion_lut, 
     }
     return sum / 6;
 }
-
-// Step 12's light, blocked: the diffuse part only as far as T_light lets it through, the
-// ambient part as far as the surroundings are open.
-static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching,
-                           double occlusion) {
-    const float size = length(gradient);
-    const float open = float(occlusion) * ambient;
-    if (size == 0.0f) return open;
-    const Vec3 normal = (-1.0f / size) * gradient;
-    return open + (1.0f - ambient) * float(light_reaching) *
-                      std::max(0.0f, dot(normal, to_light));
-}
-//< lesson: shadow
+//< lesson: ambient_occlusion
 
 // The ray's two trace records (given): where it starts, and where it meets the box. The entry
 // is entry_point()'s, on the face (the first sample's point): 0, never a rounded -0.0000.
@@ -576,7 +579,7 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // transparent, composited front to back; early ray termination as in step 07. A lit sample's
 // light is blocked: shade_blocked() with T_light (a shadow ray, or the light volume) and its
 // ambient occlusion.
-// Changed in step 19: a lit sample's light is blocked.
+// Changed in step 21: a lit sample's ambient light is occluded.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light,
                                            const Blocking& blocking,
@@ -652,9 +655,8 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 12's lit compositing with light that is blocked: shadow rays "
-                             "(or a light-transmittance volume) towards the light and ambient "
-                             "occlusion.");
+        Args args(step_name, "Step 20's blocked light (shadow rays or a light-transmittance "
+                             "volume) with ambient occlusion darkening the ambient light.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
@@ -684,14 +686,14 @@ int main(int argc, char** argv) {
         args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
                         "WxH");
         args.add_choice("--shadows", &params.shadows, {"ray", "volume", "none"},
-                        "T_light by a shadow ray from every lit sample, from a light-"
-                        "transmittance volume swept once per render, or none");
+                        "T_light by a shadow ray from every lit sample (default), from a "
+                        "light-transmittance volume swept once per render, or none");
         args.add_choice("--ao", &params.ao, {"on", "off"},
                         "ambient occlusion from the opacity around every lit sample");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
-            throw InputError("--view: step 19 renders the camera's view; turn it with "
+            throw InputError("--view: step 21 renders the camera's view; turn it with "
                              "--azimuth and --elevation instead");
         }
         int width = 0, height = 0;
