@@ -29,12 +29,6 @@ constexpr double default_light_angle = 30;  // degrees to the right of the viewe
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
-constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
-constexpr double default_elevation = 20;  // degrees above the i-j plane
-constexpr double default_fov = 30;        // degrees, the perspective image's height
-constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
-constexpr const char* default_size = "512x512";  // pixels, columns x rows
-constexpr int max_image_side = 8192;             // pixels, --size limit per side
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
@@ -42,7 +36,7 @@ constexpr double min_light_transmittance = 1e-4;  // a shadow ray stops below th
 constexpr double occlusion_radius = 4;  // physical units around a sample ambient occlusion sees
 constexpr double occlusion_step = 1;    // physical units between its samples
 
-struct Params {
+struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, --fov, --size
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
     double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
     double ert = default_ert;  // early ray termination threshold for T
@@ -50,14 +44,8 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
-    double azimuth = default_azimuth;      // degrees
-    double elevation = default_elevation;  // degrees, -90..90
-    double zoom = 1;                       // ortho: pixels per voxel; perspective: closer
-    std::string projection = "ortho";      // "ortho" or "perspective"
     std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
     bool nearest = false;                     // interpolation == "nearest"
-    double fov = default_fov;              // degrees, perspective only
-    std::string size = default_size;       // "WxH"
     std::string shadows = "ray";  // "ray": a shadow ray per lit sample; "volume": read from a
                                   // light-transmittance volume; "none"
     std::string ao = "on";        // "on": ambient occlusion; "off"
@@ -671,33 +659,17 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
-        args.add_double("--azimuth", &params.azimuth, -360, 360,
-                        "degrees around the vertical; 0 faces the face, 90 looks along +i");
-        args.add_double("--elevation", &params.elevation, -90, 90,
-                        "degrees above the i-j plane; 90 looks down from the crown");
-        args.add_double("--zoom", &params.zoom, min_zoom, max_zoom,
-                        "ortho: pixels per voxel; perspective: walks the eye in (>1)");
         args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
                         "a sample's value: the eight voxels around it, or the nearest one");
-        args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
-                        "parallel rays (ortho) or rays from an eye (perspective)");
-        args.add_double("--fov", &params.fov, 1, 170,
-                        "perspective: the image's height as an angle, degrees (default 30)");
-        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)",
-                        "WxH");
         args.add_choice("--shadows", &params.shadows, {"ray", "volume", "none"},
                         "T_light by a shadow ray from every lit sample (default), from a "
                         "light-transmittance volume swept once per render, or none");
         args.add_choice("--ao", &params.ao, {"on", "off"},
                         "ambient occlusion from the opacity around every lit sample");
+        add_camera_flags(args, &params);  // common/camera_flags.h
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
-        if (options.view != "all") {
-            throw InputError("--view: step 21 renders the camera's view; turn it with "
-                             "--azimuth and --elevation instead");
-        }
-        int width = 0, height = 0;
-        parse_size(params.size, max_image_side, &width, &height);
+        const View camera_image = camera_view(options, params);  // --size; no --view
 
         // --- Volume ---
         const Volume volume = load_volume(options);
@@ -717,7 +689,7 @@ int main(int argc, char** argv) {
         // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
-        renderer.views = {make_camera_view(width, height)};
+        renderer.views = {camera_image};
 
         // --- Light: towards it from every ray of a render (it turns with the camera), so
         // worked out once per render, as step 08 does once per view; none with --unlit ---
@@ -773,17 +745,7 @@ int main(int argc, char** argv) {
                              lut = build_lut(tf, opacity_ratio(params));
                          },
                          [&] { return summary_number(params.step); }};
-        renderer.orbit.turn = [&](double azimuth, double elevation) {
-            params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
-            params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
-        };
-        renderer.orbit.zoom = [&](double factor) {
-            params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
-        };
-        renderer.orbit.value = [&] {
-            return "azimuth=" + summary_number(params.azimuth) + " elevation=" +
-                   summary_number(params.elevation) + " zoom=" + summary_number(params.zoom);
-        };
+        renderer.orbit = camera_orbit(&params);  // the window's drag and wheel
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "tf=" + tf.source +
@@ -792,9 +754,7 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
-                   " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
-                   " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
-                   " fov=" + summary_number(params.fov) + " interpolation=" + params.interpolation +
+                   camera_settings(params) + " interpolation=" + params.interpolation +
                    " shadows=" + params.shadows +
                    " ao=" + params.ao;
         };
