@@ -136,6 +136,8 @@ std::string Args::usage() const {
         "  --no-window             render, write the PNGs and exit\n"
         "  --debug-pixel X,Y       print what happened along the ray of image column X, row Y\n"
         "                          (given again: one trace and ray picture per pixel)\n"
+        "  --no-ray-picture        --debug-pixel prints its traces and writes their records\n"
+        "                          (OUT/..._ray_X_Y.txt), but draws no ray picture\n"
         "  --threads N             render threads (default: all cores)\n"
         "  --pfm                   also write OUT/STEP_VIEW.pfm: the float RGB image before\n"
         "                          rounding to 8 bits (colour PFM, little-endian)\n"
@@ -474,6 +476,9 @@ Options Args::parse_words(int argc, char** argv) {
                 }
                 options.debug_pixels.push_back(pixel);
             }
+        } else if (flag == "--no-ray-picture") {
+            if (has_value) throw InputError(flag + ": takes no value");
+            options.ray_pictures = false;
         } else if (flag == "--threads") {
             options.threads = parse_int(flag, take_value(), 1, max_threads);
         } else if (flag == "--preset") {

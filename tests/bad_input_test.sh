@@ -397,6 +397,7 @@ fi
 
 # SIGINT mid-render: the view written so far is removed, the older pictures stay as they were.
 older_pictures "$out"
+: > "$work/stdout"  # emptied by this shell, not only by the job's redirect: fresh_stdout below
 $signals_on "$build/08_lit_compositing" --volume phantom --dims 320,320,200 --threads 1 \
     --step 0.25 --no-window --out "$out" > "$work/stdout" 2> "$work/stderr" < /dev/null &
 pid=$!
@@ -507,6 +508,11 @@ wait_until() {
 }
 pngs_in() { [ "$(find "$1" -name '*.png' 2> /dev/null | wc -l)" -eq "$2" ]; }
 lines_in() { [ "$(grep -c "$2" "$1")" -ge "$3" ]; }
+# Before a program starts in the background, its stdout file is emptied by this shell: the
+# background job's own `> file` runs only when it is scheduled, and until then a wait for
+# lines would find the previous run's (on a busy machine the signal then reached the forked
+# shell, which ignores SIGINT as a background job, and the window stayed open for good).
+fresh_stdout() { : > "$work/stdout"; }
 # signal_ends SIGNAL STATUS WHAT: sends SIGNAL to $pid; it must end with STATUS within a second
 signal_ends() {
     start=$(now_ms)
@@ -537,6 +543,7 @@ for number in range(150, 250):
     if wait_until 10 test -s "$work/listener"; then
         silent=127.0.0.1:$(cat "$work/listener")
         rm -rf "$out"
+        fresh_stdout
         DISPLAY=$silent $signals_on "$build/$s" $small --out "$out" \
             > "$work/stdout" 2> "$work/stderr" < /dev/null &
         pid=$!
@@ -575,6 +582,7 @@ if command -v Xvfb > /dev/null 2>&1; then
         fi
         # Ctrl-C and SIGTERM with the window open (the window's first frame prints a 2nd line).
         for signal in INT TERM; do
+            fresh_stdout
             DISPLAY=$display $signals_on "$build/$s" $small --view top --out "$out" \
                 > "$work/stdout" 2> "$work/stderr" < /dev/null &
             pid=$!
@@ -587,6 +595,7 @@ if command -v Xvfb > /dev/null 2>&1; then
             fi
         done
         # The X server goes away while the window is open: our line, status 1.
+        fresh_stdout
         DISPLAY=$display "$build/$s" $small --view top --out "$out" \
             > "$work/stdout" 2> "$work/stderr" < /dev/null &
         pid=$!

@@ -122,15 +122,17 @@ for source in steps/[0-9][0-9]_*.cpp; do
     # shellcheck disable=SC2086
     expect_bad "$step" "is a file, not a folder" $small --out "$regular/out"
 
-    # A good run: one PNG and one summary line per view, nothing on stderr.
+    # A good run: one PNG and one summary line per view, nothing on stderr. It traces a pixel
+    # too (checked below): one render of the phantom serves both (step 17's is 2 s of CPU).
     out="$work/good_$step"
-    "$build/$step" --volume phantom --no-window --out "$out" > "$work/stdout" 2> "$work/stderr"
+    "$build/$step" --volume phantom --no-window --out "$out" --debug-pixel 128,60 \
+        > "$work/stdout" 2> "$work/stderr"
     status=$?
     [ $status -eq 0 ] && [ ! -s "$work/stderr" ]
     check $? "$step --volume phantom: status $status, stderr: $(cat "$work/stderr")"
     # Part 1 (00..09) renders the three axis views; part 2 (10 on) one camera picture.
-    views="top:256x256 front:256x113 side:256x113" trace_view=front view_flag="--view front"
-    case "$step" in 0[0-9]_*) ;; *) views="camera:512x512" trace_view=camera view_flag= ;; esac
+    views="top:256x256 front:256x113 side:256x113" trace_view=front
+    case "$step" in 0[0-9]_*) ;; *) views="camera:512x512" trace_view=camera ;; esac
     for view_size in $views; do
         view=${view_size%%:*}
         size=${view_size#*:}
@@ -146,13 +148,13 @@ for source in steps/[0-9][0-9]_*.cpp; do
     [ -z "$(find "$out" -name '*.tmp*' 2> /dev/null)" ]
     check $? "$step: temporary files left in $out"
 
-    # --debug-pixel: the trace of one ray, its last line the pixel (image column 128, row 60).
-    # shellcheck disable=SC2086
-    "$build/$step" --volume phantom --no-window --out "$out" $view_flag --debug-pixel 128,60 \
-        > "$work/stdout" 2> "$work/stderr"
-    status=$?
-    last=$(tail -n 1 "$work/stdout")
-    trace_lines=$(sed -n "/^debug pixel x=128 y=60 view=$trace_view/,\$p" "$work/stdout" | wc -l)
+    # --debug-pixel (the good run's): the trace of one ray in the front (or camera) view, its
+    # last line the pixel (image column 128, row 60); the trace ends where the next view's
+    # summary line or trace begins.
+    sed -n "/^debug pixel x=128 y=60 view=$trace_view/,\$p" "$work/stdout" |
+        awk 'NR > 1 && (/^step=/ || /^debug pixel /) { exit } { print }' > "$work/trace"
+    last=$(tail -n 1 "$work/trace")
+    trace_lines=$(wc -l < "$work/trace")
     [ $status -eq 0 ] && [ "$trace_lines" -ge 3 ] &&
         echo "$last" | grep -q '^pixel x=128 y=60 rgb=([0-9.]*, [0-9.]*, [0-9.]*) png=('
     check $? "$step --debug-pixel 128,60: status $status, $trace_lines trace lines, last: $last"

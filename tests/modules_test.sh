@@ -2,7 +2,7 @@
 # modules_test.sh: a step maps the big libraries only when a run needs them (common/module.h).
 # The dynamic loader's own account (LD_DEBUG=files: every library it maps, at start and by
 # dlopen) of: --help, a phantom run and a raw run (no GDCM, nifticlib, teem, SDL2 or zlib
-# beyond what libc needs); an NRRD run (the format module and teem, mapped then); a step
+# beyond what libc needs), and --help and a raw run of every other step too; an NRRD run (the format module and teem, mapped then); a step
 # copied away from its modules (one line naming the missing module, exit status 2); and the
 # window module missing (a note, the PNGs still written, exit status 0).
 #
@@ -66,6 +66,26 @@ done
 if grep -Eq 'libSDL2|ctlab_window' "$work/nrrd.libs"; then
     fail "a headless NRRD run mapped the window module"
 else pass; fi
+# Every step, not only 02: --help and a raw run map none of them either (part 2 and 3 at a
+# small camera picture; the steps found in steps/, whatever their number).
+for source in steps/[0-9][0-9]_*.cpp; do
+    stem=$(basename "$source" .cpp)
+    [ -x "$build/$stem" ] || { fail "$build/$stem is not built"; continue; }
+    size=
+    case $stem in 0[0-9]_*) ;; *) size="--size 8x8" ;; esac
+    mapped "help_$stem" "$build/$stem" --help
+    # shellcheck disable=SC2086
+    mapped "raw_$stem" "$build/$stem" --volume "$raw" --no-window --out "$work/out" $size
+    for run in "help_$stem" "raw_$stem"; do
+        if [ "$(cat "$work/$run.status")" != 0 ]; then
+            fail "$run: exit status $(cat "$work/$run.status"): $(head -c 300 "$work/$run.err")"
+        elif ! grep -q 'libstdc++' "$work/$run.libs"; then
+            fail "$run: LD_DEBUG=files named no libstdc++: the loader's account is missing"
+        elif grep -Eq "$big" "$work/$run.libs"; then
+            fail "$run mapped $(grep -E "$big" "$work/$run.libs" | tr '\n' ' ')"
+        else pass; fi
+    done
+done
 
 # A step without its modules: the phantom runs; a file that needs one is one line, exit 2.
 mkdir "$work/alone"

@@ -5,7 +5,8 @@
 // program (run as a process on the volume written to a raw file; the flag variants on the
 // int16 extremes and on noise) must exit 0, and its float
 // pictures (--pfm) have the view's size and no NaN or infinity; the --debug-pixel trace of
-// the first pixel (and of the last, in the default run on noise) must give the picture's value. Under
+// the first pixel (and of the last, in the default run on noise) must give the picture's value
+// (the default runs draw its ray pictures too; the flag variants trace without them). Under
 // `make test SAN=1` the steps are sanitizer builds: this is also the out-of-bounds check of
 // every ray loop.
 #include <doctest/doctest.h>
@@ -209,6 +210,9 @@ TEST_CASE("extreme volumes: every step, view and variant: right size, finite, tr
                     CAPTURE(step);
                     CAPTURE(text);
                     flags.insert(flags.end(), {"--threads", "2", "--debug-pixel", "0,0"});
+                    // The ray pictures are drawn in the default runs (every shape and fill);
+                    // the variants trace without them (most of a small run's time).
+                    if (v > 0) flags.push_back("--no-ray-picture");
                     const bool grey = step < "06";
                     const ctlab_test::StepRender run = ctlab_test::render(step, flags, volume);
                     REQUIRE(run.images.size() == views.size());
@@ -229,7 +233,8 @@ TEST_CASE("extreme volumes: every step, view and variant: right size, finite, tr
                         const int x = view.width - 1, y = view.height - 1;
                         std::vector<std::string> last_flags = ctlab_test::size_flags(step);
                         if (!view.camera) last_flags.insert(last_flags.end(), {"--view", view.name});
-                        last_flags.insert(last_flags.end(), {"--debug-pixel",
+                        last_flags.insert(last_flags.end(), {"--no-ray-picture",
+                                                             "--debug-pixel",
                                                              std::to_string(x) + "," +
                                                                  std::to_string(y)});
                         const ctlab_test::StepRender last =

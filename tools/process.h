@@ -39,7 +39,7 @@ struct ProcessOptions {
 struct ProcessResult {
     std::string program;             // the path that ran (without the prefix)
     std::vector<std::string> args;
-    bool started = false;            // fork and exec succeeded (127 with a message otherwise)
+    bool started = false;            // it started and exec succeeded (127 with a message otherwise)
     int status = -1;                 // exit status; 128 + N when killed by signal N
     int exit_status = -1;            // when it exited
     int signal = 0;                  // when a signal ended it (a timeout: SIGKILL)
