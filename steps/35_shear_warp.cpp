@@ -367,6 +367,9 @@ struct SliceShift {
 
 // The cells of each slice row that the table may see (see find_runs), as runs of cells
 // [begin, end) along a. Made once per transfer function and principal axis.
+constexpr int runs_stretch = 16;  // cells tested at once first by find_runs (a slice's air);
+                                  // the folds in find_runs are written for 16
+
 struct Runs {
     int axis = -1;                // the principal axis they are for; -1: not made
     int nb = 0;                   // cell rows per slice
@@ -487,8 +490,7 @@ static inline float slice_value(const int16_t* p, const SliceShift& s) {
 // that the table may see. A bilinear value lies between its cell's lowest and highest corner
 // (the last voxel counts again at an edge), so a cell whose four corners all lie in one
 // stretch of transparent table entries is transparent wherever a sample falls in it: it is
-// left out. Each voxel is first given its stretch (-1: the table sees it); slices are shared
-// among the threads.
+// left out. Slices are shared among the threads.
 static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, int threads) {
     std::vector<int32_t> stretch(lut.entries.size());  // per table entry
     int32_t seen = 0;                                    // entries seen so far
@@ -500,39 +502,87 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
             stretch[n] = seen;  // the same for every entry up to the next one seen
         }
     }
+    // A range of values [low, high] is transparent when the table sees none of its entries.
+    auto clear = [&](int low, int high) {
+        const int32_t first = stretch[low - lowest_ct_value];
+        return first >= 0 && first == stretch[high - lowest_ct_value];
+    };
     const int na = shear.na, nb = shear.nb;
+    const size_t sa = shear.stride_a;
     std::vector<std::vector<int32_t>> bounds(shear.nc);  // per slice, its runs
     std::vector<std::vector<uint32_t>> counts(shear.nc);  // per slice, runs per row
     Work unused;
     parallel_rows(shear.nc, threads, unused, [&](int c, Work&) {
-        std::vector<int32_t> ids(size_t(na) * nb);
-        const int16_t* slice = &volume.data[c * shear.stride_c];
-        for (int b = 0; b < nb; ++b) {
-            for (int a = 0; a < na; ++a) {
-                const int16_t value = slice[a * shear.stride_a + b * shear.stride_b];
-                ids[size_t(b) * na + a] = stretch[value - lowest_ct_value];
-            }
-        }
         counts[c].assign(nb, 0);
         for (int b = 0; b < nb; ++b) {
-            const int32_t* low = &ids[size_t(b) * na];
-            const int32_t* high = &ids[size_t(std::min(b + 1, nb - 1)) * na];
+            const int16_t* low = &volume.data[c * shear.stride_c + b * shear.stride_b];
+            const int16_t* high = &volume.data[c * shear.stride_c +
+                                               std::min(b + 1, nb - 1) * shear.stride_b];
             int begin = -1;  // the run being read; -1: none
-            for (int a = 0; a < na; ++a) {
-                const int a1 = std::min(a + 1, na - 1);
-                const int32_t id = low[a];
-                const bool clear = id >= 0 && low[a1] == id && high[a] == id && high[a1] == id;
-                if (!clear && begin < 0) begin = a;
-                if (clear && begin >= 0) {
-                    bounds[c].insert(bounds[c].end(), {begin, a});
-                    ++counts[c][b];
-                    begin = -1;
+            auto run_ends = [&](int a) {
+                if (begin < 0) return;
+                bounds[c].insert(bounds[c].end(), {begin, a});
+                ++counts[c][b];
+                begin = -1;
+            };
+            // A stretch of runs_stretch cells at a time: each cell's lowest and highest corner
+            // (a loop of fixed length over neighbouring values, which the compiler makes
+            // vector instructions), then the stretch's: most of a slice is air or soft tissue,
+            // clear as a whole. Rows along i are contiguous; others are copied first.
+            int16_t row_low[runs_stretch + 1], row_high[runs_stretch + 1];
+            int16_t cell_low[runs_stretch], cell_high[runs_stretch];
+            for (int from = 0; from < na; from += runs_stretch) {
+                const int to = std::min(from + runs_stretch, na);
+                const int16_t* p = &low[from];
+                const int16_t* q = &high[from];
+                if (sa != 1 || from + runs_stretch > na - 1) {  // copied, the edge repeated
+                    for (int n = 0; n <= runs_stretch; ++n) {
+                        const size_t a = size_t(std::min(from + n, na - 1)) * sa;
+                        row_low[n] = low[a];
+                        row_high[n] = high[a];
+                    }
+                    p = row_low;
+                    q = row_high;
+                }
+                for (int n = 0; n < runs_stretch; ++n) {
+                    cell_low[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
+                    cell_high[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
+                }
+                // The stretch's lowest and highest: halves folded onto each other, each fold a
+                // loop of fixed length (the cells past the slice's edge, in its last stretch,
+                // first take the first cell's values).
+                for (int n = to - from; n < runs_stretch; ++n) {
+                    cell_low[n] = cell_low[0];
+                    cell_high[n] = cell_high[0];
+                }
+                int16_t lowest[runs_stretch / 2], highest[runs_stretch / 2];
+                for (int n = 0; n < runs_stretch / 2; ++n) {
+                    lowest[n] = std::min(cell_low[n], cell_low[n + runs_stretch / 2]);
+                    highest[n] = std::max(cell_high[n], cell_high[n + runs_stretch / 2]);
+                }
+                for (int n = 0; n < runs_stretch / 4; ++n) {
+                    lowest[n] = std::min(lowest[n], lowest[n + runs_stretch / 4]);
+                    highest[n] = std::max(highest[n], highest[n + runs_stretch / 4]);
+                }
+                for (int n = 0; n < runs_stretch / 8; ++n) {
+                    lowest[n] = std::min(lowest[n], lowest[n + runs_stretch / 8]);
+                    highest[n] = std::max(highest[n], highest[n + runs_stretch / 8]);
+                }
+                lowest[0] = std::min(lowest[0], lowest[1]);
+                highest[0] = std::max(highest[0], highest[1]);
+                if (clear(lowest[0], highest[0])) {
+                    run_ends(from);
+                    continue;
+                }
+                for (int n = 0; n < to - from; ++n) {  // cell by cell
+                    if (clear(cell_low[n], cell_high[n])) {
+                        run_ends(from + n);
+                    } else if (begin < 0) {
+                        begin = from + n;
+                    }
                 }
             }
-            if (begin >= 0) {
-                bounds[c].insert(bounds[c].end(), {begin, na});
-                ++counts[c][b];
-            }
+            run_ends(na);
         }
     });
     Runs runs;
@@ -773,6 +823,20 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
     };
     return mix_rgb(mix_rgb(at(u, v), at(u + 1, v), fu), mix_rgb(at(u, v + 1), at(u + 1, v + 1), fu),
                    fv);
+}
+
+// warp_pixel() on the whole intermediate image, the four pixels read directly when they are
+// all inside it (the same numbers in the same order: the same float).
+static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
+    if (!(p.u >= 0 && p.u < image.width - 1 && p.v >= 0 && p.v < image.height - 1)) {
+        return warp_pixel(p, image.width, image.height,
+                          [&](int u, int v) { return image.pixels[size_t(v) * image.width + u]; });
+    }
+    const int u = int(p.u), v = int(p.v);  // >= 0: int() rounds down
+    const float fu = float(p.u - u), fv = float(p.v - v);
+    const Rgb* low = &image.pixels[size_t(v) * image.width + u];
+    const Rgb* high = low + image.width;
+    return mix_rgb(mix_rgb(low[0], low[1], fu), mix_rgb(high[0], high[1], fu), fv);
 }
 //< lesson: warp
 
@@ -1059,9 +1123,7 @@ int main(int argc, char** argv) {
             const WarpMap warp = make_warp(volume, shear, frame.camera);
             parallel_rows(view.height, options.threads, work, [&](int y, Work&) {
                 for (int x = 0; x < view.width; ++x) {
-                    const WarpPoint p = warp_at(warp, x, y);
-                    image.at(x, y) = warp_pixel(p, shear.width, shear.height,
-                                                [&](int u, int v) { return intermediate.at(u, v); });
+                    image.at(x, y) = warp_inside(warp_at(warp, x, y), intermediate);
                 }
             });
             return image;
