@@ -621,13 +621,11 @@ static void fill_gradient_table(const Volume& volume, const Shear& shear, const 
         for (int b = 0; b < nb; ++b) {
             int count = 0;
             const int32_t* run = runs.row(c, b, &count);
-            for (int r = 0; r < count; ++r) {
-                for (int a = run[2 * r]; a < run[2 * r + 1]; ++a) {
-                    for (int corner = 0; corner < 4; ++corner) {
-                        const int ca = std::min(a + (corner & 1), na - 1);
-                        const int cb = std::min(b + (corner >> 1), nb - 1);
-                        needed[size_t(cb) * na + ca] = 1;
-                    }
+            for (int r = 0; r < count; ++r) {  // the run's voxels and one more, on both rows
+                const int end = std::min(run[2 * r + 1] + 1, na);
+                for (const int row : {b, std::min(b + 1, nb - 1)}) {
+                    std::fill(&needed[size_t(row) * na + run[2 * r]], &needed[size_t(row) * na] + end,
+                              uint8_t(1));
                 }
             }
         }
@@ -651,8 +649,8 @@ static void fill_gradient_table(const Volume& volume, const Shear& shear, const 
 // A sample's light: its cell's four corner gradients from the table, blended as the values
 // are (step 32's gradient_from_table() with the fraction along c at 0), then step 08's shade.
 // Without a table (a volume too large for one), the corners' gradients from the voxels.
-static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index,
-                                const Voxel& corner, Work& work) {
+static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
+                                int b, Work& work) {
     work.gradients += 4;
     const GradientTable& table = scene.gradients;
     Vec3 g[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
@@ -660,14 +658,13 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, size_t 
         g[0] = table.at(index), g[1] = table.at(index + s.da);
         g[2] = table.at(index + s.db), g[3] = table.at(index + s.da + s.db);
     } else {
-        const Volume& volume = scene.volume;
-        const int steps[3] = {int(s.da / scene.shear.stride_a), int(s.db / scene.shear.stride_b), 0};
+        const Shear& shear = scene.shear;
+        const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
         for (int n = 0; n < 4; ++n) {
-            int ijk[3] = {corner.i, corner.j, corner.k};
-            ijk[scene.shear.a] += (n & 1) * steps[0];
-            ijk[scene.shear.b] += (n >> 1) * steps[1];
+            const Voxel corner = voxel_of(shear, a + (n & 1) * step_a, b + (n >> 1) * step_b,
+                                          s.slice);
             Work uncounted;
-            g[n] = gradient_at(volume, Voxel{ijk[0], ijk[1], ijk[2]}, uncounted);
+            g[n] = gradient_at(scene.volume, corner, uncounted);
         }
     }
     const Vec3 low = lerp_vector(g[0], g[1], s.fa), high = lerp_vector(g[2], g[3], s.fa);
@@ -694,8 +691,9 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // stretch of a row costs a jump or two per run however wide it is.
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
-    const Params& params = scene.params;
-    const double stop_below = std::max(params.ert, min_transparency);
+    const bool unlit = scene.params.unlit;
+    const double stop_below = std::max(scene.params.ert, min_transparency);
+    const Rgba* lut = scene.lut.entries.data();
     std::vector<int> next(size_t(shear.width) + 1);
     for (int u = 0; u <= shear.width; ++u) next[u] = u;  // next[width]: the end
     auto open_from = [&](int u) {  // the first pixel at or after u that is not opaque
@@ -706,7 +704,11 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
         return u;
     };
     int open = shear.width;  // pixels not yet opaque
-    for (const SliceShift& s : scene.shifts) {
+    // Speed: the counters and the slice's shift are local copies. The loop stores to the row
+    // and to next[]; through a reference the compiler would read them again after each store.
+    Work counted;
+    for (const SliceShift& shift : scene.shifts) {
+        const SliceShift s = shift;
         const int b = v + s.ib;  // the row of cells this image row meets
         if (b < 0 || b > s.last_b) continue;
         const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
@@ -717,7 +719,7 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
         int count = 0;
         const int32_t* run = scene.runs.row(s.slice, b, &count);
         long long in_runs = 0;
-        for (int r = 0; r < count; ++r) {
+        for (int r = 0; r < count && open > 0; ++r) {
             const int from = std::max(u_low, run[2 * r] - s.ia);
             const int to = std::min(u_high, run[2 * r + 1] - s.ia);
             if (from >= to) continue;
@@ -725,27 +727,28 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
             for (int u = open_from(from); u < to; u = open_from(u + 1)) {
                 const size_t along = size_t(u + s.ia) * shear.stride_a;
                 const float value = slice_value(slice_row + along, s);
-                const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
-                ++work.samples;
+                const Rgba& sample = lut[int(double(value) - lowest_ct_value)];
+                ++counted.samples;
                 if (sample.a == 0.0f) {
-                    ++work.skipped;
+                    ++counted.skipped;
                     continue;
                 }
                 double light = 1.0;  // unlit
-                if (!params.unlit) {
-                    light = slice_light(scene, s, row_index + along,
-                                        voxel_of(shear, u + s.ia, b, s.slice), work);
+                if (!unlit) {
+                    light = slice_light(scene, s, row_index + along, u + s.ia, b, counted);
                 }
                 add_sample(row[u], sample, light);
                 if (row[u].transparency < stop_below) {
-                    ++work.terminated;
+                    ++counted.terminated;
                     next[u] = u + 1;
-                    if (--open == 0) return;  // the whole row is opaque
+                    --open;
                 }
             }
         }
-        work.leapt += (u_high - u_low) - in_runs;  // transparent cells: never read
+        counted.leapt += (u_high - u_low) - in_runs;  // transparent cells: never read
+        if (open == 0) break;  // the whole row is opaque
     }
+    work.add(counted);
 }
 //< lesson: composite
 
@@ -893,7 +896,7 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
         }
         double light = 1.0;
         if (!scene.params.unlit) {
-            light = slice_light(scene, s, index, voxel_of(shear, a, b, s.slice), work);
+            light = slice_light(scene, s, index, a, b, work);
         }
         add_sample(pixel, sample, light);
         if (trace) {
