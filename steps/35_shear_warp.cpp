@@ -606,9 +606,8 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
 }
 //< lesson: runs
 
-//> lesson: gradient_table
-// Changed in step 35: gradient_at() of the voxels a lit sample can read, the corners of the
-// runs' cells, slice by slice (the slices shared among the threads: each writes only its own
+// Given (step 32's table, filled another way): gradient_at() of the voxels a lit sample can
+// read, the corners of the runs' cells, slice by slice (the slices shared among the threads: each writes only its own
 // slice's voxels). A table made for another principal axis keeps what it holds.
 static void fill_gradient_table(const Volume& volume, const Shear& shear, const Runs& runs,
                                 int threads, GradientTable& table) {
@@ -646,7 +645,7 @@ static void fill_gradient_table(const Volume& volume, const Shear& shear, const 
     table.filled[shear.c] = true;
 }
 
-// A sample's light: its cell's four corner gradients from the table, blended as the values
+// Given: a sample's light: its cell's four corner gradients from the table, blended as the values
 // are (step 32's gradient_from_table() with the fraction along c at 0), then step 08's shade.
 // Without a table (a volume too large for one), the corners' gradients from the voxels.
 static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
@@ -670,7 +669,6 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, size_t 
     const Vec3 low = lerp_vector(g[0], g[1], s.fa), high = lerp_vector(g[2], g[3], s.fa);
     return shade(lerp_vector(low, high, s.fb), scene.to_light);
 }
-//< lesson: gradient_table
 
 // Step 30's compositing of one sample, in double (step 06): colour weighted by opacity, light
 // and T; T multiplied by what the sample lets through.
@@ -804,8 +802,7 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
 }
 
-//> lesson: warp
-// Where output pixel (x, y)'s camera ray meets the first slice, in intermediate pixels: the
+// Given: where output pixel (x, y)'s camera ray meets the first slice, in intermediate pixels: the
 // ray there is the ray of that intermediate pixel.
 static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Camera& camera,
                             int x, int y) {
@@ -818,7 +815,7 @@ static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Came
             in_voxels(ray.origin, shear.b) + t * in_voxels(ray.direction, shear.b) - shear.base_b};
 }
 
-// The affine map, from three pixels' points: one step along x and one along y. (Along an
+// Given: the affine map, from three pixels' points: one step along x and one along y. (Along an
 // axis at zoom 1 the steps are whole pixels, and every pixel lands on an intermediate pixel.)
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
     const WarpPoint origin = warp_point(volume, shear, camera, 0, 0);
@@ -832,6 +829,7 @@ static WarpPoint warp_at(const WarpMap& warp, int x, int y) {
     return {warp.u0 + x * warp.du_dx + y * warp.du_dy, warp.v0 + x * warp.dv_dx + y * warp.dv_dy};
 }
 
+//> lesson: warp
 // The output pixel: the intermediate image read bilinearly at the warp's point; past its edge
 // it is the background (no ray there meets the volume). pixel(u, v) gives a pixel inside.
 template <class Pixel>
@@ -846,9 +844,10 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
     return mix_rgb(mix_rgb(at(u, v), at(u + 1, v), fu), mix_rgb(at(u, v + 1), at(u + 1, v + 1), fu),
                    fv);
 }
+//< lesson: warp
 
-// warp_pixel() on the whole intermediate image, the four pixels read directly when they are
-// all inside it (the same numbers in the same order: the same float).
+// Given: warp_pixel() on the whole intermediate image, the four pixels read directly when they
+// are all inside it (the same numbers in the same order: the same float).
 static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
     if (!(p.u >= 0 && p.u < image.width - 1 && p.v >= 0 && p.v < image.height - 1)) {
         return warp_pixel(p, image.width, image.height,
@@ -860,7 +859,6 @@ static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
     const Rgb* high = low + image.width;
     return mix_rgb(mix_rgb(low[0], low[1], fu), mix_rgb(high[0], high[1], fu), fv);
 }
-//< lesson: warp
 
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
 
@@ -979,19 +977,23 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
                     "pixel %d,%d",
                     "ijk"[shear.c], shear.first_slice, p.u, p.v, shear.spacing, near_u, near_v);
     }
-    auto pixel = [&](int u, int v) {
+    // The four pixels in order (those inside the intermediate image), then the warp's blend.
+    const int low_u = int(std::floor(p.u)), low_v = int(std::floor(p.v));
+    Rgb colours[4];
+    for (int n = 0; n < 4; ++n) {
+        const int u = low_u + (n & 1), v = low_v + (n >> 1);
+        if (u < 0 || u >= shear.width || v < 0 || v >= shear.height) continue;
         Trace* followed = u == near_u && v == near_v ? trace : nullptr;
-        const Rgb colour = mip ? mip_colour(volume, mip_column(scene, u, v, ray, work, followed))
-                               : composite_colour(composite_column(scene, u, v, ray, work,
-                                                                   followed));
+        colours[n] = mip ? mip_colour(volume, mip_column(scene, u, v, ray, work, followed))
+                         : composite_colour(composite_column(scene, u, v, ray, work, followed));
         if (trace) {
-            trace->note({{"u", double(u)}, {"v", double(v)}, {"r", colour.r}, {"g", colour.g},
-                         {"b", colour.b}},
-                        "intermediate pixel %d,%d: rgb=(%.6f, %.6f, %.6f)", u, v, colour.r,
-                        colour.g, colour.b);
+            trace->note({{"u", double(u)}, {"v", double(v)}, {"r", colours[n].r},
+                         {"g", colours[n].g}, {"b", colours[n].b}},
+                        "intermediate pixel %d,%d: rgb=(%.6f, %.6f, %.6f)", u, v, colours[n].r,
+                        colours[n].g, colours[n].b);
         }
-        return colour;
-    };
+    }
+    auto pixel = [&](int u, int v) { return colours[(u - low_u) + 2 * (v - low_v)]; };
     return warp_pixel(p, shear.width, shear.height, pixel);
 }
 
