@@ -956,7 +956,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
 // composited alone, and the warp's blend of them, the image's pixel to the bit. The trace
-// follows the pixel with the largest weight sample by sample; the others are notes.
+// follows each of the four sample by sample, with its weight in the blend.
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;
@@ -965,27 +965,29 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
     const Vec3d high = box_high(volume);
     trace_ray(trace, ray, intersect_box(ray, Vec3d{}, high), high, shear.spacing);
     const WarpPoint p = warp_at(make_warp(volume, shear, camera), x, y);
-    const double fu = p.u - std::floor(p.u), fv = p.v - std::floor(p.v);
-    // The pixel the trace follows: the nearest of the four.
-    const int near_u = int(std::floor(p.u)) + (fu > 0.5), near_v = int(std::floor(p.v)) + (fv > 0.5);
     const bool mip = scene.params.mode == "mip";
     if (trace) {
         trace->note({{"u", p.u}, {"v", p.v}, {"principal_axis", double(shear.c)},
                      {"spacing", shear.spacing}},
                     "warp: the ray meets the first slice (%c = %d) at intermediate pixel "
-                    "u=%.4f v=%.4f; samples one slice apart, %.4f along the ray; traced: "
-                    "pixel %d,%d",
-                    "ijk"[shear.c], shear.first_slice, p.u, p.v, shear.spacing, near_u, near_v);
+                    "u=%.4f v=%.4f; samples one slice apart, %.4f along the ray",
+                    "ijk"[shear.c], shear.first_slice, p.u, p.v, shear.spacing);
     }
     // The four pixels in order (those inside the intermediate image), then the warp's blend.
     const int low_u = int(std::floor(p.u)), low_v = int(std::floor(p.v));
+    const double fu = p.u - low_u, fv = p.v - low_v;
     Rgb colours[4];
     for (int n = 0; n < 4; ++n) {
         const int u = low_u + (n & 1), v = low_v + (n >> 1);
         if (u < 0 || u >= shear.width || v < 0 || v >= shear.height) continue;
-        Trace* followed = u == near_u && v == near_v ? trace : nullptr;
-        colours[n] = mip ? mip_colour(volume, mip_column(scene, u, v, ray, work, followed))
-                         : composite_colour(composite_column(scene, u, v, ray, work, followed));
+        if (trace) {
+            const double weight = ((n & 1) ? fu : 1 - fu) * ((n >> 1) ? fv : 1 - fv);
+            trace->note({{"u", double(u)}, {"v", double(v)}, {"weight", weight}},
+                        "intermediate pixel %d,%d, weight %.4f in the warp: its ray", u, v,
+                        weight);
+        }
+        colours[n] = mip ? mip_colour(volume, mip_column(scene, u, v, ray, work, trace))
+                         : composite_colour(composite_column(scene, u, v, ray, work, trace));
         if (trace) {
             trace->note({{"u", double(u)}, {"v", double(v)}, {"r", colours[n].r},
                          {"g", colours[n].g}, {"b", colours[n].b}},
