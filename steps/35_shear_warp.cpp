@@ -378,10 +378,12 @@ struct Runs {
     std::vector<int32_t> bounds;  // begin, end of every run, in cells along a
     size_t cells = 0;             // cells in runs, all slices
 
+    // Slice c's row b: its runs, and how many (none for a row it does not hold: runs not
+    // made yet, as in a student's kit before find_runs() is written).
     const int32_t* row(int c, int b, int* count) const {
         const size_t r = size_t(c) * nb + b;
-        *count = int(first[r + 1] - first[r]);
-        return &bounds[2 * size_t(first[r])];
+        *count = r + 1 < first.size() ? int(first[r + 1] - first[r]) : 0;
+        return *count > 0 ? &bounds[2 * size_t(first[r])] : nullptr;
     }
 };
 
@@ -670,6 +672,7 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, size_t 
     return shade(lerp_vector(low, high, s.fb), scene.to_light);
 }
 
+//> lesson: composite
 // Step 30's compositing of one sample, in double (step 06): colour weighted by opacity, light
 // and T; T multiplied by what the sample lets through.
 static inline void add_sample(Accumulated& pixel, const Rgba& sample, double light) {
@@ -681,7 +684,6 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
     pixel.transparency *= 1 - alpha;
 }
 
-//> lesson: composite
 // Row v of the intermediate image, slice by slice front to back. In each slice the row meets
 // one row of cells, and only the cells in its runs are read; the pixels they fall on are
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
@@ -885,22 +887,19 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
         place[shear.a] = (a + double(s.fa)) * spacing[shear.a];
         place[shear.b] = (b + double(s.fb)) * spacing[shear.b];
         place[shear.c] = s.slice * spacing[shear.c];
-        const Vec3d point = {place[0], place[1], place[2]};
-        const double t = dot(point - ray.origin, ray.direction);
+        // Its record: where it lies along the output pixel's ray, and its value.
+        TraceSample record(dot(Vec3d{place[0], place[1], place[2]} - ray.origin, ray.direction),
+                           Vec3d{place[0], place[1], place[2]}, value);
         if (sample.a == 0.0f) {
             ++work.skipped;
-            if (trace) trace->sample(TraceSample(t, point, value).skipped());
+            if (trace) trace->sample(record.skipped());
             continue;
         }
-        double light = 1.0;
-        if (!scene.params.unlit) {
-            light = slice_light(scene, s, index, a, b, work);
-        }
+        const double light = scene.params.unlit ? 1.0 : slice_light(scene, s, index, a, b, work);
         add_sample(pixel, sample, light);
         if (trace) {
-            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
-                              .colour(pixel.r, pixel.g, pixel.b)
-                              .transparency(pixel.transparency));
+            record.rgba(sample).light(light);  // what it gave, and the pixel after it
+            trace->sample(record.colour(pixel.r, pixel.g, pixel.b).transparency(pixel.transparency));
         }
         if (pixel.transparency < stop_below) {
             ++work.terminated;
