@@ -609,8 +609,9 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
 //< lesson: runs
 
 // Given (step 32's table, filled another way): gradient_at() of the voxels a lit sample can
-// read, the corners of the runs' cells, slice by slice (the slices shared among the threads: each writes only its own
-// slice's voxels). A table made for another principal axis keeps what it holds.
+// read, the corners of the runs' cells, slice by slice (the slices shared among the threads:
+// each writes only its own slice's voxels). A table made for another principal axis keeps
+// what it holds.
 static void fill_gradient_table(const Volume& volume, const Shear& shear, const Runs& runs,
                                 int threads, GradientTable& table) {
     if (!table.components) table.components.reset(new float[3 * volume.voxel_count()]);
@@ -625,8 +626,8 @@ static void fill_gradient_table(const Volume& volume, const Shear& shear, const 
             for (int r = 0; r < count; ++r) {  // the run's voxels and one more, on both rows
                 const int end = std::min(run[2 * r + 1] + 1, na);
                 for (const int row : {b, std::min(b + 1, nb - 1)}) {
-                    std::fill(&needed[size_t(row) * na + run[2 * r]], &needed[size_t(row) * na] + end,
-                              uint8_t(1));
+                    uint8_t* needed_row = &needed[size_t(row) * na];
+                    std::fill(needed_row + run[2 * r], needed_row + end, uint8_t(1));
                 }
             }
         }
@@ -647,8 +648,9 @@ static void fill_gradient_table(const Volume& volume, const Shear& shear, const 
     table.filled[shear.c] = true;
 }
 
-// Given: a sample's light: its cell's four corner gradients from the table, blended as the values
-// are (step 32's gradient_from_table() with the fraction along c at 0), then step 08's shade.
+// Given: a sample's light: its cell's four corner gradients from the table, blended as the
+// values are (step 32's gradient_from_table() with the fraction along c at 0), then step 08's
+// shade.
 // Without a table (a volume too large for one), the corners' gradients from the voxels.
 static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
                                 int b, Work& work) {
@@ -763,8 +765,10 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
     for (const SliceShift& s : scene.shifts) {
         const int b = v + s.ib;
         if (b < 0 || b > s.last_b) continue;
-        const int16_t* slice_row = &scene.volume.data[s.slice * shear.stride_c + b * shear.stride_b];
-        const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, s.last_a + 1 - s.ia);
+        const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
+        const int16_t* slice_row = &scene.volume.data[row_index];
+        const int u_low = std::max(0, -s.ia);
+        const int u_high = std::min(shear.width, s.last_a + 1 - s.ia);
         int u = u_low;
         if (shear.stride_a == 1) {  // a row of cells is contiguous: mip_stretch pixels at a time
             const float fa = s.fa, fb = s.fb;  // (copies: a store to h[] cannot change them)
@@ -804,8 +808,8 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
 }
 
-// Given: where output pixel (x, y)'s camera ray meets the first slice, in intermediate pixels: the
-// ray there is the ray of that intermediate pixel.
+// Given: where output pixel (x, y)'s camera ray meets the first slice, in intermediate
+// pixels: the ray there is the ray of that intermediate pixel.
 static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Camera& camera,
                             int x, int y) {
     const Ray ray = camera_ray(camera, x, y);
@@ -899,7 +903,8 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
         add_sample(pixel, sample, light);
         if (trace) {
             record.rgba(sample).light(light);  // what it gave, and the pixel after it
-            trace->sample(record.colour(pixel.r, pixel.g, pixel.b).transparency(pixel.transparency));
+            record.colour(pixel.r, pixel.g, pixel.b).transparency(pixel.transparency);
+            trace->sample(record);
         }
         if (pixel.transparency < stop_below) {
             ++work.terminated;
