@@ -98,7 +98,10 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     }
     // Part 2: the camera from straight above in perspective (rays along k), nearest samples
     // without leaping, the longest step unlit, and each step's own paths.
-    if (ctlab_test::is_camera_step(step)) {
+    // Step 35 (shear-warp) is orthographic, one sample per slice: no --projection
+    // perspective, no --step; its MIP from below and nearest samples below take its paths.
+    const bool shear_warp = step.rfind("35", 0) == 0;
+    if (ctlab_test::is_camera_step(step) && !shear_warp) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
         // Steps 10 and 11 read the nearest voxel only (12 on: --interpolation); step 22 leaps (part 3
         // has no --no-leaping).
@@ -107,6 +110,10 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         if (step.rfind("22", 0) == 0) nearest.push_back("--no-leaping");
         all.push_back(nearest);
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
+    }
+    if (shear_warp) {
+        all.push_back({"--interpolation", "nearest", "--azimuth", "-360", "--elevation", "45"});
+        all.push_back({"--ert", "0", "--unlit", "--azimuth", "100", "--elevation", "-30"});
     }
     if (step >= "30") all.push_back({"--mode", "mip", "--elevation", "-90"});  // part 3's MIP
     if (step.rfind("13", 0) == 0) {

@@ -1,9 +1,12 @@
-// test_part3.cpp: part 3's speed tricks change the time, not the picture. Every part-3 step
-// after the first renders the bench's four cases (handouts/30_speed_baseline.md) on the
-// phantom at a small size, and each picture is compared with step 30's, pixel by pixel, within
-// the tolerance data/reference/manifest.txt states for part 3. Every sample a trick does not
-// read it counts as leapt: samples + leapt is step 30's samples. And each trick's handout
-// quotes its measured gain in a block that make gain fills.
+// test_part3.cpp: part 3's speed tricks change the time, not the picture. Every part-3 ray
+// caster after the first renders the bench's four cases (handouts/30_speed_baseline.md) on
+// the phantom at a small size, and each picture is compared with step 30's, pixel by pixel,
+// within the tolerance data/reference/manifest.txt states for part 3. Every sample a trick
+// does not read it counts as leapt: samples + leapt is step 30's samples. Step 35, shear-warp,
+// samples on the slices instead of along the rays: along an axis at one pixel per voxel it
+// renders step 30's pictures within the same tolerance, at an angle within the mean and RMS
+// error the manifest states for it. And each trick's handout quotes its measured gain in a
+// block that make gain fills.
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <cmath>
@@ -17,8 +20,11 @@ using namespace ctlab_test;
 namespace {
 
 constexpr const char* first_part3_step = "30_speed_baseline";
+constexpr const char* shear_warp_step = "35_shear_warp";  // not a ray caster (see the top)
 // The manifest's tol=2 for part 3, in 8-bit units, as a float channel difference.
 constexpr double tolerance = 2.0 / 255;
+// The manifest's bounds for step 35 at an angle: the mean and the RMS channel error, 8-bit.
+constexpr double shear_warp_mean = 3.0 / 255, shear_warp_rms = 12.0 / 255;
 
 // The part-3 steps after the first: 31_... on.
 std::vector<std::string> trick_steps() {
@@ -26,6 +32,13 @@ std::vector<std::string> trick_steps() {
     for (const std::string& name : step_names()) {
         if (name.compare(0, 1, "3") == 0 && name > first_part3_step) tricks.push_back(name);
     }
+    return tricks;
+}
+
+// The ray casters among them: every one but shear-warp.
+std::vector<std::string> ray_casting_tricks() {
+    std::vector<std::string> tricks = trick_steps();
+    tricks.erase(std::remove(tricks.begin(), tricks.end(), shear_warp_step), tricks.end());
     return tricks;
 }
 
@@ -68,6 +81,21 @@ double largest_difference(const ctlab::Image& a, const ctlab::Image& b) {
     return largest;
 }
 
+// The mean and the RMS of the channel differences, over every channel of every pixel.
+void mean_and_rms(const ctlab::Image& a, const ctlab::Image& b, double* mean, double* rms) {
+    double sum = 0, squares = 0;
+    for (size_t n = 0; n < a.pixels.size(); ++n) {
+        const ctlab::Rgb p = a.pixels[n], q = b.pixels[n];
+        for (const double d : {double(p.r) - q.r, double(p.g) - q.g, double(p.b) - q.b}) {
+            sum += std::fabs(d);
+            squares += d * d;
+        }
+    }
+    const double count = 3.0 * a.pixels.size();
+    *mean = sum / count;
+    *rms = std::sqrt(squares / count);
+}
+
 std::string read_text(const std::string& path) {
     std::ifstream in(path);
     std::ostringstream text;
@@ -78,7 +106,7 @@ std::string read_text(const std::string& path) {
 }  // namespace
 
 TEST_CASE("part 3: every trick renders step 30's pictures of the four bench cases") {
-    const std::vector<std::string> tricks = trick_steps();
+    const std::vector<std::string> tricks = ray_casting_tricks();
     REQUIRE_MESSAGE(!tricks.empty(), "no part-3 step after " << first_part3_step);
     for (const Case& c : cases()) {
         const StepRender plain = render(first_part3_step, c.flags);
@@ -106,9 +134,59 @@ TEST_CASE("part 3: every trick renders step 30's pictures of the four bench case
     }
 }
 
+TEST_CASE("part 3: shear-warp renders step 30's pictures within the manifest's bounds") {
+    const std::vector<std::string> steps = step_names();
+    REQUIRE(std::find(steps.begin(), steps.end(), shear_warp_step) != steps.end());
+    const std::vector<std::string> phantom = {"--volume", "phantom", "--spacing", "1,1,1"};
+    auto with = [](std::vector<std::string> flags, std::vector<std::string> more) {
+        flags.insert(flags.end(), more.begin(), more.end());
+        return flags;
+    };
+    // Along an axis at one pixel per voxel every sample and every pixel lies on a voxel
+    // column: the bench's cases a, b and d (the middle 96x96 of the top view).
+    const std::vector<std::string> top = with(phantom, {"--azimuth", "180", "--elevation", "90",
+                                                        "--size", "96x96", "--zoom", "1"});
+    for (const std::vector<std::string>& flags :
+         {with(top, {"--unlit"}), top, with(top, {"--mode", "mip"})}) {
+        const StepRender plain = render(first_part3_step, flags);
+        const StepRender fast = render(shear_warp_step, flags);
+        INFO(flags.back());
+        CHECK(largest_difference(fast.image("camera"), plain.image("camera")) <= tolerance);
+        // Every cell is read or left out once per slice, whatever the image's size (this
+        // crop reads the whole volume's cells: the cost follows the volume).
+        const ctlab::Summary& summary = fast.summary("camera");
+        CHECK(ctlab::summary_count(summary, "samples") > 0);
+        CHECK(ctlab::summary_count(summary, "samples") + ctlab::summary_count(summary, "leapt") <=
+              uint64_t(ctlab::cthead_nx) * ctlab::cthead_ny * ctlab::cthead_nz);  // the phantom
+    }
+    // At an angle (case c at test size, and 45 degrees along two axes, lit and unlit): samples
+    // on the slices, bilinear in them, and a warp. The mean and the RMS are bounded; the
+    // largest error is not (the head rest's thin film, seen between slices by step 30).
+    for (const std::vector<std::string>& angle :
+         {std::vector<std::string>{"--unlit", "--azimuth", "30", "--elevation", "20"},
+          std::vector<std::string>{"--azimuth", "45", "--elevation", "45"}}) {
+        const std::vector<std::string> flags =
+            with(with(phantom, angle), {"--size", "96x96", "--zoom",
+                                        std::to_string(1.356 * 96 / 512)});
+        const ctlab::Image expected = render(first_part3_step, flags).image("camera");
+        const ctlab::Image image = render(shear_warp_step, flags).image("camera");
+        REQUIRE(image.width == expected.width);
+        REQUIRE(image.height == expected.height);
+        double mean = 0, rms = 0;
+        mean_and_rms(image, expected, &mean, &rms);
+        INFO(angle[angle.size() - 3] << " " << angle.back() << ": mean " << mean * 255
+                                     << ", RMS " << rms * 255 << " (8-bit units)");
+        CHECK(mean <= shear_warp_mean);
+        CHECK(rms <= shear_warp_rms);
+        CHECK(mean > 0);  // not step 30's picture itself: the bounds are what it costs
+    }
+}
+
 TEST_CASE("part 3: the manifest states the tolerance the comparison uses") {
     const std::string manifest = read_text("data/reference/manifest.txt");
     CHECK(manifest.find("Every later part-3 step renders step 30's pictures within tol=2") !=
+          std::string::npos);
+    CHECK(manifest.find("at an angle within a mean channel error of 3 and an RMS of 12") !=
           std::string::npos);
 }
 

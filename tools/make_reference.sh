@@ -131,7 +131,7 @@ while read -r name arguments; do
         fail "$name failed: $build/$step --volume $volume $volume_flags $arguments $extra"
     fi
     sed -n "s/^step=/$name: step=/p" "$work/log" |
-        sed -E 's/ (time_ms|warm_ms|warmup_ms|threads)=[^ ]*//g' >> "$work/counters"
+        sed -E 's/ (time_ms|warm_ms|warmup_ms|precompute_ms|threads)=[^ ]*//g' >> "$work/counters"
     # The volume as the step read it: "volume=... dims=NXxNYxNZ spacing=... min=... max=...".
     [ -s "$work/volume_line" ] || grep -m 1 '^volume=' "$work/log" > "$work/volume_line"
     images=

@@ -17,11 +17,14 @@
 //              occlusion, each against step 12's light (what it adds) with its time and
 //              samples read (step 21, which has them all); rays and volume at step 4 .. 1/2
 //              against shadow rays at step 1/4 (step 20)
+//   shear-warp step 35 against step 30 (and step 34's time): along an axis and at angles,
+//              error in 8-bit units against the ray caster's picture, time per render
 //   precision  the cost of subnormal arithmetic on this machine, and of a float ray
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
 //              error measured here (handouts/numerics.md quotes them)
 //
 //   build/study [--out DIR] [--runs N] [--quick]      (make study: a few minutes)
+//   build/study --only shear-warp [--out DIR]         (that study alone: DIR/shear_warp.md)
 //
 // --quick (make study QUICK=1, run by CI so the study cannot rot): one render per case, the
 // phantom at 64 x 64 x 29 (written to a raw file) and a reference step of 1/16. Its figures
@@ -686,6 +689,48 @@ void shadows_study() {
     }
 }
 
+// --- Shear-warp: what step 35's factorisation costs in quality, and what it saves ----------
+
+constexpr const char* ray_caster_step = "30_speed_baseline";  // the reference: rays, step 1
+constexpr const char* fastest_ray_caster = "34_fine_bricks";  // the same pictures, faster
+constexpr const char* shear_warp_step = "35_shear_warp";
+
+void shear_warp_study() {
+    std::printf("shear-warp: step 35 against step 30 (and step 34's time) on the phantom at "
+                "spacing 1,1,1, unlit composite: along k at one pixel per voxel, and at "
+                "angles (case c's view at 512x512, 45 degrees along two axes)\n");
+    const std::vector<std::string> phantom =
+        phantom_volume().flags + std::vector<std::string>{"--spacing", "1,1,1", "--unlit"};
+    const int side = quick ? 64 : 256, oblique = quick ? 128 : 512;
+    const double zoom = 1.356 * oblique / 512;  // case c: the bounding sphere fills the image
+    struct View {
+        const char* name;
+        std::vector<std::string> flags;
+    };
+    const std::vector<View> views = {
+        {"top", {"--azimuth", "180", "--elevation", "90", "--zoom", "1", "--size",
+                 text_of("%dx%d", side, side)}},
+        {"az30 el20", {"--azimuth", "30", "--elevation", "20", "--zoom", text_of("%.4f", zoom),
+                       "--size", text_of("%dx%d", oblique, oblique)}},
+        {"az45 el45", {"--azimuth", "45", "--elevation", "45", "--zoom", text_of("%.4f", zoom),
+                       "--size", text_of("%dx%d", oblique, oblique)}},
+    };
+    const std::string unit = "8-bit (RMSE, max) vs step 30";
+    for (const View& view : views) {
+        const Run rays = run(ray_caster_step, phantom + view.flags, true);
+        const Run fine = run(fastest_ray_caster, phantom + view.flags, true);
+        const Run sheared = run(shear_warp_step, phantom + view.flags, true);
+        record({"shear-warp", "step 30 (ray casting)", view.name, rays.ms(), 0, 0, unit,
+                rays.count("samples")});
+        const ImageError same = image_error(fine.image(), rays.image());
+        record({"shear-warp", "step 34 (ray casting, fastest)", view.name, fine.ms(), same.rmse,
+                same.max, unit, fine.count("samples")});
+        const ImageError error = image_error(sheared.image(), rays.image());
+        record({"shear-warp", "step 35 (shear-warp)", view.name, sheared.ms(), error.rmse,
+                error.max, unit, sheared.count("samples")});
+    }
+}
+
 // --- 4. Subnormal arithmetic --------------------------------------------------------------
 
 // ns per multiply over an array of `start` values times 0.9, repeated: with a subnormal
@@ -1294,8 +1339,38 @@ std::string load_average() {
     return one + " " + five + " " + fifteen;
 }
 
+// The shear-warp study's table: each view's step 30, 34 and 35, error against step 30.
+std::string shear_warp_table() {
+    return "Error against step 30's picture, RMSE and max over every channel of every pixel; "
+           "Msamples: samples read (step 35: cells read in the slices):\n\n" +
+           markdown_table("shear-warp", "view");
+}
+
+// --only shear-warp: that study alone, its table in DIR/shear_warp.md (a section for the
+// handout's block, as make study writes it into error_vs_time.md).
+int shear_warp_only(const std::string& out, const std::string& started,
+                    const std::string& load_before, const machine::OtherLoad& others,
+                    const Timer& total) {
+    shear_warp_study();
+    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+    const std::string written_by = text_of(
+        "Figures of `build/study --only shear-warp` (tools/study.cpp), not typed by hand: "
+        "started %s, %.0f s on %d cores (%s); load average %s before, %s after; other "
+        "processes used %.0f%% of the cores meanwhile (a shared machine inflates the times; "
+        "the errors do not depend on it). Times: each step run as a program with --repeat, the "
+        "median of the %d renders after the first, 1 thread.\n",
+        started.c_str(), total.ms() / 1000, cores, cpu_model().c_str(), load_before.c_str(),
+        load_average().c_str(), 100 * others.share(), runs);
+    std::ofstream(out + "/shear_warp.md")
+        << "# Shear-warp against ray casting\n\n"
+        << section("study:shear_warp", written_by + "\n" + shear_warp_table());
+    std::printf("study: wrote %s/shear_warp.md\n", out.c_str());
+    return 0;
+}
+
 int run(int argc, char** argv) {
     std::string out = "out/study";
+    std::string only;  // --only shear-warp: that study alone, into its own table
     for (int n = 1; n < argc; ++n) {
         const std::string flag = argv[n];
         if (flag == "--out" && n + 1 < argc) {
@@ -1304,9 +1379,12 @@ int run(int argc, char** argv) {
             runs = parse_int("--runs", argv[++n], 1, 1000);
         } else if (flag == "--quick") {
             quick = true;
+        } else if (flag == "--only" && n + 1 < argc) {
+            only = argv[++n];
+            if (only != "shear-warp") throw InputError("--only: the one study is shear-warp");
         } else {
-            throw InputError("usage: study [--out DIR] [--runs N] [--quick], got '" + flag +
-                             "'");
+            throw InputError("usage: study [--out DIR] [--runs N] [--quick] [--only shear-warp], "
+                             "got '" + flag + "'");
         }
     }
     if (quick) {
@@ -1318,11 +1396,13 @@ int run(int argc, char** argv) {
     const std::string started = utc_now();
     const machine::OtherLoad others;
     const Timer total;
+    if (only == "shear-warp") return shear_warp_only(out, started, load_before, others, total);
     depth_study();
     step_study();
     ert_study();
     jitter_study();
     shadows_study();
+    shear_warp_study();
     std::printf("precision: subnormal arithmetic\n");
     const SubnormalCost cost = subnormal_cost();
     std::vector<FloatRay> rays = {
@@ -1392,6 +1472,9 @@ int run(int argc, char** argv) {
                       "\nThe light volume's own error: against the shadow rays at the same "
                       "step:\n\n" + markdown_table("shadows-volume", "step"))
        << "\n";
+    md << "## Shear-warp (step 35 against step 30, unlit composite, spacing 1,1,1; error in "
+       << "8-bit units)\n\n"
+       << section("study:shear_warp", written_by + "\n" + shear_warp_table()) << "\n";
     std::ofstream(out + "/error_vs_time.md") << md.str();
     std::ofstream(out + "/numerics.md")
         << "# The stiff cases, measured\n\n"
