@@ -408,6 +408,51 @@ TEST_CASE("unlinked copies: the same code off the chain asks the header to name 
     CHECK(lesson::find_unlinked_copies(steps).empty());
 }
 
+// The lab's own part 2: step 15's compositing is step 12's (byte for byte, and so compared and
+// carried), while 13's is jittered: comparing 15 with the step numbered before it would fail.
+TEST_CASE("the lab's branches: 15, 16 and 22 take their functions from step 12") {
+    const Steps steps = lesson::read_steps(".");
+    const auto index = [&](const std::string& prefix) {
+        for (size_t n = 0; n < steps.size(); ++n) {
+            if (steps[n].first.compare(0, prefix.size(), prefix) == 0) return n;
+        }
+        FAIL("no step " << prefix);
+        return size_t(0);
+    };
+    const auto function = [&](size_t n, const std::string& name) {
+        for (const lesson::StepFunction& found :
+             lesson::step_functions(steps[n].second, steps[n].first, steps[n].first.substr(0, 2))) {
+            if (found.name == name) return found;
+        }
+        FAIL(steps[n].first << " has no " << name << "()");
+        return lesson::StepFunction{};
+    };
+    const auto parents = lesson::step_parents(steps);
+    const size_t twelve = index("12_"), thirteen = index("13_"), fourteen = index("14_");
+    const std::string composite = "composite_front_to_back";
+    CHECK(function(thirteen, composite).code != function(twelve, composite).code);
+    CHECK(function(fourteen, composite).code == function(thirteen, composite).code);
+    for (const char* step : {"15_", "16_", "17_"}) {
+        const size_t n = index(step);
+        const auto defines = [&](size_t m) {
+            for (const auto& found : lesson::step_functions(steps[m].second, steps[m].first,
+                                                            steps[m].first.substr(0, 2))) {
+                if (found.name == composite) return true;
+            }
+            return false;
+        };
+        const int from = lesson::compared_step(parents, n, defines);
+        REQUIRE(from >= 0);
+        CHECK(steps[size_t(from)].first == (step == std::string("17_") ? steps[index("16_")].first
+                                                                      : steps[twelve].first));
+        // Step 12's, comments and all: nothing says "changed" where nothing changed.
+        CHECK(function(n, composite).text == function(twelve, composite).text);
+        CHECK_FALSE(function(n, composite).changed);
+    }
+    CHECK(parents[index("15_")] == std::vector<size_t>{twelve});
+    CHECK(parents[index("22_")] == std::vector<size_t>{twelve, index("09_")});
+}
+
 // The rule on the lab itself: every function a later step holds is the earlier step's code,
 // or the later step says "changed in step NN". `make carry-lab FUNCTION=name FROM=NN` fixes
 // a drift that was a fix made in one step only.
