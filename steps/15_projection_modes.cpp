@@ -430,7 +430,6 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // each read by trilinear interpolation, classified by the table, lit where it is not
 // transparent, composited front to back; early ray termination as in step 07.
 // Changed in step 12: trilinear samples and gradients.
-// Changed in step 15: step 12's again, without step 13's jitter (this step builds on 12).
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
                                            Trace* trace) {

@@ -414,7 +414,6 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // each read by trilinear interpolation, classified by the table, lit where it is not
 // transparent, composited front to back; early ray termination as in step 07.
 // Changed in step 12: trilinear samples and gradients.
-// Changed in step 16: step 12's again (this step builds on 12, not on 13-14's jitter).
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
                                            Trace* trace) {

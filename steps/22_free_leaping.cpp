@@ -10,7 +10,8 @@
 //             renderer steps 14-19 extend without it).
 // Defaults:   as step 10: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
 //             30 degrees right of the camera and 20 above it, a black background.
-// Builds on:  12_trilinear (the orbit camera, trilinear samples, lit front to back).
+// Builds on:  12_trilinear (the orbit camera, trilinear samples, lit front to back) and
+//             09_empty_space (the bricks the table leaves empty: find_empty_bricks()).
 // Handout:    handouts/22_free_leaping.md
 // Run:        make run STEP=22 ARGS="--no-leaping"
 // Reference:  data/reference/22_free_leaping_camera.png: the default run, on the phantom.

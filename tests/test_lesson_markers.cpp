@@ -257,10 +257,206 @@ TEST_CASE("carry-lab: a fix reaches the later copies, up to a step that changes 
     CHECK_THROWS_AS(lesson::carry_forward(steps, "exit_t", "20"), lesson::InputError);
 }
 
+// --- Part 2 branches: copies follow the "Builds on:" chain, not the step numbers ----------
+
+namespace {
+
+// A step whose header builds on `base` ("" for no Builds-on line: the step before it).
+std::string built_on(const std::string& base, const std::string& comment, const std::string& body) {
+    return (base.empty() ? "" : "// Builds on:  " + base + " (what it takes).\n") +
+           step_source(comment, body);
+}
+
+const std::string plain = "    return t + 1;\n", jittered = "    return t + 1 + 0.25;\n";
+const std::string jitter_note = "// Changed in step 13: moved by the jitter.\n";
+
+// 12 -> 13 (jitter) -> 14; 15 and 16 build on 12, 17 on 16, like the lab's part 2.
+Steps branching_steps() {
+    return {{"12_trilinear", built_on("", "// The exit.\n", plain)},
+            {"13_jitter", built_on("12_trilinear", jitter_note, jittered)},
+            {"14_blue_noise", built_on("13_jitter", jitter_note, jittered)},
+            {"15_modes", built_on("12_trilinear", "// The exit.\n", plain)},
+            {"16_iso", built_on("12_trilinear", "// The exit.\n", plain)},
+            {"17_phong", built_on("16_iso", "// The exit.\n", plain)}};
+}
+
+}  // namespace
+
+TEST_CASE("builds on: the step names of the header's line and its continuation, in order") {
+    CHECK(lesson::builds_on("// x.cpp: a step.\n// Builds on:  12_trilinear (the camera).\n"
+                            "// Handout:    handouts/x.md (not 13_jitter)\n") ==
+          std::vector<std::string>{"12_trilinear"});
+    // Step 30's: two steps, the second on the indented line that continues the first.
+    CHECK(lesson::builds_on("// Builds on:  22_free_leaping (its leaping, step 31's trick)\n"
+                            "//             and 15_projection_modes (MIP).\n"
+                            "// Run:        make run STEP=30\n#include \"x\"\n// 09_empty\n") ==
+          std::vector<std::string>{"22_free_leaping", "15_projection_modes"});
+    CHECK(lesson::builds_on("// Builds on:  nothing: this is the first step.\n").empty());
+    CHECK(lesson::builds_on("// Builds on: step 09's bricks, x09_a and 9_b are no names.\n").empty());
+    CHECK(lesson::builds_on("int main() {}\n").empty());
+}
+
+TEST_CASE("step parents: the steps a header names, else the step numbered before") {
+    Steps steps = branching_steps();
+    steps.push_back({"18_clip", step_source("// The exit.\n", plain)});  // no line: after 17
+    const auto parents = lesson::step_parents(steps);
+    CHECK(parents[0].empty());  // the first step builds on none
+    CHECK(parents[1] == std::vector<size_t>{0});
+    CHECK(parents[2] == std::vector<size_t>{1});
+    CHECK(parents[3] == std::vector<size_t>{0});  // 15 builds on 12, not on 14
+    CHECK(parents[4] == std::vector<size_t>{0});
+    CHECK(parents[5] == std::vector<size_t>{4});
+    CHECK(parents[6] == std::vector<size_t>{5});
+    // A step that is not in the tree, or a later one (no loops): an error naming both.
+    steps[0].second = built_on("11_slab", "// The exit.\n", plain);
+    CHECK_THROWS_WITH_AS(lesson::step_parents(steps),
+                         "steps/12_trilinear.cpp: its \"Builds on:\" line names 11_slab, which "
+                         "is not an earlier step in steps/",
+                         ctlab::InputError);
+    steps[0].second = built_on("15_modes", "// The exit.\n", plain);
+    CHECK_THROWS_AS(lesson::step_parents(steps), ctlab::InputError);
+}
+
+TEST_CASE("branches: a step is compared with its nearest ancestor, never with a sibling") {
+    Steps steps = branching_steps();
+    // 13 changes the function and 14 keeps 13's; 15, 16 and 17 keep 12's: no drift, although
+    // 15's copy differs from 14's, the step numbered just before it.
+    CHECK(lesson::find_drifts(steps).empty());
+    // 15 given 13's jittered body without saying so: a drift against 12, not against 14.
+    steps[3].second = built_on("12_trilinear", "// The exit.\n", jittered);
+    CHECK(drift_names(lesson::find_drifts(steps)) == "exit_t 12_trilinear 15_modes\n");
+    // 17 follows 16 (its parent), and 16 follows 12.
+    steps[3].second = built_on("12_trilinear", "// The exit.\n", plain);
+    steps[5].second = built_on("16_iso", "// The exit.\n", "    return t;\n");
+    CHECK(drift_names(lesson::find_drifts(steps)) == "exit_t 16_iso 17_phong\n");
+    // A step that builds on two: the nearest that has the function, the first named on a tie.
+    Steps two = {{"01_a", step_source("", plain)},
+                 {"02_b", step_source("", "    return 0;\n")},
+                 {"03_c", built_on("01_a", "", plain) + "// Also uses 02_b.\n"},
+                 {"04_d", "// Builds on:  03_c (most)\n//             and 02_b (its exit).\n" +
+                              step_source("", "    return 0;\n")}};
+    // 02_b has no Builds-on line: it follows 01_a, and differs from it.
+    CHECK(drift_names(lesson::find_drifts(two)) == "exit_t 01_a 02_b\n"
+                                                   "exit_t 03_c 04_d\n");
+    const auto parents = lesson::step_parents(two);
+    CHECK(parents[3] == std::vector<size_t>{2, 1});
+    CHECK(lesson::compared_step(parents, 3, [](size_t) { return true; }) == 2);
+    CHECK(lesson::compared_step(parents, 3, [](size_t m) { return m != 2; }) == 1);
+    CHECK(lesson::compared_step(parents, 3, [](size_t m) { return m == 0; }) == 0);
+    CHECK(lesson::compared_step(parents, 0, [](size_t) { return true; }) == -1);
+}
+
+TEST_CASE("carry-lab on branches: a fix reaches the steps whose chain takes it unchanged") {
+    const std::string fixed = "    return t + 1.5;\n";
+    Steps steps = branching_steps();
+    steps[0].second = step_source("// The exit, fixed.\n", fixed);
+    const Steps before = steps;
+    const std::vector<lesson::Carried> carried = lesson::carry_forward(steps, "exit_t", "12");
+    // 13 changes it (14 follows 13: untouched, not listed); 15, 16 and 17 (through 16) take it.
+    REQUIRE(carried.size() == 4);
+    CHECK(carried[0].step == "13_jitter");
+    CHECK(carried[0].outcome == "changes it");
+    CHECK(carried[1].step == "15_modes");
+    CHECK(carried[1].outcome == "carried");
+    CHECK(carried[1].earlier == "12_trilinear");
+    CHECK(carried[2].step == "16_iso");
+    CHECK(carried[3].step == "17_phong");
+    CHECK(carried[3].outcome == "carried");
+    CHECK(carried[3].earlier == "16_iso");
+    CHECK_FALSE(carried[3].drifted);
+    CHECK(steps[1].second == before[1].second);
+    CHECK(steps[2].second == before[2].second);
+    for (size_t n : {3, 4, 5}) {
+        CHECK(steps[n].second.find("// The exit, fixed.\nstatic double exit_t(double t) {\n" +
+                                   fixed + "}\n") != std::string::npos);
+        CHECK(steps[n].second.rfind("// Builds on:  ", 0) == 0);  // the header stays
+    }
+    CHECK(lesson::find_drifts(steps).empty());
+
+    // A fix to 13's jittered version reaches 14 only, never 15 (a sibling's copy).
+    Steps jitter = branching_steps();
+    jitter[1].second = built_on("12_trilinear", jitter_note, "    return t + 1 + 0.5;\n");
+    const Steps unfixed = jitter;
+    const auto into = lesson::carry_forward(jitter, "exit_t", "13");
+    REQUIRE(into.size() == 1);
+    CHECK(into[0].step == "14_blue_noise");
+    CHECK(into[0].outcome == "carried");
+    CHECK(jitter[2].second == built_on("13_jitter", jitter_note, "    return t + 1 + 0.5;\n"));
+    for (size_t n : {0, 3, 4, 5}) CHECK(jitter[n].second == unfixed[n].second);
+}
+
+TEST_CASE("unlinked copies: the same code off the chain asks the header to name its step") {
+    const std::string other = "static int other() { return 2; }\n";
+    Steps steps = {{"08_lit", other},
+                   {"09_bricks", built_on("08_lit", "", plain)},
+                   {"10_camera", "// Builds on:  08_lit.\n" + other},
+                   {"12_leap", built_on("10_camera", "", plain)}};
+    // 12's exit_t is 09's, but 12 builds on 10, 10 on 08, and neither has it: nothing compares
+    // them (nor would make carry bring it), so the copy is reported.
+    CHECK(lesson::find_drifts(steps).empty());
+    CHECK(drift_names(lesson::find_unlinked_copies(steps)) == "exit_t 09_bricks 12_leap\n");
+    // Naming 09 too links it: no longer reported, and now compared.
+    steps[3].second = "// Builds on:  10_camera (the camera) and\n//             09_bricks (exit_t).\n" +
+                      step_source("", plain);
+    CHECK(lesson::find_unlinked_copies(steps).empty());
+    CHECK(lesson::find_drifts(steps).empty());
+    steps[3].second = "// Builds on:  10_camera (the camera) and\n//             09_bricks (exit_t).\n" +
+                      step_source("", jittered);
+    CHECK(drift_names(lesson::find_drifts(steps)) == "exit_t 09_bricks 12_leap\n");
+    // A function of its own, found in no earlier step: new, nothing reported.
+    steps[3].second = built_on("10_camera", "", "    return 3 * t;\n");
+    CHECK(lesson::find_unlinked_copies(steps).empty());
+}
+
+// The lab's own part 2: step 15's compositing is step 12's (byte for byte, and so compared and
+// carried), while 13's is jittered: comparing 15 with the step numbered before it would fail.
+TEST_CASE("the lab's branches: 15, 16 and 22 take their functions from step 12") {
+    const Steps steps = lesson::read_steps(".");
+    const auto index = [&](const std::string& prefix) {
+        for (size_t n = 0; n < steps.size(); ++n) {
+            if (steps[n].first.compare(0, prefix.size(), prefix) == 0) return n;
+        }
+        FAIL("no step " << prefix);
+        return size_t(0);
+    };
+    const auto function = [&](size_t n, const std::string& name) {
+        for (const lesson::StepFunction& found :
+             lesson::step_functions(steps[n].second, steps[n].first, steps[n].first.substr(0, 2))) {
+            if (found.name == name) return found;
+        }
+        FAIL(steps[n].first << " has no " << name << "()");
+        return lesson::StepFunction{};
+    };
+    const auto parents = lesson::step_parents(steps);
+    const size_t twelve = index("12_"), thirteen = index("13_"), fourteen = index("14_");
+    const std::string composite = "composite_front_to_back";
+    CHECK(function(thirteen, composite).code != function(twelve, composite).code);
+    CHECK(function(fourteen, composite).code == function(thirteen, composite).code);
+    for (const char* step : {"15_", "16_", "17_"}) {
+        const size_t n = index(step);
+        const auto defines = [&](size_t m) {
+            for (const auto& found : lesson::step_functions(steps[m].second, steps[m].first,
+                                                            steps[m].first.substr(0, 2))) {
+                if (found.name == composite) return true;
+            }
+            return false;
+        };
+        const int from = lesson::compared_step(parents, n, defines);
+        REQUIRE(from >= 0);
+        CHECK(steps[size_t(from)].first == (step == std::string("17_") ? steps[index("16_")].first
+                                                                      : steps[twelve].first));
+        // Step 12's, comments and all: nothing says "changed" where nothing changed.
+        CHECK(function(n, composite).text == function(twelve, composite).text);
+        CHECK_FALSE(function(n, composite).changed);
+    }
+    CHECK(parents[index("15_")] == std::vector<size_t>{twelve});
+    CHECK(parents[index("22_")] == std::vector<size_t>{twelve, index("09_")});
+}
+
 // The rule on the lab itself: every function a later step holds is the earlier step's code,
 // or the later step says "changed in step NN". `make carry-lab FUNCTION=name FROM=NN` fixes
 // a drift that was a fix made in one step only.
-TEST_CASE("the lab's steps: no copy of a function has drifted from the step before") {
+TEST_CASE("the lab's steps: no copy of a function has drifted from the step it builds on") {
     const Steps steps = lesson::read_steps(".");
     REQUIRE(steps.size() >= 10);
     for (const lesson::Drift& drift : lesson::find_drifts(steps)) {
@@ -269,6 +465,14 @@ TEST_CASE("the lab's steps: no copy of a function has drifted from the step befo
             drift.earlier + ".cpp's, and its comments do not say \"changed in step " +
             drift.later.substr(0, 2) + ": why\" (or: make carry-lab FUNCTION=" + drift.function +
             " FROM=" + drift.earlier.substr(0, 2) + ")";
+        FAIL_CHECK(message);
+    }
+    // A copy no ancestor holds: the header's Builds-on line must name the step it comes from.
+    for (const lesson::Drift& copy : lesson::find_unlinked_copies(steps)) {
+        const std::string message =
+            "steps/" + copy.later + ".cpp: " + copy.function + "() is steps/" + copy.earlier +
+            ".cpp's, but no step its \"Builds on:\" line leads to has it: name " +
+            copy.earlier + " there";
         FAIL_CHECK(message);
     }
 }

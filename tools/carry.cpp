@@ -4,8 +4,11 @@
 //   build/carry [--step NN] [--tree DIR]       (default: every step, in the tree .)
 //
 // make_student writes DIR/.ctlab/carry.txt: one line "TO_STEP FUNCTION FROM_STEP STUB_HASH"
-// per lesson function that TO_STEP takes unchanged from FROM_STEP in the solution. For each
-// line (in step order, so 02 -> 03 -> 04 carries in one run):
+// per lesson function that TO_STEP takes unchanged from FROM_STEP in the solution: the nearest
+// step it builds on, by its header's "Builds on:" chain, that has the function (step 16 takes
+// step 12's composite_front_to_back(), not the jittered one of step 14, numbered before it).
+// For each line (in step order, and FROM_STEP is always an earlier step, so 02 -> 03 -> 04 and
+// 12 -> 16 -> 17 carry in one run):
 //   - FROM_STEP's function still a stub (it calls not_done): nothing to carry yet;
 //   - TO_STEP's function no longer the stub generated there (STUB_HASH): the student wrote or
 //     changed it, and it is left alone;
@@ -16,10 +19,11 @@
 //
 //   build/carry --lab --function NAME --from NN [--tree DIR]      (make carry-lab)
 //
-// In the lab (the solution): a fix to step NN's function NAME reaches every later step that
-// takes it unchanged (tools/lesson_markers.h, "Copies across steps": the later steps whose
-// copy does not say "changed in step MM" for their own MM), up to the first that changes it.
-// tests/test_lesson_markers.cpp fails when two such copies differ.
+// In the lab (the solution): a fix to step NN's function NAME reaches every later step whose
+// "Builds on:" chain takes it from step NN unchanged (tools/lesson_markers.h, "Copies across
+// steps": the steps compared with step NN's copy, or with one so carried, whose copy does not
+// say "changed in step MM" for their own MM); a step that changes it keeps its version, and so
+// do the steps that build on it. tests/test_lesson_markers.cpp fails when such copies differ.
 #include <sys/stat.h>
 #include <unistd.h>
 #include <algorithm>
@@ -50,8 +54,9 @@ const char* const usage_text =
     "\n"
     "usage: carry --lab --function NAME --from NN [--tree DIR]\n"
     "In the lab: copies step NN's function NAME (comments, signature, body) into every later\n"
-    "step that takes it unchanged, up to the first step whose copy says \"changed in step MM\"\n"
-    "(MM its own number).\n";
+    "step that takes it from step NN unchanged by its \"Builds on:\" chain, up to a step whose\n"
+    "copy says \"changed in step MM\" (MM its own number): the steps built on that one keep\n"
+    "its version.\n";
 
 struct Settings {
     std::string step;  // "" = every step; else the two digits
@@ -219,7 +224,8 @@ int run_lab(const Settings& settings) {
             std::printf("%s: already the same\n", what.c_str());
         } else {
             std::printf("%s: carried%s\n", what.c_str(),
-                        step.drifted ? " (its code had drifted from the step before's)" : "");
+                        step.drifted ? (" (its code had drifted from " + step.earlier + "'s)").c_str()
+                                     : "");
         }
     }
     for (size_t n = 0; n < steps.size(); ++n) {

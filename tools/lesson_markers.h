@@ -740,18 +740,110 @@ inline std::vector<Answer> solution_answers(const std::filesystem::path& solutio
 }  // namespace lesson
 
 // --- Copies across steps: a function that a later step takes unchanged ----------------------
-// Consecutive steps differ by their lesson only, so a function defined in several steps is one
-// function kept in several files. The rule (tests/test_lesson_markers.cpp checks it, and
-// `make carry-lab` keeps it):
+// A step is the step it builds on plus its lesson, so a function defined in several steps is
+// one function kept in several files. Part 2 branches: its header's "// Builds on:  12_trilinear"
+// line names the step it builds on (`make diff` shows the difference), and steps 15, 16, 19 and
+// 22 build on step 12, not on the jittered steps 13-14 numbered just before them. The rule
+// (tests/test_lesson_markers.cpp checks it, and `make carry-lab` and `make carry` follow it):
 //   - every top-level function of a step except main() is compared with the function of the
-//     same name in the last earlier step that defines one;
+//     same name in the nearest of its ancestors that defines one: the steps its "Builds on:"
+//     line names (a step without one builds on the step numbered before it), theirs, and so
+//     on (step 16's composite_front_to_back() with step 12's, never with step 14's jittered
+//     one); a function that no ancestor defines is new in the step;
 //   - their code must be the same (comments and layout aside: lesson::code_only),
 //   - unless the later step declares that it changes the function: a line of the comment block
 //     above it says "changed in step NN" (NN: that step's own number), with the reason, e.g.
-//         // Changed in step 11: the first sample moves by the pixel's jitter.
+//         // Changed in step 13: the samples move by the pixel's jitter.
 //     A copy carried further keeps that line, and names another step there: no change.
-// A function that a step changes starts a new chain: the steps after it are compared with it.
+// A function that a step changes starts a new chain: the steps built on it are compared with it.
 namespace lesson {
+
+// The steps a source's header says it builds on: every step name ("12_trilinear") in its
+// "// Builds on:" line and the indented comment lines that continue it, in order. The first is
+// the step `make diff` compares with; step 30 names two ("22_free_leaping (...) and
+// 15_projection_modes (MIP)"). None for "Builds on:  nothing" or a header without the line.
+inline std::vector<std::string> builds_on(const std::string& source) {
+    const std::string label = "// Builds on:";
+    const auto word_char = [](char c) {
+        return std::islower(static_cast<unsigned char>(c)) ||
+               std::isdigit(static_cast<unsigned char>(c)) || c == '_';
+    };
+    std::vector<std::string> names;
+    bool inside = false;  // on the label's line or a line continuing it
+    for (size_t at = 0; at < source.size();) {
+        size_t end = source.find('\n', at);
+        if (end == std::string::npos) end = source.size();
+        const std::string line = source.substr(at, end - at);
+        at = end + 1;
+        if (line.rfind(label, 0) == 0) {
+            if (inside) break;  // the first such line only
+            inside = true;
+        } else if (!inside) {
+            continue;
+        } else if (line.rfind("//  ", 0) != 0) {
+            break;  // "// Handout: ..." or code: the line is not continued
+        }
+        const size_t first = line.rfind(label, 0) == 0 ? label.size() : 2;
+        for (size_t n = first; n < line.size(); ++n) {
+            if (n > 0 && word_char(line[n - 1])) continue;  // a name starts a word
+            size_t last = n;
+            while (last < line.size() && word_char(line[last])) ++last;
+            const std::string name = line.substr(n, last - n);
+            if (name.size() > 3 && std::isdigit(static_cast<unsigned char>(name[0])) &&
+                std::isdigit(static_cast<unsigned char>(name[1])) && name[2] == '_' &&
+                std::islower(static_cast<unsigned char>(name[3]))) {
+                names.push_back(name);
+            }
+            n = last;
+        }
+    }
+    return names;
+}
+
+// For each step (stems and sources, in order), the indices of the steps it builds on: those
+// its "Builds on:" line names, else the step before it; none for the first. Throws InputError
+// when the line names a step that is not an earlier one in `steps`.
+inline std::vector<std::vector<size_t>> step_parents(
+    const std::vector<std::pair<std::string, std::string>>& steps) {
+    std::vector<std::vector<size_t>> parents(steps.size());
+    for (size_t n = 0; n < steps.size(); ++n) {
+        const std::vector<std::string> named = builds_on(steps[n].second);
+        if (named.empty() && n > 0) parents[n].push_back(n - 1);
+        for (const std::string& name : named) {
+            size_t m = 0;
+            while (m < n && steps[m].first != name) ++m;
+            if (m == n) {
+                throw InputError("steps/" + steps[n].first + ".cpp: its \"Builds on:\" line "
+                                 "names " + name + ", which is not an earlier step in steps/");
+            }
+            parents[n].push_back(m);
+        }
+    }
+    return parents;
+}
+
+// The step that step n's function is compared with (and carried from), by the rule above:
+// of the ancestors for which `defines(m)` holds, the nearest (fewest "Builds on" links away;
+// at the same distance, the one named first); -1 when none does. `parents`: step_parents().
+template <class Defines>
+int compared_step(const std::vector<std::vector<size_t>>& parents, size_t n, Defines defines) {
+    std::vector<size_t> ring = parents[n], seen = ring;  // the ancestors one link further each
+    while (!ring.empty()) {
+        for (size_t m : ring) {
+            if (defines(m)) return int(m);
+        }
+        std::vector<size_t> next;
+        for (size_t m : ring) {
+            for (size_t parent : parents[m]) {
+                if (std::find(seen.begin(), seen.end(), parent) != seen.end()) continue;
+                seen.push_back(parent);
+                next.push_back(parent);
+            }
+        }
+        ring = next;
+    }
+    return -1;
+}
 
 struct StepFunction {
     std::string name;
@@ -820,8 +912,9 @@ struct Drift {
     std::string function, earlier, later;  // "intersect_box", "10_free_camera", "11_jitter"
 };
 
-// Every function whose code differs from its copy in the last earlier step defining it, where
-// the later step does not declare the change. `steps`: the step stems in order, with sources.
+// Every function whose code differs from its copy in the step it is compared with (the
+// nearest ancestor defining it), where the later step does not declare the change. `steps`:
+// the step stems in order, with sources.
 inline std::vector<Drift> find_drifts(
     const std::vector<std::pair<std::string, std::string>>& steps) {
     std::vector<Drift> drifts;
@@ -829,33 +922,71 @@ inline std::vector<Drift> find_drifts(
     for (const auto& [stem, source] : steps) {
         functions.push_back(step_functions(source, "steps/" + stem + ".cpp", stem.substr(0, 2)));
     }
+    const auto find = [&](size_t m, const std::string& name) -> const StepFunction* {
+        for (const StepFunction& candidate : functions[m]) {
+            if (candidate.name == name) return &candidate;
+        }
+        return nullptr;
+    };
+    const std::vector<std::vector<size_t>> parents = step_parents(steps);
     for (size_t n = 1; n < steps.size(); ++n) {
         for (const StepFunction& later : functions[n]) {
             if (later.changed) continue;
-            for (size_t m = n; m-- > 0;) {
-                const StepFunction* earlier = nullptr;
-                for (const StepFunction& candidate : functions[m]) {
-                    if (candidate.name == later.name) earlier = &candidate;
-                }
-                if (!earlier) continue;
-                if (earlier->code != later.code) {
-                    drifts.push_back({later.name, steps[m].first, steps[n].first});
-                }
-                break;
+            const int m = compared_step(parents, n, [&](size_t m) {
+                return find(m, later.name) != nullptr;
+            });
+            if (m >= 0 && find(size_t(m), later.name)->code != later.code) {
+                drifts.push_back({later.name, steps[size_t(m)].first, steps[n].first});
             }
         }
     }
     return drifts;
 }
 
+// Every function that no ancestor of its step defines while an earlier step off its chain has
+// the same code (`earlier`: the last such step): a copy that neither the drift check nor
+// `make carry` can see until the step's "Builds on:" line names where it comes from.
+inline std::vector<Drift> find_unlinked_copies(
+    const std::vector<std::pair<std::string, std::string>>& steps) {
+    std::vector<Drift> unlinked;
+    std::vector<std::vector<StepFunction>> functions;
+    for (const auto& [stem, source] : steps) {
+        functions.push_back(step_functions(source, "steps/" + stem + ".cpp", stem.substr(0, 2)));
+    }
+    const auto find = [&](size_t m, const std::string& name) -> const StepFunction* {
+        for (const StepFunction& candidate : functions[m]) {
+            if (candidate.name == name) return &candidate;
+        }
+        return nullptr;
+    };
+    const std::vector<std::vector<size_t>> parents = step_parents(steps);
+    for (size_t n = 1; n < steps.size(); ++n) {
+        for (const StepFunction& later : functions[n]) {
+            const auto defines = [&](size_t m) { return find(m, later.name) != nullptr; };
+            if (compared_step(parents, n, defines) >= 0) continue;
+            for (size_t m = n; m-- > 0;) {
+                const StepFunction* earlier = find(m, later.name);
+                if (earlier && earlier->code == later.code) {
+                    unlinked.push_back({later.name, steps[m].first, steps[n].first});
+                    break;
+                }
+            }
+        }
+    }
+    return unlinked;
+}
+
 // `make carry-lab FUNCTION=name FROM=NN`: step FROM's function `name` (its comment block,
-// signature and body) copied into every later step that takes it unchanged by the rule above,
-// up to the first later step that declares a change of its own (there the chain ends: that
-// step's version is its own). What happened to each later step holding the function:
+// signature and body) copied into every later step compared with it by the rule above, and on
+// into the steps compared with those, as long as they take it unchanged: a step that declares
+// a change of its own keeps its version, and the steps compared with it follow that. A step
+// whose ancestors reach the function by another step (step 15's from step 12, when step 13's
+// is carried) is left alone. What happened to each step the function reached:
 struct Carried {
     std::string step;     // the later step's stem
     std::string outcome;  // "carried", "same" (nothing to do), "changes it" (the chain ends)
-    bool drifted = false; // carried: its code differed from the copy before it (a drift)
+    bool drifted = false; // carried: its code differed from the copy it is compared with
+    std::string earlier;  // the stem of the step it is compared with
 };
 
 // Carries into `steps` (stems and sources, in order; the sources are rewritten in place).
@@ -867,40 +998,45 @@ inline std::vector<Carried> carry_forward(std::vector<std::pair<std::string, std
         if (steps[n].first.compare(0, 2, from) == 0 && steps[n].first.size() > 2) first = n;
     }
     if (first == steps.size()) throw InputError("no step " + from + " in steps/");
-    const auto defines = [&](size_t n, StepFunction& found) {
+    // Each step's function `name` before the carry (has[n]: the step defines it).
+    std::vector<StepFunction> before(steps.size());
+    std::vector<bool> has(steps.size(), false);
+    for (size_t n = 0; n < steps.size(); ++n) {
         const std::string& stem = steps[n].first;
         for (const StepFunction& function :
              step_functions(steps[n].second, "steps/" + stem + ".cpp", stem.substr(0, 2))) {
             if (function.name == name) {
-                found = function;
-                return true;
+                before[n] = function;
+                has[n] = true;
             }
         }
-        return false;
-    };
-    StepFunction source;
-    if (!defines(first, source)) {
+    }
+    if (!has[first]) {
         throw InputError("steps/" + steps[first].first + ".cpp defines no function " + name +
                          "() (main() is never carried)");
     }
+    const std::vector<std::vector<size_t>> parents = step_parents(steps);
+    const std::string& text = before[first].text;
+    std::vector<bool> reached(steps.size(), false);  // holds step FROM's function after the carry
+    reached[first] = true;
     std::vector<Carried> result;
-    std::string before = "";  // the code of the previous copy, before this carry
     for (size_t n = first + 1; n < steps.size(); ++n) {
-        StepFunction later;
-        if (!defines(n, later)) continue;
+        if (!has[n]) continue;
+        const int m = compared_step(parents, n, [&](size_t m) { return bool(has[m]); });
+        if (m < 0 || !reached[size_t(m)]) continue;
+        const StepFunction& later = before[n];
         if (later.changed) {
-            result.push_back({steps[n].first, "changes it", false});
-            break;
+            result.push_back({steps[n].first, "changes it", false, steps[size_t(m)].first});
+            continue;
         }
-        Carried carried{steps[n].first, "same", false};
-        if (later.text != source.text) {
+        Carried carried{steps[n].first, "same", false, steps[size_t(m)].first};
+        if (later.text != text) {
             carried.outcome = "carried";
-            carried.drifted = !before.empty() && later.code != before;
-            std::string& text = steps[n].second;
-            text.replace(later.where.start,
-                         function_text(text, later.where).size(), source.text);
+            carried.drifted = size_t(m) != first && later.code != before[size_t(m)].code;
+            std::string& source = steps[n].second;
+            source.replace(later.where.start, function_text(source, later.where).size(), text);
         }
-        before = later.code;
+        reached[n] = true;
         result.push_back(carried);
     }
     return result;

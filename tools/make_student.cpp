@@ -17,9 +17,10 @@
 //                      the steps and their functions); the lab's README.md becomes LAB.md;
 //   .ctlab/pristine/   the stubbed steps as generated: `make diff` in the kit compares these,
 //                      so that it shows what a step teaches, not the student's own code;
-//   .ctlab/carry.txt   which lesson functions a step takes unchanged from an earlier one (the
-//                      same code in the solution): `make carry` (tools/carry.cpp) copies the
-//                      student's own version forward into the later step's stub.
+//   .ctlab/carry.txt   which lesson functions a step takes unchanged from the step it builds
+//                      on, or that step's ancestors (the same code in the solution): `make
+//                      carry` (tools/carry.cpp) copies the student's own version forward into
+//                      the later step's stub.
 // DIR/.ctlab-student lists every generated file with its hash: regenerating refuses to
 // overwrite a file changed since (a student's work) unless --force is given.
 // The whole tree is made in memory first. When any file of it would hold a lesson body of the
@@ -176,6 +177,7 @@ std::string stub_step(const std::string& source, const std::string& path,
 // code alone (lesson::code_only) and the stub's text, by name.
 struct StepFunctions {
     std::string step, title;  // "02_threshold", "where does the ray first meet bone?"
+    std::vector<size_t> builds_on;  // indices of the steps it builds on (lesson::step_parents)
     std::vector<std::string> names;
     std::map<std::string, std::string> solution, code, stub;
 };
@@ -208,20 +210,22 @@ StepFunctions step_functions(const std::string& step, const std::string& solutio
     return functions;
 }
 
-// The step before `n` that defines `name` last, when its code there is the same as in step `n`
-// (comments aside: a later step may say "step 08's, unchanged" instead); else -1. Step n
-// takes that function unchanged: `make carry` brings the student's version.
+// The step that step `n`'s function `name` is compared with (tools/lesson_markers.h, "Copies
+// across steps": the nearest of its Builds-on ancestors defining it, so step 16 takes step
+// 12's composite_front_to_back(), not step 14's jittered one), when its code there is the same
+// as in step `n` (comments aside: a later step may say "step 08's, unchanged" instead); else
+// -1. Step n takes that function unchanged: `make carry` brings the student's version.
 int carried_from(const std::vector<StepFunctions>& steps, size_t n, const std::string& name) {
-    for (size_t m = n; m-- > 0;) {
-        if (steps[m].code.count(name)) {
-            return steps[m].code.at(name) == steps[n].code.at(name) ? int(m) : -1;
-        }
-    }
-    return -1;
+    std::vector<std::vector<size_t>> parents;
+    for (const StepFunctions& step : steps) parents.push_back(step.builds_on);
+    const int m = lesson::compared_step(parents, n, [&](size_t m) {
+        return steps[m].code.count(name) > 0;
+    });
+    return m >= 0 && steps[size_t(m)].code.at(name) == steps[n].code.at(name) ? m : -1;
 }
 
 // .ctlab/carry.txt: "TO_STEP FUNCTION FROM_STEP STUB_HASH" for every lesson function whose
-// code equals that of the last earlier step defining it. STUB_HASH is the hash of
+// code equals that of the step it is compared with (carried_from). STUB_HASH is the hash of
 // the function's stub as generated in TO_STEP: `make carry` replaces only a function that is
 // still that stub, never one the student wrote.
 std::string carry_text(const std::vector<StepFunctions>& steps) {
@@ -380,6 +384,7 @@ int generate(const Settings& settings) {
     std::sort(step_paths.begin(), step_paths.end());
     int stubbed = 0;
     std::vector<StepFunctions> steps;
+    std::vector<std::pair<std::string, std::string>> sources;  // stems and solutions
     for (const fs::path& path : step_paths) {
         const std::string relative = "steps/" + path.filename().string();
         const std::string solution = lesson::read_text(path.string());
@@ -387,7 +392,10 @@ int generate(const Settings& settings) {
         tree[relative] = stub_step(solution, relative, step, stubbed);
         tree[pristine_folder + relative] = tree[relative];
         steps.push_back(step_functions(step, solution, tree[relative], relative));
+        sources.push_back({step, solution});
     }
+    const std::vector<std::vector<size_t>> parents = lesson::step_parents(sources);
+    for (size_t n = 0; n < steps.size(); ++n) steps[n].builds_on = parents[n];
     tree[carry_record] = carry_text(steps);
     tree["README.md"] = student_readme(from, steps);
     if (fs::is_regular_file(from / "README.md")) {
