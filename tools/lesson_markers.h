@@ -908,6 +908,28 @@ inline std::vector<StepFunction> step_functions(const std::string& source,
     return result;
 }
 
+// The lesson functions of every step, and each step's parents: what the drift and copy
+// checks below compare. `steps`: the step stems in order, with sources.
+struct StepIndex {
+    std::vector<std::vector<StepFunction>> functions;  // per step, in file order
+    std::vector<std::vector<size_t>> parents;           // per step, from its "Builds on:"
+
+    explicit StepIndex(const std::vector<std::pair<std::string, std::string>>& steps)
+        : parents(step_parents(steps)) {
+        for (const auto& [stem, source] : steps) {
+            functions.push_back(
+                step_functions(source, "steps/" + stem + ".cpp", stem.substr(0, 2)));
+        }
+    }
+    // Step m's function `name`, or nullptr when step m has none.
+    const StepFunction* find(size_t m, const std::string& name) const {
+        for (const StepFunction& candidate : functions[m]) {
+            if (candidate.name == name) return &candidate;
+        }
+        return nullptr;
+    }
+};
+
 struct Drift {
     std::string function, earlier, later;  // "intersect_box", "10_free_camera", "11_jitter"
 };
@@ -918,24 +940,14 @@ struct Drift {
 inline std::vector<Drift> find_drifts(
     const std::vector<std::pair<std::string, std::string>>& steps) {
     std::vector<Drift> drifts;
-    std::vector<std::vector<StepFunction>> functions;
-    for (const auto& [stem, source] : steps) {
-        functions.push_back(step_functions(source, "steps/" + stem + ".cpp", stem.substr(0, 2)));
-    }
-    const auto find = [&](size_t m, const std::string& name) -> const StepFunction* {
-        for (const StepFunction& candidate : functions[m]) {
-            if (candidate.name == name) return &candidate;
-        }
-        return nullptr;
-    };
-    const std::vector<std::vector<size_t>> parents = step_parents(steps);
+    const StepIndex index(steps);
     for (size_t n = 1; n < steps.size(); ++n) {
-        for (const StepFunction& later : functions[n]) {
+        for (const StepFunction& later : index.functions[n]) {
             if (later.changed) continue;
-            const int m = compared_step(parents, n, [&](size_t m) {
-                return find(m, later.name) != nullptr;
+            const int m = compared_step(index.parents, n, [&](size_t m) {
+                return index.find(m, later.name) != nullptr;
             });
-            if (m >= 0 && find(size_t(m), later.name)->code != later.code) {
+            if (m >= 0 && index.find(size_t(m), later.name)->code != later.code) {
                 drifts.push_back({later.name, steps[size_t(m)].first, steps[n].first});
             }
         }
@@ -949,23 +961,13 @@ inline std::vector<Drift> find_drifts(
 inline std::vector<Drift> find_unlinked_copies(
     const std::vector<std::pair<std::string, std::string>>& steps) {
     std::vector<Drift> unlinked;
-    std::vector<std::vector<StepFunction>> functions;
-    for (const auto& [stem, source] : steps) {
-        functions.push_back(step_functions(source, "steps/" + stem + ".cpp", stem.substr(0, 2)));
-    }
-    const auto find = [&](size_t m, const std::string& name) -> const StepFunction* {
-        for (const StepFunction& candidate : functions[m]) {
-            if (candidate.name == name) return &candidate;
-        }
-        return nullptr;
-    };
-    const std::vector<std::vector<size_t>> parents = step_parents(steps);
+    const StepIndex index(steps);
     for (size_t n = 1; n < steps.size(); ++n) {
-        for (const StepFunction& later : functions[n]) {
-            const auto defines = [&](size_t m) { return find(m, later.name) != nullptr; };
-            if (compared_step(parents, n, defines) >= 0) continue;
+        for (const StepFunction& later : index.functions[n]) {
+            const auto defines = [&](size_t m) { return index.find(m, later.name) != nullptr; };
+            if (compared_step(index.parents, n, defines) >= 0) continue;
             for (size_t m = n; m-- > 0;) {
-                const StepFunction* earlier = find(m, later.name);
+                const StepFunction* earlier = index.find(m, later.name);
                 if (earlier && earlier->code == later.code) {
                     unlinked.push_back({later.name, steps[m].first, steps[n].first});
                     break;
