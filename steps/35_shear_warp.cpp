@@ -12,14 +12,18 @@
 //             intermediate image go to the threads. Along an axis the pictures are step 30's
 //             (to rounding); at an angle a sample lies on every slice, not every unit of
 //             length, and the warp resamples the image: a stated error (handout 35).
-//             Orthographic only; one sample per slice, so no --step.
+//             Lit, VolPack's quantised normals: each voxel a sample can read keeps the index
+//             of the nearest of 16,641 directions, and a table made per render holds each
+//             direction's light, so a lit sample is four table reads (the rounding is a
+//             stated error too). Orthographic only; one sample per slice, so no --step.
+//             --work-map is refused: the work is counted per row of the intermediate image.
 // Builds on:  34_fine_bricks.
 // Handout:    handouts/35_shear_warp.md
 // Run:        make run STEP=35 ARGS="--azimuth 180 --elevation 90 --size 256x256"
 // Reference:  data/reference/35_shear_warp_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
-#include <cstring>  // std::memcpy: eight bytes of a mask at once
+#include <cstring>  // std::memcpy: a mask's bytes at once, a float's bits
 #include <ctime>   // std::clock: the precomputation's CPU time (the machine may be shared)
 #include <memory>  // std::unique_ptr: the normal table, left unwritten where not needed
 using namespace ctlab;
