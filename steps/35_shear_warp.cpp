@@ -781,6 +781,9 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, size_t 
     if (scene.normals.indices) {
         const uint16_t* n = &scene.normals.indices[index];
         const float* light = scene.shading;
+        // On the voxels (along an axis: both fractions 0, the four corners one voxel): its
+        // light alone, the same float as the blend of four equal values.
+        if ((s.da | s.db) == 0) return light[n[0]];
         const float low = lerp(light[n[0]], light[n[s.da]], s.fa);
         const float high = lerp(light[n[s.db]], light[n[s.da + s.db]], s.fa);
         return lerp(low, high, s.fb);
