@@ -36,7 +36,7 @@
 // four cases of ../shared/performance.md on the phantom at spacing 1,1,1 (--quick: the small
 // phantom) interleaved with ctlab's candidate steps for each case; a table of ratios peer ms /
 // ctlab ms, first renders, and issue #30's targets met or missed (see peers_section).
-// --peers makes that table alone. --gain (make gain) times the part-3 steps alone, in CPU
+// --peers makes that table alone (with --steps, for those ctlab steps alone). --gain (make gain) times the part-3 steps alone, in CPU
 // time per render on the same cases (see gain_report).
 //
 // A full run on the phantom at default settings also writes each step's figures as a section
@@ -784,6 +784,7 @@ const CandidateRule part3_rule = {
 
 struct PeerFigure {
     std::vector<double> cold, warm, precompute;  // ms, one per pass
+    std::vector<double> precompute_mib;  // the tables it made (step 35's "precompute" lines)
     long rss_kib = 0;                            // the largest over the passes
     std::string error;                           // why a run failed ("" when none did)
     bool ran() const { return error.empty() && !warm.empty(); }
@@ -833,9 +834,12 @@ std::vector<std::string> case_flags(const char* rule, int side, int oblique, con
     return flags;
 }
 
-std::vector<Candidate> ctlab_candidates(int side, int oblique, const int dims[3]) {
+// `only` ("35"; "" for every step): --steps, for a peer table of those steps alone.
+std::vector<Candidate> ctlab_candidates(int side, int oblique, const int dims[3],
+                                        const std::string& only) {
     std::vector<Candidate> candidates;
     for (const std::string& step : step_names()) {
+        if (!selected(step, only)) continue;
         const CandidateRule* rule = nullptr;
         if (std::stoi(step.substr(0, 2)) >= first_part3_step) rule = &part3_rule;
         for (const CandidateRule& r : candidate_rules) {
@@ -868,6 +872,20 @@ void add_ctlab_run(PeerFigure& figure, const std::string& step,
     if (line.count("precompute_ms")) {
         figure.precompute.push_back(summary_number(line, "precompute_ms"));
     }
+    // The tables' memory: a step that makes tables once per process prints a line
+    // "precompute ... runs_mb=R normals_mb=N ..." as it makes them (MiB; runs per principal
+    // axis, normals so far).
+    std::istringstream out(run.out);
+    double runs_mib = 0, normals_mib = 0;
+    bool tables = false;
+    for (std::string text; std::getline(out, text);) {
+        if (text.rfind("precompute ", 0) != 0) continue;
+        const Summary made = parse_summary(text);
+        if (made.count("runs_mb")) runs_mib += summary_number(made, "runs_mb");
+        if (made.count("normals_mb")) normals_mib = summary_number(made, "normals_mb");
+        tables = true;
+    }
+    if (tables) figure.precompute_mib.push_back(runs_mib + normals_mib);
     figure.rss_kib = std::max(figure.rss_kib, run.max_rss_kib);
 }
 
@@ -925,13 +943,13 @@ const Candidate* fastest_for(const std::vector<Candidate>& candidates, int c) {
 // `dims` its size. `failed`: an installed peer or a candidate failed (the quick run's exit
 // status).
 std::string peers_section(const std::string& raw, const int dims[3], int runs, int pass_count,
-                          int cores, bool quick, bool* failed) {
+                          const std::string& only, int cores, bool quick, bool* failed) {
     const int side = dims[0];
     const int oblique = quick ? quick_oblique_side : oblique_side;
     const std::string volpack = build_folder() + "/peer_volpack";
     const bool have_volpack = file_exists(volpack);
     const bool have_vtk = vtk_installed();
-    std::vector<Candidate> candidates = ctlab_candidates(side, oblique, dims);
+    std::vector<Candidate> candidates = ctlab_candidates(side, oblique, dims, only);
     PeerFigure volpack_figures[peer_case_count], vtk_figures[peer_case_count];
     const TempFolder folder("bench_peers");
     const std::vector<std::string> volume_flags = {
@@ -1053,10 +1071,13 @@ std::string peers_section(const std::string& raw, const int dims[3], int runs, i
     for (int c = 0; c < peer_case_count; ++c) {
         const Candidate* best = target_step ? target_step : fastest_for(candidates, c);
         const PeerFigure& vp = volpack_figures[c];
-        const std::string precompute =
+        std::string precompute =
             best && !best->all[c].precompute.empty()
                 ? text_of("precomputation %.1f ms, ", median_of(best->all[c].precompute))
                 : std::string();
+        if (best && !best->all[c].precompute_mib.empty()) {
+            precompute += text_of("its tables %.2f MiB, ", median_of(best->all[c].precompute_mib));
+        }
         out << text_of("| %c | %s | %s | %s |\n", peer_cases[c].id,
                        vp.ran() ? text_of("%.1f (%.1f, %.0f MiB)", vp.cold_ms(),
                                           median_of(vp.precompute), vp.rss_kib / 1024.0).c_str()
@@ -1137,7 +1158,8 @@ std::string peers_section(const std::string& raw, const int dims[3], int runs, i
 
 // The peer section on the phantom at spacing 1,1,1 (quick: the small phantom), written to a
 // raw file the peers and ctlab's steps read alike.
-std::string peers_on_phantom(int cores, bool quick, int runs, int pass_count, bool* failed) {
+std::string peers_on_phantom(int cores, bool quick, int runs, int pass_count,
+                             const std::string& only, bool* failed) {
     const int dims[3] = {quick ? quick_dims[0] : cthead_nx, quick ? quick_dims[1] : cthead_ny,
                          quick ? quick_dims[2] : cthead_nz};
     const TempFolder folder("bench_peer_volume");
@@ -1150,14 +1172,17 @@ std::string peers_on_phantom(int cores, bool quick, int runs, int pass_count, bo
     std::printf("bench: the peers, phantom %dx%dx%d at spacing 1,1,1\n", dims[0], dims[1],
                 dims[2]);
     std::fflush(stdout);
-    return peers_section(raw, dims, runs, pass_count, cores, quick, failed);
+    return peers_section(raw, dims, runs, pass_count, only, cores, quick, failed);
 }
 
 // --peers: the peer table alone, written to `out_path` (exit status 1 when a run failed).
-int peers_report(int cores, bool quick, int runs, int pass_count, const std::string& out_path) {
+// `only`: --steps, the ctlab steps timed ("" for every candidate).
+int peers_report(int cores, bool quick, int runs, int pass_count, const std::string& only,
+                 const std::string& out_path) {
     bool failed = false;
     const std::string load_before = load_average();
-    const std::string peers = peers_on_phantom(cores, quick, quick ? 2 : runs, pass_count, &failed);
+    const std::string peers =
+        peers_on_phantom(cores, quick, quick ? 2 : runs, pass_count, only, &failed);
     std::ostringstream report;
     report << "# ctlab against its peers\n\nWritten by `build/bench --peers` (tools/bench.cpp), "
            << utc_now() << ". Machine: " << cores << " cores, "
@@ -1349,7 +1374,7 @@ int run(int argc, char** argv) {
     const int pass_count = quick ? 1 : passes;
     const unsigned hardware = std::thread::hardware_concurrency();
     const int cores = hardware > 0 ? int(hardware) : 1;
-    if (peers_only) return peers_report(cores, quick, runs, pass_count, out_path);
+    if (peers_only) return peers_report(cores, quick, runs, pass_count, only, out_path);
     if (gain_only) return gain_report(out_path == "out/bench.md" ? "out/part3_gain.md" : out_path);
     // Each volume: its name in the report and the flags that load it.
     std::vector<std::pair<std::string, std::vector<std::string>>> volumes;
@@ -1446,7 +1471,7 @@ int run(int argc, char** argv) {
     // The peers (VolPack, VTK) against ctlab's steps, case by case: at the defaults.
     bool peers_failed = false;
     const std::string peers =
-        defaults || quick ? peers_on_phantom(cores, quick, quick ? 2 : runs, pass_count,
+        defaults || quick ? peers_on_phantom(cores, quick, quick ? 2 : runs, pass_count, "",
                                              &peers_failed)
                           : "Not run: the peer table needs the default settings.\n";
     report << "## The peers: VolPack and VTK\n\n" << peers << "\n";

@@ -698,9 +698,11 @@ constexpr const char* shear_warp_step = "35_shear_warp";
 void shear_warp_study() {
     std::printf("shear-warp: step 35 against step 30 (and step 34's time) on the phantom at "
                 "spacing 1,1,1, unlit composite: along k at one pixel per voxel, and at "
-                "angles (case c's view at 512x512, 45 degrees along two axes)\n");
-    const std::vector<std::string> phantom =
-        phantom_volume().flags + std::vector<std::string>{"--spacing", "1,1,1", "--unlit"};
+                "angles (case c's view at 512x512, 45 degrees along two axes); then lit, "
+                "along k and at case c's angle (step 35's quantised normals)\n");
+    const std::vector<std::string> lit_phantom =
+        phantom_volume().flags + std::vector<std::string>{"--spacing", "1,1,1"};
+    const std::vector<std::string> phantom = lit_phantom + std::vector<std::string>{"--unlit"};
     const int side = quick ? 64 : 256, oblique = quick ? 128 : 512;
     const double zoom = 1.356 * oblique / 512;  // case c: the bounding sphere fills the image
     struct View {
@@ -716,10 +718,19 @@ void shear_warp_study() {
                        "--size", text_of("%dx%d", oblique, oblique)}},
     };
     const std::string unit = "8-bit (RMSE, max) vs step 30";
-    for (const View& view : views) {
-        const Run rays = run(ray_caster_step, phantom + view.flags, true);
-        const Run fine = run(fastest_ray_caster, phantom + view.flags, true);
-        const Run sheared = run(shear_warp_step, phantom + view.flags, true);
+    struct Lit {  // the views again, lit: step 35's light comes from its quantised normals
+        const View& view;
+        bool lit;
+    };
+    const std::vector<Lit> runs = {{views[0], false}, {views[1], false}, {views[2], false},
+                                   {views[0], true},  {views[1], true}};
+    for (const Lit& lit : runs) {
+        const std::string name = std::string(lit.view.name) + (lit.lit ? " lit" : "");
+        const std::vector<std::string> flags = (lit.lit ? lit_phantom : phantom) + lit.view.flags;
+        const View view = {name.c_str(), lit.view.flags};
+        const Run rays = run(ray_caster_step, flags, true);
+        const Run fine = run(fastest_ray_caster, flags, true);
+        const Run sheared = run(shear_warp_step, flags, true);
         record({"shear-warp", "step 30 (ray casting)", view.name, rays.ms(), 0, 0, unit,
                 rays.count("samples")});
         const ImageError same = image_error(fine.image(), rays.image());
