@@ -420,6 +420,17 @@ static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching) 
     return ambient + (1.0f - ambient) * float(light_reaching) *
                          std::max(0.0f, dot(normal, to_light));
 }
+
+// Whether T_light can change a sample's light: only where the diffuse part is not 0, where
+// the sample has a normal facing the light (N.L > 0, as shade_blocked() works it out). A
+// sample facing away, or with a zero gradient, gets the ambient light alone whatever T_light
+// is: it needs no shadow ray.
+static bool faces_light(Vec3 gradient, Vec3 to_light) {
+    const float size = length(gradient);
+    if (size == 0.0f) return false;
+    const Vec3 normal = (-1.0f / size) * gradient;
+    return dot(normal, to_light) > 0.0f;
+}
 //< lesson: shadow_ray
 
 // The ray's two trace records (given): where it starts, and where it meets the box. The entry
@@ -441,7 +452,8 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
 // transparent, composited front to back; early ray termination as in step 07. A lit sample's
-// light is blocked: shade_blocked() with T_light, the light that reaches it (--shadows).
+// light is blocked: shade_blocked() with T_light, the light that reaches it (--shadows),
+// asked for only where it can change the light (faces_light()).
 // Changed in step 19: a lit sample's light is blocked.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light,
@@ -474,11 +486,11 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         double light_t = 1;  // nothing blocks the light
         const uint64_t samples_before = work.samples;
         if (!params.unlit) {
-            if (shadow_rays) {
+            const Vec3 gradient = sample_gradient(volume, cell, params.nearest, work);
+            if (shadow_rays && faces_light(gradient, to_light)) {
                 light_t = light_transmittance(volume, lut, point, towards, params.step, work);
             }
-            light = shade_blocked(sample_gradient(volume, cell, params.nearest, work),
-                                  to_light, light_t);
+            light = shade_blocked(gradient, to_light, light_t);
         }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;

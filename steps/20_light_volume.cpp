@@ -419,6 +419,17 @@ static float shade_blocked(Vec3 gradient, Vec3 to_light, double light_reaching) 
     return ambient + (1.0f - ambient) * float(light_reaching) *
                          std::max(0.0f, dot(normal, to_light));
 }
+
+// Whether T_light can change a sample's light: only where the diffuse part is not 0, where
+// the sample has a normal facing the light (N.L > 0, as shade_blocked() works it out). A
+// sample facing away, or with a zero gradient, gets the ambient light alone whatever T_light
+// is: it needs no shadow ray.
+static bool faces_light(Vec3 gradient, Vec3 to_light) {
+    const float size = length(gradient);
+    if (size == 0.0f) return false;
+    const Vec3 normal = (-1.0f / size) * gradient;
+    return dot(normal, to_light) > 0.0f;
+}
 //< lesson: shadow_ray
 
 // --shadows volume: T_light at every voxel centre for one light direction, in the volume's
@@ -443,7 +454,9 @@ struct Blocking {
 // directional: every q is the same offset from its p, so T(q) and v(q) are bilinear reads
 // with the same four neighbours and weights everywhere. A q outside the box: the light came
 // in through a side face, T = 1 (the bit of material between that face and p is missed). One
-// read per voxel, once per light direction; each slice's rows in parallel.
+// read per voxel, once per light direction. q's rows are in p's plane (c fixed) and the next
+// towards the light: plane after plane, each slice by slice from the light; with more threads
+// a plane's slices in `parts` runs, run p of plane n at stage n + p (it reads earlier stages').
 static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
                                const Vec3d& to_light, bool corrected, int threads, Work& work) {
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -469,29 +482,40 @@ static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
     const int towards = to_light[a] > 0 ? 1 : -1;  // from a slice to the one before it
     LightVolume light(volume.data.size(), 1.0f);
     const int nearest = towards > 0 ? counts[a] - 1 : 0;  // the slice nearest the light
-    for (int u = nearest - towards; u >= 0 && u < counts[a]; u -= towards) {
-        const size_t here = size_t(u) * strides[a], before = size_t(u + towards) * strides[a];
-        parallel_rows(counts[c], threads, work, [&](int w, Work& row_work) {
+    const bool down = offset_c >= 0;  // plane w reads rows w + offset_c and the one after
+    const int slices = counts[a] - 1;  // after the nearest, numbered s = 0.. away from the light
+    const int parts = std::max(1, std::min(threads, slices));
+    for (int stage = 0; stage < counts[c] + parts - 1; ++stage) {
+        parallel_rows(parts, parts, work, [&](int part, Work& part_work) {
+            const int n = stage - part;  // the plane's number in the sweep's order
+            if (n < 0 || n >= counts[c]) return;
+            const int w = down ? counts[c] - 1 - n : n;
             const int low_c = w + offset_c;
-            if (!inside(low_c, fc, counts[c])) return;  // the whole row stays 1
+            if (!inside(low_c, fc, counts[c])) return;  // the whole plane stays 1
             const size_t dc = low_c + 1 < counts[c] ? strides[c] : 0;
             const int v_first = std::max(0, -offset_b);  // the row's voxels whose q is inside
             int v_end = counts[b];
             while (v_end > v_first && !inside(v_end - 1 + offset_b, fb, counts[b])) --v_end;
-            for (int v = v_first; v < v_end; ++v) {
-                const int low_b = v + offset_b;
-                const size_t db = low_b + 1 < counts[b] ? strides[b] : 0;
-                const size_t at = before + size_t(low_b) * strides[b] + size_t(low_c) * strides[c];
-                auto bilinear = [&](const auto* data) {
-                    return lerp(lerp(data[at], data[at + db], fb),
-                                lerp(data[at + dc], data[at + dc + db], fb), fc);
-                };
-                const float value = bilinear(volume.data.data());
-                light[here + size_t(v) * strides[b] + size_t(w) * strides[c]] =
-                    bilinear(light.data()) *
-                    (1 - segment.entries[int(double(value) - lowest_ct_value)].a);
+            for (int s = part * slices / parts; s < (part + 1) * slices / parts; ++s) {
+                const int u = nearest - towards * (s + 1);
+                const size_t here = size_t(u) * strides[a];
+                const size_t before = size_t(u + towards) * strides[a];
+                for (int v = v_first; v < v_end; ++v) {
+                    const int low_b = v + offset_b;
+                    const size_t db = low_b + 1 < counts[b] ? strides[b] : 0;
+                    const size_t at =
+                        before + size_t(low_b) * strides[b] + size_t(low_c) * strides[c];
+                    auto bilinear = [&](const auto* data) {
+                        return lerp(lerp(data[at], data[at + db], fb),
+                                    lerp(data[at + dc], data[at + dc + db], fb), fc);
+                    };
+                    const float value = bilinear(volume.data.data());
+                    light[here + size_t(v) * strides[b] + size_t(w) * strides[c]] =
+                        bilinear(light.data()) *
+                        (1 - segment.entries[int(double(value) - lowest_ct_value)].a);
+                }
+                part_work.samples += uint64_t(std::max(0, v_end - v_first));
             }
-            row_work.samples += uint64_t(std::max(0, v_end - v_first));
         });
     }
     return light;
@@ -528,7 +552,8 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // Step 08's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
 // transparent, composited front to back; early ray termination as in step 07. A lit sample's
-// light is blocked: shade_blocked() with T_light, the light that reaches it (--shadows).
+// light is blocked: shade_blocked() with T_light, the light that reaches it (--shadows),
+// asked for only where it can change the light (faces_light()).
 // Changed in step 20: T_light read from the light volume.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light,
@@ -562,13 +587,13 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         double light_t = 1;  // nothing blocks the light
         const uint64_t samples_before = work.samples;
         if (!params.unlit) {
-            if (shadow_rays) {
+            const Vec3 gradient = sample_gradient(volume, cell, params.nearest, work);
+            if (shadow_rays && faces_light(gradient, to_light)) {
                 light_t = light_transmittance(volume, lut, point, towards, params.step, work);
-            } else if (light_volume) {
+            } else if (light_volume && faces_light(gradient, to_light)) {
                 light_t = light_from_volume(volume, blocking.light, cell);
             }
-            light = shade_blocked(sample_gradient(volume, cell, params.nearest, work),
-                                  to_light, light_t);
+            light = shade_blocked(gradient, to_light, light_t);
         }
         const double alpha = sample.a;
         const double weight = pixel.transparency * alpha * light;

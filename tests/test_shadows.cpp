@@ -97,13 +97,16 @@ float largest_difference(const Image& p, const Image& q) {
 
 namespace {
 
-// 24 x 32 x 40 voxels at spacing 1. Air 2000 (transparent), a slab of 3000 for 10 <= k <= 20
-// (the table's boundary 2500 falls half-way between voxels: the slab is 11 units thick, 9.5
-// <= k <= 20.5), a surface of 1000 from k = 36 on (seen from k = 35.5, where the value falls
-// below 1500). Opacity 0.05 per unit in the slab: sigma = -ln(0.95); the surface's 1e-4
+// 24 x 32 x 40 voxels at spacing 1. Air 2000 (transparent), a slab of 1000 for 10 <= k <= 20
+// (the table's boundary 1500 falls half-way between voxels: the slab is 11 units thick, 9.5
+// <= k <= 20.5), a surface of 3000 from k = 36 on (seen from k = 35.5, where the value
+// reaches 2500). Opacity 0.05 per unit in the slab: sigma = -ln(0.95); the surface's 1e-4
 // hardly blocks its own light. The camera looks down +k (azimuth 180, elevation 90; right =
 // +i, image y = +j); the light (--light-angle 0) comes from 20 degrees above the viewer:
-// L = (0, -sin 20, -cos 20), so the shadow ray crosses the slab over d = 11 / cos 20.
+// L = (0, -sin 20, -cos 20), so the shadow ray crosses the slab over d = 11 / cos 20. The
+// surface's values rise into it, so its normal faces the light (up, -k), as does the slab's
+// lower face; the slab's upper face and its inside (no gradient) face no light, and march no
+// shadow ray.
 struct Slab {
     TempFolder folder{"shadows_slab"};
     std::vector<std::string> raw, flags;
@@ -114,11 +117,11 @@ struct Slab {
 
     Slab() {
         const Volume volume = filled_volume(24, 32, 40, [](int, int, int k) {
-            return k >= 10 && k <= 20 ? 3000 : k >= 36 ? 1000 : 2000;
+            return k >= 10 && k <= 20 ? 1000 : k >= 36 ? 3000 : 2000;
         });
         raw = write_raw_volume(volume, folder.path("slab.raw"));
-        flags = tf_flags(folder, "0 1500 constant 1 1 1 0.0001\n"
-                                 "2500 3500 constant 1 1 1 0.05\n");
+        flags = tf_flags(folder, "500 1500 constant 1 1 1 0.05\n"
+                                 "2500 3500 constant 1 1 1 0.0001\n");
         flags.insert(flags.end(), {"--azimuth", "180", "--elevation", "90", "--size", "24x32",
                                    "--light-angle", "0", "--step", "0.25", "--ert", "0",
                                    "--debug-pixel", "12,24"});
@@ -134,10 +137,10 @@ struct Slab {
     }
 };
 
-// The first sample on the surface (value below 1500), where the shadow ray crosses the slab.
+// The first sample on the surface (value 2500 or more), where the shadow ray crosses the slab.
 size_t first_surface_sample(const std::vector<LitSample>& samples) {
     const auto surface = std::find_if(samples.begin(), samples.end(),
-                                      [](const LitSample& s) { return s.value < 1500; });
+                                      [](const LitSample& s) { return s.value >= 2500; });
     REQUIRE(surface != samples.end());
     return size_t(surface - samples.begin());
 }
@@ -148,9 +151,9 @@ TEST_CASE("shadow rays (step 19): a homogeneous slab between the light and a sur
           "exp(-sigma d) through (Beer-Lambert)") {
     const Slab slab;
     const std::vector<LitSample> samples = slab.samples(shadow_rays_step, {});
-    // The first surface sample, k = 35.75: its shadow ray goes up through the slab.
+    // The first surface sample, k = 35.5: its shadow ray goes up through the slab.
     const LitSample& surface = samples[first_surface_sample(samples)];
-    CHECK(surface.k == doctest::Approx(35.75));
+    CHECK(surface.k == doctest::Approx(35.5));
     CHECK(surface.occlusion == -1);  // no ambient occlusion before step 21
     CAPTURE(surface.light_t);
     // Samples 0.25 apart count the slab to within one sample: |ln T + sigma d| <= sigma h.
@@ -158,13 +161,27 @@ TEST_CASE("shadow rays (step 19): a homogeneous slab between the light and a sur
     CHECK(std::fabs(std::log(surface.light_t) + slab.sigma * slab.d) <=
           slab.sigma * slab.step + 1e-4);
     CHECK(surface.light_t == doctest::Approx(std::exp(-slab.sigma * slab.d)).epsilon(0.01));
-    // The slab's own samples: the light has crossed part of the slab only; the first one, at
-    // its top (k = 9.5), nothing but air.
-    const auto top = std::find_if(samples.begin(), samples.end(),
-                                  [](const LitSample& s) { return s.value >= 2500; });
-    REQUIRE(top != samples.end());
-    CHECK(top->k == doctest::Approx(9.5));
-    CHECK(top->light_t == 1.0);
+    // The slab's own samples (9.5 < k < 20.5): down to k = 19 the values fall into the slab or
+    // stay flat (no gradient), so no normal faces the light: no shadow ray, T_light stays 1.
+    // Below k = 19 they rise back to the air's: the normal faces up, the shadow ray crosses
+    // the slab from the sample up to its top, (k - 9.5) / cos 20, to within one sample.
+    int facing_away = 0, facing_light = 0;
+    for (const LitSample& s : samples) {
+        if (s.value >= 1500) continue;  // the surface
+        CAPTURE(s.k);
+        if (s.k <= 19) {
+            ++facing_away;
+            CHECK(s.shadow_samples == 0);
+            CHECK(s.light_t == 1.0);
+        } else {
+            ++facing_light;
+            CHECK(s.shadow_samples > 0);
+            CHECK(std::fabs(std::log(s.light_t) + slab.sigma * (s.k - 9.5) / slab.cos_light) <=
+                  slab.sigma * slab.step + 1e-6);
+        }
+    }
+    CHECK(facing_away == 38);  // k = 9.75 .. 19 in steps of 0.25
+    CHECK(facing_light == 5);  // k = 19.25 .. 20.25
     // Without shadow rays nothing blocks it: T_light = 1 everywhere, and no sample is read.
     for (const LitSample& s : slab.samples(shadow_rays_step, {"--shadows", "none"})) {
         CHECK(s.light_t == 1.0);
@@ -185,7 +202,7 @@ TEST_CASE("light volume (step 20): on the slab it gives Beer-Lambert too, within
     REQUIRE(from_volume.size() == samples.size());
     const size_t surface = first_surface_sample(samples);
     const LitSample& below = from_volume[surface];
-    CHECK(below.k == doctest::Approx(35.75));
+    CHECK(below.k == doctest::Approx(35.5));
     CAPTURE(below.light_t);
     CHECK(below.light_t == doctest::Approx(std::exp(-slab.sigma * slab.d)).epsilon(1e-5));
     CHECK(std::fabs(std::log(below.light_t) - std::log(samples[surface].light_t)) <=
@@ -202,13 +219,16 @@ TEST_CASE("light volume (step 20): on the slab it gives Beer-Lambert too, within
 
 TEST_CASE("shadow rays and ambient occlusion (steps 19, 21): a lone voxel in empty space gets "
           "all the light, T_light = 1 and AO = 1") {
-    // One voxel of 1000 (opacity 0.5) at (12, 16, 20) in air (2000, transparent). The ray of
-    // pixel (12, 16) from above reads it at its centre: every occlusion probe (1 to 4 units
-    // along each axis) lands on a voxel centre of air, every shadow-ray sample within 1 unit
-    // of it reads at most 1960 (the voxel's trilinear weight there is under 0.04): nothing is
-    // in the way, exactly.
+    // One voxel of 1000 (opacity 0.5) at (12, 16, 20) in air (2000, transparent), and under
+    // it one of 3000 (transparent too), so that the values rise downwards through the voxel
+    // and its normal faces up, to the light (a lone voxel alone has no gradient at its centre,
+    // and needs no shadow ray). The ray of pixel (12, 16) from above reads it at its centre:
+    // every occlusion probe (1 to 4 units along each axis) lands on a voxel centre of air or
+    // of the 3000, every shadow-ray sample within 1 unit of it reads at most 1960 (the
+    // voxel's trilinear weight there is under 0.04): nothing is in the way, exactly.
     const Volume volume = filled_volume(24, 32, 40, [](int i, int j, int k) {
-        return i == 12 && j == 16 && k == 20 ? 1000 : 2000;
+        if (i != 12 || j != 16) return 2000;
+        return k == 20 ? 1000 : k == 21 ? 3000 : 2000;
     });
     const TempFolder folder("shadows_lone");
     const std::vector<std::string> raw = write_raw_volume(volume, folder.path("lone.raw"));
@@ -239,10 +259,13 @@ TEST_CASE("shadow rays and ambient occlusion (steps 19, 21): a lone voxel in emp
 
 TEST_CASE("ambient occlusion (step 21): inside a uniform medium it is (1 - alpha)^(radius / "
           "unit) in every direction") {
-    // A uniform block of 1000 (opacity 0.1 per unit), 24 x 32 x 40: a sample at least 4 units
-    // from every face sees the medium over the whole occlusion radius (4 units, samples 1
-    // apart) in all six directions: AO = 0.9^4 = 0.6561.
-    const Volume volume = filled_volume(24, 32, 40, [](int, int, int) { return 1000; });
+    // A uniform block, 24 x 32 x 40, of opacity 0.1 per unit (one range of the table covers
+    // all its values, 1000 + 10 k: rising downwards, so every normal faces up, to the light,
+    // and every sample marches its shadow ray): a sample at least 4 units from every face
+    // sees the medium over the whole occlusion radius (4 units, samples 1 apart) in all six
+    // directions: AO = 0.9^4 = 0.6561.
+    const Volume volume =
+        filled_volume(24, 32, 40, [](int, int, int k) { return 1000 + 10 * k; });
     const TempFolder folder("shadows_uniform");
     const std::vector<std::string> raw = write_raw_volume(volume, folder.path("block.raw"));
     std::vector<std::string> flags = tf_flags(folder, "500 1500 constant 1 1 1 0.1\n");
