@@ -2,11 +2,10 @@
 //
 // New here:   front-to-back compositing with the accumulated transparency T; early ray
 //             termination once T is below a threshold; the background blended in at the end;
-//             --order both renders the two orders and measures how far apart they are (and
-//             traces the debugged ray both ways: its ray picture draws both).
+//             --order b2f keeps step 06's back to front (tests compare the two orders).
 // Builds on:  06_transfer_function.
 // Handout:    handouts/07_compositing_order.md
-// Run:        make run STEP=07 ARGS="--order both --ert 0.01 --view top"
+// Run:        make run STEP=07 ARGS="--ert 0.1 --view top"
 // Reference:  data/reference/07_compositing_order_<view>.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
@@ -17,14 +16,12 @@ constexpr double skin_key_step = 0.02;      // opacity per Up/Down key press
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
-constexpr float diff_scale = 100;  // the difference picture shows |f2b - b2f| times this, so
-                                   // the default termination's largest error (0.01) is white
 
 struct Params {
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
     double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
     double ert = default_ert;  // early ray termination threshold for T
-    std::string order = "f2b";  // f2b, b2f, or both (compared)
+    std::string order = "f2b";  // f2b or b2f
 };
 
 // What a ray has gathered so far, front to back (in double, as step 06 explains).
@@ -142,59 +139,20 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: front_to_back
 
-// --order both: the tool that checks the lesson, not part of it (the student skeleton keeps
-// it). What it measures on one view:
-struct OrderComparison {
-    double max_diff = 0;              // largest |f2b - b2f| over every channel of every pixel
-    double ert_skipped_fraction = 0;  // share of the samples (all visited by b2f) that f2b
-                                      // never reached because its ray had stopped
-};
-
-// Renders a view in both orders and returns the front-to-back picture; the difference
-// |f2b - b2f| * diff_scale goes to OUT/STEP_VIEW_diff.png. The orders are algebraically equal:
-// without early termination they agree to rounding, with it to ert * max(colour).
-static Image compare_orders(const Options& options, const Volume& volume, const View& view,
-                            const Lut& lut, const Params& params, Work& work,
-                            OrderComparison& comparison) {
-    Work f2b_work, b2f_work;  // the summary line reports the f2b render
-    const Image f2b = render_image(view, options.threads, f2b_work, [&](int x, int y, Work& w) {
-        return over_background(composite_front_to_back(volume, view, x, y, lut, params, w,
-                                                        nullptr));
-    });
-    const Image b2f = render_image(view, options.threads, b2f_work, [&](int x, int y, Work& w) {
-        return composite_back_to_front(volume, view, x, y, lut, w, nullptr);
-    });
-    const Image diff = scaled_difference(f2b, b2f, diff_scale, &comparison.max_diff);
-    comparison.ert_skipped_fraction = 1 - double(f2b_work.samples) / double(b2f_work.samples);
-    write_png(diff, options.out + "/" + options.step + "_" + view.name + "_diff.png");
-    work.add(f2b_work);
-    return f2b;
-}
-
-// --order both, the pixel being debugged: after its front-to-back trace, the same ray back to
-// front, and how far apart the two pixels are (the ray picture draws both orders' C meeting
-// at the pixel). Its samples are not counted in the summary's work.
-static void trace_both_orders(const Volume& volume, const View& view, int x, int y,
-                              const Lut& lut, const Rgb& f2b, Trace* trace) {
-    trace->back_to_front(view.ray_length - 1);
-    Work b2f_work;
-    trace->orders_apart(f2b, composite_back_to_front(volume, view, x, y, lut, b2f_work, trace));
-}
-
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
         Args args(step_name, "Translucent skin over bone, composited front to back with early "
-                             "ray termination (or back to front, or both compared).");
+                             "ray termination (or back to front).");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
                         "opacity of the range labelled skin (default: as the file says)");
         args.add_double("--ert", &params.ert, 0, 1,
                         "stop a ray once its transparency T is below this (0: never)");
-        args.add_choice("--order", &params.order, {"f2b", "b2f", "both"},
-                        "compositing order; both: compare them (writes *_diff.png)");
+        args.add_choice("--order", &params.order, {"f2b", "b2f"},
+                        "compositing order: front to back or back to front");
         const Options options = args.parse(argc, argv);
 
         // --- Volume ---
@@ -214,19 +172,9 @@ int main(int argc, char** argv) {
             if (params.order == "b2f") {
                 return composite_back_to_front(volume, view, x, y, lut, work, trace);
             }
-            const Rgb pixel = over_background(composite_front_to_back(volume, view, x, y, lut,
-                                                                      params, work, trace));
-            if (trace && params.order == "both") {
-                trace_both_orders(volume, view, x, y, lut, pixel, trace);
-            }
-            return pixel;
+            return over_background(composite_front_to_back(volume, view, x, y, lut, params,
+                                                           work, trace));
         };
-        OrderComparison comparison;  // filled by each --order both render
-        if (params.order == "both") {
-            renderer.image = [&](const View& view, Work& work) {
-                return compare_orders(options, volume, view, lut, params, work, comparison);
-            };
-        }
         renderer.knob = {"skin_opacity",
                          [&](const View&, int steps) {
                              const TfRange* skin = find_range(tf, skin_label);
@@ -240,12 +188,8 @@ int main(int argc, char** argv) {
                              return skin ? summary_number(skin->start.a) : std::string("none");
                          }};
         renderer.settings = [&] {
-            std::string text = "tf=" + tf.source + " order=" + params.order +
-                               " ert=" + summary_number(params.ert);
-            if (params.order != "both") return text;
-            return text + " max_order_diff=" + summary_number(comparison.max_diff) +
-                   " ert_skipped_fraction=" + summary_number(comparison.ert_skipped_fraction) +
-                   " diff_scale=" + summary_number(diff_scale);
+            return "tf=" + tf.source + " order=" + params.order +
+                   " ert=" + summary_number(params.ert);
         };
 
         // --- Output: a PNG and a summary line per view, then the preview window ---

@@ -110,7 +110,7 @@ cat > "$work/table" << EOF
 02_threshold --volume $w/raw48 --dims 4,3,2 --endian middle
   says: --endian: expected little or big, got 'middle'
 07_compositing_order --volume phantom --order sideways
-  says: --order: expected one of f2b, b2f, both, got 'sideways'
+  says: --order: expected one of f2b, b2f, got 'sideways'
 07_compositing_order --volume phantom --view back
   says: --view: expected top, front, side or all, got 'back'
 08_lit_compositing --volume phantom --stpe 2

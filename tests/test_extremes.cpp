@@ -85,7 +85,7 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     }
     if (step.rfind("07", 0) == 0) {
         all.push_back({"--order", "b2f"});
-        all.push_back({"--order", "both", "--ert", "0"});
+        all.push_back({"--order", "b2f", "--ert", "0"});
     }
     if (step.rfind("08", 0) == 0) {
         all.push_back({"--step", "0.25"});
