@@ -123,7 +123,7 @@ for source in steps/[0-9][0-9]_*.cpp; do
     expect_bad "$step" "is a file, not a folder" $small --out "$regular/out"
 
     # A good run: one PNG and one summary line per view, nothing on stderr. It traces a pixel
-    # too (checked below): one render of the phantom serves both (step 17's is 2 s of CPU).
+    # too (checked below): one render of the phantom serves both (step 19's is 2 s of CPU).
     out="$work/good_$step"
     "$build/$step" --volume phantom --no-window --out "$out" --debug-pixel 128,60 \
         > "$work/stdout" 2> "$work/stderr"
@@ -182,7 +182,7 @@ long="$work/long_ray"
 yes "$(printf '\030\374')" | tr -d '\n' | head -c $((2 * 16777219)) > "$long"
 printf '\350\003' >> "$long"
 for step in 02_threshold 03_depth_shading 04_gradient_lighting 05_interpolated_hits \
-            08_lit_compositing 09_empty_space; do
+            10_opacity_correction 11_empty_space; do
     case $step in
         0[2-5]_*) flags="--threshold 500"; expect="samples=16777220 .*hits=1" ;;
         08_*) flags=""; expect="samples=16777220 skipped=16777219 leapt=0 gradients=1 " ;;

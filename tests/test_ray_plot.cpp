@@ -198,16 +198,16 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
         {"05_interpolated_hits",
          {"--view", "front", "--debug-pixel", "128,30"},
          "05_interpolated_hits_front_ray_128_30"},
-        {"07_compositing_order",
+        {"08_compositing_order",
          {"--view", "top", "--debug-pixel", "100,128"},
-         "07_compositing_order_top_ray_100_128"},
-        {"08_lit_compositing",
+         "08_compositing_order_top_ray_100_128"},
+        {"10_opacity_correction",
          {"--view", "side", "--debug-pixel", "128,60", "--step", "0.5"},
-         "08_lit_compositing_side_ray_128_60"},
-        {"09_empty_space",
+         "10_opacity_correction_side_ray_128_60"},
+        {"11_empty_space",
          {"--view", "front", "--debug-pixel", "128,30"},
-         "09_empty_space_front_ray_128_30"},
-        {"22_free_leaping", {"--debug-pixel", "280,300"}, "22_free_leaping_camera_ray_280_300"},
+         "11_empty_space_front_ray_128_30"},
+        {"24_free_leaping", {"--debug-pixel", "280,300"}, "24_free_leaping_camera_ray_280_300"},
     };
     for (const Case& c : cases) {
         CAPTURE(c.step);
@@ -272,7 +272,7 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
     }
 }
 
-TEST_CASE("step 05 marks the interpolated crossing, step 09 its leaps, step 22 the box") {
+TEST_CASE("step 05 marks the interpolated crossing, step 11 its leaps, step 24 the box") {
     ctlab::TempFolder out("ray_plot_marks");
     const auto flags = [&](std::vector<std::string> more) {
         std::vector<std::string> all = {"--volume", "phantom", "--out", out.path()};
@@ -288,12 +288,12 @@ TEST_CASE("step 05 marks the interpolated crossing, step 09 its leaps, step 22 t
     CHECK(at != std::floor(at));  // between two samples, not on one
 
     REQUIRE(
-        run_step("09_empty_space", flags({"--view", "front", "--debug-pixel", "128,30"})).status ==
+        run_step("11_empty_space", flags({"--view", "front", "--debug-pixel", "128,30"})).status ==
         0);
-    CHECK(!lines_starting(read_text(out.path("09_empty_space_front_ray_128_30.txt")), "mark leapt ")
+    CHECK(!lines_starting(read_text(out.path("11_empty_space_front_ray_128_30.txt")), "mark leapt ")
                .empty());
-    REQUIRE(run_step("22_free_leaping", flags({"--debug-pixel", "280,300"})).status == 0);
-    CHECK(lines_starting(read_text(out.path("22_free_leaping_camera_ray_280_300.txt")), "mark box ")
+    REQUIRE(run_step("24_free_leaping", flags({"--debug-pixel", "280,300"})).status == 0);
+    CHECK(lines_starting(read_text(out.path("24_free_leaping_camera_ray_280_300.txt")), "mark box ")
               .size() == 1);
 }
 
@@ -427,7 +427,7 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
 TEST_CASE("a failed run writes no ray picture (all pictures or none)") {
     ctlab::TempFolder out("ray_none");
     const RunResult run = run_step(
-        "07_compositing_order",
+        "08_compositing_order",
         {"--volume", "phantom", "--out", out.path(), "--view", "top", "--debug-pixel", "100,128"},
         120);
     REQUIRE(run.status == 0);
@@ -435,7 +435,7 @@ TEST_CASE("a failed run writes no ray picture (all pictures or none)") {
     ctlab::TempFolder out2("ray_none2");
     setenv(fail_write_variable, "2", 1);
     const RunResult failed = run_step(
-        "07_compositing_order",
+        "08_compositing_order",
         {"--volume", "phantom", "--out", out2.path(), "--view", "top", "--debug-pixel", "100,128"});
     unsetenv(fail_write_variable);
     CHECK(failed.status == 2);

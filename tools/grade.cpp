@@ -698,7 +698,7 @@ std::string tolerance_text(double tolerance) {
     return text;
 }
 
-// "2", or "2, and 3 for 07_compositing_order, 08_lit_compositing (manifest.txt's tol=)".
+// "2", or "2, and 3 for 08_compositing_order, 10_opacity_correction (manifest.txt's tol=)".
 std::string tolerances_text(const References& references, double tolerance) {
     std::map<double, std::set<std::string>> others;
     for (const auto& [name, value] : references.tolerances) {
