@@ -1,11 +1,11 @@
-// 10_opacity_correction.cpp: light every sample, and sample in physical units.
+// 10_opacity_correction.cpp: sample in physical units, and correct the opacity for the step.
 //
-// New here:   L from gradient lighting (steps 04-05), evaluated only where alpha > 0 (and
-//             interpolated between the gradients of the voxels around it); a sample step
-//             in physical units with linear interpolation along the ray; opacity
-//             correction for the step, so the picture keeps its overall opacity at any step
-//             and in every view (CThead's slices are 2 units apart, its rows and columns 1).
-// Builds on:  08_compositing_order (front to back with early ray termination).
+// New here:   a sample step in physical units with linear interpolation along the ray (the
+//             gradient interpolated between the voxels around a sample, as in step 05);
+//             opacity correction for the step, so the picture keeps its overall opacity at
+//             any step and in every view (CThead's slices are 2 units apart, its rows and
+//             columns 1).
+// Builds on:  09_lit_compositing (lit front to back with early ray termination).
 // Handout:    handouts/10_opacity_correction.md
 // Run:        make run STEP=10 ARGS="--step 0.5 --view top"
 // Reference:  data/reference/10_opacity_correction_<view>.png: the default run, on the phantom.
@@ -178,7 +178,7 @@ static int samples_along_ray(const View& view, double step) {
 // a float alpha < 1) could make T subnormal (below 2.2e-308), where arithmetic is slow.
 // Samples are `step` physical units apart and each stands for `step` units of the volume's
 // depth; the light L (0..1) darkens the colour only, never the opacity.
-// Changed in step 10: lit samples, `step` units apart.
+// Changed in step 10: samples `step` units apart, between the voxels.
 static Accumulated composite_front_to_back(const Volume& volume, const View& view, int x, int y,
                                            const Lut& lut, Vec3 to_light, const Params& params,
                                            Work& work, Trace* trace) {

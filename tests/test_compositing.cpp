@@ -25,8 +25,9 @@ namespace {
 
 constexpr const char* step07 = "07_back_to_front";  // back to front
 constexpr const char* step08 = "08_compositing_order";  // front to back, both orders
+constexpr const char* step09 = "09_lit_compositing";    // 08 with every sample lit
 constexpr const char* step10 = "10_opacity_correction";    // lit, physical step, correction
-constexpr const char* step11 = "11_empty_space";        // 08 plus leaping over empty bricks
+constexpr const char* step11 = "11_empty_space";        // 10 plus leaping over empty bricks
 constexpr double default_ert = 0.01;                    // steps 08-11's --ert default
 constexpr int step11_brick_size = 4;  // steps/11_empty_space.cpp's leap_brick_size (voxels)
 // Step 11's flag that turns leaping over empty bricks off.
@@ -438,6 +439,28 @@ TEST_CASE("compositing: front to back and back to front agree on the phantom") {
             }
             CHECK(summary_count(f, "gradients") == 0);
         }
+    }
+}
+
+TEST_CASE("compositing: step 09 --unlit is step 08's picture; lit, only the colour changes") {
+    const StepRender unlit = ctlab_test::render(step09, joined(phantom, {"--unlit"}));
+    const StepRender lit = ctlab_test::render(step09, phantom);
+    const StepRender plain = ctlab_test::render(step08, phantom);
+    REQUIRE(unlit.images.size() == 3);
+    for (const std::string view : {"top", "front", "side"}) {
+        CAPTURE(view);
+        CHECK(max_difference(unlit.image(view), plain.image(view)) == 0);
+        CHECK(max_difference(lit.image(view), plain.image(view)) > 0.1);
+        // The light darkens the colour, never the opacity: the same samples, the same stops.
+        for (const char* counter : {"samples", "skipped", "terminated"}) {
+            CHECK(summary_count(lit.summary(view), counter) ==
+                  summary_count(plain.summary(view), counter));
+        }
+        // One gradient per lit sample (a sample on a voxel), none unlit.
+        CHECK(summary_count(lit.summary(view), "gradients") ==
+              summary_count(lit.summary(view), "samples") -
+                  summary_count(lit.summary(view), "skipped"));
+        CHECK(summary_count(unlit.summary(view), "gradients") == 0);
     }
 }
 

@@ -87,6 +87,7 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--order", "b2f"});
         all.push_back({"--order", "b2f", "--ert", "0"});
     }
+    if (step.rfind("09", 0) == 0) all.push_back({"--unlit", "--light-angle", "-180"});
     if (step.rfind("10", 0) == 0) {
         all.push_back({"--step", "0.25"});
         all.push_back({"--step", "4", "--ert", "0"});
