@@ -130,9 +130,9 @@ for source in steps/[0-9][0-9]_*.cpp; do
     status=$?
     [ $status -eq 0 ] && [ ! -s "$work/stderr" ]
     check $? "$step --volume phantom: status $status, stderr: $(cat "$work/stderr")"
-    # Part 1 (00..09) renders the three axis views; part 2 (10 on) one camera picture.
+    # Part 1 (00..11) renders the three axis views; part 2 (12 on) one camera picture.
     views="top:256x256 front:256x113 side:256x113" trace_view=front
-    case "$step" in 0[0-9]_*) ;; *) views="camera:512x512" trace_view=camera ;; esac
+    case "$step" in 0[0-9]_*|1[01]_*) ;; *) views="camera:512x512" trace_view=camera ;; esac
     for view_size in $views; do
         view=${view_size%%:*}
         size=${view_size#*:}
@@ -163,7 +163,7 @@ done
 check $? "found only $steps steps in steps/"
 
 # A generic raw file: --dims, --endian big; the loader's line and the side view's size.
-step=$(basename "$(ls steps/0[0-9]_*.cpp | tail -n 1)" .cpp)  # part 1's last: it has a side view
+step=$(basename "$(ls steps/0[0-9]_*.cpp steps/1[01]_*.cpp | tail -n 1)" .cpp)  # part 1's last: it has a side view
 "$build/$step" --volume "$raw" --dims 4,3,2 --endian big --view side --no-window \
     --out "$work/raw_out" > "$work/stdout" 2> "$work/stderr"
 status=$?

@@ -64,7 +64,7 @@ int non_finite_pixels(const Image& image) {
 
 TEST_CASE("golden: every step in steps/ has its binary beside the tests") {
     const std::vector<std::string> in_folder = steps_in_folder();
-    // part1_step_names() have three axis views each; part 2's steps (10 on) render one
+    // part1_step_names() have three axis views each; part 2's steps (12 on) render one
     // camera picture and have their golden test in tests/test_free_camera.cpp.
     std::vector<std::string> part1;
     for (const std::string& name : in_folder) {

@@ -12,7 +12,7 @@
 // (the float images, --pfm). Writes FILE (out/bench.md) as Markdown, on the phantom and,
 // when present, on data/CThead. The speed targets are checked from the same figures at the
 // end: reported, never enforced (timing is no test).
-// --steps 08,08 times only those steps. --flags gives every step extra flags after its own
+// --steps 08,10 times only those steps. --flags gives every step extra flags after its own
 // defaults (say "--tf data/tf/transparent.tf --steps 08"); the targets are only checked for
 // a run of every step at its default settings.
 //
