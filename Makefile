@@ -252,7 +252,7 @@ clean:
 
 # --- Measuring: speed and accuracy -----------------------------------------------------------
 # Every step and view timed with 1 and 2 threads, each step binary run with --repeat: the cold
-# first render and the warm median (tools/bench.cpp): out/bench.md; then step 09 --unlit,
+# first render and the warm median (tools/bench.cpp): out/bench.md; then step 11 --unlit,
 # and every step's top view on the phantom at 512^3 (time per visited sample against the
 # 256x256 view's, peak memory against the volume's size). Each target: met or missed.
 # Timing needs an idle machine: check `uptime`.
@@ -366,9 +366,9 @@ carry-lab: export CTLAB_FROM := $(value FROM)
 carry-lab: $(BUILD)/carry
 	@'$(BUILD)/carry' --lab --function "$$CTLAB_FUNCTION" --from "$$CTLAB_FROM"
 
-# The README's pictures of the window's control panel: steps 06 and 22 on a virtual X display
+# The README's pictures of the window's control panel: steps 07 and 24 on a virtual X display
 # (xvfb-run), into handouts/panel_NN_name.png (tools/panel_screenshots.sh).
-screenshots: $(BUILD)/06_transfer_function $(BUILD)/22_free_leaping
+screenshots: $(BUILD)/07_back_to_front $(BUILD)/24_free_leaping
 	sh tools/panel_screenshots.sh $(BUILD) handouts
 
 # Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.

@@ -280,7 +280,7 @@ static std::string flag_value_text(FlagKind kind, const void* target) {
 
 // The preset's lines "flag value" (or "flag" alone for a switch) as words, keeping only the
 // flags this step has: a preset names settings for every step (the threshold of step 02, the
-// transfer function of step 06), and each step takes its own.
+// transfer function of step 07), and each step takes its own.
 std::vector<std::string> Args::preset_words(const std::string& name) const {
     for (char c : name) {
         if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) {

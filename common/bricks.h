@@ -4,7 +4,7 @@
 // power of two), and each brick keeps the smallest and
 // the largest CT value in it. A step that knows which values its transfer function leaves
 // transparent can then tell from those two numbers that a whole brick is transparent, and
-// leap over it instead of reading its voxels one by one (step 09 does).
+// leap over it instead of reading its voxels one by one (step 11 does).
 //
 // Gotcha: a brick's range also covers the first voxel past it along each axis (neighbouring
 // bricks overlap by one voxel). A sample interpolated between a brick's last voxel and the

@@ -1,7 +1,7 @@
 // camera_flags.h: the orbit camera's flags and window controls, the same in every part-2 step:
 // --azimuth, --elevation, --zoom, --projection, --fov and --size, the window's drag and wheel,
 // and their part of the summary line. Wiring only: the camera itself (make_camera() and
-// camera_ray(), from these values) is step 10's lesson, in the steps.
+// camera_ray(), from these values) is step 12's lesson, in the steps.
 #pragma once
 #include <string>
 #include "args.h"

@@ -237,7 +237,7 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
                                   record.number("direction.k", 0)};
                 continue;
             case TraceKind::sample:
-            case TraceKind::bisection:  // step 14's halvings are samples of the ray too
+            case TraceKind::bisection:  // step 16's halvings are samples of the ray too
                 break;
             default:
                 if (second_order) continue;  // its marks are the first order's
@@ -246,7 +246,7 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
         switch (record.kind) {
             case TraceKind::hit:
                 if (record.has("t")) {
-                    // part 2's surface hit (step 14)
+                    // part 2's surface hit (step 16)
                     t = record.number("t", 0);
                     plot.marks.push_back({RayMark::hit, t, t});
                 } else if (!view.camera) {
@@ -564,7 +564,7 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
     };
     const int plot_top = panels.front().top;
     // C as the ray had it at column xx: after the last coloured sample at or before it front
-    // to back, at or after it back to front (step 06 walks from the far end); black (C = 0,
+    // to back, at or after it back to front (step 07 walks from the far end); black (C = 0,
     // or the background) before the first.
     auto colour_at = [&](const std::vector<RaySample>& samples, int xx) {
         const bool backwards = samples.size() > 1 && samples.front().t > samples.back().t;

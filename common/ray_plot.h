@@ -11,14 +11,14 @@
 //   a sample   a sample record (or a bisection's) at "t" (physical units) or "n" (sample
 //              index, one per voxel), with "value" and what it has of "rgba.a", "L", "C.r..b",
 //              "T", "max"; a sample that hit the threshold is marked as a hit
-//   hit        a hit record: step 05's crossing at n + fraction, step 14's hit point at "t"
+//   hit        a hit record: step 05's crossing at n + fraction, step 16's hit point at "t"
 //   terminated a stop record, at the last sample's "t" or "n"
 //   leapt      a leap record: from "t" to "t_end"
 //   the box    part 2: a box record, entry "t" to "t_exit" (or that the ray missed the box)
 //   the ray    part 2: a ray record, "origin" and "direction" (physical units): the camera
 //              ray, drawn through the box in the axis views beside the plot (mip_views)
 //   2nd order  an order record: the samples after it are the same ray composited the other
-//              way (step 07's --order both: back to front), drawn beside the first (C of both
+//              way (step 08's --order both: back to front), drawn beside the first (C of both
 //              orders, meeting at the pixel)
 #pragma once
 #include <string>
@@ -61,7 +61,7 @@ struct RayMark {
 };
 
 struct RayPlot {
-    std::string title;              // "07_compositing_order front ray x=128 y=30"
+    std::string title;              // "08_compositing_order front ray x=128 y=30"
     std::vector<RaySample> samples;
     std::vector<RayMark> marks;
     std::vector<ValueBand> bands;
@@ -120,7 +120,7 @@ const char* trace_kind_name(TraceKind kind);
 // Where the marks are, in one line: "hit t=47.2857 stop t=50" ("" when none).
 std::string ray_plot_marks(const RayPlot& plot);
 
-// "out/07_compositing_order_front_ray_128_30.png" (.txt for the sidecar).
+// "out/08_compositing_order_front_ray_128_30.png" (.txt for the sidecar).
 std::string ray_plot_path(const std::string& out, const std::string& step, const View& view,
                           int x, int y, const std::string& extension);
 

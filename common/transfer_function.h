@@ -1,7 +1,7 @@
 // transfer_function.h: reading a transfer function file (data/tf/*.tf) into a list of ranges.
 //
 // Only the boring part lives here: the text format, its checks and its error messages. Turning
-// the ranges into a lookup table is the lesson of step 06 (and stays in the steps).
+// the ranges into a lookup table is the lesson of step 07 (and stays in the steps).
 // The format is described at the top of data/tf/classic.tf.
 #pragma once
 #include <string>

@@ -29,7 +29,7 @@ struct View {
     std::string name;        // "top", "front", "side" or "camera"
     int width = 0;           // image columns
     int height = 0;          // image rows
-    int ray_length = 0;      // voxels along the ray axis (one sample each, up to step 07)
+    int ray_length = 0;      // voxels along the ray axis (one sample each, up to step 08)
     double ray_spacing = 1;  // physical distance between two voxels along the ray
     double pixel_width = 1;  // physical size of a pixel across (x) and down (y): for display
     double pixel_height = 1;
@@ -74,7 +74,7 @@ std::vector<View> views_named(const Volume& volume, const std::string& which);
 // render stays bounded by the volume's size.
 constexpr double max_samples_per_voxel = 64;
 
-// Why `step` (physical units, steps 08-09) asks too much of the axis views' rays, or "": more
+// Why `step` (physical units, steps 10-11) asks too much of the axis views' rays, or "": more
 // than max_samples_per_voxel samples per voxel (--spacing 1e6,1e6,1e6 at --step 1 would take
 // a million, hours of work), or more samples per ray than an int counts. Checked before any
 // render.

@@ -74,7 +74,7 @@ double warm_up(const std::vector<View>& views, int threads, const Volume* volume
     for (const View& view : views) {
         image_bytes = std::max(image_bytes, size_t(view.width) * view.height * sizeof(Rgb));
     }
-    // A render keeps its image while the next is made (--repeat, step 07's two orders):
+    // A render keeps its image while the next is made (--repeat, step 08's two orders):
     // room for two images, rounded up to whole pages.
     const size_t kept = std::min(2 * image_bytes + page_bytes, max_kept_bytes / 2);
 #ifdef __GLIBC__

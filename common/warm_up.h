@@ -1,7 +1,7 @@
 // warm_up.h: what a process does once, before its first timed render, so that render costs
 // what every later one costs.
 //
-// Why the first render in a fresh process was slow (measured on the lab's 2-core VM, step 07
+// Why the first render in a fresh process was slow (measured on the lab's 2-core VM, step 08
 // top view, with per-render fault counts and times from --repeat):
 //  - its image (256x256 RGB floats, 786 KB) lands in memory the process has never touched:
 //    192 page faults, about 10 us each on this VM, ~2 ms. glibc hands such a large block

@@ -4,13 +4,13 @@
 // New here:   nothing to see: one program renders all four of part 3's bench cases, so that
 //             every later step can be timed and compared against it. Composite with the
 //             classic table, lit (part 2's light) or --unlit, or the maximum intensity
-//             (--mode mip, step 15's grey), from step 10's orbit camera and its flags,
+//             (--mode mip, step 17's grey), from step 12's orbit camera and its flags,
 //             trilinear samples every --step, early ray termination. The code is plain lesson
 //             code, part 2's unchanged: the dense volume, every gradient from the voxels,
 //             every sample read, no caches. Each trick of steps 31 on is measured against
 //             this step and renders its pictures within the manifest's tolerance.
-// Builds on:  22_free_leaping (camera, slab method, trilinear, lit compositing; its leaping
-//             over empty bricks goes, it is step 31's trick) and 15_projection_modes (MIP).
+// Builds on:  24_free_leaping (camera, slab method, trilinear, lit compositing; its leaping
+//             over empty bricks goes, it is step 31's trick) and 17_projection_modes (MIP).
 // Handout:    handouts/30_speed_baseline.md
 // Run:        make run STEP=30 ARGS="--mode mip --azimuth 180 --elevation 90 --size 256x256"
 // Reference:  data/reference/30_speed_baseline_camera.png: the default run (lit composite,
@@ -43,13 +43,13 @@ struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, 
     double ert = default_ert;  // early ray termination threshold for T
     double step = default_step;  // physical units between samples
     double light_angle = default_light_angle;
-    bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
+    bool unlit = false;          // L = 1 everywhere, no gradients (as step 08)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
     std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
     bool nearest = false;                     // interpolation == "nearest"
 };
 
-// What a ray has gathered so far, front to back (in double, as step 06 explains).
+// What a ray has gathered so far, front to back (in double, as step 07 explains).
 struct Accumulated {
     double r = 0, g = 0, b = 0;  // colour, each sample weighted by its opacity and T
     double transparency = 1;     // T: the share of what lies further back that still shows
@@ -201,7 +201,7 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
 //< lesson: slab
 
 //> lesson: opacity_correction
-// The opacity correction of step 08, unchanged.
+// The opacity correction of step 10, unchanged.
 static float corrected_opacity(float alpha, double ratio) {
     if (alpha <= 0.0f) return 0.0f;
     if (alpha >= 1.0f) return 1.0f;
@@ -213,7 +213,7 @@ static double opacity_ratio(const Params& params) {
 }
 //< lesson: opacity_correction
 
-// Step 08's lookup table, unchanged: one RGBA per CT value, opacities corrected for the step.
+// Step 10's lookup table, unchanged: one RGBA per CT value, opacities corrected for the step.
 struct Lut {
     std::vector<Rgba> entries = std::vector<Rgba>(ct_value_end - lowest_ct_value);
 };
@@ -322,7 +322,7 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
 //> lesson: gradient
-// Step 08's derivative and gradient at a voxel, unchanged.
+// Step 10's derivative and gradient at a voxel, unchanged.
 template <class Sample>
 static float derivative(Sample sample, int n, int count, double spacing) {
     if (count == 1) return 0.0f;
@@ -344,7 +344,7 @@ static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
 }
 
 // The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
-// values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
+// values are. At a voxel centre it is that voxel's gradient exactly (step 10's at its samples).
 static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
     auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
         return gradient_at(volume, Voxel{a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k}, work);
@@ -357,7 +357,7 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
                        c.fk);
 }
 
-// A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
+// A sample's gradient: with nearest samples the nearest voxel's own (step 10's, one voxel's
 // differences), else trilinear.
 static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
     if (!nearest) return gradient_trilinear(volume, c, work);
@@ -366,7 +366,7 @@ static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, W
 //< lesson: gradient
 
 //> lesson: shade
-// Step 08's diffuse shading, unchanged.
+// Step 10's diffuse shading, unchanged.
 static float shade(Vec3 gradient, Vec3 to_light) {
     const float size = length(gradient);
     if (size == 0.0f) return ambient;
@@ -375,7 +375,7 @@ static float shade(Vec3 gradient, Vec3 to_light) {
 }
 
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
-// step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// step 10's light, in the camera's frame (so part 1's top and side views get the same light).
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -386,7 +386,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 15.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -479,7 +479,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
 //< lesson: composite
 
 //> lesson: mip
-// Case d: step 15's maximum intensity along the same samples, from the first sample (CT
+// Case d: step 17's maximum intensity along the same samples, from the first sample (CT
 // values go below 0), shown as grey; a ray that misses the box shows the background.
 // Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
 static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
@@ -525,7 +525,7 @@ int main(int argc, char** argv) {
                         "physical units between two samples along a ray");
         args.add_double("--light-angle", &params.light_angle, -180, 180,
                         "light direction, degrees to the right of the camera");
-        args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
+        args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 08");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
         args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},

@@ -48,13 +48,13 @@ struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, 
     double ert = default_ert;  // early ray termination threshold for T
     double step = default_step;  // physical units between samples
     double light_angle = default_light_angle;
-    bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
+    bool unlit = false;          // L = 1 everywhere, no gradients (as step 08)
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
     std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
     bool nearest = false;                     // interpolation == "nearest"
 };
 
-// What a ray has gathered so far, front to back (in double, as step 06 explains).
+// What a ray has gathered so far, front to back (in double, as step 07 explains).
 struct Accumulated {
     double r = 0, g = 0, b = 0;  // colour, each sample weighted by its opacity and T
     double transparency = 1;     // T: the share of what lies further back that still shows
@@ -206,7 +206,7 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
 //< lesson: slab
 
 //> lesson: opacity_correction
-// The opacity correction of step 08, unchanged.
+// The opacity correction of step 10, unchanged.
 static float corrected_opacity(float alpha, double ratio) {
     if (alpha <= 0.0f) return 0.0f;
     if (alpha >= 1.0f) return 1.0f;
@@ -218,7 +218,7 @@ static double opacity_ratio(const Params& params) {
 }
 //< lesson: opacity_correction
 
-// Step 08's lookup table, unchanged: one RGBA per CT value, opacities corrected for the step.
+// Step 10's lookup table, unchanged: one RGBA per CT value, opacities corrected for the step.
 struct Lut {
     std::vector<Rgba> entries = std::vector<Rgba>(ct_value_end - lowest_ct_value);
 };
@@ -323,7 +323,7 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 }
 //< lesson: trilinear
 
-// Empty space: min-max bricks as in step 09 (common/bricks.h; 8 voxels a side here) and, for
+// Empty space: min-max bricks as in step 11 (common/bricks.h; 8 voxels a side here) and, for
 // the current table, how far the empty space around each brick reaches (see empty_reach); no
 // reach: leap over nothing.
 struct EmptySpace {
@@ -339,7 +339,7 @@ constexpr double leap_margin = 1e-6;    // voxels: a leap stops this far before 
 
 
 //> lesson: empty_space
-// Step 09's bricks that the table leaves wholly transparent, unchanged.
+// Step 11's bricks that the table leaves wholly transparent, unchanged.
 static std::vector<uint8_t> find_empty_bricks(const Bricks& bricks, const Lut& lut) {
     std::vector<int> opaque_before(lut.entries.size() + 1, 0);
     for (size_t n = 0; n < lut.entries.size(); ++n) {
@@ -373,7 +373,7 @@ static std::vector<uint8_t> shrink(const Bricks& bricks, std::vector<uint8_t> em
 }
 
 // Along a free ray, a leap over one brick (8 voxels) would take ~40 leaps to cross the air
-// around a head, and step 09's runs of empty bricks follow one axis. So each brick gets its
+// around a head, and step 11's runs of empty bricks follow one axis. So each brick gets its
 // reach r: the cube of bricks r - 1 around it is all empty (r = 0: the brick itself is not).
 // A ray in that brick leaps to where it leaves the cube. Reach r + 1 is reach r shrunk by a
 // brick on every side.
@@ -419,7 +419,7 @@ static long long leap_past(const Walk& walk, const Bricks& bricks, const Cell& c
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
 //> lesson: gradient
-// Step 08's derivative and gradient at a voxel, unchanged.
+// Step 10's derivative and gradient at a voxel, unchanged.
 template <class Sample>
 static float derivative(Sample sample, int n, int count, double spacing) {
     if (count == 1) return 0.0f;
@@ -441,7 +441,7 @@ static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
 }
 
 // The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
-// values are. At a voxel centre it is that voxel's gradient exactly (step 08's at its samples).
+// values are. At a voxel centre it is that voxel's gradient exactly (step 10's at its samples).
 static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
     auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
         return gradient_at(volume, Voxel{a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k}, work);
@@ -454,7 +454,7 @@ static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) 
                        c.fk);
 }
 
-// A sample's gradient: with nearest samples the nearest voxel's own (step 08's, one voxel's
+// A sample's gradient: with nearest samples the nearest voxel's own (step 10's, one voxel's
 // differences), else trilinear.
 static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
     if (!nearest) return gradient_trilinear(volume, c, work);
@@ -626,7 +626,7 @@ static inline float blend_corners(const Corners& corners, const Cell& c) {
 //< lesson: cell_walk
 
 //> lesson: shade
-// Step 08's diffuse shading, unchanged.
+// Step 10's diffuse shading, unchanged.
 static float shade(Vec3 gradient, Vec3 to_light) {
     const float size = length(gradient);
     if (size == 0.0f) return ambient;
@@ -635,7 +635,7 @@ static float shade(Vec3 gradient, Vec3 to_light) {
 }
 
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
-// step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// step 10's light, in the camera's frame (so part 1's top and side views get the same light).
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -646,7 +646,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 13.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 15.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -816,7 +816,7 @@ int main(int argc, char** argv) {
                         "physical units between two samples along a ray");
         args.add_double("--light-angle", &params.light_angle, -180, 180,
                         "light direction, degrees to the right of the camera");
-        args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
+        args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 08");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the step");
         args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},

@@ -54,7 +54,7 @@ struct Params {
     double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
     double ert = default_ert;  // early ray termination threshold for T
     double light_angle = default_light_angle;
-    bool unlit = false;          // L = 1 everywhere, no gradients (as step 07)
+    bool unlit = false;          // L = 1 everywhere, no gradients (as step 08)
     bool no_correction = false;  // use the TF opacities as they are, whatever the spacing
     double azimuth = default_azimuth;      // degrees
     double elevation = default_elevation;  // degrees, -90..90
@@ -66,7 +66,7 @@ struct Params {
     std::string size = default_size;       // "WxH"
 };
 
-// What a ray has gathered so far, front to back (in double, as step 06 explains).
+// What a ray has gathered so far, front to back (in double, as step 07 explains).
 struct Accumulated {
     double r = 0, g = 0, b = 0;  // colour, each sample weighted by its opacity and T
     double transparency = 1;     // T: the share of what lies further back that still shows
@@ -218,7 +218,7 @@ static Vec3d entry_point(const Ray& ray, const Span& span, const Vec3d& high) {
 //< lesson: slab
 
 //> lesson: opacity_correction
-// The opacity correction of step 08, unchanged.
+// The opacity correction of step 10, unchanged.
 static float corrected_opacity(float alpha, double ratio) {
     if (alpha <= 0.0f) return 0.0f;
     if (alpha >= 1.0f) return 1.0f;
@@ -233,7 +233,7 @@ static double opacity_ratio(const Params& params, double spacing) {
 //< lesson: opacity_correction
 
 
-// Step 08's lookup table, unchanged: one RGBA per CT value, opacities corrected for the step.
+// Step 10's lookup table, unchanged: one RGBA per CT value, opacities corrected for the step.
 struct Lut {
     std::vector<Rgba> entries = std::vector<Rgba>(ct_value_end - lowest_ct_value);
 };
@@ -267,7 +267,7 @@ static float lerp(float a, float b, float f) { return a + f * (b - a); }
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
 //> lesson: gradient
-// Step 08's derivative and gradient at a voxel, unchanged.
+// Step 10's derivative and gradient at a voxel, unchanged.
 template <class Sample>
 static float derivative(Sample sample, int n, int count, double spacing) {
     if (count == 1) return 0.0f;
@@ -291,7 +291,7 @@ static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
 //< lesson: gradient
 
 //> lesson: shade
-// Step 08's diffuse shading, unchanged.
+// Step 10's diffuse shading, unchanged.
 static float shade(Vec3 gradient, Vec3 to_light) {
     const float size = length(gradient);
     if (size == 0.0f) return ambient;
@@ -300,7 +300,7 @@ static float shade(Vec3 gradient, Vec3 to_light) {
 }
 
 // Unit direction towards the light, angle to the right of the camera and elevation above it:
-// step 08's light, in the camera's frame (so part 1's top and side views get the same light).
+// step 10's light, in the camera's frame (so part 1's top and side views get the same light).
 static Vec3 light_direction(const Camera& camera, double angle) {
     const float along_x = float(std::sin(angle * degrees) * std::cos(light_elevation * degrees));
     const float along_y = float(-std::sin(light_elevation * degrees));  // image y points down
@@ -311,7 +311,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 13.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 15.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -454,7 +454,7 @@ static std::vector<Vec3> normal_directions() {
     return directions;
 }
 
-// Given: the shading table for one render: step 08's shade() of every direction, towards this
+// Given: the shading table for one render: step 10's shade() of every direction, towards this
 // render's light. The rows of directions are shared among the threads.
 static void make_shading_table(const std::vector<Vec3>& directions, Vec3 to_light, int threads,
                                std::vector<float>& light) {
@@ -677,7 +677,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
 // Given: the normal index of every voxel a lit sample can read, the corners of the runs' cells,
 // slice by slice (the slices shared among the threads: each writes only its own slice's
 // voxels). A voxel with all six neighbours takes its central differences straight from the
-// voxels (step 08's gradient_at() without its edge cases; the direction is all that is kept);
+// voxels (step 10's gradient_at() without its edge cases; the direction is all that is kept);
 // one on the volume's faces calls gradient_at(). A table made for another principal axis keeps
 // what it holds.
 static void fill_normal_table(const Volume& volume, const Shear& shear, const Runs& runs,
@@ -774,7 +774,7 @@ static void fill_normal_table(const Volume& volume, const Shear& shear, const Ru
 // 30 interpolates the gradients, then shades: the same along an axis, where the fractions are
 // 0, but for the directions' rounding).
 // Without a table (a volume too large for one), the corners' gradients from the voxels,
-// blended, then step 08's shade, as step 30 does.
+// blended, then step 10's shade, as step 30 does.
 static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
                                 int b, Work& work) {
     work.gradients += 4;
@@ -802,7 +802,7 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, size_t 
 }
 
 //> lesson: composite
-// Step 30's compositing of one sample, in double (step 06): colour weighted by opacity, light
+// Step 30's compositing of one sample, in double (step 07): colour weighted by opacity, light
 // and T; T multiplied by what the sample lets through.
 static inline void add_sample(Accumulated& pixel, const Rgba& sample, double light) {
     const double alpha = sample.a;
@@ -1146,7 +1146,7 @@ int main(int argc, char** argv) {
                         "stop a pixel once its transparency T is below this (0: never)");
         args.add_double("--light-angle", &params.light_angle, -180, 180,
                         "light direction, degrees to the right of the camera");
-        args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 07");
+        args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 08");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the slices' spacing");
         args.add_double("--azimuth", &params.azimuth, -360, 360,

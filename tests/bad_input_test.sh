@@ -109,11 +109,11 @@ cat > "$work/table" << EOF
   says: --spacing: expected SX,SY,SZ, got '1,2'
 02_threshold --volume $w/raw48 --dims 4,3,2 --endian middle
   says: --endian: expected little or big, got 'middle'
-07_compositing_order --volume phantom --order sideways
-  says: --order: expected one of f2b, b2f, both, got 'sideways'
-07_compositing_order --volume phantom --view back
+08_compositing_order --volume phantom --order sideways
+  says: --order: expected one of f2b, b2f, got 'sideways'
+08_compositing_order --volume phantom --view back
   says: --view: expected top, front, side or all, got 'back'
-08_lit_compositing --volume phantom --stpe 2
+10_opacity_correction --volume phantom --stpe 2
   says: unknown option '--stpe' (see --help)
 02_threshold --volume phantom --threshold
   says: --threshold: missing value
@@ -133,73 +133,73 @@ cat > "$work/table" << EOF
   says: --threshold: expected a number from -32768 to 32767, got 40000
 05_interpolated_hits --volume phantom --threshold bone
   says: --threshold: expected a number, got 'bone'
-08_lit_compositing --volume phantom --step 0
+10_opacity_correction --volume phantom --step 0
   says: --step: expected a number from 0.25 to 4, got 0
-08_lit_compositing --volume phantom --step nan
+10_opacity_correction --volume phantom --step nan
   says: --step: expected a number, got 'nan'
-08_lit_compositing --volume phantom --spacing 1e6,1e6,1e6
+10_opacity_correction --volume phantom --spacing 1e6,1e6,1e6
   says: --step 1 with --spacing 1e+06,1e+06,1e+06 asks for 1.13e+08 samples per ray in the top view, over the limit of 7232 (64 per voxel): raise --step or lower --spacing
-09_empty_space --volume phantom --spacing 1e6,1e6,1e6 --step 4
+11_empty_space --volume phantom --spacing 1e6,1e6,1e6 --step 4
   says: --step 4 with --spacing 1e+06,1e+06,1e+06 asks for 2.825e+07 samples per ray in the top view, over the limit of 7232 (64 per voxel): raise --step or lower --spacing
-09_empty_space --volume phantom --view front --spacing 1,1,100 --step 0.25
+11_empty_space --volume phantom --view front --spacing 1,1,100 --step 0.25
   says: --step 0.25 with --spacing 1,1,100 asks for 4.52e+04 samples per ray in the top view, over the limit of 7232 (64 per voxel): raise --step or lower --spacing
-06_transfer_function --volume phantom --skin-opacity 2
+07_back_to_front --volume phantom --skin-opacity 2
   says: --skin-opacity: expected a number from 0 to 1, got 2
-07_compositing_order --volume phantom --skin-opacity -0.1
+08_compositing_order --volume phantom --skin-opacity -0.1
   says: --skin-opacity: expected a number from 0 to 1, got -0.1
-08_lit_compositing --volume phantom --skin-opacity 2
+10_opacity_correction --volume phantom --skin-opacity 2
   says: --skin-opacity: expected a number from 0 to 1, got 2
-08_lit_compositing --volume phantom --threads 0
+10_opacity_correction --volume phantom --threads 0
   says: --threads: expected a whole number from 1 to 256, got 0
 02_threshold --volume phantom --threads 1000
   says: --threads: expected a whole number from 1 to 256, got 1000
-07_compositing_order --volume phantom --ert 2
+08_compositing_order --volume phantom --ert 2
   says: --ert: expected a number from 0 to 1, got 2
 04_gradient_lighting --volume phantom --light-angle 500
   says: --light-angle: expected a number from -180 to 180, got 500
 00_slices --volume phantom --view top --slice 200
   says: --slice: the top view has slices 0 to 112, got 200
-06_transfer_function --volume phantom --tf $w/bad_kind.tf
+07_back_to_front --volume phantom --tf $w/bad_kind.tf
   says: bad_kind.tf:3: the kind must be constant or ramp, got 'constnt'
-06_transfer_function --volume phantom --tf $w/few_fields.tf
+07_back_to_front --volume phantom --tf $w/few_fields.tf
   says: few_fields.tf:2: expected FROM TO constant
-06_transfer_function --volume phantom --tf $w/field_count.tf
+07_back_to_front --volume phantom --tf $w/field_count.tf
   says: field_count.tf:1: a constant range has FROM TO constant, 4 numbers (R G B A) and an
-06_transfer_function --volume phantom --tf $w/not_number.tf
+07_back_to_front --volume phantom --tf $w/not_number.tf
   says: not_number.tf:1: green must be a number from 0 to 1, got 'zero'
-06_transfer_function --volume phantom --tf $w/whole_value.tf
+07_back_to_front --volume phantom --tf $w/whole_value.tf
   says: whole_value.tf:1: FROM must be a whole CT value, got '-300.5'
-06_transfer_function --volume phantom --tf $w/above_int16.tf
+07_back_to_front --volume phantom --tf $w/above_int16.tf
   says: above_int16.tf:1: TO must be from -32768 to 32768, got 40000
-06_transfer_function --volume phantom --tf $w/empty_range.tf
+07_back_to_front --volume phantom --tf $w/empty_range.tf
   says: empty_range.tf:1: FROM must be below TO, got 50 50
-06_transfer_function --volume phantom --tf $w/overlapping.tf
+07_back_to_front --volume phantom --tf $w/overlapping.tf
   says: overlapping.tf:2: the range [0, 300) overlaps [-300, 50) on line 1
-06_transfer_function --volume phantom --tf $w/unsorted.tf
+07_back_to_front --volume phantom --tf $w/unsorted.tf
   says: unsorted.tf:2: ranges must be sorted by FROM: [-300, 50) comes after [300, 32768) on line 1
-07_compositing_order --volume phantom --tf $w/opacity_high.tf
+08_compositing_order --volume phantom --tf $w/opacity_high.tf
   says: opacity_high.tf:1: opacity must be from 0 to 1, got 1.5
-08_lit_compositing --volume phantom --tf $w/opacity_negative.tf
+10_opacity_correction --volume phantom --tf $w/opacity_negative.tf
   says: opacity_negative.tf:1: end opacity must be from 0 to 1, got -0.1
-06_transfer_function --volume phantom --tf $w/opacity_nan.tf
+07_back_to_front --volume phantom --tf $w/opacity_nan.tf
   says: opacity_nan.tf:1: opacity is not a number (nan), expected 0 to 1
-06_transfer_function --volume phantom --tf $w/colour_inf.tf
+07_back_to_front --volume phantom --tf $w/colour_inf.tf
   says: colour_inf.tf:1: red must be from 0 to 1, got inf
-06_transfer_function --volume phantom --tf $w/label_twice.tf
+07_back_to_front --volume phantom --tf $w/label_twice.tf
   says: label_twice.tf:2: the label 'skin' is already used on line 1
-06_transfer_function --volume phantom --tf $w/label_number.tf
+07_back_to_front --volume phantom --tf $w/label_number.tf
   says: label_number.tf:1: the label must be a name, got the number 0.5
-06_transfer_function --volume phantom --tf $w/binary.tf
+07_back_to_front --volume phantom --tf $w/binary.tf
   says: binary.tf:1: FROM must be a whole CT value, got '???'
-06_transfer_function --volume phantom --tf $w/nul_byte.tf
+07_back_to_front --volume phantom --tf $w/nul_byte.tf
   says: nul_byte.tf:1: TO must be a whole CT value, got '5?1'
-06_transfer_function --volume phantom --tf $w/no_skin.tf --skin-opacity 0.5
+07_back_to_front --volume phantom --tf $w/no_skin.tf --skin-opacity 0.5
   says: --skin-opacity: $w/no_skin.tf has no range labelled 'skin'
-06_transfer_function --volume phantom --tf $w/missing.tf
+07_back_to_front --volume phantom --tf $w/missing.tf
   says: --tf: cannot open '$w/missing.tf': No such file or directory
-06_transfer_function --volume phantom --tf $w/a_folder
+07_back_to_front --volume phantom --tf $w/a_folder
   says: --tf: '$w/a_folder' is a folder, not a file
-06_transfer_function --volume phantom --tf /dev/zero
+07_back_to_front --volume phantom --tf /dev/zero
   says: --tf: '/dev/zero' is a device, not an ordinary file
 02_threshold --volume phantom --out ""
   says: --out: expected a folder
@@ -334,7 +334,7 @@ same_folder() {
 # an output folder holding older pictures of every view (what a student has from a last run)
 older_pictures() {
     rm -rf "$1"
-    "$build/08_lit_compositing" $small --skin-opacity 0.3 --no-window --out "$1" \
+    "$build/10_opacity_correction" $small --skin-opacity 0.3 --no-window --out "$1" \
         > /dev/null 2>&1 || fail "could not render the older pictures into $1"
     snapshot "$1" > "$work/before"
 }
@@ -345,10 +345,10 @@ now_ms() { echo $(($(date +%s%N) / 1000000)); }
 small="--volume phantom --dims 96,96,48"  # quick to render: for the folder checks
 
 s=02_threshold
-expect 2 "07_compositing_order: error: --ert: 1e-308 is out of range (too close to 0 for a double); expected a number from 0 to 1" \
-    "$build/07_compositing_order" --volume phantom --no-window --out "$out" --ert 1e-308
-expect 2 "07_compositing_order: error: --ert: 1e999 is out of range (too large for a double); expected a number from 0 to 1" \
-    "$build/07_compositing_order" --volume phantom --no-window --out "$out" --ert 1e999
+expect 2 "08_compositing_order: error: --ert: 1e-308 is out of range (too close to 0 for a double); expected a number from 0 to 1" \
+    "$build/08_compositing_order" --volume phantom --no-window --out "$out" --ert 1e-308
+expect 2 "08_compositing_order: error: --ert: 1e999 is out of range (too large for a double); expected a number from 0 to 1" \
+    "$build/08_compositing_order" --volume phantom --no-window --out "$out" --ert 1e999
 expect 2 "$s: error: --threads: expected a whole number from 1 to 256, got 99999999999999999999" \
     "$build/$s" --volume phantom --no-window --out "$out" --threads 99999999999999999999
 expect 2 "$s: error: --threshold: expected a number from -32768 to 32767, got 99999999999999999999" \
@@ -362,24 +362,24 @@ expect 2 "$s: error: --view: expected top, front, side or all, got 'top\\r\\x9b2
 
 # The summary cannot be written (stdout on a full disk): status 2, and no PNG.
 older_pictures "$out"
-expect 2 "08_lit_compositing: error: cannot write the summary to standard output: No space left on device" \
+expect 2 "10_opacity_correction: error: cannot write the summary to standard output: No space left on device" \
     sh -c 'exec "$1" $3 --skin-opacity 0.5 --no-window --out "$2" > /dev/full' \
-    - "$build/08_lit_compositing" "$out" "$small"
+    - "$build/10_opacity_correction" "$out" "$small"
 same_folder "stdout to /dev/full" "$out" "$work/before"
 # A bad --window-script is refused before anything is rendered.
-expect 2 "08_lit_compositing: error: --window-script: expected comma-separated key:1|2|3|Up|Down|plus|minus|s|q|Escape|p, click:X:Y, press:X:Y, move:X:Y, release:X:Y, wheel:N, wait:MS, save, shot, quit, set:NAME=VALUE, tf:..., or widgets, got 'key:9'" \
-    "$build/08_lit_compositing" $small --skin-opacity 0.5 --no-window --out "$out" \
+expect 2 "10_opacity_correction: error: --window-script: expected comma-separated key:1|2|3|Up|Down|plus|minus|s|q|Escape|p, click:X:Y, press:X:Y, move:X:Y, release:X:Y, wheel:N, wait:MS, save, shot, quit, set:NAME=VALUE, tf:..., or widgets, got 'key:9'" \
+    "$build/10_opacity_correction" $small --skin-opacity 0.5 --no-window --out "$out" \
     --window-script key:9
 same_folder "a bad --window-script" "$out" "$work/before"
 # A full disk on the third view (simulated: the writer's test hook fails the 3rd file).
-expect 2 "08_lit_compositing: error: cannot write '$out/08_lit_compositing_side.png': No space left on device" \
-    env CTLAB_TEST_FAIL_WRITE=3 "$build/08_lit_compositing" $small --skin-opacity 0.5 \
+expect 2 "10_opacity_correction: error: cannot write '$out/10_opacity_correction_side.png': No space left on device" \
+    env CTLAB_TEST_FAIL_WRITE=3 "$build/10_opacity_correction" $small --skin-opacity 0.5 \
     --no-window --out "$out"
 same_folder "a full disk on the third view" "$out" "$work/before"
 # A real full disk: a tmpfs filled to the last byte (when this test may mount one: as root).
 if [ "$(id -u)" = 0 ] && command -v unshare > /dev/null 2>&1 &&
     unshare -m sh -c "mount -t tmpfs -o size=256k tmpfs '$work/out' 2> /dev/null"; then
-    expect 2 "08_lit_compositing: error: cannot write '$out/08_lit_compositing_top.png': No space left on device" \
+    expect 2 "10_opacity_correction: error: cannot write '$out/10_opacity_correction_top.png': No space left on device" \
         unshare -m sh -c 'mount -t tmpfs -o size=256k tmpfs "$2" &&
             "$1" $5 --skin-opacity 0.3 --no-window --out "$2" > /dev/null &&
             dd if=/dev/zero of="$2/filler" bs=4k 2> /dev/null; full=$2
@@ -387,7 +387,7 @@ if [ "$(id -u)" = 0 ] && command -v unshare > /dev/null 2>&1 &&
             find . | sort && find . -type f -exec md5sum {} + | sort); }; snapshot > "$3" &&
             "$1" $5 --skin-opacity 0.5 --no-window --out "$2" > /dev/null;
             status=$?; snapshot > "$4"; exit $status' \
-        - "$build/08_lit_compositing" "$out" "$work/full_before" "$work/full_after" "$small"
+        - "$build/10_opacity_correction" "$out" "$work/full_before" "$work/full_after" "$small"
     if [ -s "$work/full_before" ] && cmp -s "$work/full_before" "$work/full_after"; then pass; else
         fail "a full tmpfs: the folder changed: $(diff "$work/full_before" "$work/full_after" | head -n 4)"
     fi
@@ -398,7 +398,7 @@ fi
 # SIGINT mid-render: the view written so far is removed, the older pictures stay as they were.
 older_pictures "$out"
 : > "$work/stdout"  # emptied by this shell, not only by the job's redirect: fresh_stdout below
-$signals_on "$build/08_lit_compositing" --volume phantom --dims 320,320,200 --threads 1 \
+$signals_on "$build/10_opacity_correction" --volume phantom --dims 320,320,200 --threads 1 \
     --step 0.25 --no-window --out "$out" > "$work/stdout" 2> "$work/stderr" < /dev/null &
 pid=$!
 tries=0
@@ -417,11 +417,11 @@ same_folder "SIGINT mid-render" "$out" "$work/before"
 # Threads that cannot be created (ulimit -u): fewer threads, the same pictures, one note.
 # Root runs it as nobody, who may not reach the checkout (a clone in a private folder): both
 # renders run a copy of the step from $work (data/tf/ out of reach: the built-in table).
-rm -rf "$work/threads" "$work/nproc" "$work/step08"
+rm -rf "$work/threads" "$work/nproc" "$work/step10"
 mkdir "$work/threads" "$work/nproc"
-cp "$build/08_lit_compositing" "$work/step08"
-chmod 755 "$work/step08"
-(cd "$work" && ./step08 $small --threads 1 --no-window --out "$work/threads" > /dev/null 2>&1)
+cp "$build/10_opacity_correction" "$work/step10"
+chmod 755 "$work/step10"
+(cd "$work" && ./step10 $small --threads 1 --no-window --out "$work/threads" > /dev/null 2>&1)
 chmod 711 "$work"
 chmod 777 "$work/nproc"
 if [ "$(id -u)" = 0 ]; then  # root ignores RLIMIT_NPROC: run as nobody, with 2 at most
@@ -435,10 +435,10 @@ fi
 # threads (a pool, alive until exit) hold the limit's last ones: its check is off here.
 expect 0 "note: only $started of 8 render threads could be started (ulimit -u?); rendering with $started" \
     env ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0" \
-    sh -c 'cd "$1" && shift && exec "$@"' - "$work" $limited ./step08 $small --threads 8 \
+    sh -c 'cd "$1" && shift && exec "$@"' - "$work" $limited ./step10 $small --threads 8 \
     --no-window --out "$work/nproc"
 for view in top front side; do
-    if cmp -s "$work/threads/08_lit_compositing_$view.png" "$work/nproc/08_lit_compositing_$view.png"
+    if cmp -s "$work/threads/10_opacity_correction_$view.png" "$work/nproc/10_opacity_correction_$view.png"
     then pass; else fail "ulimit -u: the $view picture differs from the one-thread render"; fi
 done
 [ -z "$(find "$work/nproc" -name '*.tmp*')" ] && pass || fail "ulimit -u: a temporary was left"
@@ -461,7 +461,7 @@ tf nbsp '# skin\n-300 50 constant\302\2401 0.79 0.6 0.12 skin\n'
 tf cr_only '# skin\r-300 50 constant 1 0.79 0.6 0.12 skin\r'
 tf crlf '# skin\r\n-300 50 constant 1 0.79 0.6 0.12 skin\r\n'
 tf nothing '# no ranges at all\n'
-t=06_transfer_function
+t=07_back_to_front
 expect 2 "$t: error: --tf: '$work/huge.tf' has 2000000 bytes, over the limit of 1048576 bytes for a transfer function" \
     "$build/$t" --volume phantom --no-window --out "$out" --tf "$work/huge.tf"
 expect 2 "$t: error: $work/bom.tf:1: the file starts with a UTF-8 byte order mark (bytes EF BB BF): save it as UTF-8 without BOM" \

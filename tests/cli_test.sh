@@ -123,16 +123,16 @@ for source in steps/[0-9][0-9]_*.cpp; do
     expect_bad "$step" "is a file, not a folder" $small --out "$regular/out"
 
     # A good run: one PNG and one summary line per view, nothing on stderr. It traces a pixel
-    # too (checked below): one render of the phantom serves both (step 17's is 2 s of CPU).
+    # too (checked below): one render of the phantom serves both (step 19's is 2 s of CPU).
     out="$work/good_$step"
     "$build/$step" --volume phantom --no-window --out "$out" --debug-pixel 128,60 \
         > "$work/stdout" 2> "$work/stderr"
     status=$?
     [ $status -eq 0 ] && [ ! -s "$work/stderr" ]
     check $? "$step --volume phantom: status $status, stderr: $(cat "$work/stderr")"
-    # Part 1 (00..09) renders the three axis views; part 2 (10 on) one camera picture.
+    # Part 1 (00..11) renders the three axis views; part 2 (12 on) one camera picture.
     views="top:256x256 front:256x113 side:256x113" trace_view=front
-    case "$step" in 0[0-9]_*) ;; *) views="camera:512x512" trace_view=camera ;; esac
+    case "$step" in 0[0-9]_*|1[01]_*) ;; *) views="camera:512x512" trace_view=camera ;; esac
     for view_size in $views; do
         view=${view_size%%:*}
         size=${view_size#*:}
@@ -163,7 +163,7 @@ done
 check $? "found only $steps steps in steps/"
 
 # A generic raw file: --dims, --endian big; the loader's line and the side view's size.
-step=$(basename "$(ls steps/0[0-9]_*.cpp | tail -n 1)" .cpp)  # part 1's last: it has a side view
+step=$(basename "$(ls steps/0[0-9]_*.cpp steps/1[01]_*.cpp | tail -n 1)" .cpp)  # part 1's last: it has a side view
 "$build/$step" --volume "$raw" --dims 4,3,2 --endian big --view side --no-window \
     --out "$work/raw_out" > "$work/stdout" 2> "$work/stderr"
 status=$?
@@ -182,7 +182,7 @@ long="$work/long_ray"
 yes "$(printf '\030\374')" | tr -d '\n' | head -c $((2 * 16777219)) > "$long"
 printf '\350\003' >> "$long"
 for step in 02_threshold 03_depth_shading 04_gradient_lighting 05_interpolated_hits \
-            08_lit_compositing 09_empty_space; do
+            10_opacity_correction 11_empty_space; do
     case $step in
         0[2-5]_*) flags="--threshold 500"; expect="samples=16777220 .*hits=1" ;;
         08_*) flags=""; expect="samples=16777220 skipped=16777219 leapt=0 gradients=1 " ;;

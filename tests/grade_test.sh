@@ -282,38 +282,38 @@ check $? "class of trees: summary.md: $(sed -n '/Commonest/,/Identical/p' \
     "$work/gclass_report/summary.md")"
 
 # --- Folder mode and program mode agree ------------------------------------------------------
-# The same submission graded both ways: the lab's steps 07 and 08 run with --ert 0 (the exact
+# The same submission graded both ways: the lab's steps 08 and 10 run with --ert 0 (the exact
 # answer: within 3 levels, the manifest's tol=3, of the early-terminated reference) pass both
 # in program mode (build/check, pictures P/P) and folder mode (build/grade --submission on the
 # pictures those runs wrote), and --ert 0.3 fails both; part 2's camera picture is expected,
 # not "extra".
 bref=$work/bref
 mkdir -p "$bref"
-for stem in 07_compositing_order 08_lit_compositing; do
+for stem in 08_compositing_order 10_opacity_correction; do
     cp "data/reference/${stem}_top.png" "data/reference/${stem}_front.png" \
         "data/reference/${stem}_side.png" "$bref/"
     grep "^$stem: " data/reference/manifest.txt >> "$bref/manifest.txt"
 done
-cp data/reference/22_free_leaping_camera.png "$bref/"
-echo "22_free_leaping: tol=3" >> "$bref/manifest.txt"
+cp data/reference/24_free_leaping_camera.png "$bref/"
+echo "24_free_leaping: tol=3" >> "$bref/manifest.txt"
 for ert in 0 0.3; do
-    "$build/check" --bin "$build" --reference "$bref" --out "$work/both_$ert" --step 07 \
-        --step 08 --step 22 --args "--ert $ert" > "$work/both_$ert.log" 2>&1
+    "$build/check" --bin "$build" --reference "$bref" --out "$work/both_$ert" --step 08 \
+        --step 10 --step 24 --args "--ert $ert" > "$work/both_$ert.log" 2>&1
     mkdir -p "$work/both_sub_$ert"
-    cp "$work/both_$ert"/07_compositing_order/*.png "$work/both_$ert"/08_lit_compositing/*.png \
+    cp "$work/both_$ert"/08_compositing_order/*.png "$work/both_$ert"/10_opacity_correction/*.png \
         "$work/both_sub_$ert/"
-    "$build/22_free_leaping" --volume phantom --no-window --out "$work/both_sub_$ert" \
+    "$build/24_free_leaping" --volume phantom --no-window --out "$work/both_sub_$ert" \
         > /dev/null 2>&1
     "$checker" --submission "$work/both_sub_$ert" --reference "$bref" > "$work/both_check_$ert.log" 2>&1
 done
-grep -q '^07_compositing_order: [a-z]*, pictures 3/3,' "$work/both_0/report.txt" &&
-    grep -q '^08_lit_compositing: [a-z]*, pictures 3/3,' "$work/both_0/report.txt" &&
-    grep -q '^22_free_leaping: [a-z]*, pictures 1/1,' "$work/both_0/report.txt" &&
+grep -q '^08_compositing_order: [a-z]*, pictures 3/3,' "$work/both_0/report.txt" &&
+    grep -q '^10_opacity_correction: [a-z]*, pictures 3/3,' "$work/both_0/report.txt" &&
+    grep -q '^24_free_leaping: [a-z]*, pictures 1/1,' "$work/both_0/report.txt" &&
     grep -q '^7 expected: 7 pass, 0 fail, 0 damaged, 0 error, 0 missing; 0 extra; result=pass$' \
         "$work/both_check_0.log"
 check $? "--ert 0 passes both modes: $(cat "$work/both_0/report.txt" "$work/both_check_0.log")"
-grep -q '^07_compositing_order: failing, pictures 0/3,' "$work/both_0.3/report.txt" &&
-    grep -q '^08_lit_compositing: failing, pictures 0/3,' "$work/both_0.3/report.txt" &&
+grep -q '^08_compositing_order: failing, pictures 0/3,' "$work/both_0.3/report.txt" &&
+    grep -q '^10_opacity_correction: failing, pictures 0/3,' "$work/both_0.3/report.txt" &&
     grep -q '^7 expected: 1 pass, 6 fail, .*result=fail$' "$work/both_check_0.3.log"
 check $? "--ert 0.3 fails both modes: $(cat "$work/both_0.3/report.txt" "$work/both_check_0.3.log")"
 "$checker" --submission "$work/both_sub_0" --reference "$bref" --tol 2 > "$work/both_tol2.log" 2>&1

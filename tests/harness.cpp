@@ -35,7 +35,7 @@ const std::vector<std::string>& step_names() {
     return names;
 }
 
-bool is_camera_step(const std::string& name) { return name >= "10"; }
+bool is_camera_step(const std::string& name) { return name >= "12"; }
 
 const std::vector<std::string>& part1_step_names() {
     static const std::vector<std::string> names = [] {

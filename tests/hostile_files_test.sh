@@ -96,7 +96,7 @@ for kind in fifo device folder; do
     refused "$files/$kind/head.nii" "$says"
     refused "$files/$kind/head.nhdr" "$says"
     refused "$files/$kind/head.mhd" "$says"
-    with_step="$build/06_transfer_function"
+    with_step="$build/07_back_to_front"
     refused phantom "$says" --tf "$files/$kind/head.tf"
     with_step=
 done
@@ -181,7 +181,7 @@ fi
 for signal in TERM INT HUP QUIT USR1 ALRM; do
     for delay in 0.05 0.2 0.4; do
         rm -rf "$work/sig"
-        "$build/21_ambient_occlusion" --volume phantom --no-window --view all --out "$work/sig" \
+        "$build/23_ambient_occlusion" --volume phantom --no-window --view all --out "$work/sig" \
             > /dev/null 2>&1 &
         pid=$!
         sleep "$delay"

@@ -79,7 +79,7 @@ if [ "${1:-}" = "--xdotool" ]; then
             done
             xdotool mouseup 1
             wait_for '^window: set --tf=[^ ]*$' || finish
-            wait_for '^step=06_transfer_function ' 3 || finish
+            wait_for '^step=07_back_to_front ' 3 || finish
             ;;
         type)  # the size field: click, select all, type a new size, Return
             widget --size || finish
@@ -191,14 +191,14 @@ else
 fi
 
 # --- The transfer-function editor: edits saved as a .tf that --tf renders the same ----------
-step=$build/06_transfer_function
+step=$build/07_back_to_front
 if [ -x "$step" ]; then
     xvfb "$step" --volume phantom --view front --out "$work/tf" --window-script \
         "tf:0:opacity=0.3,tf:1:from=1500,tf:add,tf:1:colour=3080ff,tf:1:opacity=0.05,shot,quit" \
         > "$work/tf.log" 2>&1
     status=$?
     check "tf: the step exits with status 0 (got $status)" [ "$status" -eq 0 ]
-    saved=$work/tf/06_transfer_function.tf
+    saved=$work/tf/07_back_to_front.tf
     check "tf: the editor saved $saved" test -f "$saved"
     ranges=$(grep -v '^#' "$saved" 2>/dev/null | awk '{ printf "%s %s %s %s %s|", $1, $2, $4, $7, $8 }')
     # The skin's opacity, bone from 1500, a new range in the widest gap (50..1500, its middle
@@ -210,17 +210,17 @@ if [ -x "$step" ]; then
     status=$?
     check "tf: --tf reads the saved file (status $status)" [ "$status" -eq 0 ]
     shown=$(shot_image "$work/tf.log" 1)
-    result=$(compare "$shown" "$work/tf_headless/06_transfer_function_front.png")
+    result=$(compare "$shown" "$work/tf_headless/07_back_to_front_front.png")
     check "tf: the window's picture is the saved file's through --tf ($result)" [ "$result" = same ]
     "$step" --volume phantom --view front --out "$work/tf_default" --no-window > /dev/null 2>&1
-    result=$(compare "$shown" "$work/tf_default/06_transfer_function_front.png")
+    result=$(compare "$shown" "$work/tf_default/07_back_to_front_front.png")
     check "tf: ... and not the classic table's ($result)" \
         sh -c "echo '$result' | grep -q '^[1-9][0-9]* of'"
     # A shared boundary moves for both ranges: no gap, no overlap.
     xvfb "$step" --volume phantom --view top --out "$work/join" --tf "$saved" \
         --window-script "tf:0:to=412,tf:0:to=500,tf:1:from=100,tf:5:opacity=1,quit" \
         > "$work/join.log" 2>&1
-    ranges=$(grep -v '^#' "$work/join/06_transfer_function.tf" 2>/dev/null | cut -d' ' -f1,2 |
+    ranges=$(grep -v '^#' "$work/join/07_back_to_front.tf" 2>/dev/null | cut -d' ' -f1,2 |
              tr '\n' '|')
     check "tf: joined ranges keep their shared end ($ranges)" \
         [ "$ranges" = "-300 100|100 1138|1500 32768|" ]
@@ -232,7 +232,7 @@ fi
 
 # --- The ray panel stays on a 1024x768 screen ------------------------------------------------
 for case in "05_interpolated_hits --view front --window-script click:128:30,shot,quit" \
-            "22_free_leaping --window-script click:256:256,shot,quit"; do
+            "24_free_leaping --window-script click:256:256,shot,quit"; do
     set -- $case
     step=$build/$1
     shift
@@ -263,28 +263,28 @@ if command -v xdotool > /dev/null 2>&1; then
     xvfb sh "$0" --xdotool "$step" "$work/drag/drag.log" drag --view top \
         > "$work/drag.out" 2>&1 &
     drag=$!
-    step10=$build/22_free_leaping
-    xvfb sh "$0" --xdotool "$step10" "$work/type/type.log" type --size 128x128 \
+    step12=$build/24_free_leaping
+    xvfb sh "$0" --xdotool "$step12" "$work/type/type.log" type --size 128x128 \
         > "$work/type.out" 2>&1
     typed=$?
     wait $drag
     dragged=$?
-    step06=$build/06_transfer_function
-    xvfb sh "$0" --xdotool "$step06" "$work/tfdrag/tfdrag.log" tfdrag --view front \
+    step07=$build/07_back_to_front
+    xvfb sh "$0" --xdotool "$step07" "$work/tfdrag/tfdrag.log" tfdrag --view front \
         > "$work/tfdrag.out" 2>&1
     tf_dragged=$?
     check "real input: the histogram run completes (status $tf_dragged; $(cat "$work/tfdrag.out"))" \
         [ "$tf_dragged" -eq 0 ]
     check "real input: dragging a range's end shows coarse previews" \
         grep -q '^window: set --tf=[^ ]* (preview)$' "$work/tfdrag/tfdrag.log"
-    ranges=$(grep -v '^#' "$work/tfdrag/06_transfer_function.tf" 2>/dev/null | cut -d' ' -f1,2 |
+    ranges=$(grep -v '^#' "$work/tfdrag/07_back_to_front.tf" 2>/dev/null | cut -d' ' -f1,2 |
              tr '\n' ' ')
     # Dragged about 800 values right: the skin's end stops at bone's start (300), unpushed.
     check "real input: the skin's end moved right of 50, up to bone's 300 ($ranges)" \
         sh -c "echo '$ranges' | awk '{ exit !(\$1 == -300 && \$2 > 50 && \$2 <= 300 &&
                                              \$3 == 300 && \$4 == 32768) }'"
     check "real input: the picture after the drag uses the saved table" \
-        grep -q "^step=06_transfer_function view=front .* tf=$work/tfdrag/06_transfer_function.tf" \
+        grep -q "^step=07_back_to_front view=front .* tf=$work/tfdrag/07_back_to_front.tf" \
         "$work/tfdrag/tfdrag.log"
     log=$work/drag/drag.log
     check "real input: the slider run completes (status $dragged; $(cat "$work/drag.out"))" \
@@ -299,7 +299,7 @@ if command -v xdotool > /dev/null 2>&1; then
     check "real input: the text field run completes (status $typed; $(cat "$work/type.out"))" \
         [ "$typed" -eq 0 ]
     check "real input: typing 96x80 into --size renders 96x80" \
-        grep -q '^step=22_free_leaping view=camera size=96x80 ' "$work/type/type.log"
+        grep -q '^step=24_free_leaping view=camera size=96x80 ' "$work/type/type.log"
     check "real input: q quits" grep -qx 'window: key=q' "$work/type/type.log"
 else
     echo "panel test: real X input SKIPPED (package xdotool not installed)"

@@ -102,16 +102,16 @@ done
 expect "the lab's README.md is $student/LAB.md" cmp -s README.md "$student/LAB.md"
 expect "$student/.ctlab/carry.txt carries first_hit from 02 into 03" \
     grep -q "^03_[a-z_]* first_hit 02_[a-z_]* [0-9a-f]*\$" "$student/.ctlab/carry.txt"
-# The same code under other comments is carried too: step 10's "step 08's, unchanged", from
-# step 08, which it builds on (not from 09, numbered before it).
-if [ -f steps/10_free_camera.cpp ]; then
-    expect "$student/.ctlab/carry.txt carries corrected_opacity from 08 into 10" \
-        grep -q "^10_[a-z_]* corrected_opacity 08_[a-z_]* [0-9a-f]*\$" "$student/.ctlab/carry.txt"
+# The same code under other comments is carried too: step 12's "step 10's, unchanged", from
+# step 10, which it builds on (not from 11, numbered before it).
+if [ -f steps/12_free_camera.cpp ]; then
+    expect "$student/.ctlab/carry.txt carries corrected_opacity from 10 into 12" \
+        grep -q "^12_[a-z_]* corrected_opacity 10_[a-z_]* [0-9a-f]*\$" "$student/.ctlab/carry.txt"
 fi
-# Part 2 branches: step 16 builds on 12, and takes step 12's compositing, not 14's jittered one.
-if [ -f steps/16_isosurface.cpp ]; then
-    expect "$student/.ctlab/carry.txt carries composite_front_to_back from 12 into 16" \
-        grep -q "^16_[a-z_]* composite_front_to_back 12_[a-z_]* [0-9a-f]*\$" \
+# Part 2 branches: step 18 builds on 14, and takes step 14's compositing, not 16's jittered one.
+if [ -f steps/18_isosurface.cpp ]; then
+    expect "$student/.ctlab/carry.txt carries composite_front_to_back from 14 into 18" \
+        grep -q "^18_[a-z_]* composite_front_to_back 14_[a-z_]* [0-9a-f]*\$" \
         "$student/.ctlab/carry.txt"
 fi
 

@@ -78,21 +78,22 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--threshold", "32767"});
     }
     if (step >= "04" && step < "06") all.push_back({"--light-angle", "180"});
-    const bool projection_modes = step.rfind("15", 0) == 0;  // grey: no transfer function
+    const bool projection_modes = step.rfind("17", 0) == 0;  // grey: no transfer function
     if (step >= "06" && !projection_modes) {
         all.push_back({"--skin-opacity", "1"});
         all.push_back({"--tf", "data/tf/transparent.tf"});
     }
-    if (step.rfind("07", 0) == 0) {
-        all.push_back({"--order", "b2f"});
-        all.push_back({"--order", "both", "--ert", "0"});
-    }
     if (step.rfind("08", 0) == 0) {
+        all.push_back({"--order", "b2f"});
+        all.push_back({"--order", "b2f", "--ert", "0"});
+    }
+    if (step.rfind("09", 0) == 0) all.push_back({"--unlit", "--light-angle", "-180"});
+    if (step.rfind("10", 0) == 0) {
         all.push_back({"--step", "0.25"});
         all.push_back({"--step", "4", "--ert", "0"});
         all.push_back({"--unlit", "--no-correction", "--light-angle", "-180"});
     }
-    if (step.rfind("09", 0) == 0) {  // 08 plus leaping: a step that does not divide a brick
+    if (step.rfind("11", 0) == 0) {  // 10 plus leaping: a step that does not divide a brick
         all.push_back({"--step", "0.3"});
         all.push_back({"--no-leaping"});
     }
@@ -103,11 +104,11 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     const bool shear_warp = step.rfind("35", 0) == 0;
     if (ctlab_test::is_camera_step(step) && !shear_warp) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
-        // Steps 10 and 11 read the nearest voxel only (12 on: --interpolation); step 22 leaps (part 3
+        // Steps 12 and 13 read the nearest voxel only (12 on: --interpolation); step 24 leaps (part 3
         // has no --no-leaping).
         std::vector<std::string> nearest = {"--azimuth", "-360"};
-        if (step >= "12") nearest.insert(nearest.begin(), {"--interpolation", "nearest"});
-        if (step.rfind("22", 0) == 0) nearest.push_back("--no-leaping");
+        if (step >= "14") nearest.insert(nearest.begin(), {"--interpolation", "nearest"});
+        if (step.rfind("24", 0) == 0) nearest.push_back("--no-leaping");
         all.push_back(nearest);
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
     }
@@ -116,16 +117,16 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--ert", "0", "--unlit", "--azimuth", "100", "--elevation", "-30"});
     }
     if (step >= "30") all.push_back({"--mode", "mip", "--elevation", "-90"});  // part 3's MIP
-    if (step.rfind("13", 0) == 0) {
+    if (step.rfind("15", 0) == 0) {
         all.push_back({"--jitter", "hash", "--zoom", "0.01"});
         all.push_back({"--jitter", "hash", "--show-jitter"});  // a trace with no ray
     }
-    if (step.rfind("14", 0) == 0) {
+    if (step.rfind("16", 0) == 0) {
         // The paths above with the hash's offsets: the default, blue noise, makes its 64x64
         // tile at start-up (0.11 s of CPU a run, measured: more than all the other steps' runs
         // of this test together). The default run on every fill and --jitter blue keep it.
         for (size_t v = 1; v < all.size(); ++v) all[v].insert(all[v].begin(), {"--jitter", "hash"});
-        // The hash's own --zoom and --show-jitter runs are step 13's (its --jitter hash is step
+        // The hash's own --zoom and --show-jitter runs are step 15's (its --jitter hash is step
         // 13 bit for bit, test_jitter); the tile's --show-jitter is this step's.
         all.push_back({"--jitter", "blue"});
         all.push_back({"--jitter", "blue", "--show-jitter"});  // a trace with no ray
@@ -134,20 +135,20 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--mode", "minip", "--slab", "2"});
         all.push_back({"--mode", "average", "--zoom", "100"});
     }
-    // Steps 16-18: the iso value at both ends of int16 (no crossing; every ray starts inside);
+    // Steps 18-20: the iso value at both ends of int16 (no crossing; every ray starts inside);
     // 17 on with the largest --shininess, 18 with clipping planes in both modes.
-    if (step >= "16" && step < "19") {
+    if (step >= "18" && step < "21") {
         std::vector<std::string> highest = {"--iso", "32767"}, lowest = {"--iso", "-32768"};
-        if (step >= "17") highest.insert(highest.end(), {"--shininess", "1000"});
-        if (step >= "18") lowest.insert(lowest.end(), {"--clip", "0,0,1,0"});
+        if (step >= "19") highest.insert(highest.end(), {"--shininess", "1000"});
+        if (step >= "20") lowest.insert(lowest.end(), {"--clip", "0,0,1,0"});
         all.push_back(highest);
         all.push_back(lowest);
-        if (step >= "18") all.push_back({"--mode", "composite", "--clip", "1,1,1,-1"});
+        if (step >= "20") all.push_back({"--mode", "composite", "--clip", "1,1,1,-1"});
     }
-    // Blocked light: each step's own way (the light behind the head), and in step 21, which
+    // Blocked light: each step's own way (the light behind the head), and in step 23, which
     // has them all, occlusion alone and with the light volume.
-    if (step >= "19" && step < "21") all.push_back({"--light-angle", "180"});
-    if (step.rfind("21", 0) == 0) {
+    if (step >= "21" && step < "23") all.push_back({"--light-angle", "180"});
+    if (step.rfind("23", 0) == 0) {
         all.push_back({"--shadows", "none", "--ao", "on"});
         all.push_back({"--shadows", "volume", "--ao", "on", "--light-angle", "180"});
     }
@@ -193,7 +194,7 @@ TEST_CASE("extreme volumes: every step, view and variant: right size, finite, tr
     int images = 0, traces = 0;
     for (const Shape& shape : shapes) {
         for (const Fill& fill : fills()) {
-            // Spacing 1:1:2 as CThead, so step 08 samples between slices along k.
+            // Spacing 1:1:2 as CThead, so step 10 samples between slices along k.
             const Volume volume = make_volume(shape, fill, 2.0);
             CAPTURE(shape.nx);
             CAPTURE(shape.ny);

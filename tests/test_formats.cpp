@@ -389,7 +389,7 @@ TEST_CASE("formats: every format and raw type loads in every step; same head, sa
         {"head_5x4x3_float32.raw", "raw", false},
     };
     const std::vector<std::string> steps = step_names();
-    REQUIRE(steps.size() >= 11);  // 00 .. 22_free_leaping at least
+    REQUIRE(steps.size() >= 11);  // 00 .. 24_free_leaping at least
     int runs = 0, compared = 0;
     for (const std::string& step : steps) {
         CAPTURE(step);
@@ -464,14 +464,14 @@ TEST_CASE("formats: each preset runs on a volume of its kind in a threshold, a t
     for (const std::string& preset : presets) {
         CAPTURE(preset);
         REQUIRE_MESSAGE(volume_for.count(preset), "a preset without a test volume: add one here");
-        for (const std::string step : {"02_threshold", "06_transfer_function", "22_free_leaping"}) {
+        for (const std::string step : {"02_threshold", "07_back_to_front", "24_free_leaping"}) {
             CAPTURE(step);
             const std::string log = files.path("preset.log");
             std::string command = "'" + build_folder() + "/" + step + "' --preset " + preset +
                                   " --volume '" + volume_for.at(preset) +
                                   "' --no-window --threads 1 --out '" + files.path("preset_out") +
                                   "'";
-            if (step == "22_free_leaping") command += " --size 64x64";
+            if (step == "24_free_leaping") command += " --size 64x64";
             const int status = std::system((command + " > '" + log + "' 2>&1").c_str());
             const std::string printed = file_text(log);
             CHECK_MESSAGE(WIFEXITED(status), printed);

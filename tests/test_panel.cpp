@@ -96,8 +96,8 @@ TEST_CASE("panel: a table the editor saves reads back to the same ranges") {
 
 TEST_CASE("panel: a widget's value rewrites the command line as the parser reads it") {
     Preview preview;
-    preview.step = "06_transfer_function";
-    preview.program = "build/06_transfer_function";
+    preview.step = "07_back_to_front";
+    preview.program = "build/07_back_to_front";
     preview.words = {"--volume", "phantom", "--skin-opacity=0.3", "--unlit", "--window-script",
                      "set:x=1"};
     preview.flags = {{"--skin-opacity", FlagKind::real, 0, 1, {}, "", "0.3", false},
@@ -111,12 +111,12 @@ TEST_CASE("panel: a widget's value rewrites the command line as the parser reads
     preview.words = panel_set_flag(preview, "--unlit", "0");  // a switch off: gone
     preview.words = panel_set_flag(preview, "order", "back");
     preview.words = panel_set_flag(preview, "threshold", "0.25");  // file units: any number
-    CHECK(panel_command(preview) == "build/06_transfer_function --volume phantom "
+    CHECK(panel_command(preview) == "build/07_back_to_front --volume phantom "
                                     "--skin-opacity 0.5 --order back --threshold 0.25");
     CHECK_THROWS_AS(panel_set_flag(preview, "skin-opacity", "2"), InputError);
     CHECK_THROWS_AS(panel_set_flag(preview, "order", "sideways"), InputError);
     CHECK_THROWS_AS(panel_set_flag(preview, "no-such-flag", "1"), InputError);
     preview.words = {"--out", "my pictures", "--tf", "it's.tf"};
     CHECK(panel_command(preview) ==
-          "build/06_transfer_function --out 'my pictures' --tf 'it'\\''s.tf'");
+          "build/07_back_to_front --out 'my pictures' --tf 'it'\\''s.tf'");
 }

@@ -198,16 +198,16 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
         {"05_interpolated_hits",
          {"--view", "front", "--debug-pixel", "128,30"},
          "05_interpolated_hits_front_ray_128_30"},
-        {"07_compositing_order",
+        {"08_compositing_order",
          {"--view", "top", "--debug-pixel", "100,128"},
-         "07_compositing_order_top_ray_100_128"},
-        {"08_lit_compositing",
+         "08_compositing_order_top_ray_100_128"},
+        {"10_opacity_correction",
          {"--view", "side", "--debug-pixel", "128,60", "--step", "0.5"},
-         "08_lit_compositing_side_ray_128_60"},
-        {"09_empty_space",
+         "10_opacity_correction_side_ray_128_60"},
+        {"11_empty_space",
          {"--view", "front", "--debug-pixel", "128,30"},
-         "09_empty_space_front_ray_128_30"},
-        {"22_free_leaping", {"--debug-pixel", "280,300"}, "22_free_leaping_camera_ray_280_300"},
+         "11_empty_space_front_ray_128_30"},
+        {"24_free_leaping", {"--debug-pixel", "280,300"}, "24_free_leaping_camera_ray_280_300"},
     };
     for (const Case& c : cases) {
         CAPTURE(c.step);
@@ -272,7 +272,7 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
     }
 }
 
-TEST_CASE("step 05 marks the interpolated crossing, step 09 its leaps, step 22 the box") {
+TEST_CASE("step 05 marks the interpolated crossing, step 11 its leaps, step 24 the box") {
     ctlab::TempFolder out("ray_plot_marks");
     const auto flags = [&](std::vector<std::string> more) {
         std::vector<std::string> all = {"--volume", "phantom", "--out", out.path()};
@@ -288,92 +288,13 @@ TEST_CASE("step 05 marks the interpolated crossing, step 09 its leaps, step 22 t
     CHECK(at != std::floor(at));  // between two samples, not on one
 
     REQUIRE(
-        run_step("09_empty_space", flags({"--view", "front", "--debug-pixel", "128,30"})).status ==
+        run_step("11_empty_space", flags({"--view", "front", "--debug-pixel", "128,30"})).status ==
         0);
-    CHECK(!lines_starting(read_text(out.path("09_empty_space_front_ray_128_30.txt")), "mark leapt ")
+    CHECK(!lines_starting(read_text(out.path("11_empty_space_front_ray_128_30.txt")), "mark leapt ")
                .empty());
-    REQUIRE(run_step("22_free_leaping", flags({"--debug-pixel", "280,300"})).status == 0);
-    CHECK(lines_starting(read_text(out.path("22_free_leaping_camera_ray_280_300.txt")), "mark box ")
+    REQUIRE(run_step("24_free_leaping", flags({"--debug-pixel", "280,300"})).status == 0);
+    CHECK(lines_starting(read_text(out.path("24_free_leaping_camera_ray_280_300.txt")), "mark box ")
               .size() == 1);
-}
-
-TEST_CASE("step 07 --order both: the same ray back to front, plotted beside front to back") {
-    ctlab::TempFolder out("ray_plot_orders");
-    const std::string stem = "07_compositing_order_front_ray_128_30";
-    const RunResult both =
-        run_step("07_compositing_order", {"--volume", "phantom", "--out", out.path(), "--view",
-                                          "front", "--order", "both", "--debug-pixel", "128,30"});
-    REQUIRE(both.status == 0);
-    REQUIRE(both.traces.size() == 1);
-    const std::vector<std::string>& lines = both.traces[0].lines;
-    const auto second_start =
-        std::find_if(lines.begin(), lines.end(),
-                     [](const std::string& l) { return l.find("the same ray") == 0; });
-    REQUIRE(second_start != lines.end());
-    const std::string sidecar = read_text(out.path(stem + ".txt"));
-    const Image both_picture = read_image(out.path(stem + ".png"));
-
-    // The first order's samples are the lines before, the second's those after, in order, with
-    // the text's numbers; back to front walks the whole ray (256 voxels) from n = 255 down.
-    std::vector<std::string> first_lines, second_lines;
-    for (auto line = lines.begin(); line != lines.end(); ++line) {
-        if (line->find("value=") == std::string::npos) continue;
-        (line < second_start ? first_lines : second_lines).push_back(*line);
-    }
-    const auto samples = lines_starting(sidecar, "sample ");
-    const auto second = lines_starting(sidecar, "second ");
-    REQUIRE(samples.size() == first_lines.size());
-    REQUIRE(second.size() == second_lines.size());
-    REQUIRE(second.size() == 256);
-    for (size_t n = 0; n < second.size(); ++n) {
-        std::istringstream row(second[n].substr(7));
-        std::string t, index, value, alpha, transparency, light, r, g, b;
-        row >> t >> index >> value >> alpha >> transparency >> light >> r >> g >> b;
-        CHECK(std::stod(index) == 255 - double(n));
-        check_equal_to_text(std::stod(value), second_lines[n], "value", 0);
-        check_equal_to_text(std::stod(index), second_lines[n], "n", 0);
-        if (r != "-") check_equal_to_text(std::stod(r), second_lines[n], "C", 0);
-        CHECK(transparency == "-");  // back to front keeps no T
-    }
-    // Both orders end at the pixel: front to back at its stop, back to front at its last
-    // coloured sample (n = 42, the skin in front), within the early termination's 0.01.
-    auto last_colour = [](const std::vector<std::string>& rows) {
-        std::vector<std::string> words(10);
-        for (auto row = rows.rbegin(); row != rows.rend(); ++row) {
-            std::istringstream in(row->substr(row->find(' ') + 1));
-            for (auto& word : words) in >> word;
-            if (words[6] != "-") break;
-        }
-        return Rgb{float(std::stod(words[6])), float(std::stod(words[7])),
-                   float(std::stod(words[8]))};
-    };
-    const Rgb pixel = both.traces[0].rgb;
-    const Rgb front_to_back = last_colour(samples), back_to_front = last_colour(second);
-    CHECK(front_to_back.r == doctest::Approx(pixel.r).epsilon(1e-5));
-    CHECK(front_to_back.b == doctest::Approx(pixel.b).epsilon(1e-5));
-    CHECK(std::fabs(back_to_front.r - pixel.r) <= 0.01);
-    CHECK(std::fabs(back_to_front.b - pixel.b) <= 0.01);
-    CHECK(back_to_front.b != pixel.b);  // 0.0042 apart: what early termination left out
-
-    // The second order's colour (teal) in the plot: with --order both only.
-    auto second_order_pixels = [](const Image& picture) {
-        int count = 0;
-        constexpr int plot_right = 76 + 400;
-        for (int y = 0; y < picture.height; ++y) {
-            for (int x = 0; x < std::min(plot_right, picture.width); ++x) {
-                const Rgb c = picture.at(x, y);
-                count += to_byte(c.r) == 0 && to_byte(c.g) == 128 && to_byte(c.b) == 140;
-            }
-        }
-        return count;
-    };
-    CHECK(second_order_pixels(both_picture) > 400);  // two curves across the plot
-    const RunResult one = run_step("07_compositing_order",
-                                   {"--volume", "phantom", "--out", out.path(), "--view", "front",
-                                    "--debug-pixel", "128,30"});
-    REQUIRE(one.status == 0);
-    CHECK(lines_starting(read_text(out.path(stem + ".txt")), "second ").empty());
-    CHECK(second_order_pixels(read_image(out.path(stem + ".png"))) == 0);
 }
 
 TEST_CASE("a camera ray is drawn through the box in the volume's axis views") {
@@ -506,7 +427,7 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
 TEST_CASE("a failed run writes no ray picture (all pictures or none)") {
     ctlab::TempFolder out("ray_none");
     const RunResult run = run_step(
-        "07_compositing_order",
+        "08_compositing_order",
         {"--volume", "phantom", "--out", out.path(), "--view", "top", "--debug-pixel", "100,128"},
         120);
     REQUIRE(run.status == 0);
@@ -514,7 +435,7 @@ TEST_CASE("a failed run writes no ray picture (all pictures or none)") {
     ctlab::TempFolder out2("ray_none2");
     setenv(fail_write_variable, "2", 1);
     const RunResult failed = run_step(
-        "07_compositing_order",
+        "08_compositing_order",
         {"--volume", "phantom", "--out", out2.path(), "--view", "top", "--debug-pixel", "100,128"});
     unsetenv(fail_write_variable);
     CHECK(failed.status == 2);

@@ -150,13 +150,13 @@ TEST_CASE("tf units: a float volume with its threshold and TF in file units look
     check_same_picture("02_threshold", pair, folder, {"--threshold", "400"},
                        {"--threshold", "0.4"}, 0.0);
     // 06, 07: classification only (a sample's colour and opacity come from the table).
-    check_same_picture("06_transfer_function", pair, folder, {}, {"--tf", tf}, 0.0);
-    check_same_picture("07_compositing_order", pair, folder, {}, {"--tf", tf}, 0.0);
+    check_same_picture("07_back_to_front", pair, folder, {}, {"--tf", tf}, 0.0);
+    check_same_picture("08_compositing_order", pair, folder, {}, {"--tf", tf}, 0.0);
     // 08 .. 10: lit, with normals from the gradient of the values, which the float file holds
     // on a finer grid (about 20 volume steps per HU): the same picture to within rounding
     // (measured: at most 0.016 of full scale, on a few edge pixels).
     const double lit_tolerance = 0.03;
-    check_same_picture("08_lit_compositing", pair, folder, {}, {"--tf", tf}, lit_tolerance);
-    check_same_picture("09_empty_space", pair, folder, {}, {"--tf", tf}, lit_tolerance);
-    check_same_picture("22_free_leaping", pair, folder, {}, {"--tf", tf}, lit_tolerance);
+    check_same_picture("10_opacity_correction", pair, folder, {}, {"--tf", tf}, lit_tolerance);
+    check_same_picture("11_empty_space", pair, folder, {}, {"--tf", tf}, lit_tolerance);
+    check_same_picture("24_free_leaping", pair, folder, {}, {"--tf", tf}, lit_tolerance);
 }

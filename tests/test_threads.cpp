@@ -90,14 +90,14 @@ TEST_CASE("threads: non-default settings are thread-independent too") {
         {"00_slices", {"--equalise"}},
         {"03_depth_shading", {"--threshold", "-500"}},
         {"05_interpolated_hits", {"--threshold", "1000", "--light-angle", "-60"}},
-        {"06_transfer_function", {"--skin-opacity", "0.5"}},
-        {"07_compositing_order", {"--order", "b2f"}},
-        {"07_compositing_order", {"--ert", "0"}},
-        {"08_lit_compositing", {"--step", "0.5"}},
-        {"08_lit_compositing", {"--step", "4", "--no-correction", "--ert", "0.1"}},
-        {"08_lit_compositing", {"--unlit"}},
-        {"09_empty_space", {"--no-leaping"}},
-        {"09_empty_space", {"--step", "0.3"}},
+        {"07_back_to_front", {"--skin-opacity", "0.5"}},
+        {"08_compositing_order", {"--order", "b2f"}},
+        {"08_compositing_order", {"--ert", "0"}},
+        {"10_opacity_correction", {"--step", "0.5"}},
+        {"10_opacity_correction", {"--step", "4", "--no-correction", "--ert", "0.1"}},
+        {"10_opacity_correction", {"--unlit"}},
+        {"11_empty_space", {"--no-leaping"}},
+        {"11_empty_space", {"--step", "0.3"}},
     };
     for (const Variant& variant : variants) {
         CAPTURE(variant.step);

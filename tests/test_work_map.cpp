@@ -82,7 +82,7 @@ TEST_CASE("--work-map: each ray's counts add up to the summary line's") {
     const std::string camera_step = first_step_with("add_camera_flags(args");
     std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
         {"01_ray_loops", {"--view", "front"}},
-        {"09_empty_space", {"--view", "side"}},
+        {"11_empty_space", {"--view", "side"}},
     };
     if (!camera_step.empty()) cases.push_back({camera_step, {"--size", "96x80"}});
     for (const auto& [step, flags] : cases) {

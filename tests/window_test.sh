@@ -139,9 +139,9 @@ check "the saved file is a PNG (magic bytes: '$magic')" [ "$magic" = "89504e470d
 check "q quits the window" grep -qx "window: key=q" "$work/stdout"
 
 # --- P: the next preset (data/presets in name order), the whole step run again ------------------
-# 06 on the phantom: ct, cthead and eight_bit run (the command line's --volume wins); float's
+# 07 on the phantom: ct, cthead and eight_bit run (the command line's --volume wins); float's
 # table (0.12 ..) does not fit CT values: one line, then phantom; the script goes on (Up).
-tf_binary=$build/06_transfer_function
+tf_binary=$build/07_back_to_front
 if [ -x "$tf_binary" ]; then
     xvfb "$tf_binary" --volume phantom --view top --out "$work/preset_out" \
         --window-script "key:p,key:p,key:p,key:p,key:Up,quit" > "$work/stdout" 2> "$work/stderr"
@@ -150,14 +150,14 @@ if [ -x "$tf_binary" ]; then
         [ "$status" -eq 0 ]
     check "presets: P switches to the first preset, ct" after "window: key=p" "^window: preset=ct$"
     check "presets: ct renders with its table" after "window: preset=ct" \
-        '^step=06_transfer_function view=top .* tf=data/tf/classic.tf'
+        '^step=07_back_to_front view=top .* tf=data/tf/classic.tf'
     check "presets: eight_bit renders with its table" after "window: preset=eight_bit" \
-        '^step=06_transfer_function view=top .* skin_opacity=0.05 tf=data/tf/eight_bit.tf'
+        '^step=07_back_to_front view=top .* skin_opacity=0.05 tf=data/tf/eight_bit.tf'
     check "presets: float's table does not fit CT values: one line naming it" \
         grep -q "^window: preset float does not fit: data/tf/float.tf:[0-9]*: FROM must be" \
         "$work/stdout"
     check "presets: then the next, phantom, renders" after "window: preset=phantom" \
-        '^step=06_transfer_function view=top .* tf=data/tf/classic.tf'
+        '^step=07_back_to_front view=top .* tf=data/tf/classic.tf'
     check "presets: the script goes on in the new window (Up after the switches)" \
         after "window: preset=phantom" '^window: skin_opacity=0.14$'
     check "presets: q quits" grep -qx "window: key=q" "$work/stdout"
@@ -240,7 +240,7 @@ fi
 # --- The orbit (part 2): drag to turn, wheel to zoom, coarse previews, full size after -------
 # Each "window: orbit azimuth=A elevation=E zoom=Z (N previews at WxH)" line is followed by the
 # full-size render's summary line, which must show the same camera.
-camera_step=$build/22_free_leaping
+camera_step=$build/24_free_leaping
 if [ -x "$camera_step" ]; then
     xvfb "$camera_step" --volume phantom --size 128x128 --zoom 0.5 --out "$work/orbit_out" \
         --window-script "press:64:64,move:70:64,move:80:64,release:80:64,wheel:2,wait:500,\

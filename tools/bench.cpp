@@ -12,11 +12,11 @@
 // (the float images, --pfm). Writes FILE (out/bench.md) as Markdown, on the phantom and,
 // when present, on data/CThead. The speed targets are checked from the same figures at the
 // end: reported, never enforced (timing is no test).
-// --steps 07,08 times only those steps. --flags gives every step extra flags after its own
-// defaults (say "--tf data/tf/transparent.tf --steps 07"); the targets are only checked for
+// --steps 08,10 times only those steps. --flags gives every step extra flags after its own
+// defaults (say "--tf data/tf/transparent.tf --steps 08"); the targets are only checked for
 // a run of every step at its default settings.
 //
-// Two more sets of rows, for the targets: step 09 with --unlit (the empty-space step without
+// Two more sets of rows, for the targets: step 11 with --unlit (the empty-space step without
 // lighting), and every step's top view on a large volume (the phantom made at 512 x 512 x 512
 // and written to a raw file) with the peak memory of each run (the child's ru_maxrss), to
 // check that the time per visited sample and the memory grow with the work, not faster.
@@ -70,13 +70,13 @@ constexpr int passes = 3;  // passes over every step (full runs); each figure th
 constexpr double speed_spread_limit = 1.1;
 constexpr double run_timeout_s = 600;    // one step, every view, every render
 constexpr double frame_budget_ms = 16;   // target: every step 01 on, 256x256 view, 2 threads
-constexpr double leap_top_budget_ms = 8;  // target: step 09 (empty-space leaping, lit), top view
+constexpr double leap_top_budget_ms = 8;  // target: step 11 (empty-space leaping, lit), top view
 constexpr double cold_ratio_target = 1.5;  // target: first render / warm median, every view
 // The first-render target again, on the renders of at least this warm median only: below it
 // (00_slices, 0.1-0.6 ms), a page fault or a timer tick more in the first render is a large
 // share of it, and the ratio measures that rather than what a student waits for.
 constexpr double cold_ratio_min_warm_ms = 1;
-constexpr double unlit_top_budget_ms = 2;  // target: step 09 with --unlit, top view
+constexpr double unlit_top_budget_ms = 2;  // target: step 11 with --unlit, top view
 constexpr int quick_dims[3] = {64, 64, 29};  // --quick: the phantom this size
 constexpr int large_dims = 512;              // the large volume: the phantom at 512^3
 constexpr int quick_large_dims = 128;        // --quick: at 128^3
@@ -87,17 +87,17 @@ constexpr double parallel_target = 1.7;  // target: speed-up of the parallel loo
 constexpr int thread_counts[2] = {1, 2};
 // Part 2: each camera step's default run is the oblique view (azimuth 30, elevation 20,
 // orthographic, 512x512, the classic table); VTK's CPU ray caster needs about 30 ms for it.
-constexpr double camera_budget_ms = 10;     // target: step 22 (composite, leaping), 2 threads
-constexpr double isosurface_budget_ms = 15;  // target: step 16 (the isosurface), 2 threads
-const char* const first_camera_step = "10_";  // part 2 begins: camera views only from here
-const char* const camera_step = "22_";       // the composite camera step's number (leaping)
-const char* const isosurface_step = "16_";   // checked once a step 16_* exists
+constexpr double camera_budget_ms = 10;     // target: step 24 (composite, leaping), 2 threads
+constexpr double isosurface_budget_ms = 15;  // target: step 18 (the isosurface), 2 threads
+const char* const first_camera_step = "12_";  // part 2 begins: camera views only from here
+const char* const camera_step = "24_";       // the composite camera step's number (leaping)
+const char* const isosurface_step = "18_";   // checked once a step 18_* exists
 // Blocked light: a default picture usable in the window (shadow rays are allowed longer).
-constexpr double shadow_rays_budget_ms = 1000;  // target: steps 19 and 21, 2 threads
-constexpr double light_volume_budget_ms = 200;  // target: step 20 (the light volume), 2 threads
-const char* const shadow_rays_step = "19_";
-const char* const light_volume_step = "20_";
-const char* const occlusion_step = "21_";  // shadow rays and ambient occlusion
+constexpr double shadow_rays_budget_ms = 1000;  // target: steps 21 and 23, 2 threads
+constexpr double light_volume_budget_ms = 200;  // target: step 22 (the light volume), 2 threads
+const char* const shadow_rays_step = "21_";
+const char* const light_volume_step = "22_";
+const char* const occlusion_step = "23_";  // shadow rays and ambient occlusion
 
 // The steps: every steps/NN_name.cpp (make bench runs from the repository). Part 2's steps
 // take --view all too and render one view, "camera": their default run (see camera_budget_ms)
@@ -172,7 +172,7 @@ std::string load_average() {
     return one + " " + five + " " + fifteen;
 }
 
-// Whether `name` ("07_compositing_order") is among `only` ("07,08"; "" for every step).
+// Whether `name` ("08_compositing_order") is among `only` ("07,08"; "" for every step).
 bool selected(const std::string& name, const std::string& only) {
     if (only.empty()) return true;
     std::stringstream list(only);
@@ -195,7 +195,7 @@ std::vector<Row> bench_volume_rows(const std::vector<std::string>& volume, int r
     const TempFolder folder("bench");
     for (const std::string& step : step_names()) {
         if (!selected(step, only)) continue;
-        // One axis view (the large volume's rows) exists in part 1 only: from step 10 on a
+        // One axis view (the large volume's rows) exists in part 1 only: from step 12 on a
         // step renders its camera view and refuses --view top.
         if (view != "all" && step.compare(0, 2, first_camera_step, 2) >= 0) continue;
         std::vector<Row> step_rows;
@@ -511,7 +511,7 @@ std::string step_section(const std::vector<Row>& rows, const std::string& step, 
 }
 
 // Part 2's targets: a camera step's default (oblique, 512x512) run on 2 threads, warm and
-// cold. The isosurface row waits, "no step yet", until a step 16_* is benched.
+// cold. The isosurface row waits, "no step yet", until a step 18_* is benched.
 std::string camera_targets(const std::vector<Row>& rows) {
     std::ostringstream out;
     auto row = [&](const char* number, const char* what, double budget) {
@@ -539,7 +539,7 @@ std::string camera_targets(const std::vector<Row>& rows) {
 }
 
 // The speed targets, each with its figures (warm medians and cold first renders, 1 and 2
-// threads): `rows` the first volume's (the phantom's), `unlit` step 09 --unlit's on it,
+// threads): `rows` the first volume's (the phantom's), `unlit` step 11 --unlit's on it,
 // `growth` the large volume's against them.
 std::string targets(const std::vector<Row>& rows, const std::vector<Row>& unlit,
                     const std::vector<Growth>& growth, const std::string& large_name,
@@ -594,14 +594,14 @@ std::string targets(const std::vector<Row>& rows, const std::vector<Row>& unlit,
                        met(r.two.warm < frame_budget_ms));
     }
     for (const Row& r : rows) {
-        if (r.step.rfind("09_", 0) != 0 || r.view != "top") continue;
-        out << text_of("| step 09 (empty space, lit) top under %.0f ms | %s | %s |\n",
+        if (r.step.rfind("11_", 0) != 0 || r.view != "top") continue;
+        out << text_of("| step 11 (empty space, lit) top under %.0f ms | %s | %s |\n",
                        leap_top_budget_ms, figures(r).c_str(),
                        met(r.two.warm < leap_top_budget_ms));
     }
     for (const Row& r : unlit) {
         if (r.view != "top") continue;
-        out << text_of("| step 09 %s top under %.0f ms | %s | %s |\n", r.flags.c_str(),
+        out << text_of("| step 11 %s top under %.0f ms | %s | %s |\n", r.flags.c_str(),
                        unlit_top_budget_ms, figures(r).c_str(),
                        met(r.two.warm < unlit_top_budget_ms));
     }
@@ -659,7 +659,7 @@ std::string targets(const std::vector<Row>& rows, const std::vector<Row>& unlit,
                        worst_growth_step[1].c_str(),
                        met(std::max(worst_growth[0], worst_growth[1]) <=
                            per_sample_growth_target));
-        out << text_of("| the same per sample along the rays, visited or leapt over (step 09's "
+        out << text_of("| the same per sample along the rays, visited or leapt over (step 11's "
                        "work is mostly leaping and rays: its visited samples are a small share) "
                        "| worst %.2fx (%s) | worst %.2fx (%s) | %s |\n",
                        worst_position[0], worst_position_step[0].c_str(), worst_position[1],
@@ -1430,19 +1430,19 @@ int run(int argc, char** argv) {
         report << "## " << name << "\n\n" << table(rows) << "\n";
     }
     // The targets are about every step at its default settings: checked only for such a run,
-    // which then also times step 09 --unlit and every step's top view on the large volume.
+    // which then also times step 11 --unlit and every step's top view on the large volume.
     const bool defaults = only.empty() && extra_flags.empty();
     std::vector<Row> unlit_rows, large_rows;
     std::vector<Growth> growth;
     std::string large_name;
     if (defaults && !first_rows.empty()) {
-        std::printf("bench: %s, step 09 with --unlit\n", volumes[0].first.c_str());
-        unlit_rows = median_of_passes(pass_count, "09 --unlit", checks, [&] {
-            return bench_volume_rows(volumes[0].second, runs, "09", {"--unlit"}, "all",
+        std::printf("bench: %s, step 11 with --unlit\n", volumes[0].first.c_str());
+        unlit_rows = median_of_passes(pass_count, "11 --unlit", checks, [&] {
+            return bench_volume_rows(volumes[0].second, runs, "11", {"--unlit"}, "all",
                                      quick ? 1 : cold_processes);
         });
         for (const Row& row : unlit_rows) differing += !row.threads_identical;
-        report << "## " << volumes[0].first << ", step 09 with --unlit\n\n"
+        report << "## " << volumes[0].first << ", step 11 with --unlit\n\n"
                << table(unlit_rows) << "\n";
 
         const int n = quick ? quick_large_dims : large_dims;
@@ -1500,7 +1500,7 @@ int run(int argc, char** argv) {
         for (const Row& row : first_rows) {
             if (names.empty() || names.back() != row.step) names.push_back(row.step);
         }
-        std::vector<Row> quoted = first_rows;  // step 09's section has its --unlit rows too
+        std::vector<Row> quoted = first_rows;  // step 11's section has its --unlit rows too
         quoted.insert(quoted.end(), unlit_rows.begin(), unlit_rows.end());
         const std::string when =
             "started " + started + ", load average " + load_before + " before it, " +

@@ -66,7 +66,7 @@ const char* const graded_mark = "graded.txt";    // students/NAME/graded.txt: fi
 
 // Only NN_name_top|front|side.png count: variants (..._front_skin030.png), manifests and
 // anything else in the reference folder are not expected from the student.
-// Part 2's steps (10 on) write one picture, NN_name_camera.png.
+// Part 2's steps (12 on) write one picture, NN_name_camera.png.
 const std::regex expected_name("^([0-9]{2}_[a-z0-9_]+)_(top|front|side|camera)\\.png$");
 
 const char* const usage_text =
@@ -698,7 +698,7 @@ std::string tolerance_text(double tolerance) {
     return text;
 }
 
-// "2", or "2, and 3 for 07_compositing_order, 08_lit_compositing (manifest.txt's tol=)".
+// "2", or "2, and 3 for 08_compositing_order, 10_opacity_correction (manifest.txt's tol=)".
 std::string tolerances_text(const References& references, double tolerance) {
     std::map<double, std::set<std::string>> others;
     for (const auto& [name, value] : references.tolerances) {

@@ -4,19 +4,19 @@
 //
 //   depth      first hit: nearest sample (step 03), finer ray steps, interpolated (step 05),
 //              against an analytic sphere and a tilted ellipsoid; error in voxels (samples)
-//   step       step 08's sample step 4 .. 1/8 voxel, with and without opacity correction,
-//              against step 08 at step 1/32 (double sums, no early termination); error in
+//   step       step 10's sample step 4 .. 1/8 voxel, with and without opacity correction,
+//              against step 10 at step 1/32 (double sums, no early termination); error in
 //              8-bit units (RMSE and max over every channel of every pixel)
-//   ert        early ray termination thresholds 0 .. 0.1 (steps 07 and 08, top view):
+//   ert        early ray termination thresholds 0 .. 0.1 (steps 08 and 10, top view):
 //              time saved against error added
-//   jitter     step 14 (the free camera) at step 4 .. 1/2 with jitter none, hash and blue
+//   jitter     step 16 (the free camera) at step 4 .. 1/2 with jitter none, hash and blue
 //              noise, each with trilinear and nearest samples, against step 1/4 without
 //              jitter (trilinear): RMSE, and RMSE after a 5x5 blur
 //              (the rings and bands that survive it; noise does not)
-//   shadows    steps 19-21: shadow rays, the light-transmittance volume and ambient
-//              occlusion, each against step 12's light (what it adds) with its time and
-//              samples read (step 21, which has them all); rays and volume at step 4 .. 1/2
-//              against shadow rays at step 1/4 (step 20)
+//   shadows    steps 21-23: shadow rays, the light-transmittance volume and ambient
+//              occlusion, each against step 14's light (what it adds) with its time and
+//              samples read (step 23, which has them all); rays and volume at step 4 .. 1/2
+//              against shadow rays at step 1/4 (step 22)
 //   shear-warp step 35 against step 30 (and step 34's time): along an axis and at angles,
 //              error in 8-bit units against the ray caster's picture, time per render
 //   precision  the cost of subnormal arithmetic on this machine, and of a float ray
@@ -461,12 +461,12 @@ const Phantom& phantom_volume() {
     return phantom;
 }
 
-// The rows called "step 08" are timed on step 08 itself: step 09 gives the same pixels with
-// less work (it leaps over empty bricks), so its times would not be step 08's.
-constexpr const char* lit_step = "08_lit_compositing";
+// The rows called "step 10" are timed on step 10 itself: step 11 gives the same pixels with
+// less work (it leaps over empty bricks), so its times would not be step 10's.
+constexpr const char* lit_step = "10_opacity_correction";
 
 void step_study() {
-    std::printf("step: step 08 (lit) on the phantom, front view, step 4 .. 1/8 voxel, no early "
+    std::printf("step: step 10 (lit) on the phantom, front view, step 4 .. 1/8 voxel, no early "
                 "termination, against step %s\n", step_text(reference_step).c_str());
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     const std::vector<std::string> front = {"--view", "front", "--ert", "0"};
@@ -477,7 +477,7 @@ void step_study() {
     // 1 - (1 - a)^(1/(4 scale)), as in the phantom itself at that step. Without correction
     // each sample takes the table's a as it is, as in the phantom. The gradients are `scale`
     // times smaller and point the same way: the light is the same.
-    constexpr double min_step = 0.25;  // step 08's --step limit, physical units
+    constexpr double min_step = 0.25;  // step 10's --step limit, physical units
     auto render_at = [&](double step, bool correction, int threads, bool timed) {
         const Phantom& phantom = phantom_volume();
         std::vector<std::string> flags = phantom.flags + front;
@@ -541,26 +541,26 @@ void ert_study() {
     for (const double ert : {0.0, 0.001, 0.01, 0.05, 0.1}) {
         const std::vector<std::string> flags =
             top + std::vector<std::string>{"--ert", text_of("%g", ert)};
-        const Run f2b = run("07_compositing_order", flags, true);
+        const Run f2b = run("08_compositing_order", flags, true);
         if (ert == 0) full07 = f2b.image();
         const ImageError error = image_error(f2b.image(), full07);
-        record({"ert", "step 07 front to back", text_of("%g", ert), f2b.ms(), error.rmse,
+        record({"ert", "step 08 front to back", text_of("%g", ert), f2b.ms(), error.rmse,
                 error.max, "8-bit, added (against T* = 0)", f2b.count("samples")});
         const Run lit = run(lit_step, flags, true);
         if (ert == 0) full08 = lit.image();
         const ImageError error08 = image_error(lit.image(), full08);
-        record({"ert", "step 08 lit, step 1", text_of("%g", ert), lit.ms(), error08.rmse,
+        record({"ert", "step 10 lit, step 1", text_of("%g", ert), lit.ms(), error08.rmse,
                 error08.max, "8-bit, added (against T* = 0)", lit.count("samples")});
     }
     // Back to front cannot stop early: every sample, every time.
-    const Run b2f = run("07_compositing_order",
+    const Run b2f = run("08_compositing_order",
                         top + std::vector<std::string>{"--order", "b2f"}, true);
     const ImageError error = image_error(b2f.image(), full07);
-    record({"ert", "step 07 back to front", "-", b2f.ms(), error.rmse, error.max,
+    record({"ert", "step 08 back to front", "-", b2f.ms(), error.rmse, error.max,
             "8-bit (against front to back, T* = 0)", b2f.count("samples")});
 }
 
-// --- Jitter: step size x jitter x interpolation on the free camera (step 14) -------------
+// --- Jitter: step size x jitter x interpolation on the free camera (step 16) -------------
 
 // The difference image - reference (every channel), blurred by a box of (2 * radius + 1)^2
 // pixels: what is left is the low-frequency error the eye sees as bands and rings; fine noise
@@ -592,11 +592,11 @@ ImageError low_pass_error(const Image& image, const Image& reference, int radius
     return {std::sqrt(sum / count) * byte_units, largest * byte_units};
 }
 
-constexpr const char* jitter_step = "14_blue_noise";
+constexpr const char* jitter_step = "16_blue_noise";
 constexpr int jitter_blur_radius = 2;  // pixels: the low-pass box is 5 x 5
 
 void jitter_study() {
-    std::printf("jitter: step 14 on the phantom, the default camera at 256x256, no early "
+    std::printf("jitter: step 16 on the phantom, the default camera at 256x256, no early "
                 "termination, steps 4 .. 1/2 x jitter none/hash/blue x interpolation "
                 "trilinear/nearest, against step 1/4 without jitter, trilinear\n");
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
@@ -626,30 +626,30 @@ void jitter_study() {
     }
 }
 
-// --- Shadows: what blocked light costs and what it adds (steps 19-21) ----------------------
+// --- Shadows: what blocked light costs and what it adds (steps 21-23) ----------------------
 
-// Step 21 has every kind of blocked light (--shadows ray|volume|none, --ao on|off); step 20
+// Step 23 has every kind of blocked light (--shadows ray|volume|none, --ao on|off); step 22
 // has shadow rays and the light volume, without ambient occlusion.
-constexpr const char* shadows_step = "21_ambient_occlusion";
-constexpr const char* light_volume_step = "20_light_volume";
+constexpr const char* shadows_step = "23_ambient_occlusion";
+constexpr const char* light_volume_step = "22_light_volume";
 
 void shadows_study() {
-    std::printf("shadows: steps 20 and 21 on the phantom, the default camera at 256x256: "
-                "each kind of blocked light against step 12's light; T_light by shadow rays "
-                "and by the light-transmittance volume at steps 4 .. 1/2 (step 20) against "
+    std::printf("shadows: steps 22 and 23 on the phantom, the default camera at 256x256: "
+                "each kind of blocked light against step 14's light; T_light by shadow rays "
+                "and by the light-transmittance volume at steps 4 .. 1/2 (step 22) against "
                 "shadow rays at step 1/4\n");
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     const std::vector<std::string> camera =
         phantom_volume().flags +
         std::vector<std::string>{"--size", quick ? "64x64" : "256x256", "--zoom",
                                  quick ? "1" : "0.5"};
-    // What each adds: the difference from --shadows none --ao off (step 12's light, the same
-    // picture as step 12's), at the default step; the cost in time and samples read (the
+    // What each adds: the difference from --shadows none --ao off (step 14's light, the same
+    // picture as step 14's), at the default step; the cost in time and samples read (the
     // shadow rays', the occlusion probes' and the sweep's reads count as samples).
-    const std::string added = "8-bit (RMSE, max) vs step 12's light";
+    const std::string added = "8-bit (RMSE, max) vs step 14's light";
     const Run open = run(shadows_step, camera + std::vector<std::string>{
                              "--shadows", "none", "--ao", "off"}, true);
-    record({"shadows", "none, ao off (step 12's light)", "1", open.ms(), 0, 0, added,
+    record({"shadows", "none, ao off (step 14's light)", "1", open.ms(), 0, 0, added,
             open.count("samples")});
     for (const char* ao : {"off", "on"}) {
         for (const char* shadows : {"ray", "volume", "none"}) {
@@ -665,7 +665,7 @@ void shadows_study() {
     // off), the camera's step and the shadow rays' the same, against shadow rays at step 1/4.
     // Both carry the camera's step error; "shadows-volume" is the light volume's own error,
     // against the shadow rays at the same step.
-    const std::vector<std::string>& no_ao = camera;  // step 20 has no ambient occlusion
+    const std::vector<std::string>& no_ao = camera;  // step 22 has no ambient occlusion
     const Run reference = run(light_volume_step, no_ao + std::vector<std::string>{
                                   "--step", "0.25", "--shadows", "ray", "--threads",
                                   std::to_string(cores)});
@@ -874,8 +874,8 @@ Run column_run(const std::string& step, const Volume& volume, const std::string&
 
 void compositing_cases() {
     const char* test_c = "test_compositing.cpp";
-    const std::string f2b = "07_compositing_order", b2f = "06_transfer_function";
-    const std::string lit = "08_lit_compositing";
+    const std::string f2b = "08_compositing_order", b2f = "07_back_to_front";
+    const std::string lit = "10_opacity_correction";
     const std::vector<std::string> no_ert = {"--ert", "0"};
     // Skin, skin, bone: the closed form of numerics.md.
     {
@@ -979,7 +979,7 @@ void compositing_cases() {
                  1.0f - std::exp(-float(kh)), "%.12g");
         add_case("T at kappa h = 3: first order 1 - kappa h", test_c, std::exp(-3.0), 1 - 3.0);
     }
-    // Opacity correction over --step's range: step 08's stable form (one sample of depth
+    // Opacity correction over --step's range: step 10's stable form (one sample of depth
     // `ratio`, white, unlit: the picture is the corrected opacity) against the plain one.
     {
         const std::vector<float> alphas = {1e-7f, 0.12f, 0.5f, 0.8f, 0.999f};
@@ -1019,7 +1019,7 @@ void compositing_cases() {
         Case c;
         c.test = test_c;
         c.analytic = "1 - (1 - alpha)^ratio, long double";
-        c.name = "opacity correction, step 08's picture of one corrected sample (float)";
+        c.name = "opacity correction, step 10's picture of one corrected sample (float)";
         c.measured = "alpha 1e-7..0.999, ratio 0.25..4";
         c.rel_error = stable;
         cases.push_back(c);
@@ -1251,7 +1251,7 @@ void write_plot(const std::string& path) {
     depth.series.erase(depth.series.begin() + 1);
 
     plot::Panel step;
-    step.title = "COMPOSITING STEP (STEP 08, FRONT)";
+    step.title = "COMPOSITING STEP (STEP 10, FRONT)";
     step.x_label = "MS PER FRAME, 1 THREAD";
     step.y_label = "RMSE (8-BIT) VS STEP 1/32";
     step.series = {
@@ -1264,8 +1264,8 @@ void write_plot(const std::string& path) {
     ert.x_label = "MS PER FRAME, 1 THREAD";
     ert.y_label = "RMSE ADDED (8-BIT)";
     ert.series = {
-        series_of("ert", "step 07 front to back", "STEP 07, T* = 0.001..0.1", purple),
-        series_of("ert", "step 08 lit, step 1", "STEP 08, T* = 0.001..0.1", green),
+        series_of("ert", "step 08 front to back", "STEP 08, T* = 0.001..0.1", purple),
+        series_of("ert", "step 10 lit, step 1", "STEP 10, T* = 0.001..0.1", green),
     };
     // T* = 0 adds no error, so it cannot sit on a log axis: its time goes into the legend.
     for (plot::Series& s : ert.series) {
@@ -1451,14 +1451,14 @@ int run(int argc, char** argv) {
     md << "## First-hit depth (top view, 256x256x113, spacing 1:1:2; error in voxels)\n\n"
        << section("study:depth", written_by + "\n" + markdown_table("depth", "step h (voxels)"))
        << "\n";
-    md << "## Compositing step (step 08 lit, front view, T* = 0; error in 8-bit units against "
+    md << "## Compositing step (step 10 lit, front view, T* = 0; error in 8-bit units against "
        << "step " << step_text(reference_step) << ")\n\n"
        << section("study:step", written_by + "\n" + markdown_table("step-reference", "step") +
                                     "\n" + markdown_table("step", "step (voxels)"))
        << "\n";
     md << "## Early ray termination (top view; error added against T* = 0, 8-bit units)\n\n"
        << section("study:ert", written_by + "\n" + markdown_table("ert", "T*")) << "\n";
-    md << "## Jitter (step 14, the default camera at 256x256, T* = 0; error in 8-bit units "
+    md << "## Jitter (step 16, the default camera at 256x256, T* = 0; error in 8-bit units "
        << "against step 1/4 without jitter, trilinear; method: jitter, interpolation)\n\n"
        << section("study:jitter",
                   written_by + "\nRMSE and max of the difference:\n\n" +
@@ -1467,11 +1467,11 @@ int run(int argc, char** argv) {
                       "the eye sees; fine noise averages away):\n\n" +
                       markdown_table("jitter-lowpass", "step"))
        << "\n";
-    md << "## Shadows (steps 19-21, the default camera at 256x256; error in 8-bit units)\n\n"
+    md << "## Shadows (steps 21-23, the default camera at 256x256; error in 8-bit units)\n\n"
        << section("study:shadows",
-                  written_by + "\nWhat each adds: step 21 with each kind of blocked light "
-                               "(`ray, ao off` is step 19's default picture, `volume, ao off` "
-                               "step 20's, `ray, ao on` step 21's), against step 12's light "
+                  written_by + "\nWhat each adds: step 23 with each kind of blocked light "
+                               "(`ray, ao off` is step 21's default picture, `volume, ao off` "
+                               "step 22's, `ray, ao on` step 23's), against step 14's light "
                                "(`--shadows none --ao off`), at step 1; samples count every "
                                "read (the camera's rays, the shadow rays, the occlusion probes, "
                                "the light volume's sweep):\n\n" +

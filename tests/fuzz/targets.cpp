@@ -293,7 +293,7 @@ void transfer_function(const uint8_t* data, size_t size) {
             require(ctlab::find_range(tf, range.label) == &range, "a label used twice");
         }
     }
-    // A lookup table built from these ranges (step 06's lesson, not repeated here) reads only
+    // A lookup table built from these ranges (step 07's lesson, not repeated here) reads only
     // indices inside int16 and holds colours in 0..1: both follow from the checks above, since
     // every range lies inside int16 and a ramp's entries lie between its two ends.
     // --skin-opacity on the first labelled range, and on a label that is not there.

@@ -28,7 +28,7 @@ void raw_volume(const uint8_t* data, size_t size);
 // CThead size, by repeating the input), with or without --endian and --spacing.
 void cthead_file(const uint8_t* data, size_t size);
 
-// The transfer-function parser on the input as text, then the lookup table steps 06-08 build.
+// The transfer-function parser on the input as text, then the lookup table steps 07-10 build.
 void transfer_function(const uint8_t* data, size_t size);
 
 // The checker's image reader (read_image_bytes), then a comparison of the picture with itself.
