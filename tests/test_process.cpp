@@ -34,14 +34,20 @@ TEST_CASE("process: an exit is seen promptly, a running child with closed pipes 
         ProcessOptions options;
         options.wait_on_exit_fd = exit_fd;
         options.limits.wall_s = 20;
-        std::vector<double> seconds;
-        for (int run = 0; run < 21; ++run) {
-            const ProcessResult quick = run_process("/bin/true", {}, options);
-            REQUIRE(quick.status == 0);
-            seconds.push_back(quick.seconds);
+        // The median of 21 starts, the best of up to 3 rounds (a busy machine delays a few):
+        // ~1 ms here; with the tick it was 11-13 ms whatever the load.
+        double best_median = 1e9;
+        for (int round = 0; round < 3 && best_median >= 0.005; ++round) {
+            std::vector<double> seconds;
+            for (int run = 0; run < 21; ++run) {
+                const ProcessResult quick = run_process("/bin/true", {}, options);
+                REQUIRE(quick.status == 0);
+                seconds.push_back(quick.seconds);
+            }
+            std::sort(seconds.begin(), seconds.end());
+            best_median = std::min(best_median, seconds[seconds.size() / 2]);
         }
-        std::sort(seconds.begin(), seconds.end());
-        CHECK(seconds[seconds.size() / 2] < 0.005);  // the median: ~1 ms here, was ~11 ms
+        CHECK(best_median < 0.005);
 
         // Closes stdout and stderr, then runs on: its exit status is still waited for.
         const ProcessResult closed =
