@@ -18,7 +18,10 @@
 // passing) and, for a step that is not passing, the first things to look at: the TODO line of
 // a stub, the signal of a crash and how to find its line, the worst pixel ready for
 // --debug-pixel, a side-by-side picture (student | reference | heat map), a picture that
-// matches another view's reference, the counter that differs.
+// matches another view's reference, the counter that differs; and, for the step's first
+// failing run only, its probe rays and the first ray whose work differs, traced (each trace
+// renders the picture again; a later failing run gets its pictures' and counters' verdicts,
+// and a step not started, its TODO lines).
 //
 // Exit status: 0 every graded step passes, 1 some step does not, 2 bad input.
 #include <algorithm>
@@ -600,6 +603,10 @@ struct StepResult {
     int pictures = 0, pictures_passed = 0;
     int counters = 0, counters_passed = 0;  // summary lines, and those whose counters match
     int runs = 0;
+    // The step's first failing run: its rays are traced (the probes, the first ray whose work
+    // differs). A later run that fails is graded by its pictures and counters alone: one
+    // mistake mostly fails every run, and each trace costs renders of the whole picture.
+    std::string traced_run;
     std::vector<std::string> look_at;  // the first things to look at, most useful first
     std::vector<std::string> problems;  // everything, for report.txt
 };
@@ -1644,6 +1651,9 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
         summaries[fields["view"]] = fields;
     }
     const size_t problems_before = result.problems.size();
+    // A stub's ray says nothing the TODO line does not: a step not started is not traced.
+    const bool trace = result.status != Status::not_started &&
+                       (result.traced_run.empty() || result.traced_run == run.name);
     for (const std::string& view : graded_views) {
         const size_t problems_of_view = result.problems.size();
         grade_picture(step, run, view, folder, result);
@@ -1656,14 +1666,22 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
         } else {
             // Pictures right, work not: name the ray whose work differs.
             const bool pictures_fine = result.problems.size() == problems_of_view;
-            if (grade_counters(run, view, summary->second, result) && pictures_fine) {
+            if (grade_counters(run, view, summary->second, result) && pictures_fine && trace) {
                 first_ray_apart(step, run, view, folder, result);
             }
         }
-        if (result.problems.size() > problems_of_view) probe_rays(step, run, view, folder, result);
+        if (result.problems.size() > problems_of_view && trace) {
+            probe_rays(step, run, view, folder, result);
+        }
     }
-    if (result.problems.size() > problems_before && result.status == Status::passing) {
-        result.status = Status::failing;
+    if (result.problems.size() > problems_before) {
+        if (result.status == Status::passing) result.status = Status::failing;
+        if (trace) {
+            result.traced_run = run.name;
+        } else if (result.status != Status::not_started) {
+            result.problems.push_back(run.name + ": its rays not traced (" + result.traced_run +
+                                      "'s are: mend that run first)");
+        }
     }
 }
 
