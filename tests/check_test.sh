@@ -69,24 +69,35 @@ grade_ok "check --step 99" 2 $? "$work/bad.log" "^check: error: --step 99: no su
 grade_ok "check --reference with no manifest" 2 $? "$work/bad.log" "^check: error: no .*manifest.txt"
 
 # --- Mistakes, patched into copies of the solution's steps ---------------------------------------
-# Each built alone against the lab's compiled library (tests/mutants.sh).
+# Each built against the lab's compiled library, all of them in one parallel make, then graded
+# one by one (tests/mutants.sh).
 . tests/mutants.sh
 mutant_tree || exit 1
 
 grep -v '^#' tests/check_mistakes.txt | grep -v '^[[:space:]]*$' |
     grep -E "^(${ONLY:-.*}) " > "$work/mistakes"
+: > "$work/patched"
 while IFS='|' read -r name step view script expect shows; do
-    name=$(echo $name) step=$(echo $step) view=$(echo $view) expect=$(echo $expect)
+    name=$(echo $name) step=$(echo $step)
     # printf, not echo: the scripts hold backslashes.
     script=$(printf '%s\n' "$script" | sed 's/^ *//; s/ *$//')
-    shows=$(printf '%s\n' "$shows" | sed 's/^ *//; s/ *$//')
     source=$(ls steps/"$step"_*.cpp 2>/dev/null | head -n 1)
     if [ -z "$source" ]; then
         echo "check test: skipped: $name: there is no step $step"; skipped=$((skipped + 1))
         continue
     fi
+    mutant_patch "$name" "$source" "$script" || continue
+    printf '%s|%s|%s|%s|%s|%s\n' "$name" "$step" "$view" "$source" "$expect" "$shows" \
+        >> "$work/patched"
+done < "$work/mistakes"
+mutants_build
+
+while IFS='|' read -r name step view source expect shows; do
+    expect=$(echo $expect)
+    shows=$(printf '%s\n' "$shows" | sed 's/^ *//; s/ *$//')
+    view=$(echo $view)
     stem=$(basename "$source" .cpp)
-    mutant "$name" "$source" "$script" || continue
+    [ -x "$work/bin/$name/$stem" ] || continue  # mutants_build said why
     # The reference's own picture planted where the run writes: it must be gone before the run.
     mkdir -p "$work/out/$name/$stem" &&
         cp "data/reference/${stem}_$view.png" "$work/out/$name/$stem/" || bad "$name: no plant"
@@ -102,7 +113,7 @@ while IFS='|' read -r name step view script expect shows; do
         fail) grade_ok "$name (must fail)" 1 $status "$work/$name.log" "$shows" ;;
         *) bad "$name: EXPECT is pass or fail, got '$expect'" ;;
     esac
-done < "$work/mistakes"
+done < "$work/patched"
 
 echo "check test: $passed passed, $failed failed, $skipped skipped"
 [ "$failed" -eq 0 ]
