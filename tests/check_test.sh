@@ -95,18 +95,27 @@ mutants_build
 while IFS='|' read -r name step view source expect shows; do
     expect=$(echo $expect)
     shows=$(printf '%s\n' "$shows" | sed 's/^ *//; s/ *$//')
-    view=$(echo $view)
+    # VIEW [RUN...]: the view, then the manifest runs graded (all when none is named).
+    # shellcheck disable=SC2086
+    set -- $view
+    view=$1
+    shift
+    run_flags=
+    for run in "$@"; do run_flags="$run_flags --run $run"; done
     stem=$(basename "$source" .cpp)
     [ -x "$work/bin/$name/$stem" ] || continue  # mutants_build said why
-    # The reference's own picture planted where the run writes: it must be gone before the run.
-    mkdir -p "$work/out/$name/$stem" &&
-        cp "data/reference/${stem}_$view.png" "$work/out/$name/$stem/" || bad "$name: no plant"
+    # The reference's own picture planted where the (first graded) run writes: it must be gone
+    # before the run.
+    planted=${1:-$stem}
+    mkdir -p "$work/out/$name/$planted" &&
+        cp "data/reference/${stem}_$view${planted#"$stem"}.png" \
+            "$work/out/$name/$planted/${stem}_$view.png" || bad "$name: no plant"
     # A part-2 step has one view, the camera's, and no --view to choose it.
     view_flags="--view $view"
     [ "$view" = camera ] && view_flags=
-    # shellcheck disable=SC2086  # view_flags: no words or two
-    "$build/check" --bin "$work/bin/$name" --step "$step" $view_flags --volume "$phantom" \
-        --out "$work/out/$name" > "$work/$name.log" 2>&1
+    # shellcheck disable=SC2086  # view_flags, run_flags: no words or some
+    "$build/check" --bin "$work/bin/$name" --step "$step" $view_flags $run_flags \
+        --volume "$phantom" --out "$work/out/$name" > "$work/$name.log" 2>&1
     status=$?
     case "$expect" in
         pass) grade_ok "$name (must pass)" 0 $status "$work/$name.log" "$shows" ;;
