@@ -57,6 +57,14 @@ grade_ok() {
 steps=$(ls steps/[0-9][0-9]_*.cpp | wc -l)
 [ -z "${ONLY:-}" ] && grade_ok "the lab's steps" 0 $? "$work/lab.log" "^$steps steps?: $steps passing; result=pass"
 
+# --- One run of the manifest alone (--run): one picture, one summary line graded ------------
+"$build/check" --bin "$build" --run 02_threshold_skin --view top --volume "$phantom" \
+    --out "$work/one_run" > "$work/one_run.log" 2>&1
+grade_ok "check --run 02_threshold_skin" 0 $? "$work/one_run.log" \
+    "^1 step: 1 passing;^02_threshold +passing +1/1 +1/1\$"
+[ -f "$work/one_run/02_threshold_skin/02_threshold_top.png" ] &&
+    [ ! -e "$work/one_run/02_threshold" ] && ok || bad "check --run ran other runs too"
+
 # --- A step that is not built: graded "not built", with the command that shows why -----------
 mkdir -p "$work/empty"
 "$build/check" --bin "$work/empty" --step 02 --out "$work/none" > "$work/none.log" 2>&1
@@ -67,6 +75,9 @@ grade_ok "a step not built" 1 $? "$work/none.log" "not built;make 02_"
 grade_ok "check --step 99" 2 $? "$work/bad.log" "^check: error: --step 99: no such step"
 "$build/check" --reference "$work/empty" --out "$work/none" > "$work/bad.log" 2>&1
 grade_ok "check --reference with no manifest" 2 $? "$work/bad.log" "^check: error: no .*manifest.txt"
+"$build/check" --step 02 --run 03_depth_shading --out "$work/none" > "$work/bad.log" 2>&1
+grade_ok "check --run of a step not graded" 2 $? "$work/bad.log" \
+    "^check: error: --run 03_depth_shading: no such run of the steps graded"
 
 # --- Mistakes, patched into copies of the solution's steps ---------------------------------------
 # Each built against the lab's compiled library, all of them in one parallel make, then graded
