@@ -58,8 +58,8 @@ done
 cp data/reference/manifest.txt "$ref/"
 
 # snapshot DIR...: every path with its type, size, link target, and modification and change
-# times (any write moves the change time, and no unprivileged process can set it back), and the hash of
-# every file up to 64 MiB: hashing the sparse 1 GiB one cost ~6 s of CPU each time.
+# times (any write moves the change time, and no unprivileged process can set it back), and
+# the hash of every file up to 64 MiB: hashing the sparse 1 GiB one cost ~6 s of CPU a time.
 snapshot() {
     find "$@" -printf '%p %y %s %l %T@ %C@\n' | LC_ALL=C sort
     find "$@" -type f -size -65537k -exec sha256sum {} + | LC_ALL=C sort

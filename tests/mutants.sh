@@ -95,7 +95,8 @@ mutant_patch() {
         fi
     fi
     # One target of the make that builds them all (the same make as mutant_make's), its log in
-    # the mutant's tree (the target is named like that folder: phony). $work is mktemp's: no spaces, no quotes.
+    # the mutant's tree (the target is named like that folder: phony). $work is mktemp's: no
+    # spaces, no quotes.
     {
         printf 'all: %s\n.PHONY: %s\n%s:\n' "$mutant_name" "$mutant_name" "$mutant_name"
         printf '\t@$(MAKE) --no-print-directory -C %s BUILD=%s WERROR=0 STEP_OPT="%s" %s' \
@@ -120,6 +121,7 @@ mutants_build() {
             tail -n 20 "$own/make.log"
             continue
         fi
-        mkdir -p "$work/bin/$mutant_name" && mv "$own/$build/$mutant_stem" "$work/bin/$mutant_name/"
+        mkdir -p "$work/bin/$mutant_name" &&
+            mv "$own/$build/$mutant_stem" "$work/bin/$mutant_name/"
     done
 }
