@@ -57,6 +57,14 @@ grade_ok() {
 steps=$(ls steps/[0-9][0-9]_*.cpp | wc -l)
 [ -z "${ONLY:-}" ] && grade_ok "the lab's steps" 0 $? "$work/lab.log" "^$steps steps?: $steps passing; result=pass"
 
+# --- One run of the manifest alone (--run): one picture, one summary line graded ------------
+"$build/check" --bin "$build" --run 02_threshold_skin --view top --volume "$phantom" \
+    --out "$work/one_run" > "$work/one_run.log" 2>&1
+grade_ok "check --run 02_threshold_skin" 0 $? "$work/one_run.log" \
+    "^1 step: 1 passing;^02_threshold +passing +1/1 +1/1\$"
+[ -f "$work/one_run/02_threshold_skin/02_threshold_top.png" ] &&
+    [ ! -e "$work/one_run/02_threshold" ] && ok || bad "check --run ran other runs too"
+
 # --- A step that is not built: graded "not built", with the command that shows why -----------
 mkdir -p "$work/empty"
 "$build/check" --bin "$work/empty" --step 02 --out "$work/none" > "$work/none.log" 2>&1
@@ -67,42 +75,65 @@ grade_ok "a step not built" 1 $? "$work/none.log" "not built;make 02_"
 grade_ok "check --step 99" 2 $? "$work/bad.log" "^check: error: --step 99: no such step"
 "$build/check" --reference "$work/empty" --out "$work/none" > "$work/bad.log" 2>&1
 grade_ok "check --reference with no manifest" 2 $? "$work/bad.log" "^check: error: no .*manifest.txt"
+"$build/check" --step 02 --run 03_depth_shading --out "$work/none" > "$work/bad.log" 2>&1
+grade_ok "check --run of a step not graded" 2 $? "$work/bad.log" \
+    "^check: error: --run 03_depth_shading: no such run of the steps graded"
 
 # --- Mistakes, patched into copies of the solution's steps ---------------------------------------
-# Each built alone against the lab's compiled library (tests/mutants.sh).
+# Each built against the lab's compiled library, all of them in one parallel make, then graded
+# one by one (tests/mutants.sh).
 . tests/mutants.sh
 mutant_tree || exit 1
 
 grep -v '^#' tests/check_mistakes.txt | grep -v '^[[:space:]]*$' |
     grep -E "^(${ONLY:-.*}) " > "$work/mistakes"
+: > "$work/patched"
 while IFS='|' read -r name step view script expect shows; do
-    name=$(echo $name) step=$(echo $step) view=$(echo $view) expect=$(echo $expect)
+    name=$(echo $name) step=$(echo $step)
     # printf, not echo: the scripts hold backslashes.
     script=$(printf '%s\n' "$script" | sed 's/^ *//; s/ *$//')
-    shows=$(printf '%s\n' "$shows" | sed 's/^ *//; s/ *$//')
     source=$(ls steps/"$step"_*.cpp 2>/dev/null | head -n 1)
     if [ -z "$source" ]; then
         echo "check test: skipped: $name: there is no step $step"; skipped=$((skipped + 1))
         continue
     fi
+    mutant_patch "$name" "$source" "$script" || continue
+    printf '%s|%s|%s|%s|%s|%s\n' "$name" "$step" "$view" "$source" "$expect" "$shows" \
+        >> "$work/patched"
+done < "$work/mistakes"
+mutants_build
+
+while IFS='|' read -r name step view source expect shows; do
+    expect=$(echo $expect)
+    shows=$(printf '%s\n' "$shows" | sed 's/^ *//; s/ *$//')
+    # VIEW [RUN...]: the view, then the manifest runs graded (all when none is named).
+    # shellcheck disable=SC2086
+    set -- $view
+    view=$1
+    shift
+    run_flags=
+    for run in "$@"; do run_flags="$run_flags --run $run"; done
     stem=$(basename "$source" .cpp)
-    mutant "$name" "$source" "$script" || continue
-    # The reference's own picture planted where the run writes: it must be gone before the run.
-    mkdir -p "$work/out/$name/$stem" &&
-        cp "data/reference/${stem}_$view.png" "$work/out/$name/$stem/" || bad "$name: no plant"
+    [ -x "$work/bin/$name/$stem" ] || continue  # mutants_build said why
+    # The reference's own picture planted where the (first graded) run writes: it must be gone
+    # before the run.
+    planted=${1:-$stem}
+    mkdir -p "$work/out/$name/$planted" &&
+        cp "data/reference/${stem}_$view${planted#"$stem"}.png" \
+            "$work/out/$name/$planted/${stem}_$view.png" || bad "$name: no plant"
     # A part-2 step has one view, the camera's, and no --view to choose it.
     view_flags="--view $view"
     [ "$view" = camera ] && view_flags=
-    # shellcheck disable=SC2086  # view_flags: no words or two
-    "$build/check" --bin "$work/bin/$name" --step "$step" $view_flags --volume "$phantom" \
-        --out "$work/out/$name" > "$work/$name.log" 2>&1
+    # shellcheck disable=SC2086  # view_flags, run_flags: no words or some
+    "$build/check" --bin "$work/bin/$name" --step "$step" $view_flags $run_flags \
+        --volume "$phantom" --out "$work/out/$name" > "$work/$name.log" 2>&1
     status=$?
     case "$expect" in
         pass) grade_ok "$name (must pass)" 0 $status "$work/$name.log" "$shows" ;;
         fail) grade_ok "$name (must fail)" 1 $status "$work/$name.log" "$shows" ;;
         *) bad "$name: EXPECT is pass or fail, got '$expect'" ;;
     esac
-done < "$work/mistakes"
+done < "$work/patched"
 
 echo "check test: $passed passed, $failed failed, $skipped skipped"
 [ "$failed" -eq 0 ]

@@ -9,7 +9,7 @@
 #   PNG declaring 16384 x 16384, a 1x1 PPM followed by 1 GiB (sparse), a FIFO, a flipped byte:
 #   graded under `ulimit -v` within seconds, each an error (or damaged) row with one line, and
 #   nothing outside the report folder changes (every file of the submission, the references
-#   and /etc/passwd hashed before and after).
+#   and /etc/passwd hashed, or past 64 MiB its change time compared, before and after).
 # - --report, --diff: refused inside (or as) a submission, a reference or an input.
 # - A class of five students (one passing, two with byte-identical wrong pictures, one with
 #   its pictures in a subfolder named in capitals, one student tree rendered from another
@@ -57,10 +57,12 @@ for picture in 02_threshold 03_depth_shading; do
 done
 cp data/reference/manifest.txt "$ref/"
 
-# snapshot DIR...: every path with its type, size and link target, and every file's hash.
+# snapshot DIR...: every path with its type, size, link target, and modification and change
+# times (any write moves the change time, and no unprivileged process can set it back), and
+# the hash of every file up to 64 MiB: hashing the sparse 1 GiB one cost ~6 s of CPU a time.
 snapshot() {
-    find "$@" -printf '%p %y %s %l\n' | LC_ALL=C sort
-    find "$@" -type f -exec sha256sum {} + | LC_ALL=C sort
+    find "$@" -printf '%p %y %s %l %T@ %C@\n' | LC_ALL=C sort
+    find "$@" -type f -size -65537k -exec sha256sum {} + | LC_ALL=C sort
 }
 # png_width FILE: the width in a PNG's IHDR.
 png_width() { od -An -tu1 -j16 -N4 "$1" | awk '{ print $1 * 16777216 + $2 * 65536 + $3 * 256 + $4 }'; }

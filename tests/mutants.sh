@@ -5,6 +5,9 @@
 #   mutant_tree                    the tree the mutants are built in: $work/tree
 #   mutant NAME SOURCE SCRIPT      SOURCE patched by the sed SCRIPT ('-': as it is), built
 #                                  into $work/bin/NAME/STEM; status 1 (and `bad`) otherwise
+#   mutant_patch NAME SOURCE SCRIPT  only patched, into a tree of its own ($work/trees/NAME);
+#   mutants_build                  then every patched one built at once (make -j2), each into
+#                                  $work/bin/NAME/STEM: check there, `bad` for one that is not
 #
 # Only the step compiles: the tree has the lab's Makefile, common/ and its compiled library,
 # and make is told (-o) never to remake the library or the modules. A mutant is graded once
@@ -17,12 +20,27 @@
 mutant_opt=${MUTANT_OPT:--O1 -g0}
 [ -z "${san:-}" ] || mutant_opt=${MUTANT_OPT:-}
 
+# The library alone, not the objects it was made from: make is told never to remake it, and
+# their ~200 dependency files (BUILD/common/*.d) cost each make ~0.3 s of CPU to read. Without
+# its debug information (20 MB of the library's 21), each link takes 0.10 s of CPU, not 0.17;
+# a sanitizer build keeps it, for its reports' lines.
 mutant_tree() {
     tree=$work/tree
     mkdir -p "$tree/steps" "$tree/$build" || return 1
-    cp Makefile "$tree/" && cp -R common "$tree/" && cp -R "$build/common" "$tree/$build/" &&
+    cp Makefile "$tree/" && cp -R common "$tree/" &&
         cp "$build/libctlab.a" "$tree/$build/" || { bad "cannot copy the lab into $tree"; return 1; }
+    [ -n "${san:-}" ] || strip -g "$tree/$build/libctlab.a" 2>/dev/null || true
     find "$tree/$build" -type f -exec touch {} +  # newer than the copied sources
+}
+
+# mutant_make DIR TARGET...: make in DIR with the mutants' flags, never remaking the library.
+mutant_make() {
+    mutant_folder=$1
+    shift
+    # shellcheck disable=SC2086
+    make --no-print-directory -C "$mutant_folder" BUILD="$build" WERROR=0 \
+        STEP_OPT="$mutant_opt" $san \
+        -o "$build/libctlab.a" -o "$build/ctlab_formats.so" -o "$build/ctlab_window.so" "$@"
 }
 
 mutant() {
@@ -40,12 +58,70 @@ mutant() {
             return 1
         fi
     fi
-    # shellcheck disable=SC2086
-    if ! make --no-print-directory -C "$tree" BUILD="$build" WERROR=0 STEP_OPT="$mutant_opt" $san \
-            -o "$build/libctlab.a" -o "$build/ctlab_formats.so" -o "$build/ctlab_window.so" \
-            "$build/$mutant_stem" > "$work/make.log" 2>&1; then
+    if ! mutant_make "$tree" "$build/$mutant_stem" > "$work/make.log" 2>&1; then
         bad "$mutant_name: the patched $mutant_stem does not compile"; tail -n 20 "$work/make.log"
         return 1
     fi
     mkdir -p "$work/bin/$mutant_name" && mv "$tree/$build/$mutant_stem" "$work/bin/$mutant_name/"
+}
+
+# A tree of its own for each mutant, sharing the lab's library, common/ and the precompiled
+# header (made once, in $tree) through links, so that all of them build in one parallel make.
+mutant_patch() {
+    mutant_name=$1 mutant_source=$2 mutant_script=$3
+    mutant_stem=$(basename "$mutant_source" .cpp)
+    own=$work/trees/$mutant_name
+    if [ ! -f "$work/trees/Makefile" ]; then  # the first: the shared header made in $tree
+        mkdir -p "$work/trees" || return 1
+        # Also writes BUILD/flags.txt. GCC only (make fuzz's clang has no precompiled header):
+        # without one, each mutant reads common/ctlab.h itself.
+        mutant_make "$tree" "$build/pch/common/ctlab.h.gch" > "$work/trees/pch.log" 2>&1
+        printf 'all:\n' > "$work/trees/Makefile"
+    fi
+    mkdir -p "$own/steps" "$own/$build" &&
+        ln -s "$tree/Makefile" "$tree/common" "$own/" &&
+        ln -s "$tree/$build/libctlab.a" "$tree/$build/flags.txt" "$own/$build/" ||
+        { bad "$mutant_name: cannot make $own"; return 1; }
+    [ -d "$tree/$build/pch" ] && ln -s "$tree/$build/pch" "$own/$build/"
+    if [ "$mutant_script" = - ]; then
+        cp "$mutant_source" "$own/$mutant_source" ||
+            { bad "$mutant_name: cannot copy $mutant_source"; return 1; }
+    else
+        sed -e "$mutant_script" "$mutant_source" > "$own/$mutant_source" ||
+            { bad "$mutant_name: bad sed script"; return 1; }
+        if cmp -s "$mutant_source" "$own/$mutant_source"; then
+            bad "$mutant_name: '$mutant_script' changes nothing in $mutant_source (the step changed?)"
+            return 1
+        fi
+    fi
+    # One target of the make that builds them all (the same make as mutant_make's), its log in
+    # the mutant's tree (the target is named like that folder: phony). $work is mktemp's: no
+    # spaces, no quotes.
+    {
+        printf 'all: %s\n.PHONY: %s\n%s:\n' "$mutant_name" "$mutant_name" "$mutant_name"
+        printf '\t@$(MAKE) --no-print-directory -C %s BUILD=%s WERROR=0 STEP_OPT="%s" %s' \
+            "$own" "$build" "$mutant_opt" "$san"
+        printf ' -o %s/%s' "$build" libctlab.a "$build" ctlab_formats.so "$build" ctlab_window.so
+        printf ' %s/%s > %s/make.log 2>&1\n' "$build" "$mutant_stem" "$own"
+    } >> "$work/trees/Makefile"
+}
+
+mutants_build() {
+    [ -f "$work/trees/Makefile" ] || return 0
+    # Its own job count (2), whatever make runs this suite: each mutant's make is its own.
+    # shellcheck disable=SC2086
+    env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL \
+        make --no-print-directory -k -j"${MUTANT_JOBS:-2}" -C "$work/trees" > /dev/null 2>&1
+    for own in "$work"/trees/*/; do
+        own=${own%/}
+        mutant_name=$(basename "$own")
+        mutant_stem=$(basename "$(ls "$own"/steps/*.cpp)" .cpp)
+        if [ ! -x "$own/$build/$mutant_stem" ]; then
+            bad "$mutant_name: the patched $mutant_stem does not compile"
+            tail -n 20 "$own/make.log"
+            continue
+        fi
+        mkdir -p "$work/bin/$mutant_name" &&
+            mv "$own/$build/$mutant_stem" "$work/bin/$mutant_name/"
+    done
 }

@@ -184,6 +184,9 @@ reuse_objects() {
     fi
     mkdir -p "$student/$build"
     cp -R "$build/common" "$student/$build/" && cp "$build/libctlab.a" "$student/$build/"
+    # Without its debug information (20 MB of 21) each of the kit's ~35 links costs 0.10 s of
+    # CPU, not 0.17 (the kit's steps are built without any); a sanitizer build keeps it.
+    [ "$build" = build-san ] || strip -g "$student/$build/libctlab.a" 2>/dev/null || true
     cp "$build/flags.txt" "$student/$build/"
     for library in libctlab_tools.a ctlab_formats.so ctlab_window.so; do
         [ -f "$build/$library" ] && cp "$build/$library" "$student/$build/"
@@ -232,10 +235,40 @@ if student_make all "$build/ctlab_tests"; then ok; else
 fi
 
 # progress_is PASSING_STEP WHAT: `make check` in the kit prints the progress table with
-# PASSING_STEP (a stem, or none) passing and every other step not started.
+# PASSING_STEP (a stem, or none) passing and every other step not started. The first pass is
+# `make check` itself. A later pass does what it does, for the steps whose binaries changed
+# since: `make check-steps` (build what changed), then the kit's check on those steps, as
+# make check runs it. A step's row depends on its binary, the references and the volume, and
+# only binaries changed: the other rows are the first pass's (~20 s of CPU not spent again).
 progress_is() {
-    student_make check
-    cp "$work/build.log" "$work/progress.log"
+    if [ ! -f "$work/progress_first.log" ]; then
+        student_make check
+        cp "$work/build.log" "$work/progress.log"
+        cp "$work/build.log" "$work/progress_first.log"
+        (cd "$student/$build" && cksum [0-9][0-9]_*) > "$work/binaries_first.txt"
+    else
+        student_make check-steps || bad "$2: make check-steps in the kit failed"
+        changed=
+        for source in steps/[0-9][0-9]_*.cpp; do
+            step=$(basename "$source" .cpp)
+            [ "$(cd "$student/$build" && cksum "$step")" = \
+              "$(grep " $step\$" "$work/binaries_first.txt")" ] || changed="$changed $step"
+        done
+        # The step the student wrote, at least, is graded again.
+        expect "$2: the kit's steps that changed are graded again:$changed" [ -n "$changed" ]
+        # shellcheck disable=SC2086  # one --step per changed step
+        (cd "$student" && "$build/check" --bin "$build" \
+             $(for step in $changed; do printf ' --step %s' "$step"; done)) \
+            > "$work/regraded.log" 2>&1
+        : > "$work/progress.log"
+        for source in steps/[0-9][0-9]_*.cpp; do
+            step=$(basename "$source" .cpp)
+            case " $changed " in
+                *" $step "*) grep "^$step " "$work/regraded.log" >> "$work/progress.log" ;;
+                *) grep "^$step " "$work/progress_first.log" >> "$work/progress.log" ;;
+            esac
+        done
+    fi
     for source in steps/[0-9][0-9]_*.cpp; do
         step=$(basename "$source" .cpp)
         status="not started"

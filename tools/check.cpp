@@ -4,7 +4,8 @@
 // the instructor will see.
 //
 //   build/check [--tree DIR] [--bin DIR] [--reference DIR] [--out DIR] [--step NN]...
-//               [--view top|front|side] [--args "FLAGS"] [--volume PATH] [--timeout S]
+//               [--run NAME]... [--view top|front|side] [--args "FLAGS"] [--volume PATH]
+//               [--timeout S]
 //
 // For each run (manifest line `NAME: ARGUMENTS [tol=N] [counters=LIST]`) the step's binary is
 // run as a process in the tree:  BIN/NN_name --volume V --no-window --out OUT/NAME ARGS
@@ -18,7 +19,10 @@
 // passing) and, for a step that is not passing, the first things to look at: the TODO line of
 // a stub, the signal of a crash and how to find its line, the worst pixel ready for
 // --debug-pixel, a side-by-side picture (student | reference | heat map), a picture that
-// matches another view's reference, the counter that differs.
+// matches another view's reference, the counter that differs; and, for the step's first
+// failing run only, its probe rays and the first ray whose work differs, traced (each trace
+// renders the picture again; a later failing run gets its pictures' and counters' verdicts,
+// and a step not started, its TODO lines).
 //
 // Exit status: 0 every graded step passes, 1 some step does not, 2 bad input.
 #include <algorithm>
@@ -81,7 +85,8 @@ const std::vector<std::string> work_counters = {"samples", "skipped", "leapt",
 
 const char* const usage_text =
     "usage: check [--tree DIR] [--bin DIR] [--reference DIR] [--out DIR] [--step NN]...\n"
-    "             [--view top|front|side] [--args \"FLAGS\"] [--volume PATH] [--timeout S]\n"
+    "             [--run NAME]... [--view top|front|side] [--args \"FLAGS\"] [--volume PATH]\n"
+    "             [--timeout S]\n"
     "\n"
     "Runs every step of the tree with every run of REFERENCE/manifest.txt (on the phantom) and\n"
     "compares each picture and the summary lines' work counters with the reference run's.\n"
@@ -94,6 +99,8 @@ const char* const usage_text =
     "                    (default TREE/out/check; emptied of earlier runs first)\n"
     "  --step NN         grade only step NN (repeatable; default every step)\n"
     "  --view V          render and grade only view V (runs that choose a view are kept)\n"
+    "  --run NAME        grade only the manifest run NAME (NN_name or NN_name_VARIANT) of\n"
+    "                    the steps graded (repeatable; default every run)\n"
     "  --args \"FLAGS\"    more flags for every run, split at spaces (e.g. \"--threads 1\")\n"
     "  --volume PATH     the volume to render (default: REFERENCE/volume.txt's volume: and\n"
     "                    arguments: lines, as make reference VOLUME=... writes them; else\n"
@@ -126,6 +133,7 @@ const char* const usage_text =
 struct Settings {
     fs::path tree = ".", bin, reference, out;
     std::vector<std::string> steps;  // NN or NN_name; empty: all
+    std::vector<std::string> runs;   // manifest runs (NN_name[_VARIANT]) to grade; empty: all
     std::string view;                // "" = every view
     std::vector<std::string> extra_args;
     std::string volume;                       // "" = REFERENCE/volume.txt's, else the phantom
@@ -171,6 +179,8 @@ Settings parse_arguments(int argc, char** argv) {
             has_out = true;
         } else if (arg == "--step") {
             settings.steps.push_back(value());
+        } else if (arg == "--run") {
+            settings.runs.push_back(value());
         } else if (arg == "--view") {
             settings.view = value();
             if (std::find(views.begin(), views.end(), settings.view) == views.end()) {
@@ -600,6 +610,10 @@ struct StepResult {
     int pictures = 0, pictures_passed = 0;
     int counters = 0, counters_passed = 0;  // summary lines, and those whose counters match
     int runs = 0;
+    // The step's first failing run: its rays are traced (the probes, the first ray whose work
+    // differs). A later run that fails is graded by its pictures and counters alone: one
+    // mistake mostly fails every run, and each trace costs renders of the whole picture.
+    std::string traced_run;
     std::vector<std::string> look_at;  // the first things to look at, most useful first
     std::vector<std::string> problems;  // everything, for report.txt
 };
@@ -1644,6 +1658,9 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
         summaries[fields["view"]] = fields;
     }
     const size_t problems_before = result.problems.size();
+    // A stub's ray says nothing the TODO line does not: a step not started is not traced.
+    const bool trace = result.status != Status::not_started &&
+                       (result.traced_run.empty() || result.traced_run == run.name);
     for (const std::string& view : graded_views) {
         const size_t problems_of_view = result.problems.size();
         grade_picture(step, run, view, folder, result);
@@ -1656,14 +1673,22 @@ void Grader::grade_run(const Step& step, const Run& run, StepResult& result) {
         } else {
             // Pictures right, work not: name the ray whose work differs.
             const bool pictures_fine = result.problems.size() == problems_of_view;
-            if (grade_counters(run, view, summary->second, result) && pictures_fine) {
+            if (grade_counters(run, view, summary->second, result) && pictures_fine && trace) {
                 first_ray_apart(step, run, view, folder, result);
             }
         }
-        if (result.problems.size() > problems_of_view) probe_rays(step, run, view, folder, result);
+        if (result.problems.size() > problems_of_view && trace) {
+            probe_rays(step, run, view, folder, result);
+        }
     }
-    if (result.problems.size() > problems_before && result.status == Status::passing) {
-        result.status = Status::failing;
+    if (result.problems.size() > problems_before) {
+        if (result.status == Status::passing) result.status = Status::failing;
+        if (trace) {
+            result.traced_run = run.name;
+        } else if (result.status != Status::not_started) {
+            result.problems.push_back(run.name + ": its rays not traced (" + result.traced_run +
+                                      "'s are: mend that run first)");
+        }
     }
 }
 
@@ -1775,7 +1800,31 @@ int Grader::run() {
     if (!fs::is_regular_file(manifest_path, error)) {
         throw InputError("no " + manifest_path.string() + ": the runs to grade are listed there");
     }
-    const std::vector<Step> steps = read_manifest(manifest_path, names);
+    std::vector<Step> steps = read_manifest(manifest_path, names);
+    if (!settings_.runs.empty()) {  // the steps that have one of the runs, with those alone
+        for (const std::string& wanted : settings_.runs) {
+            bool found = false;
+            for (const Step& step : steps) {
+                for (const Run& run : step.runs) found = found || run.name == wanted;
+            }
+            if (!found) {
+                throw InputError("--run " + wanted + ": no such run of the steps graded in " +
+                                 manifest_path.string());
+            }
+        }
+        auto chosen = [&](const Run& run) {
+            return std::find(settings_.runs.begin(), settings_.runs.end(), run.name) !=
+                   settings_.runs.end();
+        };
+        for (Step& step : steps) {
+            step.runs.erase(std::remove_if(step.runs.begin(), step.runs.end(),
+                                           [&](const Run& run) { return !chosen(run); }),
+                            step.runs.end());
+        }
+        steps.erase(std::remove_if(steps.begin(), steps.end(),
+                                   [](const Step& step) { return step.runs.empty(); }),
+                    steps.end());
+    }
     counters_ = read_counters(settings_.reference / "counters.txt");
     // A reference folder made from another volume says which (make reference VOLUME=...).
     const fs::path volume_record = settings_.reference / "volume.txt";

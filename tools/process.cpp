@@ -10,6 +10,7 @@
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 #include <algorithm>
 #include <cerrno>
@@ -118,6 +119,21 @@ bool drain(int fd, std::string& text, size_t cap, bool& exceeded) {
         return true;
     }
     return count < 0 && (errno == EINTR || errno == EAGAIN);
+}
+
+// A descriptor that becomes readable when `child` exits (Linux 5.3's pidfd_open), so that a
+// wait for the exit is one poll with no tick; -1 where the kernel has none.
+int open_exit_fd(pid_t child) {
+#ifdef SYS_pidfd_open
+    const long fd = syscall(SYS_pidfd_open, child, 0);
+    if (fd >= 0) {
+        fcntl(int(fd), F_SETFD, FD_CLOEXEC);  // another thread's child must not inherit it
+        return int(fd);
+    }
+#else
+    (void)child;
+#endif
+    return -1;
 }
 
 // What the child needs between its start and exec, prepared by the parent: the child shares
@@ -285,12 +301,20 @@ ProcessResult run_process(const std::string& program, const std::vector<std::str
         kill(-child, SIGKILL);
         kill(child, SIGKILL);
     };
+    // The exit is one more thing to poll for: a child that closed its pipes (or exited: they
+    // close just before it does) wakes us the moment it ends, not at the next tick.
+    const int exit_fd = options.wait_on_exit_fd ? open_exit_fd(child) : -1;
+    // Without it, a wait with both pipes closed sleeps in short naps that grow from 0.2 ms to
+    // 10 ms: a quick child is seen quickly, a long one costs ~100 wake-ups a second.
+    constexpr long first_nap_ns = 200'000, longest_nap_ns = 10'000'000;
+    long nap_ns = first_nap_ns;
     while (!exited) {
         if (options.stop && *options.stop) {
             result.interrupted = true;
             kill(-child, SIGTERM);  // a grader below us removes its stage first
             for (int n = 0; n < 100 && wait4(child, &wait_status, WNOHANG, &usage) == 0; ++n) {
-                poll(nullptr, 0, 10);
+                pollfd exit_poll = {exit_fd, POLLIN, 0};
+                poll(&exit_poll, 1, 10);  // exit_fd -1: a plain 10 ms nap
             }
             kill_all();
             break;
@@ -302,11 +326,20 @@ ProcessResult run_process(const std::string& program, const std::vector<std::str
             kill_all();
             break;
         }
-        pollfd fds[2] = {{out_open ? out_pipe[0] : -1, POLLIN, 0},
-                         {err_open ? err_pipe[0] : -1, POLLIN, 0}};
-        // With both pipes closed, poll only waits: check for the exit every 10 ms.
-        const int wait_ms = out_open || err_open ? int(std::min(left, 100.0)) + 1 : 10;
-        const int ready = poll(fds, 2, wait_ms);
+        pollfd fds[3] = {{out_open ? out_pipe[0] : -1, POLLIN, 0},
+                         {err_open ? err_pipe[0] : -1, POLLIN, 0},
+                         {exit_fd, POLLIN, 0}};
+        int ready = 0;
+        if (out_open || err_open || exit_fd >= 0) {
+            // At most 100 ms at a time: a stop flag set by a signal that came just before
+            // the poll (so did not interrupt it) is seen within that.
+            ready = poll(fds, 3, int(std::min(left, 100.0)) + 1);
+        } else {
+            const long nap = std::min(nap_ns, long(left * 1e6) + 1);
+            const timespec pause = {nap / 1'000'000'000, nap % 1'000'000'000};
+            nanosleep(&pause, nullptr);  // a signal ends it early: the flag is seen next
+            nap_ns = std::min(2 * nap_ns, longest_nap_ns);
+        }
         if (ready > 0) {
             bool exceeded = false;
             if (out_open && (fds[0].revents & (POLLIN | POLLHUP | POLLERR))) {
@@ -323,7 +356,10 @@ ProcessResult run_process(const std::string& program, const std::vector<std::str
         }
         const pid_t done = wait4(child, &wait_status, WNOHANG, &usage);
         if (done == child) exited = true;
+        // Reaped by someone else (SIGCHLD ignored): its exit fd stays readable, never spin.
+        if (done < 0 && errno == ECHILD) break;
     }
+    if (exit_fd >= 0) close(exit_fd);
     if (!exited) {
         while (wait4(child, &wait_status, 0, &usage) < 0 && errno == EINTR) {
         }

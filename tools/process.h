@@ -34,6 +34,9 @@ struct ProcessOptions {
     // When this becomes nonzero (a signal handler's flag), the child is stopped: SIGTERM to
     // its group, SIGKILL a second later.
     const volatile std::sig_atomic_t* stop = nullptr;
+    // Wait for the exit on a pidfd (Linux 5.3). false: the fallback for older kernels, short
+    // naps once the pipes are closed; for the tests, which check both ways.
+    bool wait_on_exit_fd = true;
 };
 
 struct ProcessResult {
