@@ -29,7 +29,6 @@ constexpr int main_image_box = 200;  // the traced view fits in this square
 constexpr int small_image_box = 96;  // each other view
 constexpr int margin = 6;
 constexpr int dots_up_to = 160;  // samples drawn with a dot each when there are few
-constexpr int orders_panel_height = 48;  // both orders' C, 0..1
 constexpr int small_gap = 8;             // between the small views
 constexpr int label_height = 12;         // a small view's name under it
 
@@ -39,7 +38,6 @@ const Rgb value_colour = {0.1f, 0.1f, 0.1f}, alpha_colour = {0.85f, 0.45f, 0.0f}
 const Rgb transparency_colour = {0.1f, 0.3f, 0.85f}, light_colour = {0.1f, 0.6f, 0.2f};
 const Rgb hit_colour = {0.9f, 0.0f, 0.0f}, terminated_colour = {0.7f, 0.0f, 0.7f};
 const Rgb leapt_colour = {0.82f, 0.9f, 1.0f}, outside_colour = {0.88f, 0.88f, 0.88f};
-const Rgb first_order_colour = {0.85f, 0.2f, 0.1f}, second_order_colour = {0.0f, 0.5f, 0.55f};
 const Rgb entry_colour = {0.0f, 0.75f, 0.2f}, stop_colour = {1.0f, 0.85f, 0.0f};
 
 Rgb mix(Rgb a, Rgb b, float f) {
@@ -219,15 +217,9 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
         if (record.has("n") && !view.camera) return *t = record.number("n", 0) * plot.spacing, true;
         return false;
     };
-    bool second_order = false;  // after an order record: the samples go to plot.second
     for (const TraceRecord& record : records) {
         double t = 0;
         switch (record.kind) {
-            case TraceKind::order:
-                second_order = true;
-                plot.first_name = record.back_to_front ? "C F2B" : "C 1ST";
-                plot.second_name = record.back_to_front ? "C B2F" : "C 2ND";
-                continue;
             case TraceKind::ray:
                 plot.has_ray = true;
                 plot.origin = {record.number("origin.i", 0), record.number("origin.j", 0),
@@ -240,7 +232,6 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
             case TraceKind::bisection:  // step 16's halvings are samples of the ray too
                 break;
             default:
-                if (second_order) continue;  // its marks are the first order's
                 break;
         }
         switch (record.kind) {
@@ -303,10 +294,6 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
                              float(record.number("C.b", 0))};
         }
         if (record.has("max")) sample.has_max = true, sample.max = record.number("max", 0);
-        if (second_order) {
-            plot.second.push_back(sample);
-            continue;
-        }
         sample.hit = record.hit;
         if (sample.hit) plot.marks.push_back({RayMark::hit, t, t});
         plot.samples.push_back(sample);
@@ -335,7 +322,6 @@ std::string ray_plot_text(const RayPlot& plot) {
         text += line;
     };
     for (const RaySample& s : plot.samples) sample_line("sample", s);
-    for (const RaySample& s : plot.second) sample_line("second", s);
     if (plot.has_ray) {
         std::snprintf(line, sizeof line, "ray %.9g %.9g %.9g %.9g %.9g %.9g\n", plot.origin.i,
                       plot.origin.j, plot.origin.k, plot.direction.i, plot.direction.j,
@@ -363,7 +349,6 @@ std::string ray_plot_text(const RayPlot& plot) {
         text += std::string("\t") + trace_kind_name(record.kind);
         if (record.hit) text += " hit";
         if (record.missed) text += " missed";
-        if (record.back_to_front) text += " back_to_front";
         text += "\n";
     }
     return text;
@@ -378,7 +363,6 @@ const char* trace_kind_name(TraceKind kind) {
         case TraceKind::ray: return "ray";
         case TraceKind::box: return "box";
         case TraceKind::bisection: return "bisection";
-        case TraceKind::order: return "order";
         case TraceKind::shade: return "shade";
         case TraceKind::note: return "note";
     }
@@ -388,7 +372,7 @@ const char* trace_kind_name(TraceKind kind) {
 std::vector<TraceRecord> trace_records_from_text(const std::string& sidecar) {
     static const TraceKind kinds[] = {TraceKind::sample, TraceKind::hit,   TraceKind::leap,
                                       TraceKind::stop,   TraceKind::ray,   TraceKind::box,
-                                      TraceKind::bisection, TraceKind::order, TraceKind::shade,
+                                      TraceKind::bisection, TraceKind::shade,
                                       TraceKind::note};
     std::vector<TraceRecord> records;
     size_t start = 0;
@@ -426,7 +410,6 @@ std::vector<TraceRecord> trace_records_from_text(const std::string& sidecar) {
             while (kind >> word) {
                 record.hit = record.hit || word == "hit";
                 record.missed = record.missed || word == "missed";
-                record.back_to_front = record.back_to_front || word == "back_to_front";
             }
         }
         records.push_back(std::move(record));
@@ -487,21 +470,6 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
         any_light = any_light || s.has_light;
         any_colour = any_colour || s.has_colour;
     }
-    bool second_colour = false;  // a second order with colour: both C drawn, meeting
-    for (const RaySample& s : plot.second) second_colour = second_colour || s.has_colour;
-    // The colour channel the two orders' curves show: the pixel's smallest that is not near 0
-    // (the largest often saturates at 1 on the way), else its largest.
-    int channel = 0;
-    {
-        const float parts[] = {plot.pixel.r, plot.pixel.g, plot.pixel.b};
-        constexpr float visible = 0.05f;
-        for (int c = 1; c < 3; ++c) {
-            if (parts[channel] < visible ? parts[c] > parts[channel]
-                                         : parts[c] >= visible && parts[c] < parts[channel]) {
-                channel = c;
-            }
-        }
-    }
     struct Panel {
         int top, height;
         std::string name;
@@ -516,9 +484,7 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
     if (any_alpha) add_panel("opacity", unit_panel_height);
     if (any_light) add_panel("light L", unit_panel_height);
     if (any_transparency) add_panel("T", unit_panel_height);
-    if (second_colour) add_panel(std::string("C.") + "RGB"[channel], orders_panel_height);
-    if (any_colour) add_panel(second_colour ? plot.first_name : "C", strip_height);
-    if (second_colour) add_panel(plot.second_name, strip_height);
+    if (any_colour) add_panel("C", strip_height);
     const int plot_bottom = next_top - panel_gap;
     const int plot_height = plot_bottom + axis_height + margin;
 
@@ -587,8 +553,7 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
 
     for (const Panel& panel : panels) {
         const int top = panel.top, bottom = panel.top + panel.height - 1;
-        const bool is_strip = panel.name == "C" || panel.name == plot.first_name ||
-                              panel.name == plot.second_name;
+        const bool is_strip = panel.name == "C";
         if (!is_strip) {
             for (int yy = top; yy <= bottom; ++yy) {
                 for (int xx = plot_left; xx < plot_left + plot_width; ++xx) {
@@ -601,10 +566,8 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
         plot::draw_text(picture, margin, top + 1, panel.name, text_grey);
         if (panel.name == "value") {
             double low = 1e300, high = -1e300;
-            for (const auto* samples : {&plot.samples, &plot.second}) {
-                for (const RaySample& s : *samples) {
-                    low = std::min(low, s.value), high = std::max(high, s.value);
-                }
+            for (const RaySample& s : plot.samples) {
+                low = std::min(low, s.value), high = std::max(high, s.value);
             }
             if (plot.samples.empty()) low = 0, high = 1;
             for (const ValueBand& band : plot.bands) {  // a threshold just outside still shows
@@ -637,13 +600,6 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
                 plot::draw_text(picture, plot_left - 4 - plot::text_width(label, 1), int(py(v)) - 3,
                                 label, text_grey);
             }
-            // The other order's samples (all of the ray, back to front), thin, under the first.
-            for (size_t n = 1; n < plot.second.size(); ++n) {
-                const RaySample& p = plot.second[n - 1];
-                const RaySample& s = plot.second[n];
-                plot::draw_line(picture, px(p.t), py(p.value), px(s.t), py(s.value),
-                                second_order_colour, 1);
-            }
             for (size_t n = 0; n < plot.samples.size(); ++n) {
                 const RaySample& s = plot.samples[n];
                 if (n > 0) {
@@ -662,40 +618,10 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
                 }
             }
         } else if (is_strip) {
-            const auto& samples = panel.name == plot.second_name ? plot.second : plot.samples;
             for (int xx = plot_left; xx < plot_left + plot_width; ++xx) {
                 plot::fill_rect(picture, xx, top, 1, panel.height,
-                                clamped(colour_at(samples, xx)));
+                                clamped(colour_at(plot.samples, xx)));
             }
-        } else if (panel.name.rfind("C.", 0) == 0) {
-            // Both orders' C (one channel) column by column, each meeting the pixel's value
-            // (dashed) where its walk ends: front to back at the stop, back to front at n = 0.
-            auto py = [&](double v) { return bottom - std::clamp(v, 0.0, 1.0) * (bottom - top); };
-            auto part = [&](Rgb c) { return channel == 0 ? c.r : channel == 1 ? c.g : c.b; };
-            plot::draw_text(picture, plot_left - 10, top, "1", text_grey);
-            plot::draw_text(picture, plot_left - 10, bottom - 6, "0", text_grey);
-            const double final_value = part(plot.pixel);
-            for (int xx = plot_left; xx < plot_left + plot_width; xx += 4) {
-                plot::draw_line(picture, xx, py(final_value), xx + 1, py(final_value),
-                                text_grey, 1);
-            }
-            const std::vector<RaySample>* orders[] = {&plot.samples, &plot.second};
-            const Rgb colours[] = {first_order_colour, second_order_colour};
-            for (int o = 0; o < 2; ++o) {
-                double previous = 0;
-                for (int xx = plot_left; xx < plot_left + plot_width; ++xx) {
-                    const double value = part(colour_at(*orders[o], xx));
-                    if (xx > plot_left) {
-                        plot::draw_line(picture, xx - 1, py(previous), xx, py(value), colours[o],
-                                        o == 0 ? 2 : 1);
-                    }
-                    previous = value;
-                }
-            }
-            plot::draw_text(picture, margin, top + 12, plot.first_name.substr(2),
-                            first_order_colour);
-            plot::draw_text(picture, margin, top + 22, plot.second_name.substr(2),
-                            second_order_colour);
         } else {
             auto py = [&](double v) { return bottom - std::clamp(v, 0.0, 1.0) * (bottom - top); };
             plot::draw_text(picture, plot_left - 10, top, "1", text_grey);

@@ -17,9 +17,6 @@
 //   the box    part 2: a box record, entry "t" to "t_exit" (or that the ray missed the box)
 //   the ray    part 2: a ray record, "origin" and "direction" (physical units): the camera
 //              ray, drawn through the box in the axis views beside the plot (mip_views)
-//   2nd order  an order record: the samples after it are the same ray composited the other
-//              way (step 08's --order both: back to front), drawn beside the first (C of both
-//              orders, meeting at the pixel)
 #pragma once
 #include <string>
 #include <vector>
@@ -71,8 +68,6 @@ struct RayPlot {
     bool missed = false;            // part 2: the ray missed the box
     bool has_ray = false;           // part 2: the trace gave the camera ray
     Vec3d origin, direction;        // ... p = origin + t * direction, physical units
-    std::vector<RaySample> second;  // the same ray in the other order ("the same ray")
-    std::string first_name = "C", second_name;  // "C F2B", "C B2F" when there are two
     std::vector<TraceRecord> records;  // the whole trace, every line with its fields
 };
 
@@ -102,8 +97,7 @@ std::vector<RayPlotView> mip_views(const Volume& volume);
 //   sample 43 43 10 0.12 0.7744 - 0.2256 0.178224 0.13536 -
 //   mark hit 48 48
 //   pixel 0.995778 0.896602 0.806871
-// (a second order's samples as "second ..." lines, like the sample lines; part 2's ray as
-// "ray origin.i origin.j origin.k direction.i direction.j direction.k")
+// (part 2's ray as "ray origin.i origin.j origin.k direction.i direction.j direction.k")
 // then every trace line, its text and its fields (make check compares these with the
 // reference's, data/reference/traces/):
 //   record<TAB>n= 43 voxel (128, 43, 30) value=   10 ...<TAB>n=43 voxel.i=128 ... value=10 ...

@@ -329,24 +329,6 @@ void Trace::bisection(int iteration, double t, double value, bool above, double 
     keep(std::move(line.record()));
 }
 
-void Trace::back_to_front(int background_n) {
-    RecordWriter line(TraceKind::order);
-    line.print("the same ray back to front (--order both), from the background at n=%d to the "
-               "viewer:", background_n);
-    line.field("background_n", background_n);
-    line.record().back_to_front = true;
-    keep(std::move(line.record()));
-}
-
-void Trace::orders_apart(const Rgb& f2b, const Rgb& b2f) {
-    const double apart = std::max({std::abs(double(f2b.r) - b2f.r), std::abs(double(f2b.g) - b2f.g),
-                                   std::abs(double(f2b.b) - b2f.b)});
-    note({{"f2b.r", f2b.r}, {"f2b.g", f2b.g}, {"f2b.b", f2b.b}, {"b2f.r", b2f.r},
-          {"b2f.g", b2f.g}, {"b2f.b", b2f.b}, {"apart", apart}},
-         "both orders: f2b rgb=(%.6f, %.6f, %.6f) b2f rgb=(%.6f, %.6f, %.6f), apart by %.3g",
-         f2b.r, f2b.g, f2b.b, b2f.r, b2f.g, b2f.b, apart);
-}
-
 void Trace::gradient(const Vec3& gradient, double shade) {
     RecordWriter line(TraceKind::shade);
     line.print("gradient=(%.2f, %.2f, %.2f) shade=%.6f", gradient.i, gradient.j, gradient.k,

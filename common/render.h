@@ -59,7 +59,6 @@ enum class TraceKind {
     ray,        // part 2: the camera ray, origin and direction
     box,        // part 2: where the ray enters and leaves the volume's box, or that it missed
     bisection,  // step 18: one halving of the bracket around the crossing
-    order,      // step 08's --order both: the samples after it are the same ray, other order
     shade,      // the light at a hit: gradient and shade, Phong's terms
     note,       // anything else a lesson says, with its numbers named
 };
@@ -78,7 +77,6 @@ struct TraceRecord {
     std::vector<TraceField> fields;
     bool hit = false;            // sample: it hit the threshold (steps 02-05)
     bool missed = false;         // box: the ray missed the box
-    bool back_to_front = false;  // order: the second order is back to front
 
     const TraceField* field(const std::string& name) const;  // nullptr when absent
     bool has(const std::string& name) const { return field(name) != nullptr; }
@@ -163,12 +161,6 @@ public:
              double t_exit, const Vec3d& exit, double step);
     // Step 18: one halving of the bracket [from, to] around the crossing.
     void bisection(int iteration, double t, double value, bool above, double from, double to);
-    // Step 08: the samples after this are the same ray back to front, from sample
-    // background_n.
-    void back_to_front(int background_n);
-    // Step 08's --order both, after the second order: the pixel of each order and the largest
-    // difference of a channel between them.
-    void orders_apart(const Rgb& f2b, const Rgb& b2f);
     void gradient(const Vec3& gradient, double shade);  // steps 04-05: the light at the hit
     // Step 19: the Phong terms at the hit (L and V unit vectors towards light and viewer).
     void phong(const Vec3& to_light, const Vec3& to_viewer, double ambient, double diffuse,
