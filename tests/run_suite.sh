@@ -4,6 +4,8 @@
 # (its test cases in BUILD/ctlab_tests, chosen by source file). The output goes to
 # BUILD/test-logs/NAME.log, and the log is printed whole when the suite ends, so that suites
 # running side by side (make -j) do not interleave; tests/test_summary.sh adds them up.
+# A long doctest file runs as shards, suites named FILE.KofN (tests/shard_cases.sh): shard K
+# of N of its test cases.
 #
 #   sh tests/run_suite.sh BUILD NAME
 set -u
@@ -27,8 +29,21 @@ if [ -f "tests/${name}_test.sh" ]; then
 elif [ -f "tests/$name.cpp" ]; then
     # -sf: the test cases written in that file; a crash still ends the log with its message.
     $cpu "$build/ctlab_tests" --source-file="*tests/$name.cpp" --no-version=true > "$log" 2>&1
+elif file=${name%.*} shard=${name##*.} && [ "$file" != "$name" ] &&
+        [ -f "tests/$file.cpp" ] && k=${shard%of*} n=${shard#*of} &&
+        [ "$k" -ge 1 ] 2> /dev/null && [ "$k" -le "$n" ] 2> /dev/null; then
+    # FILE.KofN: the shard's test cases only (a shard without any is a failure: too many).
+    cases=$(sh tests/shard_cases.sh "$build" "$file" "$k" "$n" --filter)
+    if [ -n "$cases" ]; then
+        $cpu "$build/ctlab_tests" --source-file="*tests/$file.cpp" --test-case="$cases" \
+            --no-version=true > "$log" 2>&1
+    else
+        echo "run_suite: shard $name holds no test case of tests/$file.cpp" > "$log"
+        false
+    fi
 else
-    echo "run_suite: no suite '$name' (tests/${name}_test.sh or tests/$name.cpp)" > "$log"
+    echo "run_suite: no suite '$name' (tests/${name}_test.sh, tests/$name.cpp or a shard" \
+         "FILE.KofN of tests/FILE.cpp)" > "$log"
     false
 fi
 status=$?

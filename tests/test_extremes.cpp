@@ -10,6 +10,7 @@
 // `make test SAN=1` the steps are sanitizer builds: this is also the out-of-bounds check of
 // every ray loop.
 #include <doctest/doctest.h>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -171,91 +172,131 @@ int bad_pixels(const Image& image, bool grey) {
 
 }  // namespace
 
-// The trace of pixel (x, y) in each view agrees with the float picture (printed %.6f).
-int traces_checked(const ctlab_test::StepRender& run, int x, int y) {
+// The traces of one run: each is complete, of one of the pixels asked for, and agrees with the
+// float picture (printed %.6f); every pixel asked for is traced in each view it lies in.
+int traces_checked(const ctlab_test::StepRender& run, const std::vector<View>& views,
+                   const std::vector<std::pair<int, int>>& pixels) {
     int checked = 0;
     for (const PixelTrace& trace : run.run.traces) {
         CAPTURE(trace.view);
+        CAPTURE(trace.x);
+        CAPTURE(trace.y);
         CHECK(trace.complete);
-        CHECK(trace.x == x);
-        CHECK(trace.y == y);
-        const Rgb& drawn = run.image(trace.view).at(x, y);
+        CHECK(std::find(pixels.begin(), pixels.end(), std::make_pair(trace.x, trace.y)) !=
+              pixels.end());
+        const Rgb& drawn = run.image(trace.view).at(trace.x, trace.y);
         CHECK(std::abs(trace.rgb.r - drawn.r) <= 5e-7f * std::max(1.0f, std::abs(drawn.r)));
         CHECK(std::abs(trace.rgb.g - drawn.g) <= 5e-7f * std::max(1.0f, std::abs(drawn.g)));
         CHECK(std::abs(trace.rgb.b - drawn.b) <= 5e-7f * std::max(1.0f, std::abs(drawn.b)));
         CHECK(trace.lines.size() >= 1);
         ++checked;
     }
+    // As many traces as (view, pixel) pairs with the pixel inside the view: none missing.
+    int expected = 0;
+    for (const View& view : views) {
+        for (const auto& [x, y] : pixels) expected += x < view.width && y < view.height;
+    }
+    CHECK(checked == expected);
     return checked;
 }
 
-TEST_CASE("extreme volumes: every step, view and variant: right size, finite, traced") {
-    const Shape shapes[] = {{1, 1, 1}, {1, 256, 113}, {256, 1, 1}, {7, 5, 3}};
+// Every step, view and variant on the fills of one shape (one test case per shape, so that
+// `make test` can run them side by side, tests/run_suite.sh's shards).
+void check_extreme_shape(const Shape& shape) {
     int images = 0, traces = 0;
-    for (const Shape& shape : shapes) {
-        for (const Fill& fill : fills()) {
-            // Spacing 1:1:2 as CThead, so step 10 samples between slices along k.
-            const Volume volume = make_volume(shape, fill, 2.0);
-            CAPTURE(shape.nx);
-            CAPTURE(shape.ny);
-            CAPTURE(shape.nz);
-            CAPTURE(fill.name);
-            for (const std::string& step : ctlab_test::step_names()) {
-                const std::vector<View> views = ctlab_test::default_views(step, volume);
-                const std::vector<std::vector<std::string>> all = variants(step);
-                for (size_t v = 0; v < all.size(); ++v) {
-                    // Every fill in the default run; the other paths at the int16 extremes
-                    // and in noise over the whole range (each run is a process: the count
-                    // of runs is the time this test takes).
-                    const std::string name = fill.name;
-                    if (v > 0 && name != "noise" && name != "all 32767" && name != "all -32768") {
-                        continue;
-                    }
-                    std::vector<std::string> flags = ctlab_test::size_flags(step);
-                    flags.insert(flags.end(), all[v].begin(), all[v].end());
-                    std::string text;
-                    for (const std::string& flag : flags) text += flag + " ";
-                    CAPTURE(step);
-                    CAPTURE(text);
-                    flags.insert(flags.end(), {"--threads", "2", "--debug-pixel", "0,0"});
-                    // The ray pictures are drawn in the default runs (every shape and fill);
-                    // the variants trace without them (most of a small run's time).
-                    if (v > 0) flags.push_back("--no-ray-picture");
-                    const bool grey = step < "06";
-                    const ctlab_test::StepRender run = ctlab_test::render(step, flags, volume);
-                    REQUIRE(run.images.size() == views.size());
-                    for (size_t n = 0; n < views.size(); ++n) {
-                        CAPTURE(views[n].name);
-                        REQUIRE(run.views[n] == views[n].name);
-                        const Image& image = run.images[n];
-                        ++images;
-                        REQUIRE(image.width == views[n].width);
-                        REQUIRE(image.height == views[n].height);
-                        CHECK(bad_pixels(image, grey) == 0);
-                    }
-                    traces += traces_checked(run, 0, 0);
-                    if (v != 0 || std::string(fill.name) != "noise") continue;
-                    // The default run on noise again, tracing the last pixel of each view.
-                    for (const View& view : views) {
-                        if (view.width == 1 && view.height == 1) continue;  // that was 0,0
-                        const int x = view.width - 1, y = view.height - 1;
-                        std::vector<std::string> last_flags = ctlab_test::size_flags(step);
-                        if (!view.camera) last_flags.insert(last_flags.end(), {"--view", view.name});
-                        last_flags.insert(last_flags.end(), {"--no-ray-picture",
-                                                             "--debug-pixel",
-                                                             std::to_string(x) + "," +
-                                                                 std::to_string(y)});
-                        const ctlab_test::StepRender last =
-                            ctlab_test::render(step, last_flags, volume);
-                        traces += traces_checked(last, x, y);
-                    }
+    for (const Fill& fill : fills()) {
+        // Spacing 1:1:2 as CThead, so step 10 samples between slices along k.
+        const Volume volume = make_volume(shape, fill, 2.0);
+        CAPTURE(shape.nx);
+        CAPTURE(shape.ny);
+        CAPTURE(shape.nz);
+        CAPTURE(fill.name);
+        // Written once, read by every run on this fill.
+        const ctlab::TempFolder folder("extremes");
+        const std::vector<std::string> volume_flags =
+            ctlab::write_raw_volume(volume, folder.path("volume.raw"));
+        for (const std::string& step : ctlab_test::step_names()) {
+            const std::vector<View> views = ctlab_test::default_views(step, volume);
+            const std::vector<std::vector<std::string>> all = variants(step);
+            for (size_t v = 0; v < all.size(); ++v) {
+                // Every fill in the default run; the other paths at the int16 extremes
+                // and in noise over the whole range (each run is a process: the count
+                // of runs is the time this test takes).
+                const std::string name = fill.name;
+                if (v > 0 && name != "noise" && name != "all 32767" && name != "all -32768") {
+                    continue;
                 }
+                std::vector<std::string> flags = ctlab_test::size_flags(step);
+                flags.insert(flags.end(), all[v].begin(), all[v].end());
+                std::string text;
+                for (const std::string& flag : flags) text += flag + " ";
+                CAPTURE(step);
+                CAPTURE(text);
+                flags.insert(flags.end(), {"--threads", "2", "--debug-pixel", "0,0"});
+                // The ray pictures are drawn in the default runs (every shape and fill);
+                // the variants trace without them (most of a small run's time).
+                if (v > 0) flags.push_back("--no-ray-picture");
+                flags.insert(flags.begin(), volume_flags.begin(), volume_flags.end());
+                const bool grey = step < "06";
+                const ctlab_test::StepRender run = ctlab_test::render(step, flags);
+                REQUIRE(run.images.size() == views.size());
+                for (size_t n = 0; n < views.size(); ++n) {
+                    CAPTURE(views[n].name);
+                    REQUIRE(run.views[n] == views[n].name);
+                    const Image& image = run.images[n];
+                    ++images;
+                    REQUIRE(image.width == views[n].width);
+                    REQUIRE(image.height == views[n].height);
+                    CHECK(bad_pixels(image, grey) == 0);
+                }
+                traces += traces_checked(run, views, {{0, 0}});
+                if (v != 0 || std::string(fill.name) != "noise") continue;
+                // The default run on noise again, tracing the last pixel of each view (one
+                // run: each view traces the pixels that lie inside it).
+                std::vector<std::pair<int, int>> last_pixels;
+                std::vector<std::string> last_flags = ctlab_test::size_flags(step);
+                last_flags.insert(last_flags.end(), volume_flags.begin(), volume_flags.end());
+                last_flags.push_back("--no-ray-picture");
+                for (const View& view : views) {
+                    const std::pair<int, int> last = {view.width - 1, view.height - 1};
+                    if (last == std::make_pair(0, 0)) continue;  // that was 0,0
+                    if (std::find(last_pixels.begin(), last_pixels.end(), last) !=
+                        last_pixels.end()) {
+                        continue;  // two views of the same size
+                    }
+                    last_pixels.push_back(last);
+                    last_flags.insert(last_flags.end(),
+                                      {"--debug-pixel", std::to_string(last.first) + "," +
+                                                            std::to_string(last.second)});
+                }
+                if (last_pixels.empty()) continue;
+                const ctlab_test::StepRender last = ctlab_test::render(step, last_flags);
+                traces += traces_checked(last, views, last_pixels);
             }
         }
     }
-    MESSAGE("extreme volumes: " << images << " pictures and " << traces << " traces checked");
-    CHECK(images > 1000);
-    CHECK(traces > 1000);
+    MESSAGE("extreme volumes " << shape.nx << "x" << shape.ny << "x" << shape.nz << ": "
+                               << images << " pictures and " << traces << " traces checked");
+    // Every step's views on every fill at least (the default runs).
+    CHECK(images >= int(fills().size() * ctlab_test::step_names().size()));
+    CHECK(traces >= images);
+}
+
+TEST_CASE("extreme volumes 1x1x1: every step, view and variant: right size, finite, traced") {
+    check_extreme_shape({1, 1, 1});
+}
+
+TEST_CASE("extreme volumes 1x256x113: every step, view and variant: right size, finite, "
+          "traced") {
+    check_extreme_shape({1, 256, 113});
+}
+
+TEST_CASE("extreme volumes 256x1x1: every step, view and variant: right size, finite, traced") {
+    check_extreme_shape({256, 1, 1});
+}
+
+TEST_CASE("extreme volumes 7x5x3: every step, view and variant: right size, finite, traced") {
+    check_extreme_shape({7, 5, 3});
 }
 
 TEST_CASE("extreme volumes: the loaders accept the listed shapes from bytes") {

@@ -13,10 +13,17 @@ passed=0
 failed=0
 broken=""
 slowest=""
+# shard NAME: for a shard of a doctest file's suite (FILE.KofN, tests/shard_cases.sh), "FILE K N".
+shard() {
+    case $1 in
+        *.*of*) file=${1%.*} part=${1##*.}
+                [ -f "tests/$file.cpp" ] && echo "$file ${part%of*} ${part#*of}" ;;
+    esac
+}
 for name in "$@"; do
     log=$logs/$name.log
     read -r status seconds < "$logs/$name.status" 2>/dev/null || { status=none; seconds=0; }
-    if [ -f "tests/$name.cpp" ]; then
+    if [ -f "tests/$name.cpp" ] || [ -n "$(shard "$name")" ]; then
         # [doctest] test cases:  8 |  8 passed | 0 failed | 161 skipped
         line=$(grep '^\[doctest\] test cases:' "$log" 2>/dev/null | tail -n 1)
         p=$(printf '%s\n' "$line" | sed -n 's/.*| *\([0-9]*\) passed.*/\1/p')
@@ -40,8 +47,8 @@ for name in "$@"; do
 done
 echo "test: the slowest suites (s):$(printf '%s' "$slowest" | sort -rn | head -n 4 |
     awk '{printf " %s %s", $2, $1}')"
-# Every doctest test case belongs to one file's suite: the counts must add up.
-# (A doctest file left out with SKIP_SUITES is left out of the count too.)
+# Every doctest test case belongs to one file's suite, or to one shard of it: the counts must
+# add up. (A doctest file or shard left out with SKIP_SUITES is left out of the count too.)
 left_out=""
 for file in tests/test_*.cpp; do
     name=$(basename "$file" .cpp)
@@ -51,9 +58,16 @@ if [ -x "$build/ctlab_tests" ]; then
     total=$("$build/ctlab_tests" --count --no-version=true \
                 --source-file-exclude="${left_out:-none}" 2>/dev/null |
             sed -n 's/.*unskipped test cases passing the current filters: *\([0-9]*\).*/\1/p')
+    # A sharded file's cases are counted shard by shard (only the shards that ran).
+    for name in "$@"; do
+        # shellcheck disable=SC2046
+        [ -n "$(shard "$name")" ] && [ -n "$total" ] || continue
+        in_shard=$(sh tests/shard_cases.sh "$build" $(shard "$name") | grep -c .)
+        total=$((total + in_shard))
+    done
     shards=0
     for name in "$@"; do
-        [ -f "tests/$name.cpp" ] || continue
+        [ -f "tests/$name.cpp" ] || [ -n "$(shard "$name")" ] || continue
         n=$(grep '^\[doctest\] test cases:' "$logs/$name.log" 2>/dev/null | tail -n 1 |
             sed -n 's/^\[doctest\] test cases: *\([0-9]*\) .*/\1/p')
         shards=$((shards + ${n:-0}))
