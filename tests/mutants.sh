@@ -43,21 +43,27 @@ mutant_make() {
         -o "$build/libctlab.a" -o "$build/ctlab_formats.so" -o "$build/ctlab_window.so" "$@"
 }
 
-mutant() {
-    mutant_name=$1 mutant_source=$2 mutant_script=$3
-    mutant_stem=$(basename "$mutant_source" .cpp)
-    rm -f "$tree"/steps/*.cpp
+# mutant_write TREE: the mutant's source, $mutant_source patched by $mutant_script (- for the
+# step as it is), written into TREE; a script that changes nothing is a failure of its own.
+mutant_write() {
     if [ "$mutant_script" = - ]; then
-        cp "$mutant_source" "$tree/$mutant_source" ||
+        cp "$mutant_source" "$1/$mutant_source" ||
             { bad "$mutant_name: cannot copy $mutant_source"; return 1; }
     else
-        sed -e "$mutant_script" "$mutant_source" > "$tree/$mutant_source" ||
+        sed -e "$mutant_script" "$mutant_source" > "$1/$mutant_source" ||
             { bad "$mutant_name: bad sed script"; return 1; }
-        if cmp -s "$mutant_source" "$tree/$mutant_source"; then
+        if cmp -s "$mutant_source" "$1/$mutant_source"; then
             bad "$mutant_name: '$mutant_script' changes nothing in $mutant_source (the step changed?)"
             return 1
         fi
     fi
+}
+
+mutant() {
+    mutant_name=$1 mutant_source=$2 mutant_script=$3
+    mutant_stem=$(basename "$mutant_source" .cpp)
+    rm -f "$tree"/steps/*.cpp
+    mutant_write "$tree" || return 1
     if ! mutant_make "$tree" "$build/$mutant_stem" > "$work/make.log" 2>&1; then
         bad "$mutant_name: the patched $mutant_stem does not compile"; tail -n 20 "$work/make.log"
         return 1
@@ -83,17 +89,7 @@ mutant_patch() {
         ln -s "$tree/$build/libctlab.a" "$tree/$build/flags.txt" "$own/$build/" ||
         { bad "$mutant_name: cannot make $own"; return 1; }
     [ -d "$tree/$build/pch" ] && ln -s "$tree/$build/pch" "$own/$build/"
-    if [ "$mutant_script" = - ]; then
-        cp "$mutant_source" "$own/$mutant_source" ||
-            { bad "$mutant_name: cannot copy $mutant_source"; return 1; }
-    else
-        sed -e "$mutant_script" "$mutant_source" > "$own/$mutant_source" ||
-            { bad "$mutant_name: bad sed script"; return 1; }
-        if cmp -s "$mutant_source" "$own/$mutant_source"; then
-            bad "$mutant_name: '$mutant_script' changes nothing in $mutant_source (the step changed?)"
-            return 1
-        fi
-    fi
+    mutant_write "$own" || return 1
     # One target of the make that builds them all (the same make as mutant_make's), its log in
     # the mutant's tree (the target is named like that folder: phony). $work is mktemp's: no
     # spaces, no quotes.
