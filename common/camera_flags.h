@@ -1,10 +1,13 @@
 // camera_flags.h: the orbit camera's flags and window controls, the same in every part-2 step:
 // --azimuth, --elevation, --zoom, --projection, --fov and --size, the window's drag and wheel,
-// and their part of the summary line. Wiring only: the camera itself (make_camera() and
-// camera_ray(), from these values) is step 12's lesson, in the steps.
+// their part of the summary line, and the renderer's wiring of a camera made for each render.
+// Wiring only: the camera itself (make_camera() and camera_ray(), from these values) is step
+// 12's lesson, in the steps.
 #pragma once
 #include <string>
+#include <type_traits>
 #include "args.h"
+#include "render.h"
 #include "step.h"
 #include "view.h"
 
@@ -36,5 +39,42 @@ Orbit camera_orbit(CameraFlags* camera);
 
 // " projection=ortho azimuth=30 elevation=20 zoom=1 fov=30": the summary line's camera part.
 std::string camera_settings(const CameraFlags& camera);
+
+// The renderer's image and ray functions for a camera made anew for each render (the window
+// turns it, and previews at coarser pixels while it does), and its trace header:
+//   make_camera(view)                     the camera of this render's view;
+//   light(camera)                         what every ray of the render shares besides the
+//                                         camera (the direction towards the light, which
+//                                         turns with it), worked out once per render;
+//   pixel(camera, to_light, x, y, work, trace)   one ray's colour.
+// A light that does work of its own (step 22 sweeps a light volume) takes a second argument,
+// light(camera, Work* render_work): the render's work for an image, nullptr for one traced
+// ray (whose trace counts that ray's work only). The trace header reads "samples `step`
+// physical units apart" (step is read at each trace: the window's knob changes it).
+template <class MakeCamera, class Light, class Pixel>
+void cast_camera_rays(Renderer& renderer, int threads, const double& step,
+                      MakeCamera make_camera, Light light, Pixel pixel) {
+    auto light_for = [light](const auto& camera, Work* render_work) {
+        if constexpr (std::is_invocable_v<Light, decltype(camera), Work*>) {
+            return light(camera, render_work);
+        } else {
+            return light(camera);
+        }
+    };
+    renderer.image = [=](const View& view, Work& work) {
+        const auto camera = make_camera(view);
+        const auto to_light = light_for(camera, &work);
+        return render_image(view, threads, work, [&](int x, int y, Work& ray_work) {
+            return pixel(camera, to_light, x, y, ray_work, nullptr);
+        });
+    };
+    renderer.ray = [=](const View& view, int x, int y, Work& work, Trace* trace) {
+        const auto camera = make_camera(view);
+        return pixel(camera, light_for(camera, nullptr), x, y, work, trace);
+    };
+    renderer.ray_samples = [&step](const View&) {
+        return "samples " + summary_number(step) + " physical units apart";
+    };
+}
 
 }  // namespace ctlab

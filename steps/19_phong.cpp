@@ -689,20 +689,9 @@ int main(int argc, char** argv) {
             return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
                                                            params, work, trace));
         };
-        renderer.image = [&](const View& view, Work& work) {
-            const Camera camera = make_camera(volume, params, view);
-            const Vec3 to_light = light_towards(camera);
-            return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
-                return pixel(camera, to_light, x, y, ray_work, nullptr);
-            });
-        };
-        renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            const Camera camera = make_camera(volume, params, view);
-            return pixel(camera, light_towards(camera), x, y, work, trace);
-        };
-        renderer.ray_samples = [&](const View&) {
-            return "samples " + summary_number(params.step) + " physical units apart";
-        };
+        auto camera_for = [&](const View& view) { return make_camera(volume, params, view); };
+        cast_camera_rays(renderer, options.threads, params.step, camera_for, light_towards,
+                         pixel);  // common/camera_flags.h: renderer.image, .ray, .ray_samples
         renderer.knob = {"step",
                          [&](const View&, int steps) {
                              const double step = std::clamp(

@@ -464,9 +464,8 @@ struct Blocking {
 // directional: every q is the same offset from its p, so T(q) and v(q) are bilinear reads
 // with the same four neighbours and weights everywhere. A q outside the box: the light came
 // in through a side face, T = 1 (the bit of material between that face and p is missed). One
-// read per voxel, once per light direction. q's rows are in p's plane (c fixed) and the next
-// towards the light: plane after plane, each slice by slice from the light; with more threads
-// a plane's slices in `parts` runs, run p of plane n at stage n + p (it reads earlier stages').
+// read per voxel, once per light direction. A slice reads only the slice before it, so its
+// rows are shared among the threads.
 static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
                                const Vec3d& to_light, bool corrected, int threads, Work& work) {
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -490,42 +489,32 @@ static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
         return low >= 0 && (low + 1 < count || (low + 1 == count && f == 0));
     };
     const int towards = to_light[a] > 0 ? 1 : -1;  // from a slice to the one before it
-    LightVolume light(volume.data.size(), 1.0f);
     const int nearest = towards > 0 ? counts[a] - 1 : 0;  // the slice nearest the light
-    const bool down = offset_c >= 0;  // plane w reads rows w + offset_c and the one after
-    const int slices = counts[a] - 1;  // after the nearest, numbered s = 0.. away from the light
-    const int parts = std::max(1, std::min(threads, slices));
-    for (int stage = 0; stage < counts[c] + parts - 1; ++stage) {
-        parallel_rows(parts, parts, work, [&](int part, Work& part_work) {
-            const int n = stage - part;  // the plane's number in the sweep's order
-            if (n < 0 || n >= counts[c]) return;
-            const int w = down ? counts[c] - 1 - n : n;
+    const int v_first = std::max(0, -offset_b);  // a row's voxels whose q is inside
+    int v_end = counts[b];
+    while (v_end > v_first && !inside(v_end - 1 + offset_b, fb, counts[b])) --v_end;
+    LightVolume light(volume.data.size(), 1.0f);
+    for (int s = 1; s < counts[a]; ++s) {  // slice by slice, away from the light
+        const size_t here = size_t(nearest - towards * s) * strides[a];
+        const size_t before = size_t(nearest - towards * (s - 1)) * strides[a];
+        parallel_rows(counts[c], threads, work, [&](int w, Work& row_work) {
             const int low_c = w + offset_c;
-            if (!inside(low_c, fc, counts[c])) return;  // the whole plane stays 1
+            if (!inside(low_c, fc, counts[c])) return;  // the whole row stays 1
             const size_t dc = low_c + 1 < counts[c] ? strides[c] : 0;
-            const int v_first = std::max(0, -offset_b);  // the row's voxels whose q is inside
-            int v_end = counts[b];
-            while (v_end > v_first && !inside(v_end - 1 + offset_b, fb, counts[b])) --v_end;
-            for (int s = part * slices / parts; s < (part + 1) * slices / parts; ++s) {
-                const int u = nearest - towards * (s + 1);
-                const size_t here = size_t(u) * strides[a];
-                const size_t before = size_t(u + towards) * strides[a];
-                for (int v = v_first; v < v_end; ++v) {
-                    const int low_b = v + offset_b;
-                    const size_t db = low_b + 1 < counts[b] ? strides[b] : 0;
-                    const size_t at =
-                        before + size_t(low_b) * strides[b] + size_t(low_c) * strides[c];
-                    auto bilinear = [&](const auto* data) {
-                        return lerp(lerp(data[at], data[at + db], fb),
-                                    lerp(data[at + dc], data[at + dc + db], fb), fc);
-                    };
-                    const float value = bilinear(volume.data.data());
-                    light[here + size_t(v) * strides[b] + size_t(w) * strides[c]] =
-                        bilinear(light.data()) *
-                        (1 - segment.entries[int(double(value) - lowest_ct_value)].a);
-                }
-                part_work.samples += uint64_t(std::max(0, v_end - v_first));
+            for (int v = v_first; v < v_end; ++v) {
+                const int low_b = v + offset_b;
+                const size_t db = low_b + 1 < counts[b] ? strides[b] : 0;
+                const size_t at = before + size_t(low_b) * strides[b] + size_t(low_c) * strides[c];
+                auto bilinear = [&](const auto* data) {
+                    return lerp(lerp(data[at], data[at + db], fb),
+                                lerp(data[at + dc], data[at + dc + db], fb), fc);
+                };
+                const float value = bilinear(volume.data.data());
+                light[here + size_t(v) * strides[b] + size_t(w) * strides[c]] =
+                    bilinear(light.data()) *
+                    (1 - segment.entries[int(double(value) - lowest_ct_value)].a);
             }
+            row_work.samples += uint64_t(std::max(0, v_end - v_first));
         });
     }
     return light;
@@ -724,18 +713,20 @@ int main(int argc, char** argv) {
         };
 
         // --- The light-transmittance volume (--shadows volume): the light turns with the
-        // camera (light_towards), so every render sweeps it again, in the render's time and
-        // work; a traced ray reuses it while the light has not moved ---
-        auto sweep_for = [&](const Camera& camera, Work& work, bool again) {
-            if (params.shadows != "volume" || params.unlit) return;
-            const Vec3 l = light_towards(camera);
-            const Vec3d light_d = {l.i, l.j, l.k};
+        // camera, so every render sweeps it again, in the render's time and work; a traced ray
+        // (render_work null) reuses it while the light has not moved ---
+        auto light_and_sweep = [&](const Camera& camera, Work* render_work) {
+            const Vec3 to_light = light_towards(camera);
+            if (params.shadows != "volume" || params.unlit) return to_light;
+            const Vec3d light_d = {to_light.i, to_light.j, to_light.k};
             const Vec3d towards = (1 / length(light_d)) * light_d;  // unit, in double
             const Vec3d moved = towards - blocking.light_towards;
-            if (!again && !blocking.light.empty() && dot(moved, moved) == 0) return;
+            if (!render_work && !blocking.light.empty() && dot(moved, moved) == 0) return to_light;
+            Work sweep_work;  // a traced ray's sweep is not that ray's work
             blocking.light = sweep_light(volume, tf, towards, !params.no_correction,
-                                         options.threads, work);
+                                         options.threads, render_work ? *render_work : sweep_work);
             blocking.light_towards = towards;
+            return to_light;
         };
 
         // --- Render: one ray per pixel ---
@@ -744,23 +735,9 @@ int main(int argc, char** argv) {
             return over_background(composite_front_to_back(volume, camera, x, y, lut, to_light,
                                                            blocking, params, work, trace));
         };
-        renderer.image = [&](const View& view, Work& work) {
-            const Camera camera = make_camera(volume, params, view);
-            const Vec3 to_light = light_towards(camera);
-            sweep_for(camera, work, true);
-            return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
-                return pixel(camera, to_light, x, y, ray_work, nullptr);
-            });
-        };
-        renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            const Camera camera = make_camera(volume, params, view);
-            Work sweep_work;  // not this ray's
-            sweep_for(camera, sweep_work, false);
-            return pixel(camera, light_towards(camera), x, y, work, trace);
-        };
-        renderer.ray_samples = [&](const View&) {
-            return "samples " + summary_number(params.step) + " physical units apart";
-        };
+        auto camera_for = [&](const View& view) { return make_camera(volume, params, view); };
+        cast_camera_rays(renderer, options.threads, params.step, camera_for, light_and_sweep,
+                         pixel);  // common/camera_flags.h: renderer.image, .ray, .ray_samples
         renderer.knob = {"step",
                          [&](const View&, int steps) {
                              const double step = std::clamp(
