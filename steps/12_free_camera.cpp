@@ -1,17 +1,13 @@
 // 12_free_camera.cpp: part 2 begins: any view, from an orbit camera.
 //
-// New here:   an orbit camera around the centre of the volume's box (--azimuth, --elevation,
-//             --zoom, --projection ortho|perspective, --fov, --size WxH); one ray per pixel in
-//             physical space, voxel (i, j, k) at (i*sx, j*sy, k*sz); samples every --step
-//             physical units along it, those inside the box of voxel centres each read from
-//             its nearest voxel (part 1's way: step 14 interpolates; step 13 finds where the
-//             ray is in the box). The light turns with the camera. Compositing, lighting and
-//             opacity correction are step 10's.
-// Camera:     a proper camera (right = forward x up); the handout maps part 1's views onto it.
-// Defaults:   azimuth 30, elevation 20, orthographic, 512x512, --fov 30 (perspective), light
-//             30 degrees to the right of the camera and 20 above it, a black background.
+// New here:   an orbit camera around the centre of the volume's box (common/camera_flags.h's
+//             flags); one ray per pixel in physical space, voxel (i, j, k) at (i*sx, j*sy,
+//             k*sz), sampled every --step units where it is inside the box of voxel centres,
+//             each sample read from its nearest voxel. The light turns with the camera.
+// Defaults:   azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light 30 degrees
+//             right of the camera and 20 above it, a black background.
 // Builds on:  10_opacity_correction (lit front to back, a step in physical units; step 11's
-//             leaping along part 1's rays is not taken: step 24 leaps along a free ray).
+//             leaping waits for a free ray: step 24).
 // Handout:    handouts/12_free_camera.md
 // Run:        make run STEP=12 ARGS="--azimuth 60 --projection perspective"
 // Reference:  data/reference/12_free_camera_camera.png: the default run, on the phantom.
@@ -232,14 +228,10 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 //< lesson: shade
 
 //> lesson: front_to_back
-// Step 10's compositing along the camera's ray, at whole steps before and after the point of
-// the ray nearest the box's centre: t_mid + m * step for |m * step| <= reach (half the box's
-// diagonal) and t >= 0 (an eye inside the box). Only samples inside the box of voxel centres
-// count (step 13 finds where the ray is in the box instead); a camera along an axis thus
-// samples the voxel centres as part 1 did.
-// Each sample is read from its nearest voxel, classified by the table, lit by that voxel's
-// gradient where it is not transparent, and composited front to back; early ray termination
-// as in step 08.
+// Step 10's compositing along the camera's ray, at t_mid + m * step (t_mid: the point of the
+// ray nearest the box's centre) for |m * step| <= half the box's diagonal and t >= 0 (an eye
+// inside the box). Only samples inside the box of voxel centres count, each read from its
+// nearest voxel: a camera along an axis samples the voxel centres as part 1 did.
 // Changed in step 12: along the camera's ray.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
@@ -264,6 +256,8 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
                              int(std::floor(point.j / volume.sy + 0.5)),
                              int(std::floor(point.k / volume.sz + 0.5))};
         const float value = volume.at(voxel.i, voxel.j, voxel.k);
+        // The entry of the whole value at or below it (the range [from, to) it falls into):
+        // value - lowest_ct_value >= 0, so int() rounds down.
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         if (sample.a == 0.0f) {
@@ -275,7 +269,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         if (!params.unlit) {
             light = shade(gradient_at(volume, voxel, work), to_light);
         }
-        const double alpha = sample.a;
+        const double alpha = sample.a;  // the opacity, after the TF
         const double weight = pixel.transparency * alpha * light;
         pixel.r += weight * sample.r;
         pixel.g += weight * sample.g;

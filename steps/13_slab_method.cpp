@@ -354,6 +354,8 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
                              std::clamp(int(std::floor(q.k + 0.5)), 0, volume.nz - 1)};
         const double t = span.t_entry + n * params.step;  // physical units along the ray
         const float value = volume.at(voxel.i, voxel.j, voxel.k);
+        // The entry of the whole value at or below it (the range [from, to) it falls into):
+        // value - lowest_ct_value >= 0, so int() rounds down.
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
@@ -366,7 +368,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         if (!params.unlit) {
             light = shade(gradient_at(volume, voxel, work), to_light);
         }
-        const double alpha = sample.a;
+        const double alpha = sample.a;  // the opacity, after the TF
         const double weight = pixel.transparency * alpha * light;
         pixel.r += weight * sample.r;
         pixel.g += weight * sample.g;

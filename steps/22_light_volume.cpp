@@ -566,6 +566,8 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         const Cell cell = cell_at(volume, q, params.nearest);
         const double t = span.t_entry + n * params.step;  // physical units along the ray
         const float value = sample_value(volume, cell, params.nearest);
+        // The entry of the whole value at or below it (the range [from, to) it falls into):
+        // value - lowest_ct_value >= 0, so int() rounds down.
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
@@ -586,7 +588,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
             }
             light = shade_blocked(gradient, to_light, light_t);
         }
-        const double alpha = sample.a;
+        const double alpha = sample.a;  // the opacity, after the TF
         const double weight = pixel.transparency * alpha * light;
         pixel.r += weight * sample.r;
         pixel.g += weight * sample.g;
