@@ -451,4 +451,11 @@ std::string summary_number(double value) {
     return text;
 }
 
+std::string samples_at_step(int count, double step, const View& view) {
+    char text[128];
+    std::snprintf(text, sizeof text, "%d samples at step %g over %d voxels spaced %g", count,
+                  step, view.ray_length, view.ray_spacing);
+    return text;
+}
+
 }  // namespace ctlab

@@ -60,6 +60,10 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
 // A number as a summary line shows it (%g): "0.12", "1e-05", "30".
 std::string summary_number(double value);
 
+// A trace header's samples along a ray of an axis view sampled `step` physical units apart:
+// "226 samples at step 1 over 113 voxels spaced 2".
+std::string samples_at_step(int count, double step, const View& view);
+
 // The image of one view, as run_views renders it (used by tests, the window and tools).
 Image render_view(const Options& options, const View& view, const Renderer& renderer,
                   Work& work);

@@ -1,10 +1,9 @@
 // 10_opacity_correction.cpp: sample in physical units, and correct the opacity for the step.
 //
-// New here:   a sample step in physical units with linear interpolation along the ray (the
-//             gradient interpolated between the voxels around a sample, as in step 05);
-//             opacity correction for the step, so the picture keeps its overall opacity at
-//             any step and in every view (CThead's slices are 2 units apart, its rows and
-//             columns 1).
+// New here:   samples --step physical units apart, linear between the voxels along the ray
+//             (values and gradients, as in step 05), their opacity corrected for the step: the
+//             picture keeps its opacity at any step and in every view (CThead's slices are 2
+//             units apart, its rows and columns 1).
 // Builds on:  09_lit_compositing (lit front to back with early ray termination).
 // Handout:    handouts/10_opacity_correction.md
 // Run:        make run STEP=10 ARGS="--step 0.5 --view top"
@@ -281,11 +280,7 @@ int main(int argc, char** argv) {
                 volume, view, x, y, lut, to_light[int(view.axis)], params, work, trace));
         };
         renderer.ray_samples = [&](const View& view) {
-            char text[128];
-            std::snprintf(text, sizeof text, "%d samples at step %g over %d voxels spaced %g",
-                          samples_along_ray(view, params.step), params.step, view.ray_length,
-                          view.ray_spacing);
-            return std::string(text);
+            return samples_at_step(samples_along_ray(view, params.step), params.step, view);
         };
         renderer.knob = {"step",
                          [&](const View&, int steps) {

@@ -368,11 +368,7 @@ int main(int argc, char** argv) {
                 volume, view, x, y, lut, space, to_light[int(view.axis)], params, work, trace));
         };
         renderer.ray_samples = [&](const View& view) {
-            char text[128];
-            std::snprintf(text, sizeof text, "%d samples at step %g over %d voxels spaced %g",
-                          samples_along_ray(view, params.step), params.step, view.ray_length,
-                          view.ray_spacing);
-            return std::string(text);
+            return samples_at_step(samples_along_ray(view, params.step), params.step, view);
         };
         renderer.knob = {"step",
                          [&](const View&, int steps) {

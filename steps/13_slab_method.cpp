@@ -1,12 +1,10 @@
 // 13_slab_method.cpp: where a ray enters and leaves the volume's box: the slab method.
 //
-// New here:   step 12 tested every sample along the ray for being inside the box of voxel
-//             centres; here each ray works out where it enters and leaves that box (the slab
-//             method, with its stiff case: a ray parallel to a face, d = 0 or -0), and its
-//             samples run from the entry, on the face it crosses, to the exit, --step
-//             physical units apart, in voxel units (the walk). Samples still read their
-//             nearest voxel (step 14 interpolates). The trace records where the ray meets the
-//             box, or that it misses it.
+// New here:   instead of testing every sample for being inside the box (step 12), each ray
+//             works out where it enters and leaves the box (the slab method, with its stiff
+//             case: a ray parallel to a face, d = 0 or -0) and samples from the entry, on the
+//             face, to the exit, in voxel units (the walk). The trace records where the ray
+//             meets the box, or that it misses it.
 // Builds on:  12_free_camera (the orbit camera and its rays, nearest samples).
 // Handout:    handouts/13_slab_method.md
 // Run:        make run STEP=13 ARGS="--azimuth 60 --projection perspective"
