@@ -1,13 +1,10 @@
 // 24_free_leaping.cpp: step 11's leaping over empty bricks, along a free ray.
 //
-// New here:   step 11 leapt over empty bricks along part 1's axis-aligned rays. A camera's ray
-//             crosses bricks at any angle, and one brick at a time would take ~40 leaps to
-//             cross the air around a head: each brick gets its reach, the cube of empty bricks
-//             around it, and a ray leaps out of that cube at once (the slab method again, in
-//             sample units). Every sample leapt over would have been transparent: the picture
-//             is step 14's (--no-leaping: every sample read), with fewer samples. It is an
-//             optimisation only, so it comes last in part 2, on step 14's composite (the
-//             renderer steps 16-21 extend without it).
+// New here:   step 11's leaping, along a camera's ray, which crosses bricks at any angle:
+//             each brick gets its reach, the cube of empty bricks around it, and a ray leaps
+//             out of that cube at once (the slab method again, in sample units). Every sample
+//             leapt over would have been transparent: the picture is step 14's (--no-leaping),
+//             with fewer samples. An optimisation only, so last in part 2, on step 14.
 // Defaults:   as step 12: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
 //             30 degrees right of the camera and 20 above it, a black background.
 // Builds on:  14_trilinear (the orbit camera, trilinear samples, lit front to back) and
