@@ -455,17 +455,13 @@ struct Blocking {
 
 //> lesson: light_volume
 // The light-transmittance volume for the directional light `to_light` (unit, physical): every
-// shadow ray's answer at once, T_light at every voxel centre, swept slice by slice from the
-// light's side. The slices lie across the axis a the light crosses fastest (the largest
-// |L_a| / s_a); the slice nearest the light gets all of it. A voxel p of the next slice gets
-// what reached q = p + d L on the slice before (d = s_a / |L_a| physical units away), times
-// what the segment between lets through: T(p) = T(q) * (1 - alpha_d(v(q))), the table's
-// alphas corrected for d. q is at most one voxel off p across the slice, and the light is
-// directional: every q is the same offset from its p, so T(q) and v(q) are bilinear reads
-// with the same four neighbours and weights everywhere. A q outside the box: the light came
-// in through a side face, T = 1 (the bit of material between that face and p is missed). One
-// read per voxel, once per light direction. A slice reads only the slice before it, so its
-// rows are shared among the threads.
+// shadow ray's answer at once, swept slice by slice from the light's side across the axis a
+// it crosses fastest (the largest |L_a| / s_a). A voxel p of the next slice gets what reached
+// q = p + d L on the slice before (d = s_a / |L_a|), times what the segment lets through:
+// T(p) = T(q) * (1 - alpha_d(v(q))). q is the same offset from every p, so T(q) and v(q) are
+// bilinear reads with the same weights; a q outside the box gets T = 1 (light from a side).
+// Plane after plane (c fixed), each slice by slice; with more threads a plane's slices in
+// `parts` runs, run p of plane n at stage n + p (it reads earlier stages').
 static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
                                const Vec3d& to_light, bool corrected, int threads, Work& work) {
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -489,32 +485,42 @@ static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
         return low >= 0 && (low + 1 < count || (low + 1 == count && f == 0));
     };
     const int towards = to_light[a] > 0 ? 1 : -1;  // from a slice to the one before it
-    const int nearest = towards > 0 ? counts[a] - 1 : 0;  // the slice nearest the light
-    const int v_first = std::max(0, -offset_b);  // a row's voxels whose q is inside
-    int v_end = counts[b];
-    while (v_end > v_first && !inside(v_end - 1 + offset_b, fb, counts[b])) --v_end;
     LightVolume light(volume.data.size(), 1.0f);
-    for (int s = 1; s < counts[a]; ++s) {  // slice by slice, away from the light
-        const size_t here = size_t(nearest - towards * s) * strides[a];
-        const size_t before = size_t(nearest - towards * (s - 1)) * strides[a];
-        parallel_rows(counts[c], threads, work, [&](int w, Work& row_work) {
+    const int nearest = towards > 0 ? counts[a] - 1 : 0;  // the slice nearest the light
+    const bool down = offset_c >= 0;  // plane w reads rows w + offset_c and the one after
+    const int slices = counts[a] - 1;  // after the nearest, numbered s = 0.. away from the light
+    const int parts = std::max(1, std::min(threads, slices));
+    for (int stage = 0; stage < counts[c] + parts - 1; ++stage) {
+        parallel_rows(parts, parts, work, [&](int part, Work& part_work) {
+            const int n = stage - part;  // the plane's number in the sweep's order
+            if (n < 0 || n >= counts[c]) return;
+            const int w = down ? counts[c] - 1 - n : n;
             const int low_c = w + offset_c;
-            if (!inside(low_c, fc, counts[c])) return;  // the whole row stays 1
+            if (!inside(low_c, fc, counts[c])) return;  // the whole plane stays 1
             const size_t dc = low_c + 1 < counts[c] ? strides[c] : 0;
-            for (int v = v_first; v < v_end; ++v) {
-                const int low_b = v + offset_b;
-                const size_t db = low_b + 1 < counts[b] ? strides[b] : 0;
-                const size_t at = before + size_t(low_b) * strides[b] + size_t(low_c) * strides[c];
-                auto bilinear = [&](const auto* data) {
-                    return lerp(lerp(data[at], data[at + db], fb),
-                                lerp(data[at + dc], data[at + dc + db], fb), fc);
-                };
-                const float value = bilinear(volume.data.data());
-                light[here + size_t(v) * strides[b] + size_t(w) * strides[c]] =
-                    bilinear(light.data()) *
-                    (1 - segment.entries[int(double(value) - lowest_ct_value)].a);
+            const int v_first = std::max(0, -offset_b);  // the row's voxels whose q is inside
+            int v_end = counts[b];
+            while (v_end > v_first && !inside(v_end - 1 + offset_b, fb, counts[b])) --v_end;
+            for (int s = part * slices / parts; s < (part + 1) * slices / parts; ++s) {
+                const int u = nearest - towards * (s + 1);
+                const size_t here = size_t(u) * strides[a];
+                const size_t before = size_t(u + towards) * strides[a];
+                for (int v = v_first; v < v_end; ++v) {
+                    const int low_b = v + offset_b;
+                    const size_t db = low_b + 1 < counts[b] ? strides[b] : 0;
+                    const size_t at =
+                        before + size_t(low_b) * strides[b] + size_t(low_c) * strides[c];
+                    auto bilinear = [&](const auto* data) {
+                        return lerp(lerp(data[at], data[at + db], fb),
+                                    lerp(data[at + dc], data[at + dc + db], fb), fc);
+                    };
+                    const float value = bilinear(volume.data.data());
+                    light[here + size_t(v) * strides[b] + size_t(w) * strides[c]] =
+                        bilinear(light.data()) *
+                        (1 - segment.entries[int(double(value) - lowest_ct_value)].a);
+                }
+                part_work.samples += uint64_t(std::max(0, v_end - v_first));
             }
-            row_work.samples += uint64_t(std::max(0, v_end - v_first));
         });
     }
     return light;
@@ -723,10 +729,12 @@ int main(int argc, char** argv) {
             const Vec3d light_d = {to_light.i, to_light.j, to_light.k};
             const Vec3d towards = (1 / length(light_d)) * light_d;  // unit, in double
             const Vec3d moved = towards - blocking.light_towards;
-            if (!render_work && !blocking.light.empty() && dot(moved, moved) == 0) return to_light;
+            const bool kept = !render_work && !blocking.light.empty() && dot(moved, moved) == 0;
+            if (kept) return to_light;  // a traced ray, and the light has not moved
             Work sweep_work;  // a traced ray's sweep is not that ray's work
+            Work& work = render_work ? *render_work : sweep_work;
             blocking.light = sweep_light(volume, tf, towards, !params.no_correction,
-                                         options.threads, render_work ? *render_work : sweep_work);
+                                         options.threads, work);
             blocking.light_towards = towards;
             return to_light;
         };
