@@ -619,6 +619,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // Row v of the intermediate image, slice by slice front to back. In each slice the row meets
 // one row of cells, and only the cells in its runs are read; the pixels they fall on are
 // composited unless already opaque (tested pixel by pixel, as step 35 does).
+// Changed in step 36: only the cells in the row's runs are read, the others counted as leapt.
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;

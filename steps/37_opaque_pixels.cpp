@@ -620,6 +620,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
 // at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
 // stretch of a row costs a jump or two per run however wide it is.
+// Changed in step 37: the opaque pixels jumped over through next[], not tested one by one.
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;

@@ -770,6 +770,7 @@ static void fill_normal_table(const Volume& volume, const Shear& shear, const Ru
 // 0, but for the directions' rounding).
 // Without a table (a volume too large for one), the corners' gradients from the voxels,
 // blended, then step 10's shade, as step 30 does.
+// Changed in step 38: the light from the quantised normals' shading table.
 static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
                                 int b, Work& work) {
     work.gradients += 4;
@@ -813,6 +814,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
 // at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
 // stretch of a row costs a jump or two per run however wide it is.
+// Changed in step 38: slice_light() takes the sample's voxel index (its normal indices).
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
@@ -994,6 +996,7 @@ static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
 // them give transparent samples, which change nothing, so it is composite_row()'s pixel, to
 // the bit. Its samples are traced (when `trace`) at their distance t along `ray`, the output
 // pixel's ray, which runs beside this pixel's at less than a voxel and a half.
+// Changed in step 38: slice_light() takes the sample's voxel index (its normal indices).
 static Accumulated composite_column(const Scene& scene, int u, int v, const Ray& ray,
                                     Work& work, Trace* trace) {
     const Shear& shear = scene.shear;
