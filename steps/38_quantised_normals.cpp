@@ -408,7 +408,8 @@ struct NormalTable {
     size_t voxels_filled = 0;  // indices computed (a voxel filled for two axes counts twice)
 };
 
-// Given: the index of the direction nearest g's (0 when g is 0). Written without a branch or
+//> lesson: normals
+// The index of the direction nearest g's (0 when g is 0). Written without a branch or
 // a float comparison but != (fill_normal_table() calls it sixteen voxels at a time, and the
 // compiler makes that vector instructions only when no step of it could trap): the fold's
 // test is k's sign bit, its signs std::copysign, the clamps on integers.
@@ -429,7 +430,7 @@ static inline uint16_t normal_index(Vec3 g) {
     return uint16_t(sum != 0.0f ? 1 + v * normal_grid + u : 0);
 }
 
-// Given: every index's direction, a unit vector (index 0: the zero vector).
+// Every index's direction, a unit vector (index 0: the zero vector).
 static std::vector<Vec3> normal_directions() {
     std::vector<Vec3> directions(normal_count, Vec3{0, 0, 0});
     for (int v = 0; v < normal_grid; ++v) {
@@ -449,7 +450,7 @@ static std::vector<Vec3> normal_directions() {
     return directions;
 }
 
-// Given: the shading table for one render: step 10's shade() of every direction, towards this
+// The shading table for one render: step 10's shade() of every direction, towards this
 // render's light. The rows of directions are shared among the threads.
 static void make_shading_table(const std::vector<Vec3>& directions, Vec3 to_light, int threads,
                                std::vector<float>& light) {
@@ -462,6 +463,7 @@ static void make_shading_table(const std::vector<Vec3>& directions, Vec3 to_ligh
         }
     });
 }
+//< lesson: normals
 
 // Everything a render needs that is the same for every pixel.
 struct Scene {
