@@ -9,8 +9,9 @@
 //             code, part 2's unchanged: the dense volume, every gradient from the voxels,
 //             every sample read, no caches. Each trick of steps 31 on is measured against
 //             this step and renders its pictures within the manifest's tolerance.
-// Builds on:  24_free_leaping (camera, slab method, trilinear, lit compositing; its leaping
-//             over empty bricks goes, it is step 31's trick) and 17_projection_modes (MIP).
+// Builds on:  14_trilinear (camera, slab method, trilinear, lit compositing; step 24's
+//             leaping over empty bricks is step 31's trick here) and 17_projection_modes
+//             (MIP).
 // Handout:    handouts/30_speed_baseline.md
 // Run:        make run STEP=30 ARGS="--mode mip --azimuth 180 --elevation 90 --size 256x256"
 // Reference:  data/reference/30_speed_baseline_camera.png: the default run (lit composite,

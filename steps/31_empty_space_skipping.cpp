@@ -7,7 +7,8 @@
 //             leaves that cube (every sample leapt over is transparent). A MIP ray leaps over
 //             a brick whose largest value is no more than the ray's maximum so far (none of
 //             its samples can raise it). The same pictures as step 30, bit for bit.
-// Builds on:  30_speed_baseline.
+// Builds on:  30_speed_baseline and 24_free_leaping (its leaping over empty bricks, along
+//             any ray).
 // Handout:    handouts/31_empty_space_skipping.md
 // Run:        make run STEP=31 ARGS="--mode mip --azimuth 180 --elevation 90 --size 256x256"
 // Reference:  data/reference/31_empty_space_skipping_camera.png: the default run (lit

@@ -100,9 +100,10 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     }
     // Part 2: the camera from straight above in perspective (rays along k), nearest samples
     // without leaping, the longest step unlit, and each step's own paths.
-    // Step 35 (shear-warp) is orthographic, one sample per slice: no --projection
-    // perspective, no --step; its MIP from below and nearest samples below take its paths.
-    const bool shear_warp = step.rfind("35", 0) == 0;
+    // Steps 35 on (shear-warp and its tricks) are orthographic, one sample per slice: no
+    // --projection perspective, no --step; its MIP from below and nearest samples below take
+    // their paths.
+    const bool shear_warp = step >= "35";
     if (ctlab_test::is_camera_step(step) && !shear_warp) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
         // Steps 12 and 13 read the nearest voxel only (12 on: --interpolation); step 24 leaps (part 3

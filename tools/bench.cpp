@@ -784,7 +784,7 @@ const CandidateRule part3_rule = {
 
 struct PeerFigure {
     std::vector<double> cold, warm, precompute;  // ms, one per pass
-    std::vector<double> precompute_mib;  // the tables it made (step 35's "precompute" lines)
+    std::vector<double> precompute_mib;  // the tables it made (shear-warp's "precompute" lines)
     long rss_kib = 0;                            // the largest over the passes
     std::string error;                           // why a run failed ("" when none did)
     bool ran() const { return error.empty() && !warm.empty(); }
@@ -834,7 +834,7 @@ std::vector<std::string> case_flags(const char* rule, int side, int oblique, con
     return flags;
 }
 
-// `only` ("35"; "" for every step): --steps, for a peer table of those steps alone.
+// `only` ("38"; "" for every step): --steps, for a peer table of those steps alone.
 std::vector<Candidate> ctlab_candidates(int side, int oblique, const int dims[3],
                                         const std::string& only) {
     std::vector<Candidate> candidates;

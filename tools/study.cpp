@@ -689,17 +689,19 @@ void shadows_study() {
     }
 }
 
-// --- Shear-warp: what step 35's factorisation costs in quality, and what it saves ----------
+// --- Shear-warp: what step 35's factorisation costs in quality, and what it saves; and step
+// 38's quantised normals, the one later shear-warp trick that changes the picture ----------
 
 constexpr const char* ray_caster_step = "30_speed_baseline";  // the reference: rays, step 1
 constexpr const char* fastest_ray_caster = "34_fine_bricks";  // the same pictures, faster
 constexpr const char* shear_warp_step = "35_shear_warp";
+constexpr const char* quantised_normals_step = "38_quantised_normals";  // lit: rounded normals
 
 void shear_warp_study() {
     std::printf("shear-warp: step 35 against step 30 (and step 34's time) on the phantom at "
                 "spacing 1,1,1, unlit composite: along k at one pixel per voxel, and at "
                 "angles (case c's view at 512x512, 45 degrees along two axes); then lit, "
-                "along k and at case c's angle (step 35's quantised normals)\n");
+                "along k and at case c's angle (and step 38's quantised normals)\n");
     const std::vector<std::string> lit_phantom =
         phantom_volume().flags + std::vector<std::string>{"--spacing", "1,1,1"};
     const std::vector<std::string> phantom = lit_phantom + std::vector<std::string>{"--unlit"};
@@ -718,7 +720,7 @@ void shear_warp_study() {
                        "--size", text_of("%dx%d", oblique, oblique)}},
     };
     const std::string unit = "8-bit (RMSE, max) vs step 30";
-    struct Lit {  // the views again, lit: step 35's light comes from its quantised normals
+    struct Lit {  // the views again, lit: step 38's light comes from its quantised normals
         const View& view;
         bool lit;
     };
@@ -739,6 +741,11 @@ void shear_warp_study() {
         const ImageError error = image_error(sheared.image(), rays.image());
         record({"shear-warp", "step 35 (shear-warp)", view.name, sheared.ms(), error.rmse,
                 error.max, unit, sheared.count("samples")});
+        if (!lit.lit) continue;  // unlit, step 38 renders step 35's picture
+        const Run rounded = run(quantised_normals_step, flags, true);
+        const ImageError rounding = image_error(rounded.image(), rays.image());
+        record({"shear-warp", "step 38 (quantised normals)", view.name, rounded.ms(),
+                rounding.rmse, rounding.max, unit, rounded.count("samples")});
     }
 }
 
@@ -1350,10 +1357,10 @@ std::string load_average() {
     return one + " " + five + " " + fifteen;
 }
 
-// The shear-warp study's table: each view's step 30, 34 and 35, error against step 30.
+// The shear-warp study's table: each view's steps 30, 34, 35 (lit, 38), error against 30.
 std::string shear_warp_table() {
     return "Error against step 30's picture, RMSE and max over every channel of every pixel; "
-           "Msamples: samples read (step 35: cells read in the slices):\n\n" +
+           "Msamples: samples read (steps 35 and 38: cells read in the slices):\n\n" +
            markdown_table("shear-warp", "view");
 }
 
