@@ -1445,6 +1445,14 @@ void Grader::grade_picture(const Step& step, const Run& run, const std::string& 
                   "fails: %.2f%% of the pixels differ by more than %g; the worst, %d levels, "
                   "at pixel %s", comparison.over_tol_pct, run.tolerance, worst.error,
                   xy.c_str());
+    // A stub's picture: its TODO lines say what to write, and the table shows those alone.
+    // The figures go to report.txt; the side-by-side picture and the turned, mirrored and
+    // other views' comparisons (most of a stub run's grading cost) are left out, as a step
+    // not started is not traced.
+    if (result.status == Status::not_started) {
+        problem(numbers);
+        return;
+    }
     const fs::path pair_path = settings_.out / "side_by_side" / reference_name;
     make_folder(pair_path.parent_path().string());
     write_png(side_by_side(student, reference, run.tolerance), pair_path.string());
