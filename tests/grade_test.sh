@@ -298,14 +298,18 @@ for stem in 08_compositing_order 10_opacity_correction; do
 done
 cp data/reference/24_free_leaping_camera.png "$bref/"
 echo "24_free_leaping: tol=3" >> "$bref/manifest.txt"
+# The phantom written once to a raw file that every run reads (the same voxels as --volume
+# phantom, without painting the head again in each of the ~20 runs, 0.1 s of CPU each), and
+# step 24's picture, the same in both submissions, rendered once.
+phantom=$work/phantom.raw
+"$build/make_phantom" "$phantom" > /dev/null
+"$build/24_free_leaping" --volume "$phantom" --no-window --out "$work/both_24" > /dev/null 2>&1
 for ert in 0 0.3; do
     "$build/check" --bin "$build" --reference "$bref" --out "$work/both_$ert" --step 08 \
-        --step 10 --step 24 --args "--ert $ert" > "$work/both_$ert.log" 2>&1
+        --step 10 --step 24 --args "--ert $ert" --volume "$phantom" > "$work/both_$ert.log" 2>&1
     mkdir -p "$work/both_sub_$ert"
     cp "$work/both_$ert"/08_compositing_order/*.png "$work/both_$ert"/10_opacity_correction/*.png \
-        "$work/both_sub_$ert/"
-    "$build/24_free_leaping" --volume phantom --no-window --out "$work/both_sub_$ert" \
-        > /dev/null 2>&1
+        "$work/both_24"/*.png "$work/both_sub_$ert/"
     "$checker" --submission "$work/both_sub_$ert" --reference "$bref" > "$work/both_check_$ert.log" 2>&1
 done
 grep -q '^08_compositing_order: [a-z]*, pictures 3/3,' "$work/both_0/report.txt" &&

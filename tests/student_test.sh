@@ -322,7 +322,7 @@ if [ -n "$step02" ] && grep -q '^0[3-9]_[a-z_]* first_hit 02_' "$student/.ctlab/
         expect "the student's step 02 passes the checker" "$build/grade" \
             "$work/carry_out/$(basename "$step02" .cpp)_front.png" \
             "data/reference/$(basename "$step02" .cpp)_front.png" > /dev/null
-        "$student/$build/$first_carried" --volume phantom --view front --no-window \
+        "$student/$build/$first_carried" --volume "$work/phantom.raw" --view front --no-window \
             --out "$work/carry_out" > /dev/null 2> "$work/todo_carried.txt"
         expect "$first_carried no longer says first_hit() is not written" \
             sh -c "! grep -q 'first_hit() is not written' '$work/todo_carried.txt'"
@@ -402,7 +402,7 @@ cp "$student/.ctlab/pristine/steps/"01_*.cpp "$student/.ctlab/pristine/steps/"02
 
 # --- Two steps: build, run, check --------------------------------------------------------------
 # The second step (02, the first surface) and the last one: the skeleton must work for
-# every step, including ones added later.
+# every step, including ones added later. On the phantom's raw file (the same voxels).
 first=$(ls steps/02_*.cpp 2>/dev/null || ls steps/[0-9][0-9]_*.cpp | head -n 1)
 last=$(ls steps/[0-9][0-9]_*.cpp | tail -n 1)
 chosen=$(basename "$first" .cpp)
@@ -424,7 +424,8 @@ for step in $chosen; do
     fi
     reference=data/reference/${step}_$view.png
     # shellcheck disable=SC2086
-    "$student/$build/$step" --volume phantom $view_flags --no-window --out "$work/student_out" \
+    "$student/$build/$step" --volume "$work/phantom.raw" $view_flags --no-window \
+        --out "$work/student_out" \
         > /dev/null 2> "$work/todo.txt"
     expect "the stubbed $step runs (exit 0)" [ $? -eq 0 ]
     expect "the stubbed $step prints 'TODO: $step: ...() is not written yet'" \
@@ -439,7 +440,8 @@ for step in $chosen; do
     "$build/grade" "$work/student_out/${step}_$view.png" "$reference" > /dev/null
     expect "the stubbed $step fails the checker (exit 1)" [ $? -eq 1 ]
     # shellcheck disable=SC2086
-    "$build/$step" --volume phantom $view_flags --no-window --out "$work/lab_out" > /dev/null
+    "$build/$step" --volume "$work/phantom.raw" $view_flags --no-window --out "$work/lab_out" \
+        > /dev/null
     expect "the lab's $step renders" [ $? -eq 0 ]
     "$build/grade" "$work/lab_out/${step}_$view.png" "$reference" > /dev/null
     expect "the lab's $step passes the checker (exit 0)" [ $? -eq 0 ]

@@ -17,13 +17,18 @@ work=$(mktemp -d) || exit 2
 trap 'rm -rf "$work"' EXIT INT TERM
 passed=0
 failed=0
+# The phantom, written once to a raw file that every run reads: the same voxels as --volume
+# phantom, without painting the head again in each of the 24 runs (0.1 s of CPU each).
+[ -x "$build/make_phantom" ] || { echo "threshold test: no $build/make_phantom"; exit 2; }
+phantom=$work/phantom.raw
+"$build/make_phantom" "$phantom" > /dev/null || { echo "threshold test: make_phantom failed"; exit 2; }
 for step in $steps; do
     [ -x "$build/$step" ] || { echo "threshold test: no $build/$step"; exit 2; }
-    "$build/$step" --volume phantom --view all --no-window --out "$work/default" > /dev/null ||
+    "$build/$step" --volume "$phantom" --view all --no-window --out "$work/default" > /dev/null ||
         { echo "threshold test: $step's default run failed"; exit 1; }
     for threshold in $thresholds; do
         out="$work/t$threshold"
-        "$build/$step" --volume phantom --view all --no-window --threshold "$threshold" \
+        "$build/$step" --volume "$phantom" --view all --no-window --threshold "$threshold" \
             --out "$out" > /dev/null || { echo "threshold test: $step --threshold $threshold failed"; exit 1; }
         failing=""
         for view in top front side; do

@@ -21,8 +21,9 @@
 // --debug-pixel, a side-by-side picture (student | reference | heat map), a picture that
 // matches another view's reference, the counter that differs; and, for the step's first
 // failing run only, its probe rays and the first ray whose work differs, traced (each trace
-// renders the picture again; a later failing run gets its pictures' and counters' verdicts,
-// and a step not started, its TODO lines).
+// renders the picture again, the probes in the same run as the work map when both are
+// traced; a later failing run gets its pictures' and counters' verdicts, and a step not
+// started, its TODO lines).
 //
 // Exit status: 0 every graded step passes, 1 some step does not, 2 bad input.
 #include <algorithm>
@@ -825,6 +826,8 @@ private:
                          const fs::path& folder, StepResult& result);
     void probe_rays(const Step& step, const Run& run, const std::string& view,
                     const fs::path& folder, StepResult& result);
+    // REFERENCE/probes.txt's probe pixels of this run and view that have a reference trace.
+    std::vector<Probe> probes_of(const Run& run, const std::string& view) const;
     std::string command_for(const Step& step, const Run& run, const std::string& view,
                             const std::string& more = "") const;
     fs::path reference_picture(const Step& step, const Run& run, const std::string& view) const {
@@ -851,6 +854,9 @@ private:
     std::unique_ptr<ClassCache> cache_;             // --cache: the class run's
     std::map<std::string, std::string> build_keys_;  // step -> its cache entry, when it has one
     int builds_ = 0, builds_reused_ = 0, runs_ = 0, runs_reused_ = 0;  // cache: report.txt
+    // "RUN VIEW" -> the folder where first_ray_apart's --work-map run also traced the probe
+    // pixels (one render for both): probe_rays reads their traces there.
+    std::map<std::string, fs::path> probes_traced_;
     std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
@@ -1346,12 +1352,30 @@ void Grader::first_ray_apart(const Step& step, const Run& run, const std::string
         have_reference = outcome.exit_status == 0 && read_work_map(out / map_name, reference);
     }
     if (!have_reference) return;  // nothing to compare the rays with
+    // The probe rays that probe_rays traces next, traced in this run too: --debug-pixel
+    // leaves the work map and the summary line as they are, and the picture is rendered once
+    // instead of twice. When that run fails, the work map alone, as before.
     const fs::path yours_out = fresh(folder / ("work_" + view));
-    const Outcome outcome = execute(step, arguments_for(yours_out, {"--work-map"}), yours_out);
+    std::vector<std::string> more = {"--work-map"};
+    for (const Probe& probe : probes_of(run, view)) {
+        more.insert(more.end(), {"--debug-pixel",
+                                 std::to_string(probe.x) + "," + std::to_string(probe.y)});
+    }
+    Outcome outcome = execute(step, arguments_for(yours_out, more), yours_out);
+    auto ran = [](const Outcome& ended) {
+        return !ended.timed_out && ended.signal == 0 && ended.exit_status == 0;
+    };
+    if (more.size() > 1) {
+        if (ran(outcome)) {
+            probes_traced_[run.name + " " + view] = yours_out;
+        } else {
+            fresh(yours_out);
+            outcome = execute(step, arguments_for(yours_out, {"--work-map"}), yours_out);
+        }
+    }
     WorkMap yours;
-    if (outcome.timed_out || outcome.signal != 0 || outcome.exit_status != 0 ||
-        !read_work_map(yours_out / map_name, yours) || yours.width != reference.width ||
-        yours.height != reference.height) {
+    if (!ran(outcome) || !read_work_map(yours_out / map_name, yours) ||
+        yours.width != reference.width || yours.height != reference.height) {
         return;
     }
     size_t first = yours.rays.size();
@@ -1445,6 +1469,14 @@ void Grader::grade_picture(const Step& step, const Run& run, const std::string& 
                   "fails: %.2f%% of the pixels differ by more than %g; the worst, %d levels, "
                   "at pixel %s", comparison.over_tol_pct, run.tolerance, worst.error,
                   xy.c_str());
+    // A stub's picture: its TODO lines say what to write, and the table shows those alone.
+    // The figures go to report.txt; the side-by-side picture and the turned, mirrored and
+    // other views' comparisons (most of a stub run's grading cost) are left out, as a step
+    // not started is not traced.
+    if (result.status == Status::not_started) {
+        problem(numbers);
+        return;
+    }
     const fs::path pair_path = settings_.out / "side_by_side" / reference_name;
     make_folder(pair_path.parent_path().string());
     write_png(side_by_side(student, reference, run.tolerance), pair_path.string());
@@ -1474,12 +1506,11 @@ void Grader::grade_picture(const Step& step, const Run& run, const std::string& 
     problem(text);
 }
 
-void Grader::probe_rays(const Step& step, const Run& run, const std::string& view,
-                        const fs::path& folder, StepResult& result) {
+std::vector<Probe> Grader::probes_of(const Run& run, const std::string& view) const {
     const fs::path probes_path = settings_.reference / "probes.txt";
     std::error_code error;
-    if (!fs::is_regular_file(fs::symlink_status(probes_path, error))) return;
     std::vector<Probe> probes;
+    if (!fs::is_regular_file(fs::symlink_status(probes_path, error))) return probes;
     std::istringstream lines(read_bounded(probes_path, max_manifest_bytes));
     for (std::string line; std::getline(lines, line);) {
         const std::vector<std::string> words = split_words(line.substr(0, line.find('#')));
@@ -1494,33 +1525,51 @@ void Grader::probe_rays(const Step& step, const Run& run, const std::string& vie
         probe.view = view;
         probe.x = parse_int(probes_path.string() + ": x", words[2].substr(0, comma), 0, INT_MAX);
         probe.y = parse_int(probes_path.string() + ": y", words[2].substr(comma + 1), 0, INT_MAX);
-        probes.push_back(probe);
-    }
-    std::vector<std::string> agreed;
-    for (const Probe& probe : probes) {
         const std::string xy = std::to_string(probe.x) + "_" + std::to_string(probe.y);
         const fs::path reference_trace =
             settings_.reference / "traces" / (run.name + "_" + view + "_ray_" + xy + ".txt");
-        if (!fs::is_regular_file(fs::symlink_status(reference_trace, error))) continue;
-        const fs::path probe_folder = folder / ("probe_" + view + "_" + xy);
-        fs::remove_all(probe_folder, error);
-        make_folder(probe_folder.string());
-        std::vector<std::string> arguments = first_arguments(probe_folder);
-        arguments.insert(arguments.end(), run.arguments.begin(), run.arguments.end());
-        arguments.insert(arguments.end(), settings_.extra_args.begin(),
-                         settings_.extra_args.end());
-        if (std::find(views.begin(), views.end(), view) != views.end()) {
-            arguments.insert(arguments.end(), {"--view", view});
+        if (fs::is_regular_file(fs::symlink_status(reference_trace, error))) {
+            probes.push_back(probe);
         }
+    }
+    return probes;
+}
+
+void Grader::probe_rays(const Step& step, const Run& run, const std::string& view,
+                        const fs::path& folder, StepResult& result) {
+    std::error_code error;
+    const auto traced = probes_traced_.find(run.name + " " + view);
+    std::vector<std::string> agreed;
+    for (const Probe& probe : probes_of(run, view)) {
+        const std::string xy = std::to_string(probe.x) + "_" + std::to_string(probe.y);
+        const fs::path reference_trace =
+            settings_.reference / "traces" / (run.name + "_" + view + "_ray_" + xy + ".txt");
         const std::string pixel = std::to_string(probe.x) + "," + std::to_string(probe.y);
-        arguments.insert(arguments.end(), {"--debug-pixel", pixel});
-        const Outcome outcome = execute(step, arguments, probe_folder);
+        // Traced already by first_ray_apart's run, or here in a run of its own.
+        bool ended = true;
+        fs::path probe_folder;
+        if (traced != probes_traced_.end()) {
+            probe_folder = traced->second;
+        } else {
+            probe_folder = folder / ("probe_" + view + "_" + xy);
+            fs::remove_all(probe_folder, error);
+            make_folder(probe_folder.string());
+            std::vector<std::string> arguments = first_arguments(probe_folder);
+            arguments.insert(arguments.end(), run.arguments.begin(), run.arguments.end());
+            arguments.insert(arguments.end(), settings_.extra_args.begin(),
+                             settings_.extra_args.end());
+            if (std::find(views.begin(), views.end(), view) != views.end()) {
+                arguments.insert(arguments.end(), {"--view", view});
+            }
+            arguments.insert(arguments.end(), {"--debug-pixel", pixel});
+            const Outcome outcome = execute(step, arguments, probe_folder);
+            ended = !outcome.timed_out && outcome.signal == 0 && outcome.exit_status == 0;
+        }
         const fs::path yours_path =
             probe_folder / (step.name + "_" + view + "_ray_" + xy + ".txt");
         const std::string command = command_for(step, run, view, " --debug-pixel " + pixel);
         std::string text = run.name + " " + view + ": the probe ray " + pixel + " ";
-        if (outcome.timed_out || outcome.signal != 0 || outcome.exit_status != 0 ||
-            !fs::is_regular_file(fs::symlink_status(yours_path, error))) {
+        if (!ended || !fs::is_regular_file(fs::symlink_status(yours_path, error))) {
             text += "could not be traced: " + command;
         } else {
             const std::string difference =
