@@ -213,9 +213,10 @@ demo: deps
 # a sharded file's name leaves out all its shards.
 SHARDED     := test_extremes.1of4 test_extremes.2of4 test_extremes.3of4 test_extremes.4of4
 WAITING_SUITES := class sandbox
-SLOW_SUITES := $(WAITING_SUITES) check student grade $(SHARDED) cli hostile_files \
-               test_formats test_free_camera panel bad_input printed_commands test_ray_plot \
-               test_steps window test_handouts test_shadows test_compositing peers
+SLOW_SUITES := $(WAITING_SUITES) check student test_formats grade test_handouts cli panel \
+               printed_commands test_steps $(SHARDED) test_ray_plot hostile_files window \
+               test_part3 threshold_mistakes test_free_camera test_compositing bad_input \
+               peers test_shadows test_threads test_jitter
 ALL_SUITES  := $(SLOW_SUITES) $(filter-out $(SLOW_SUITES) $(basename $(SHARDED)),\
                $(patsubst tests/%_test.sh,%,$(wildcard tests/*_test.sh)) \
                $(basename $(notdir $(wildcard tests/test_*.cpp))))
