@@ -45,6 +45,16 @@ const std::vector<std::string>& phantom_flags() {
     return flags;
 }
 
+std::vector<std::string> phantom_from_file(std::vector<std::string> flags) {
+    for (size_t n = 0; n + 1 < flags.size(); ++n) {
+        if (flags[n] != "--volume" || flags[n + 1] != "phantom") continue;
+        flags.erase(flags.begin() + long(n), flags.begin() + long(n) + 2);
+        flags.insert(flags.begin() + long(n), phantom_flags().begin(), phantom_flags().end());
+        break;
+    }
+    return flags;
+}
+
 const std::vector<std::string>& part1_step_names() {
     static const std::vector<std::string> names = [] {
         std::vector<std::string> part1;

@@ -84,6 +84,8 @@ std::vector<std::string> size_flags(const std::string& name);
 // and traces, without each step process painting the head again (0.12 s of CPU a run,
 // most of a small picture's run). Only the volume line differs: "volume=PATH".
 const std::vector<std::string>& phantom_flags();
+// `flags` with "--volume phantom" (if there) replaced by phantom_flags().
+std::vector<std::string> phantom_from_file(std::vector<std::string> flags);
 
 // What a step renders of `volume` in its default run: part 1, views_named(volume, "all");
 // part 2, one view "camera" of camera_width x camera_height (with size_flags).
