@@ -215,8 +215,8 @@ SHARDED     := test_extremes.1of4 test_extremes.2of4 test_extremes.3of4 test_ext
 WAITING_SUITES := class sandbox
 SLOW_SUITES := $(WAITING_SUITES) check student test_formats grade test_handouts cli panel \
                printed_commands test_steps $(SHARDED) test_ray_plot hostile_files window \
-               test_part3 threshold_mistakes test_free_camera test_compositing bad_input \
-               peers test_shadows test_threads test_jitter
+               threshold_mistakes test_free_camera test_compositing bad_input peers \
+               test_shadows test_threads test_golden test_isosurface test_jitter test_part3
 ALL_SUITES  := $(SLOW_SUITES) $(filter-out $(SLOW_SUITES) $(basename $(SHARDED)),\
                $(patsubst tests/%_test.sh,%,$(wildcard tests/*_test.sh)) \
                $(basename $(notdir $(wildcard tests/test_*.cpp))))
