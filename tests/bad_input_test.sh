@@ -75,6 +75,11 @@ echo "my notes, not a picture" > "$work/notes.png"
 # raw volume ($small), not the phantom, painted anew in each run (0.1 s of CPU).
 w=$work
 small="--volume $w/raw48 --dims 4,3,2"
+# The cases found once the phantom is painted, where the message does not name the volume or
+# its spacing, load it from a raw file painted once (the same voxels and spacing).
+"$build/make_phantom" "$w/phantom.raw" > /dev/null ||
+    { echo "bad input test: $build/make_phantom failed"; exit 2; }
+ph="--volume $w/phantom.raw --dims 256,256,113 --spacing 1,1,2"
 cat > "$work/table" << EOF
 02_threshold --volume $w/one_byte
   says: '$w/one_byte' has 1 byte, expected exactly $cthead_bytes for CThead (256x256x113 int16)
@@ -122,9 +127,9 @@ cat > "$work/table" << EOF
   says: --threshold: missing value
 02_threshold --volume phantom --no-window=yes
   says: --no-window: takes no value
-02_threshold --volume phantom --debug-pixel 256,0
+02_threshold $ph --debug-pixel 256,0
   says: --debug-pixel 256,0 is outside the top image (256x256)
-02_threshold --volume phantom --view front --debug-pixel 0,113
+02_threshold $ph --view front --debug-pixel 0,113
   says: --debug-pixel 0,113 is outside the front image (256x113)
 02_threshold --volume phantom --debug-pixel -1,5
   says: --debug-pixel: expected a whole number from 0 to 2147483647, got -1
@@ -132,7 +137,7 @@ cat > "$work/table" << EOF
   says: --debug-pixel: expected X,Y (image column, row), got '5'
 02_threshold --volume phantom --threshold 1e31
   says: --threshold: expected a number from -1e+30 to 1e+30, got 1e31
-02_threshold --volume phantom --threshold 40000
+02_threshold $ph --threshold 40000
   says: --threshold: expected a number from -32768 to 32767, got 40000
 05_interpolated_hits --volume phantom --threshold bone
   says: --threshold: expected a number, got 'bone'
@@ -160,7 +165,7 @@ cat > "$work/table" << EOF
   says: --ert: expected a number from 0 to 1, got 2
 04_gradient_lighting --volume phantom --light-angle 500
   says: --light-angle: expected a number from -180 to 180, got 500
-00_slices --volume phantom --view top --slice 200
+00_slices $ph --view top --slice 200
   says: --slice: the top view has slices 0 to 112, got 200
 07_back_to_front $small --tf $w/bad_kind.tf
   says: bad_kind.tf:3: the kind must be constant or ramp, got 'constnt'
@@ -180,9 +185,9 @@ cat > "$work/table" << EOF
   says: overlapping.tf:2: the range [0, 300) overlaps [-300, 50) on line 1
 07_back_to_front $small --tf $w/unsorted.tf
   says: unsorted.tf:2: ranges must be sorted by FROM: [-300, 50) comes after [300, 32768) on line 1
-08_compositing_order --volume phantom --tf $w/opacity_high.tf
+08_compositing_order $ph --tf $w/opacity_high.tf
   says: opacity_high.tf:1: opacity must be from 0 to 1, got 1.5
-10_opacity_correction --volume phantom --tf $w/opacity_negative.tf
+10_opacity_correction $ph --tf $w/opacity_negative.tf
   says: opacity_negative.tf:1: end opacity must be from 0 to 1, got -0.1
 07_back_to_front $small --tf $w/opacity_nan.tf
   says: opacity_nan.tf:1: opacity is not a number (nan), expected 0 to 1
@@ -204,13 +209,13 @@ cat > "$work/table" << EOF
   says: --tf: '$w/a_folder' is a folder, not a file
 07_back_to_front $small --tf /dev/zero
   says: --tf: '/dev/zero' is a device, not an ordinary file
-02_threshold --volume phantom --out ""
+02_threshold $ph --out ""
   says: --out: expected a folder
-02_threshold --volume phantom --out $w/regular_file/out
+02_threshold $ph --out $w/regular_file/out
   says: --out: cannot write to '$w/regular_file/out': '$w/regular_file' is a file, not a folder
-02_threshold --volume phantom --out /proc/ctlab_out/pictures
+02_threshold $ph --out /proc/ctlab_out/pictures
   says: --out: cannot create folder '/proc/ctlab_out'
-02_threshold --volume phantom --out /proc/self
+02_threshold $ph --out /proc/self
   says: --out: cannot write to folder '/proc/self'
 grade $w/two.ppm $w/one.ppm --diff $w/out/diff.png
   says: $w/two.ppm is 2x1 but $w/one.ppm is 1x1
@@ -466,16 +471,16 @@ tf crlf '# skin\r\n-300 50 constant 1 0.79 0.6 0.12 skin\r\n'
 tf nothing '# no ranges at all\n'
 t=07_back_to_front
 expect 2 "$t: error: --tf: '$work/huge.tf' has 2000000 bytes, over the limit of 1048576 bytes for a transfer function" \
-    "$build/$t" --volume phantom --no-window --out "$out" --tf "$work/huge.tf"
+    "$build/$t" $ph --no-window --out "$out" --tf "$work/huge.tf"
 expect 2 "$t: error: $work/bom.tf:1: the file starts with a UTF-8 byte order mark (bytes EF BB BF): save it as UTF-8 without BOM" \
-    "$build/$t" --volume phantom --no-window --out "$out" --tf "$work/bom.tf"
+    "$build/$t" $ph --no-window --out "$out" --tf "$work/bom.tf"
 expect 2 "$t: error: $work/nbsp.tf:2: a non-breaking space (bytes C2 A0) at byte 17: separate the fields with ordinary spaces" \
-    "$build/$t" --volume phantom --no-window --out "$out" --tf "$work/nbsp.tf"
+    "$build/$t" $ph --no-window --out "$out" --tf "$work/nbsp.tf"
 expect 2 "$t: error: $work/cr_only.tf:1: a line ends with CR alone (old Mac line endings): save the file with LF (or CRLF) line endings" \
-    "$build/$t" --volume phantom --no-window --out "$out" --tf "$work/cr_only.tf"
-expect 0 "" "$build/$t" --volume phantom --view top --no-window --out "$out" --tf "$work/crlf.tf"
+    "$build/$t" $ph --no-window --out "$out" --tf "$work/cr_only.tf"
+expect 0 "" "$build/$t" $ph --view top --no-window --out "$out" --tf "$work/crlf.tf"
 expect 0 "note: $work/nothing.tf has no ranges: every value is transparent, the pictures will be black" \
-    "$build/$t" --volume phantom --view top --no-window --out "$out" --tf "$work/nothing.tf"
+    "$build/$t" $ph --view top --no-window --out "$out" --tf "$work/nothing.tf"
 rm -rf "$out"
 mkdir "$out"
 

@@ -52,6 +52,14 @@ while [ $n -lt 24 ]; do
 done
 [ "$(wc -c < "$raw")" -eq 48 ] || { echo "cli test: could not write $raw" >&2; exit 2; }
 
+# The phantom as a raw file, painted once (build/make_phantom): the good runs after the first
+# load it (the same voxels and spacing as --volume phantom) instead of painting the head
+# again, 0.12 s of CPU per run. The first step's good run keeps --volume phantom itself.
+phantom_raw="$work/phantom.raw"
+"$build/make_phantom" "$phantom_raw" > /dev/null ||
+    { echo "cli test: $build/make_phantom failed" >&2; exit 2; }
+phantom_flags="--volume $phantom_raw --dims 256,256,113 --spacing 1,1,2"
+
 # expect_bad STEP TEXT ARGS...: exit status 2, exactly one line on stderr, of the form
 # "STEP: error: ..." and containing TEXT; no PNG anywhere under the --out folder.
 expect_bad() {
@@ -140,12 +148,14 @@ for source in steps/[0-9][0-9]_*.cpp; do
            camera_seen=1 ;;
     esac
     out="$work/good_$step"
+    volume_flags=$phantom_flags
+    [ $steps -eq 1 ] && volume_flags="--volume phantom"
     # shellcheck disable=SC2086
-    "$build/$step" --volume phantom --no-window --out "$out" --debug-pixel $px,$py $size_flags \
+    "$build/$step" $volume_flags --no-window --out "$out" --debug-pixel $px,$py $size_flags \
         > "$work/stdout" 2> "$work/stderr"
     status=$?
     [ $status -eq 0 ] && [ ! -s "$work/stderr" ]
-    check $? "$step --volume phantom $size_flags: status $status, stderr: $(cat "$work/stderr")"
+    check $? "$step $volume_flags $size_flags: status $status, stderr: $(cat "$work/stderr")"
     for view_size in $views; do
         view=${view_size%%:*}
         size=${view_size#*:}

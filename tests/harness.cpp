@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include "phantom.h"
 
 namespace ctlab_test {
 
@@ -36,6 +37,23 @@ const std::vector<std::string>& step_names() {
 }
 
 bool is_camera_step(const std::string& name) { return name >= "12"; }
+
+const std::vector<std::string>& phantom_flags() {
+    static const ctlab::TempFolder folder("phantom");
+    static const std::vector<std::string> flags =
+        ctlab::write_raw_volume(ctlab::make_phantom(), folder.path("phantom.raw"));
+    return flags;
+}
+
+std::vector<std::string> phantom_from_file(std::vector<std::string> flags) {
+    for (size_t n = 0; n + 1 < flags.size(); ++n) {
+        if (flags[n] != "--volume" || flags[n + 1] != "phantom") continue;
+        flags.erase(flags.begin() + long(n), flags.begin() + long(n) + 2);
+        flags.insert(flags.begin() + long(n), phantom_flags().begin(), phantom_flags().end());
+        break;
+    }
+    return flags;
+}
 
 const std::vector<std::string>& part1_step_names() {
     static const std::vector<std::string> names = [] {

@@ -16,6 +16,7 @@ logs=$build/test-logs
 mkdir -p "$logs" || exit 2
 log=$logs/$name.log
 started=$(date +%s)
+start_stamp=$(date +%s.%N)
 # CPU time (user, system seconds) of the suite and every process it waited for: on a shared
 # machine the figure that says what a suite costs (wall time says how busy the machine was).
 cpu="/usr/bin/time -f %U_%S -o $logs/$name.cpu"
@@ -49,6 +50,8 @@ fi
 status=$?
 seconds=$(( $(date +%s) - started ))
 echo "$status $seconds" > "$logs/$name.status"
+# When it started and ended (seconds since the epoch): where make test's cores idled.
+echo "$start_stamp $(date +%s.%N)" > "$logs/$name.time"
 echo "=== $name (exit $status, ${seconds} s) ==="
 cat "$log"
 exit 0  # the summary judges every suite; one failing does not stop the others

@@ -145,8 +145,13 @@ bool identical(const Image& a, const Image& b) {
            std::memcmp(a.pixels.data(), b.pixels.data(), a.pixels.size() * sizeof(Rgb)) == 0;
 }
 
-// The phantom as the steps render it by default (full size, 2 threads).
-const std::vector<std::string> phantom = {"--volume", "phantom", "--threads", "2"};
+// The phantom as the steps render it by default (full size, 2 threads): painted once in this
+// process and loaded from its raw file (harness.h), not painted by every run.
+std::vector<std::string> phantom() {
+    std::vector<std::string> flags = ctlab_test::phantom_flags();
+    flags.insert(flags.end(), {"--threads", "2"});
+    return flags;
+}
 
 constexpr int skin_value = 0, bone_value = 1000;  // CT values inside the classic ranges
 
@@ -410,12 +415,12 @@ TEST_CASE("compositing: extinction alpha = -expm1(-kappa h) stays in [0, 1]; kap
 }
 
 TEST_CASE("compositing: front to back and back to front agree on the phantom") {
-    const StepRender b2f = ctlab_test::render(step08, joined(phantom, {"--order", "b2f"}));
+    const StepRender b2f = ctlab_test::render(step08, joined(phantom(), {"--order", "b2f"}));
     REQUIRE(b2f.images.size() == 3);
     for (const double ert : {0.0, 0.01, 0.1}) {
         CAPTURE(ert);
         const StepRender f2b =
-            ctlab_test::render(step08, joined(phantom, {"--ert", std::to_string(ert)}));
+            ctlab_test::render(step08, joined(phantom(), {"--ert", std::to_string(ert)}));
         REQUIRE(f2b.images.size() == 3);
         for (size_t v = 0; v < 3; ++v) {
             const std::string& view = f2b.views[v];
@@ -443,9 +448,9 @@ TEST_CASE("compositing: front to back and back to front agree on the phantom") {
 }
 
 TEST_CASE("compositing: step 09 --unlit is step 08's picture; lit, only the colour changes") {
-    const StepRender unlit = ctlab_test::render(step09, joined(phantom, {"--unlit"}));
-    const StepRender lit = ctlab_test::render(step09, phantom);
-    const StepRender plain = ctlab_test::render(step08, phantom);
+    const StepRender unlit = ctlab_test::render(step09, joined(phantom(), {"--unlit"}));
+    const StepRender lit = ctlab_test::render(step09, phantom());
+    const StepRender plain = ctlab_test::render(step08, phantom());
     REQUIRE(unlit.images.size() == 3);
     for (const std::string view : {"top", "front", "side"}) {
         CAPTURE(view);
@@ -468,7 +473,7 @@ TEST_CASE("compositing: the two orders compared, as a student would (front view,
     // What step 08 itself once reported with --order both: the two pictures' largest channel
     // difference and the share of back to front's samples that front to back never reached.
     const ctlab_test::TempFolder out("compositing");
-    const std::vector<std::string> front = joined(phantom, {"--view", "front"});
+    const std::vector<std::string> front = joined(phantom(), {"--view", "front"});
     const StepRender f2b = ctlab_test::render(step08, front);
     const StepRender b2f = ctlab_test::render(step08, joined(front, {"--order", "b2f"}));
     REQUIRE(f2b.images.size() == 1);
@@ -592,7 +597,7 @@ TEST_CASE("compositing: step 10 interpolates along the ray and never reads outsi
 
 TEST_CASE("compositing: gradients only where alpha > 0; none unlit or fully transparent") {
     auto front = [](const std::vector<std::string>& flags) {
-        const StepRender run = ctlab_test::render(step11, joined(joined(phantom, {"--view",
+        const StepRender run = ctlab_test::render(step11, joined(joined(phantom(), {"--view",
                                                                                   "front"}),
                                                                  flags));
         REQUIRE(run.images.size() == 1);
@@ -624,7 +629,7 @@ TEST_CASE("compositing: leaping over empty bricks changes no pixel, only the wor
     // the same. Also at steps that do not divide a brick (0.3, 2.5).
     for (const char* step : {"0.3", "1", "2.5"}) {
         CAPTURE(step);
-        const std::vector<std::string> flags = joined(phantom, {"--step", step});
+        const std::vector<std::string> flags = joined(phantom(), {"--step", step});
         const StepRender leaping = ctlab_test::render(step11, flags);
         const StepRender reading = ctlab_test::render(step11, joined(flags, no_leaping));
         REQUIRE(leaping.images.size() == 3);
@@ -685,7 +690,7 @@ TEST_CASE("compositing: a sample between an empty brick and bone is not leapt ov
 TEST_CASE("compositing: the empty bricks follow the table's skin opacity") {
     // Step 11 at skin opacity 0 and at the default 0.12: without skin, the skin's bricks
     // become empty and are leapt over, and the skin is gone from the picture.
-    const std::vector<std::string> front = joined(phantom, {"--view", "front"});
+    const std::vector<std::string> front = joined(phantom(), {"--view", "front"});
     const StepRender no_skin = ctlab_test::render(step11, joined(front, {"--skin-opacity", "0"}));
     const StepRender skin = ctlab_test::render(step11, front);
     CHECK(summary_count(no_skin.summary("front"), "leapt") >
@@ -701,7 +706,7 @@ TEST_CASE("compositing: step 10 at step 1 and 0.5 looks the same with correction
     // of gradients taken from the phantom's noise, interpolated differently at half steps.
     for (const bool unlit : {false, true}) {
         auto render = [&](const char* step, bool correction) {
-            std::vector<std::string> flags = joined(phantom, {"--step", step});
+            std::vector<std::string> flags = joined(phantom(), {"--step", step});
             if (unlit) flags.push_back("--unlit");
             if (!correction) flags.push_back("--no-correction");
             return ctlab_test::render(step10, flags);

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 #include "tools/compare.h"
+#include "harness.h"
 #include "image.h"
 #include "phantom.h"
 #include "tools/run_step.h"
@@ -103,7 +104,7 @@ TEST_CASE("free camera: along the three axes it draws part 1's top and side view
     // Orthographic, zoom 1 (one pixel per voxel), the image the size of part 1's, the step the
     // spacing along the ray: every sample is a voxel centre, where trilinear is the voxel.
     const TempFolder folder("free_camera_axes");
-    const std::vector<std::string> phantom = {"--volume", "phantom"};
+    const std::vector<std::string>& phantom = ctlab_test::phantom_flags();
     for (const std::string lighting : {"unlit", "lit"}) {
         CAPTURE(lighting);
         const bool lit = lighting == "lit";
@@ -174,7 +175,7 @@ TEST_CASE("free camera: --interpolation nearest at voxel centres is trilinear's 
     // nearest voxel and the trilinear value are that voxel, and the nearest voxel's gradient
     // is step 10's.
     const TempFolder folder("free_camera_nearest");
-    const std::vector<std::string> phantom = {"--volume", "phantom"};
+    const std::vector<std::string>& phantom = ctlab_test::phantom_flags();
     for (const std::string lighting : {"unlit", "lit"}) {
         CAPTURE(lighting);
         std::vector<std::string> top = {"--azimuth", "180", "--elevation", "90", "--size",
@@ -206,14 +207,17 @@ TEST_CASE("free camera: --interpolation nearest at voxel centres is trilinear's 
 TEST_CASE("free camera: the slab method's stiff cases give an entry and exit or a clean "
           "miss, never NaN") {
     const TempFolder folder("free_camera_slab");
-    const std::vector<std::string> phantom = {"--volume", "phantom"};
+    // The phantom painted once (harness.h); the runs whose whole output is searched for
+    // "nan" name the built-in one, as their volume line would name a temporary path.
+    const std::vector<std::string>& phantom = ctlab_test::phantom_flags();
+    const std::vector<std::string> built_in = {"--volume", "phantom"};
 
     SUBCASE("rays parallel to two faces, their origins on the faces' planes (0 * inf)") {
         // Looking straight down k: direction (0, -0, 1). Pixel (0, 0) starts on the planes
         // i = 0 and j = 0 and runs along the box's edge from corner (0, 0, 0) to (0, 0, 224);
         // pixel (255, 255) along the opposite edge, on the planes i = 255 and j = 255.
         // --no-leaping: the edge is air, and the trace should show every sample read.
-        const RunResult run = render(free_camera, phantom,
+        const RunResult run = render(free_camera, built_in,
                                      {"--azimuth", "180", "--elevation", "90", "--size",
                                       "256x256", "--step", "2", "--debug-pixel", "0,0",
                                       "--no-leaping"},
@@ -258,7 +262,7 @@ TEST_CASE("free camera: the slab method's stiff cases give an entry and exit or 
     }
 
     SUBCASE("a perspective camera inside the box") {
-        const RunResult run = render(free_camera, phantom,
+        const RunResult run = render(free_camera, built_in,
                                      {"--projection", "perspective", "--zoom", "20", "--size",
                                       "96x64", "--fov", "90", "--debug-pixel", "48,32"},
                                      folder);
@@ -390,7 +394,7 @@ TEST_CASE("free camera: bad camera flags are refused with status 2") {
 TEST_CASE("free camera: the default run matches its reference image, no NaN") {
     // As test_golden.cpp does for part 1 (same tolerance): make reference renders it.
     const TempFolder folder("free_camera_golden");
-    const RunResult run = render(free_camera, {"--volume", "phantom"}, {}, folder);
+    const RunResult run = render(free_camera, ctlab_test::phantom_flags(), {}, folder);
     const Image image = pfm_of(folder, free_camera, "camera");
     CHECK(non_finite_pixels(image) == 0);
     CHECK(summary_count(run.summary("camera"), "samples") > 0);
@@ -409,10 +413,11 @@ TEST_CASE("free camera: the picture and the work counts do not depend on the thr
     std::vector<Summary> summaries;
     for (const TempFolder* folder : {&one, &three}) {
         const std::string threads = folder == &one ? "1" : "3";
-        const RunResult run = run_step(free_camera, {"--volume", "phantom", "--size", "96x80",
-                                                     "--zoom", "0.3", "--projection",
-                                                     "perspective", "--out", folder->path(),
-                                                     "--pfm", "--threads", threads});
+        std::vector<std::string> args = ctlab_test::phantom_flags();
+        args.insert(args.end(), {"--size", "96x80", "--zoom", "0.3", "--projection",
+                                 "perspective", "--out", folder->path(), "--pfm", "--threads",
+                                 threads});
+        const RunResult run = run_step(free_camera, args);
         REQUIRE(run.status == 0);
         summaries.push_back(run.summary("camera"));
     }
@@ -439,14 +444,15 @@ TEST_CASE("free camera: leaping over empty bricks never changes the picture") {
         {"--azimuth", "180", "--elevation", "90", "--size", "128x128", "--zoom", "0.5",
          "--skin-opacity", "0"},                                        // along k, bone only
     };
+    const std::vector<std::string>& phantom = ctlab_test::phantom_flags();
     for (const std::vector<std::string>& camera : cameras) {
         CAPTURE(camera.size());
         CAPTURE(camera[1]);
         std::vector<std::string> no_leaping = camera;
         no_leaping.push_back("--no-leaping");
-        const RunResult plain = render(free_camera, {"--volume", "phantom"}, no_leaping, folder);
+        const RunResult plain = render(free_camera, phantom, no_leaping, folder);
         const Image every_sample = pfm_of(folder, free_camera, "camera");
-        const RunResult leaping = render(free_camera, {"--volume", "phantom"}, camera, folder);
+        const RunResult leaping = render(free_camera, phantom, camera, folder);
         const Image leapt = pfm_of(folder, free_camera, "camera");
         CHECK(differing_pixels(leapt, every_sample, false) == 0);
         const Summary with = leaping.summary("camera"), without = plain.summary("camera");
@@ -468,7 +474,7 @@ TEST_CASE("free camera: leaping over empty bricks never changes the picture") {
 // step 14 is step 24 with --no-leaping, bit for bit, with the same work where they read the
 // same samples: each step adds its one idea without touching the picture of the one before.
 TEST_CASE("free camera: step 13 is step 14's nearest picture, step 14 is step 24's unleapt") {
-    const std::vector<std::string> phantom = {"--volume", "phantom"};
+    const std::vector<std::string>& phantom = ctlab_test::phantom_flags();
     const std::vector<std::string> small = {"--size", "160x128", "--azimuth", "40"};
     auto with = [&](std::vector<std::string> flags) {
         flags.insert(flags.begin(), small.begin(), small.end());
@@ -501,7 +507,7 @@ TEST_CASE("free camera: step 13 is step 14's nearest picture, step 14 is step 24
 // bit; from the default camera the samples lie elsewhere along the rays, and the pictures
 // differ by a few nearest-voxel staircases only.
 TEST_CASE("free camera: step 12's test per sample is step 13's slab method along an axis") {
-    const std::vector<std::string> phantom = {"--volume", "phantom"};
+    const std::vector<std::string>& phantom = ctlab_test::phantom_flags();
     const std::vector<std::string> above = {"--azimuth", "180", "--elevation", "90", "--size",
                                             "128x128", "--step", "2", "--zoom", "0.5"};
     TempFolder ten("camera10"), eleven("camera11");

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 #include "tools/compare.h"
+#include "harness.h"
 #include "image.h"
 #include "tools/run_step.h"
 #include "volume.h"
@@ -486,10 +487,11 @@ TEST_CASE("isosurface: the picture and the work do not depend on the thread coun
         const TempFolder one("isosurface_threads1"), three("isosurface_threads3");
         std::vector<Summary> summaries;
         for (const TempFolder* folder : {&one, &three}) {
-            std::vector<std::string> flags = {"--volume", "phantom", "--size", "96x80",
-                                              "--zoom", "0.3", "--projection", "perspective",
-                                              "--out", folder->path(), "--pfm", "--threads",
-                                              folder == &one ? "1" : "3"};
+            // The phantom painted once in this process (harness.h), not by every run.
+            std::vector<std::string> flags = ctlab_test::phantom_flags();
+            flags.insert(flags.end(), {"--size", "96x80", "--zoom", "0.3", "--projection",
+                                       "perspective", "--out", folder->path(), "--pfm",
+                                       "--threads", folder == &one ? "1" : "3"});
             if (step == clip_step) flags.insert(flags.end(), {"--clip", "0,-1,0,-110"});
             const RunResult run = run_step(step, flags);
             REQUIRE(run.status == 0);
@@ -545,7 +547,7 @@ TEST_CASE("isosurface: each step's default run matches its reference image, no N
     for (const std::string& step : surface_steps) {
         CAPTURE(step);
         const TempFolder folder("isosurface_golden");
-        const RunResult run = run_iso(step, {"--volume", "phantom"}, {}, folder);
+        const RunResult run = run_iso(step, ctlab_test::phantom_flags(), {}, folder);
         const Image image = picture(step, folder);
         CHECK(non_finite_pixels(image) == 0);
         CHECK(summary_count(run.summary("camera"), "hits") > 0);

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <string>
 #include <vector>
+#include "harness.h"
 #include "image.h"
 #include "tools/run_step.h"
 #include "volume.h"
@@ -24,8 +25,11 @@ const std::string free_camera = "14_trilinear";
 constexpr int tile = 64;  // the blue-noise tile's side, as handouts/16_blue_noise.md says
 constexpr double pi = 3.14159265358979323846;
 
+// Runs a step with --pfm into `folder`; --volume phantom loads the phantom painted once in
+// this process (harness.h), not painted by every run.
 RunResult render(const std::string& step, std::vector<std::string> flags,
                  const TempFolder& folder) {
+    flags = ctlab_test::phantom_from_file(flags);
     flags.insert(flags.end(), {"--out", folder.path(), "--pfm", "--threads", "2"});
     RunResult run = run_step(step, flags);
     INFO(run.command() << "\n" << run.err);

@@ -212,7 +212,9 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
     for (const Case& c : cases) {
         CAPTURE(c.step);
         ctlab::TempFolder out("ray_plot");
-        std::vector<std::string> flags = {"--volume", "phantom", "--out", out.path()};
+        // The phantom painted once (harness.h), not by each run.
+        std::vector<std::string> flags = ctlab_test::phantom_flags();
+        flags.insert(flags.end(), {"--out", out.path()});
         flags.insert(flags.end(), c.flags.begin(), c.flags.end());
         const RunResult run = run_step(c.step, flags);
         REQUIRE(run.status == 0);
@@ -275,7 +277,8 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
 TEST_CASE("step 05 marks the interpolated crossing, step 11 its leaps, step 24 the box") {
     ctlab::TempFolder out("ray_plot_marks");
     const auto flags = [&](std::vector<std::string> more) {
-        std::vector<std::string> all = {"--volume", "phantom", "--out", out.path()};
+        std::vector<std::string> all = ctlab_test::phantom_flags();
+        all.insert(all.end(), {"--out", out.path()});
         all.insert(all.end(), more.begin(), more.end());
         return all;
     };
@@ -385,8 +388,9 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
         const std::string golden = "data/reference/rays/" + stem + ".png";
         REQUIRE(fs::is_regular_file(golden));
         ctlab::TempFolder out("ray_golden");
-        std::vector<std::string> flags = {"--volume", "phantom",       "--out",
-                                          out.path(), "--debug-pixel", pixel};
+        // The phantom painted once (harness.h): the pictures are the built-in phantom's.
+        std::vector<std::string> flags = ctlab_test::phantom_flags();
+        flags.insert(flags.end(), {"--out", out.path(), "--debug-pixel", pixel});
         // A default run's step is the run's name; a variant's (NN_name_VARIANT) is the step
         // whose name starts it, with the manifest line's arguments.
         std::string step = name, drawn_stem = stem;

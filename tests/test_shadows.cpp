@@ -14,6 +14,7 @@
 #include <functional>
 #include <string>
 #include <vector>
+#include "harness.h"
 #include "image.h"
 #include "tools/run_step.h"
 #include "volume.h"
@@ -292,9 +293,10 @@ namespace {
 // A small phantom picture (128x96, turned to azimuth -50) of `step` with `extra` flags.
 Image small_picture(const std::string& step, const std::vector<std::string>& extra,
                     const TempFolder& folder) {
-    std::vector<std::string> flags = {"--volume", "phantom", "--size", "128x96", "--zoom",
-                                      "0.4", "--azimuth", "-50", "--threads", "2", "--pfm",
-                                      "--out", folder.path()};
+    // The phantom painted once in this process (harness.h), not by every run.
+    std::vector<std::string> flags = ctlab_test::phantom_flags();
+    flags.insert(flags.end(), {"--size", "128x96", "--zoom", "0.4", "--azimuth", "-50",
+                               "--threads", "2", "--pfm", "--out", folder.path()});
     flags.insert(flags.end(), extra.begin(), extra.end());
     const RunResult run = run_step(step, flags);
     INFO(run.command() << "\n" << run.err);
@@ -373,10 +375,10 @@ struct Picture {
 };
 Picture phantom_picture(const std::vector<std::string>& extra, const TempFolder& folder,
                         int size = 256) {
-    std::vector<std::string> flags = {"--volume", "phantom", "--size",
-                                      std::to_string(size) + "x" + std::to_string(size),
-                                      "--zoom", size == 512 ? "1" : "0.5", "--threads", "2",
-                                      "--pfm", "--out", folder.path()};
+    std::vector<std::string> flags = ctlab_test::phantom_flags();  // painted once (harness.h)
+    flags.insert(flags.end(), {"--size", std::to_string(size) + "x" + std::to_string(size),
+                               "--zoom", size == 512 ? "1" : "0.5", "--threads", "2", "--pfm",
+                               "--out", folder.path()});
     flags.insert(flags.end(), extra.begin(), extra.end());
     Picture picture;
     picture.run = run_step(light_volume_step, flags);
