@@ -1,24 +1,29 @@
-// 37_opaque_pixels.cpp: shear-warp's third trick, early termination in image space: the
-// opaque pixels of a row are jumped over, not tested one by one.
+// 39_quantised_normals.cpp: shear-warp's fourth trick, VolPack's quantised normals with a
+// shading table made per render.
 //
-// New here:   step 36 tests every pixel of a run against T in every slice, opaque or not.
-//             Here next[u] leads from a pixel to the first one at or after it that is not
-//             opaque (each lookup shortens the path it followed, as a union-find does), so an
-//             opaque stretch of a row costs a jump or two per run however wide it is, and a
-//             row whose pixels are all opaque stops reading slices. The same samples as step
-//             36, in the same order: the same pictures and samples.
-//             Orthographic only; one sample per slice, so no --step. --work-map is refused:
-//             the work is counted per row of the intermediate image.
-// Builds on:  36_slice_runs.
-// Handout:    handouts/37_opaque_pixels.md
-// Run:        make run STEP=37 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/37_opaque_pixels_camera.png: the default run (lit composite,
+// New here:   a lit sample no longer computes the four gradients of its cell's corners from
+//             the voxels (step 36's slice_light(), 24 voxel reads and a shade()). Each voxel a
+//             sample can read (the corners of the runs' cells) keeps the index of the nearest
+//             of 16,641 directions, in two bytes, made once per principal axis
+//             (fill_normal_table()); a table made per render holds each direction's light
+//             (make_shading_table()), so a lit sample is four table reads blended as the
+//             values are. It shades at the voxels and interpolates the light, as VolPack
+//             does: along an axis the pictures are step 38's but for the rounding of the
+//             directions (a stated error: tol=5 there, handout 39). Unlit and the maximum are
+//             step 38's floats. Orthographic only; one sample per slice, so no --step.
+//             --work-map is refused: the work is counted per row of the intermediate image.
+// Builds on:  38_opaque_pixels.
+// Handout:    handouts/39_quantised_normals.md
+// Run:        make run STEP=39 ARGS="--azimuth 180 --elevation 90 --size 256x256"
+// Reference:  data/reference/39_quantised_normals_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
+#include <cstring>  // std::memcpy: a mask's bytes at once, a float's bits
 #include <ctime>   // std::clock: the precomputation's CPU time (the machine may be shared)
+#include <memory>  // std::unique_ptr: the normal table, left unwritten where not needed
 using namespace ctlab;
 
-constexpr const char* step_name = "37_opaque_pixels";
+constexpr const char* step_name = "39_quantised_normals";
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
@@ -35,6 +40,8 @@ constexpr double default_fov = 30;        // degrees, the perspective image's he
 constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
 constexpr const char* default_size = "512x512";  // pixels, columns x rows
 constexpr int max_image_side = 8192;             // pixels, --size limit per side
+constexpr double max_table_bytes = 2.0 * (1 << 30);  // bytes: a larger normal table is not
+                                                    // built (gradients from the voxels)
 
 struct Params {
     std::string mode = "composite";  // "composite" or "mip"
@@ -328,7 +335,7 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
-// --- Step 35: shear-warp ---
+// --- Step 36: shear-warp ---
 
 // The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
 // of voxels across the principal axis c, the axis the view direction runs most along in
@@ -380,6 +387,84 @@ struct Runs {
     }
 };
 
+// Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
+// direction nearest its gradient's in a fixed set, two bytes at (k*ny + j)*nx + i like the
+// voxels; a table made per render holds the light of every direction. A lit sample is then
+// four indices and four table reads, blended as the values are: no gradient, no shade. The
+// set is the octahedral one: a direction d is put on the octahedron |x| + |y| + |z| = 1 (d
+// over its length in that sum, no square root), its lower half folded over the upper, and
+// its (x, y) rounded to a grid of normal_grid x normal_grid points on [-1, 1]^2. Index 0 is
+// "no direction" (a gradient of 0: ambient light only, as shade() gives).
+constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
+                                  // directions, one within 1.9 degrees of any direction (0.67
+                                  // on average; handout 39, Quality)
+constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
+
+// Only the voxels a sample can read are filled (see fill_normal_table): the others are never
+// written, nor read, their memory pages never touched.
+struct NormalTable {
+    std::unique_ptr<uint16_t[]> indices;  // per voxel its direction's index; null: no table
+    bool filled[3] = {false, false, false};  // for the runs of principal axis 0, 1, 2
+    size_t voxels_filled = 0;  // indices computed (a voxel filled for two axes counts twice)
+};
+
+//> lesson: normals
+// The index of the direction nearest g's (0 when g is 0). Written without a branch or
+// a float comparison but != (fill_normal_table() calls it sixteen voxels at a time, and the
+// compiler makes that vector instructions only when no step of it could trap): the fold's
+// test is k's sign bit, its signs std::copysign, the clamps on integers.
+static inline uint16_t normal_index(Vec3 g) {
+    const float sum = std::fabs(g.i) + std::fabs(g.j) + std::fabs(g.k);
+    const float inverse = 1.0f / (sum + std::numeric_limits<float>::min());  // finite at 0
+    const float x = g.i * inverse, y = g.j * inverse;
+    // The lower half (k < 0), folded over the upper one: lower is 1 there, else 0.
+    int32_t k_bits;
+    std::memcpy(&k_bits, &g.k, sizeof k_bits);
+    const float lower = float((k_bits >> 31) & 1);
+    const float folded_x = std::copysign(1.0f - std::fabs(y), x);
+    const float folded_y = std::copysign(1.0f - std::fabs(x), y);
+    const float on_x = x + lower * (folded_x - x), on_y = y + lower * (folded_y - y);
+    constexpr float half_grid = 0.5f * (normal_grid - 1);
+    const int u = std::min(normal_grid - 1, std::max(0, int((on_x + 1.0f) * half_grid + 0.5f)));
+    const int v = std::min(normal_grid - 1, std::max(0, int((on_y + 1.0f) * half_grid + 0.5f)));
+    return uint16_t(sum != 0.0f ? 1 + v * normal_grid + u : 0);
+}
+
+// Every index's direction, a unit vector (index 0: the zero vector).
+static std::vector<Vec3> normal_directions() {
+    std::vector<Vec3> directions(normal_count, Vec3{0, 0, 0});
+    for (int v = 0; v < normal_grid; ++v) {
+        for (int u = 0; u < normal_grid; ++u) {
+            float x = 2.0f * u / (normal_grid - 1) - 1.0f, y = 2.0f * v / (normal_grid - 1) - 1.0f;
+            const float z = 1.0f - std::fabs(x) - std::fabs(y);
+            if (z < 0.0f) {  // unfolded
+                const float unfolded_x = (1.0f - std::fabs(y)) * (x >= 0.0f ? 1.0f : -1.0f);
+                const float unfolded_y = (1.0f - std::fabs(x)) * (y >= 0.0f ? 1.0f : -1.0f);
+                x = unfolded_x;
+                y = unfolded_y;
+            }
+            const Vec3 d = {x, y, z};
+            directions[1 + v * normal_grid + u] = (1.0f / length(d)) * d;
+        }
+    }
+    return directions;
+}
+
+// The shading table for one render: step 10's shade() of every direction, towards this
+// render's light. The rows of directions are shared among the threads.
+static void make_shading_table(const std::vector<Vec3>& directions, Vec3 to_light, int threads,
+                               std::vector<float>& light) {
+    light.resize(directions.size());
+    light[0] = shade(directions[0], to_light);  // no direction: ambient
+    Work unused;
+    parallel_rows(normal_grid, threads, unused, [&](int v, Work&) {
+        for (int n = 1 + v * normal_grid; n < 1 + (v + 1) * normal_grid; ++n) {
+            light[n] = shade(directions[n], to_light);
+        }
+    });
+}
+//< lesson: normals
+
 // Everything a render needs that is the same for every pixel.
 struct Scene {
     const Volume& volume;
@@ -387,6 +472,8 @@ struct Scene {
     const std::vector<SliceShift>& shifts;  // slice m's, front to back
     const Runs& runs;
     const Lut& lut;                  // opacities corrected for shear.spacing
+    const NormalTable& normals;      // lit composite only
+    const float* shading;            // lit with normals: the light of every normal index
     Vec3 to_light;                   // unit vector towards the light; unused when unlit
     const Params& params;
 };
@@ -584,12 +671,121 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
 }
 //< lesson: runs
 
-// Given: a sample's light: the gradients of its cell's four corners from the voxels (step
-// 10's gradient_at()), blended as the value is, then step 10's shade: step 30's light, with
-// the fraction along c at 0.
-static inline float slice_light(const Scene& scene, const SliceShift& s, int a, int b,
-                                Work& work) {
+// Given: the normal index of every voxel a lit sample can read, the corners of the runs' cells,
+// slice by slice (the slices shared among the threads: each writes only its own slice's
+// voxels). A voxel with all six neighbours takes its central differences straight from the
+// voxels (step 10's gradient_at() without its edge cases; the direction is all that is kept);
+// one on the volume's faces calls gradient_at(). A table made for another principal axis keeps
+// what it holds.
+static void fill_normal_table(const Volume& volume, const Shear& shear, const Runs& runs,
+                              int threads, NormalTable& table) {
+    if (!table.indices) table.indices.reset(new uint16_t[volume.voxel_count()]);
+    const int na = shear.na, nb = shear.nb;
+    const size_t step_j = size_t(volume.nx), step_k = size_t(volume.nx) * volume.ny;
+    const float per_i = float(0.5 / volume.sx), per_j = float(0.5 / volume.sy),
+                per_k = float(0.5 / volume.sz);
+    std::vector<size_t> filled(shear.nc, 0);  // per slice: no two threads count in one
+    Work unused;
+    parallel_rows(shear.nc, threads, unused, [&](int c, Work& uncounted) {
+        std::vector<uint8_t> needed(size_t(na) * nb, 0);
+        for (int b = 0; b < nb; ++b) {
+            int count = 0;
+            const int32_t* run = runs.row(c, b, &count);
+            for (int r = 0; r < count; ++r) {  // the run's voxels and one more, on both rows
+                const int end = std::min(run[2 * r + 1] + 1, na);
+                for (const int row : {b, std::min(b + 1, nb - 1)}) {
+                    uint8_t* needed_row = &needed[size_t(row) * na];
+                    std::fill(needed_row + run[2 * r], needed_row + end, uint8_t(1));
+                }
+            }
+        }
+        // Speed: plain locals (a store to the table, int16_t's unsigned twin, could change
+        // any value read through a reference); the mask read eight or sixteen bytes at a time;
+        // and where a row is contiguous (a is i), its inside voxels sixteen at a time in loops
+        // of fixed length, which the compiler makes vector instructions (normal_index() has
+        // no branch for that reason).
+        const int16_t* data = volume.data.data();
+        uint16_t* out = table.indices.get();
+        const size_t sa = shear.stride_a, sb = shear.stride_b, sc = shear.stride_c;
+        const bool slice_inside = c > 0 && c < shear.nc - 1;
+        auto none_needed = [](const uint8_t* mask, int bytes) {  // bytes: 8 or 16
+            uint64_t eight[2] = {0, 0};
+            std::memcpy(eight, mask, size_t(bytes));
+            return (eight[0] | eight[1]) == 0;
+        };
+        size_t count = 0;
+        for (int b = 0; b < nb; ++b) {
+            const uint8_t* needed_row = &needed[size_t(b) * na];
+            const bool row_inside = slice_inside && b > 0 && b < nb - 1;
+            const size_t row_index = c * sc + b * sb;
+            auto fill_one = [&](int a) {
+                const size_t index = row_index + a * sa;
+                Vec3 g;
+                if (row_inside && a > 0 && a < na - 1) {
+                    const int16_t* p = data + index;
+                    g = {float(p[1] - p[-1]) * per_i,
+                         float(p[step_j] - p[-ptrdiff_t(step_j)]) * per_j,
+                         float(p[step_k] - p[-ptrdiff_t(step_k)]) * per_k};
+                } else {
+                    g = gradient_at(volume, voxel_of(shear, a, b, c), uncounted);
+                }
+                out[index] = normal_index(g);
+                ++count;
+            };
+            int a = 0;
+            if (sa == 1 && row_inside) {  // a = 0 alone, then the inside sixteen at a time
+                if (needed_row[0]) fill_one(0);
+                for (a = 1; a + 16 <= na - 1; a += 16) {
+                    if (none_needed(needed_row + a, 16)) continue;
+                    const int16_t* p = data + row_index + a;
+                    uint16_t indices[16];
+                    for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
+                        indices[n] = normal_index(
+                            {float(p[n + 1] - p[n - 1]) * per_i,
+                             float(p[n + step_j] - p[n - ptrdiff_t(step_j)]) * per_j,
+                             float(p[n + step_k] - p[n - ptrdiff_t(step_k)]) * per_k});
+                    }
+                    for (int n = 0; n < 16; ++n) {
+                        if (!needed_row[a + n]) continue;
+                        out[row_index + a + n] = indices[n];
+                        ++count;
+                    }
+                }
+            }
+            for (; a < na; ++a) {
+                if (a % 8 == 0 && a + 8 <= na && none_needed(needed_row + a, 8)) {
+                    a += 7;  // eight voxels not needed: skipped at once
+                    continue;
+                }
+                if (needed_row[a]) fill_one(a);
+            }
+        }
+        filled[c] = count;
+    });
+    for (size_t slice : filled) table.voxels_filled += slice;
+    table.filled[shear.c] = true;
+}
+
+// Given: a sample's light: its cell's four corners' light from the shading table, blended as
+// the values are (VolPack's way: the light is shaded at the voxels, then interpolated; step
+// 30 interpolates the gradients, then shades: the same along an axis, where the fractions are
+// 0, but for the directions' rounding).
+// Without a table (a volume too large for one), the corners' gradients from the voxels,
+// blended, then step 10's shade, as step 30 does.
+// Changed in step 39: the light from the quantised normals' shading table.
+static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
+                                int b, Work& work) {
     work.gradients += 4;
+    if (scene.normals.indices) {
+        const uint16_t* n = &scene.normals.indices[index];
+        const float* light = scene.shading;
+        // On the voxels (along an axis: both fractions 0, the four corners one voxel): its
+        // light alone, the same float as the blend of four equal values.
+        if ((s.da | s.db) == 0) return light[n[0]];
+        const float low = lerp(light[n[0]], light[n[s.da]], s.fa);
+        const float high = lerp(light[n[s.db]], light[n[s.da + s.db]], s.fa);
+        return lerp(low, high, s.fb);
+    }
     const Shear& shear = scene.shear;
     const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
     Vec3 g[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
@@ -620,7 +816,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
 // at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
 // stretch of a row costs a jump or two per run however wide it is.
-// Changed in step 37: the opaque pixels jumped over through next[], not tested one by one.
+// Changed in step 39: slice_light() takes the sample's voxel index (its normal indices).
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
@@ -667,7 +863,7 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
                 }
                 double light = 1.0;  // unlit
                 if (!unlit) {
-                    light = slice_light(scene, s, u + s.ia, b, counted);
+                    light = slice_light(scene, s, row_index + along, u + s.ia, b, counted);
                 }
                 add_sample(row[u], sample, light);
                 if (row[u].transparency < stop_below) {
@@ -802,6 +998,7 @@ static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
 // them give transparent samples, which change nothing, so it is composite_row()'s pixel, to
 // the bit. Its samples are traced (when `trace`) at their distance t along `ray`, the output
 // pixel's ray, which runs beside this pixel's at less than a voxel and a half.
+// Changed in step 39: slice_light() takes the sample's voxel index (its normal indices).
 static Accumulated composite_column(const Scene& scene, int u, int v, const Ray& ray,
                                     Work& work, Trace* trace) {
     const Shear& shear = scene.shear;
@@ -829,7 +1026,7 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
             if (trace) trace->sample(record.skipped());
             continue;
         }
-        const double light = scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
+        const double light = scene.params.unlit ? 1.0 : slice_light(scene, s, index, a, b, work);
         add_sample(pixel, sample, light);
         if (trace) {
             record.rgba(sample).light(light);  // what it gave, and the pixel after it
@@ -977,7 +1174,7 @@ int main(int argc, char** argv) {
         if (params.projection != "ortho") {
             throw InputError("--projection " + params.projection + ": this step's shear-warp "
                              "is orthographic (a perspective one scales every slice as well: "
-                             "handout 35); step 34 renders it");
+                             "handout 36); step 34 renders it");
         }
         int width = 0, height = 0;
         parse_size(params.size, max_image_side, &width, &height);
@@ -994,9 +1191,15 @@ int main(int argc, char** argv) {
 
         // --- Once per transfer function and principal axis, made by the first render that
         // needs it (so the first render's time_ms= includes it, and precompute_ms= says how
-        // much): the runs of cells the table may see. Once per view: the table's opacities
-        // for the slices' spacing ---
+        // much): the runs of cells the table may see, and for a lit composite the normal
+        // indices of their corners (the directions' set once per process). Once per view: the
+        // table's opacities for the slices' spacing; for a lit composite, the shading table ---
         Runs runs[3];  // per principal axis
+        NormalTable normals;
+        std::vector<Vec3> directions;  // per normal index, made with the first table
+        const double table_bytes = double(sizeof(uint16_t)) * volume.voxel_count();
+        const bool normal_table = params.mode == "composite" && !params.unlit &&
+                                  table_bytes <= max_table_bytes;
         double precompute_ms = 0;  // wall clock, this process
         Lut lut;
         double lut_ratio = -1;  // the ratio lut was made for; -1: none yet
@@ -1007,21 +1210,29 @@ int main(int argc, char** argv) {
                 lut_ratio = ratio;
             }
             if (params.mode == "mip") return;
-            if (runs[shear.c].axis >= 0) return;
+            const bool new_runs = runs[shear.c].axis < 0;
+            const bool new_normals = normal_table && !normals.filled[shear.c];
+            if (!new_runs && !new_normals) return;
             const Timer timer;
             const std::clock_t cpu_start = std::clock();
-            runs[shear.c] = find_runs(volume, shear, seen, options.threads);
+            if (new_runs) runs[shear.c] = find_runs(volume, shear, seen, options.threads);
+            if (new_normals) {
+                if (directions.empty()) directions = normal_directions();
+                fill_normal_table(volume, shear, runs[shear.c], options.threads, normals);
+            }
             const double ms = timer.ms();
             precompute_ms += ms;
             const Runs& made = runs[shear.c];
             // Its cost, once per table and axis (the summary lines are the renders'): memory
             // and time, in wall clock and CPU (the machine may be shared).
             std::printf("precompute axis=%c run_cells=%zu of %zu runs=%zu runs_mb=%.2f "
-                        "ms=%.1f cpu_ms=%.1f\n",
+                        "normal_voxels=%zu normals_mb=%.2f ms=%.1f cpu_ms=%.1f\n",
                         "ijk"[shear.c], made.cells, volume.voxel_count(), made.bounds.size() / 2,
                         (made.bounds.size() * sizeof(int32_t) +
                          made.first.size() * sizeof(uint32_t)) / 1048576.0,
-                        ms, 1000.0 * double(std::clock() - cpu_start) / CLOCKS_PER_SEC);
+                        normals.voxels_filled,
+                        normals.voxels_filled * sizeof(uint16_t) / 1048576.0, ms,
+                        1000.0 * double(std::clock() - cpu_start) / CLOCKS_PER_SEC);
         };
 
         // --- View: the camera's image (its camera is made for each render: the window turns
@@ -1038,6 +1249,7 @@ int main(int argc, char** argv) {
             Shear shear;
             std::vector<SliceShift> shifts;
             Vec3 to_light;               // unit vector towards the light; unused when unlit
+            std::vector<float> shading;  // lit with normals: the light per normal index
         };
         auto frame_for = [&](const View& view) {
             Frame frame;
@@ -1049,11 +1261,14 @@ int main(int argc, char** argv) {
             prepare(frame.shear);
             frame.to_light =
                 params.unlit ? Vec3{} : light_direction(frame.camera, params.light_angle);
+            if (normals.indices && !mip) {
+                make_shading_table(directions, frame.to_light, options.threads, frame.shading);
+            }
             return frame;
         };
         auto scene_for = [&](const Frame& frame) {
             return Scene{volume, frame.shear, frame.shifts, runs[frame.shear.c], lut,
-                         frame.to_light, params};
+                         normals, frame.shading.data(), frame.to_light, params};
         };
         renderer.image = [&](const View& view, Work& work) {
             const Frame frame = frame_for(view);
