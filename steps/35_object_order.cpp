@@ -7,8 +7,8 @@
 //             axis can be composited front to back, slice after slice, into an image with one
 //             pixel per voxel column: one sample per voxel, read in memory order, the same
 //             light and table as step 30. A pixel already opaque is not composited further.
-//             The rows of the column image go to the threads; given code places it in the
-//             camera's image (a shift, a mirror and the zoom). The pictures are step 30's
+//             The rows of the column image go to the threads; warp_pixel() places it in
+//             the camera's image (a shift, a mirror and the zoom). The pictures are step 30's
 //             along an axis (to rounding: one sample per slice, not per unit of length).
 //             Orthographic only; no --step; --work-map is refused: the work is counted per
 //             row of the column image.
@@ -458,10 +458,9 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
 }
 //< lesson: mip
 
-// Given: the column image placed in the camera's image. Where output pixel (x, y) reads it, in
-// its pixels, is affine in x and y: u = u0 + x * du_dx + y * du_dy, the same for v. Along an
-// axis it is a shift, perhaps a mirror, and the zoom's scale; at zoom 1, whole pixels. Step 36
-// teaches it in general, as the warp.
+// Given: where output pixel (x, y) reads the column image, in its pixels: affine in x and y,
+// u = u0 + x * du_dx + y * du_dy, the same for v. Along an axis it is a shift, perhaps a
+// mirror, and the zoom's scale; at zoom 1, whole pixels. Step 36 makes it the general warp.
 struct WarpMap {
     double u0 = 0, du_dx = 0, du_dy = 0;
     double v0 = 0, dv_dx = 0, dv_dy = 0;
@@ -495,6 +494,7 @@ static WarpPoint warp_at(const WarpMap& warp, int x, int y) {
     return {warp.u0 + x * warp.du_dx + y * warp.du_dy, warp.v0 + x * warp.dv_dx + y * warp.dv_dy};
 }
 
+//> lesson: warp
 // The output pixel: the column image read bilinearly at the point; past its edge it is the
 // background (no ray there meets the volume). pixel(u, v) gives a pixel inside.
 template <class Pixel>
@@ -509,6 +509,7 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
     return mix_rgb(mix_rgb(at(u, v), at(u + 1, v), fu), mix_rgb(at(u, v + 1), at(u + 1, v + 1), fu),
                    fv);
 }
+//< lesson: warp
 
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
 
