@@ -405,6 +405,8 @@ static Voxel voxel_of(const Shear& shear, int a, int b, int c) {
 // view direction crosses most voxels per unit of length: then a ray crosses every slice once,
 // and each slice is shifted by at most one voxel against the one before. Front to back is the
 // direction's sign along it. The intermediate image is wide enough for every slice's shift.
+// Changed in step 36: any direction, not only along an axis; the shift per slice and the
+// intermediate image's size.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -740,6 +742,7 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
 
 // Given: where output pixel (x, y)'s camera ray meets the first slice, in intermediate
 // pixels: the ray there is the ray of that intermediate pixel.
+// Changed in step 36: the ray meets the first slice at an angle, not straight along c.
 static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Camera& camera,
                             int x, int y) {
     const Ray ray = camera_ray(camera, x, y);
@@ -854,6 +857,7 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
 }
 
 // mip_row()'s pixel (u, v) alone, traced as composite_column() traces.
+// Changed in step 36: each slice's shift, a bilinear sample.
 static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& work,
                         Trace* trace) {
     const Shear& shear = scene.shear;
