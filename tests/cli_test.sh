@@ -134,7 +134,7 @@ for source in steps/[0-9][0-9]_*.cpp; do
     # too (checked below): one render of the phantom serves both.
     # Part 1 (00..11) renders the three axis views; part 2 (12 on) one camera picture, of its
     # default size (512x512) in the first camera step and in a step with a --size flag of its
-    # own (35); the other camera steps take that flag from common/camera_flags.h, as the first
+    # own (35 on; step 35's default is 256x256); the other camera steps take that flag from common/camera_flags.h, as the first
     # does, and render 64x48 here, traced at its centre (a 512x512 render of the phantom is up
     # to 2.5 s of CPU: 13 of this test's 25 s went there).
     views="top:256x256 front:256x113 side:256x113" trace_view=front size_flags=
@@ -142,6 +142,10 @@ for source in steps/[0-9][0-9]_*.cpp; do
     case "$step" in
         0[0-9]_*|1[01]_*) ;;
         *) views="camera:512x512" trace_view=camera
+           # A step with a --size of its own says its default (default_size) in its source.
+           own_size=$(sed -n 's/^constexpr const char\* default_size = "\([0-9]*x[0-9]*\)".*/\1/p' \
+               "$source")
+           [ -n "$own_size" ] && views="camera:$own_size"
            if [ -n "${camera_seen:-}" ] && ! grep -q 'add_string("--size"' "$source"; then
                views="camera:64x48" size_flags="--size 64x48" px=32 py=24
            fi

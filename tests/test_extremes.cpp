@@ -100,10 +100,11 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     }
     // Part 2: the camera from straight above in perspective (rays along k), nearest samples
     // without leaping, the longest step unlit, and each step's own paths.
-    // Steps 35 on (shear-warp and its tricks) are orthographic, one sample per slice: no
-    // --projection perspective, no --step; its MIP from below and nearest samples below take
-    // their paths.
+    // Steps 35 on (object order, shear-warp and its tricks) are orthographic, one sample per
+    // slice: no --projection perspective, no --step; its MIP from below and nearest samples
+    // below take their paths. Step 35 looks along an axis only: its angles are axes.
     const bool shear_warp = step >= "35";
+    const bool axes_only = step.rfind("35", 0) == 0;
     if (ctlab_test::is_camera_step(step) && !shear_warp) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
         // Steps 12 and 13 read the nearest voxel only (12 on: --interpolation); step 24 leaps (part 3
@@ -114,7 +115,10 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back(nearest);
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
     }
-    if (shear_warp) {
+    if (axes_only) {
+        all.push_back({"--interpolation", "nearest", "--azimuth", "-360", "--elevation", "-90"});
+        all.push_back({"--ert", "0", "--unlit", "--azimuth", "-90", "--elevation", "0"});
+    } else if (shear_warp) {
         all.push_back({"--interpolation", "nearest", "--azimuth", "-360", "--elevation", "45"});
         all.push_back({"--ert", "0", "--unlit", "--azimuth", "100", "--elevation", "-30"});
     }

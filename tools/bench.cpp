@@ -48,6 +48,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <set>
 #include <sstream>
 #include <thread>
 #include "machine_load.h"
@@ -834,7 +835,7 @@ std::vector<std::string> case_flags(const char* rule, int side, int oblique, con
     return flags;
 }
 
-// `only` ("38"; "" for every step): --steps, for a peer table of those steps alone.
+// `only` ("39"; "" for every step): --steps, for a peer table of those steps alone.
 std::vector<Candidate> ctlab_candidates(int side, int oblique, const int dims[3],
                                         const std::string& only) {
     std::vector<Candidate> candidates;
@@ -848,8 +849,15 @@ std::vector<Candidate> ctlab_candidates(int side, int oblique, const int dims[3]
         if (!rule || !file_exists(step_binary(step))) continue;
         Candidate candidate;
         candidate.step = step;
+        const bool axes_only = looks_along_axes_only(step);
         for (int c = 0; c < peer_case_count; ++c) {
-            if (*rule->flags[c]) candidate.flags[c] = case_flags(rule->flags[c], side, oblique, dims);
+            if (!*rule->flags[c]) continue;
+            if (axes_only && std::string(rule->flags[c]).find("{oblique}") != std::string::npos) {
+                std::printf("bench: %s looks along an axis only: not a candidate for case %c\n",
+                            step.c_str(), peer_cases[c].id);
+                continue;
+            }
+            candidate.flags[c] = case_flags(rule->flags[c], side, oblique, dims);
         }
         candidates.push_back(candidate);
     }
@@ -1230,6 +1238,15 @@ int gain_report(const std::string& out_path) {
         steps.push_back(step);
     }
     if (steps.empty()) throw InputError("bench --gain: no part-3 step in steps/");
+    std::set<std::string> axes_only;  // steps that look along an axis only: no case c
+    for (const std::string& step : steps) {
+        if (looks_along_axes_only(step)) axes_only.insert(step);
+    }
+    // Does `step` render case c? Not an oblique case when it looks along an axis only.
+    auto renders = [&](const std::string& step, int c) {
+        return !axes_only.count(step) ||
+               std::string(part3_rule.flags[c]).find("{oblique}") == std::string::npos;
+    };
     // CPU seconds of one process rendering `flags` `repeat` times.
     auto cpu_of = [&](const std::string& step, const std::vector<std::string>& flags,
                       int repeat) {
@@ -1257,12 +1274,19 @@ int gain_report(const std::string& out_path) {
         std::map<std::string, std::vector<double>> per_render;  // step -> one per pair
         for (int pair = 0; pair < gain_pairs; ++pair) {
             for (const std::string& step : steps) {
+                if (!renders(step, c)) continue;
                 const double one = cpu_of(step, flags, 1);
                 const double many = cpu_of(step, flags, gain_repeat);
                 per_render[step].push_back(1000 * (many - one) / (gain_repeat - 1));
             }
         }
         for (const std::string& step : steps) {
+            if (!renders(step, c)) {
+                ms[step].push_back(-1);  // none: the table says why
+                std::printf("bench: gain, %s case %c: not rendered (it looks along an axis "
+                            "only)\n", step.c_str(), peer_cases[c].id);
+                continue;
+            }
             ms[step].push_back(median_of(per_render[step]));
             std::printf("bench: gain, %s case %c: %.1f ms CPU per render\n", step.c_str(),
                         peer_cases[c].id, ms[step].back());
@@ -1311,18 +1335,25 @@ int gain_report(const std::string& out_path) {
                     << number << " ms | gain over step " << p_number << " | over step "
                     << f_number << " |\n|---|---|---|---|---|---|\n";
             }
+            // A step that does not render a case (-1 ms) shows "-" and no gain.
             auto gain = [](double before, double after) {
-                return after > 0 ? text_of("%.2fx", before / after) : std::string("n/a");
+                return after > 0 && before > 0 ? text_of("%.2fx", before / after)
+                                               : std::string("n/a");
+            };
+            auto figure = [](double ms_per_render) {
+                return ms_per_render < 0 ? std::string("- (along an axis only)")
+                                         : text_of("%.1f", ms_per_render);
             };
             for (int c = 0; c < peer_case_count; ++c) {
                 const double f = ms[first][c], p = ms[previous][c], t = ms[step][c];
                 const std::string name = text_of("%c %s", peer_cases[c].id, peer_cases[c].what);
                 if (short_table) {
-                    out << text_of("| %s | %.1f | %.1f | %s |\n", name.c_str(), p, t,
-                                   gain(p, t).c_str());
+                    out << text_of("| %s | %s | %s | %s |\n", name.c_str(), figure(p).c_str(),
+                                   figure(t).c_str(), gain(p, t).c_str());
                 } else {
-                    out << text_of("| %s | %.1f | %.1f | %.1f | %s | %s |\n", name.c_str(), f, p,
-                                   t, gain(p, t).c_str(), gain(f, t).c_str());
+                    out << text_of("| %s | %s | %s | %s | %s | %s |\n", name.c_str(),
+                                   figure(f).c_str(), figure(p).c_str(), figure(t).c_str(),
+                                   gain(p, t).c_str(), gain(f, t).c_str());
                 }
             }
         }

@@ -129,6 +129,17 @@ RunResult run_step(const std::string& step, const std::vector<std::string>& flag
     return result;
 }
 
+bool looks_along_axes_only(const std::string& step) {
+    const RunResult help = run_program(step_binary(step), {"--help"});
+    std::istringstream lines(help.out);
+    for (std::string line; std::getline(lines, line);) {
+        if (line.find("--azimuth") != std::string::npos) {
+            return line.find("a multiple of 90") != std::string::npos;
+        }
+    }
+    return false;
+}
+
 double summary_number(const Summary& summary, const std::string& key) {
     const auto found = summary.find(key);
     if (found == summary.end()) throw std::runtime_error("summary line without " + key + "=");

@@ -70,6 +70,11 @@ std::string step_binary(const std::string& step);
 RunResult run_step(const std::string& step, const std::vector<std::string>& flags,
                    double timeout_s = 120);
 
+// Whether a camera step looks along an axis only (its --help says --azimuth is "a multiple of
+// 90": part 3's object-order step): the oblique cases of the bench, the gain and the tests are
+// not its to render. Asked of the step's own binary, so that no list of steps is kept here.
+bool looks_along_axes_only(const std::string& step);
+
 // The summary numbers: value of `key` in a line as a number; throws when it is missing.
 double summary_number(const Summary& summary, const std::string& key);
 unsigned long long summary_count(const Summary& summary, const std::string& key);

@@ -1,21 +1,21 @@
-// 38_quantised_normals.cpp: shear-warp's fourth trick, VolPack's quantised normals with a
+// 39_quantised_normals.cpp: shear-warp's fourth trick, VolPack's quantised normals with a
 // shading table made per render.
 //
 // New here:   a lit sample no longer computes the four gradients of its cell's corners from
-//             the voxels (step 35's slice_light(), 24 voxel reads and a shade()). Each voxel a
+//             the voxels (step 36's slice_light(), 24 voxel reads and a shade()). Each voxel a
 //             sample can read (the corners of the runs' cells) keeps the index of the nearest
 //             of 16,641 directions, in two bytes, made once per principal axis
 //             (fill_normal_table()); a table made per render holds each direction's light
 //             (make_shading_table()), so a lit sample is four table reads blended as the
 //             values are. It shades at the voxels and interpolates the light, as VolPack
-//             does: along an axis the pictures are step 37's but for the rounding of the
-//             directions (a stated error: tol=5 there, handout 38). Unlit and the maximum are
-//             step 37's floats. Orthographic only; one sample per slice, so no --step.
+//             does: along an axis the pictures are step 38's but for the rounding of the
+//             directions (a stated error: tol=5 there, handout 39). Unlit and the maximum are
+//             step 38's floats. Orthographic only; one sample per slice, so no --step.
 //             --work-map is refused: the work is counted per row of the intermediate image.
-// Builds on:  37_opaque_pixels.
-// Handout:    handouts/38_quantised_normals.md
-// Run:        make run STEP=38 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/38_quantised_normals_camera.png: the default run (lit composite,
+// Builds on:  38_opaque_pixels.
+// Handout:    handouts/39_quantised_normals.md
+// Run:        make run STEP=39 ARGS="--azimuth 180 --elevation 90 --size 256x256"
+// Reference:  data/reference/39_quantised_normals_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 #include <cstring>  // std::memcpy: a mask's bytes at once, a float's bits
@@ -23,7 +23,7 @@
 #include <memory>  // std::unique_ptr: the normal table, left unwritten where not needed
 using namespace ctlab;
 
-constexpr const char* step_name = "38_quantised_normals";
+constexpr const char* step_name = "39_quantised_normals";
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
@@ -335,7 +335,7 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
-// --- Step 35: shear-warp ---
+// --- Step 36: shear-warp ---
 
 // The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
 // of voxels across the principal axis c, the axis the view direction runs most along in
@@ -397,7 +397,7 @@ struct Runs {
 // "no direction" (a gradient of 0: ambient light only, as shade() gives).
 constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
                                   // directions, one within 1.9 degrees of any direction (0.67
-                                  // on average; handout 38, Quality)
+                                  // on average; handout 39, Quality)
 constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
 
 // Only the voxels a sample can read are filled (see fill_normal_table): the others are never
@@ -492,6 +492,8 @@ static Voxel voxel_of(const Shear& shear, int a, int b, int c) {
 // view direction crosses most voxels per unit of length: then a ray crosses every slice once,
 // and each slice is shifted by at most one voxel against the one before. Front to back is the
 // direction's sign along it. The intermediate image is wide enough for every slice's shift.
+// Changed in step 36: any direction, not only along an axis; the shift per slice and the
+// intermediate image's size.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -772,7 +774,7 @@ static void fill_normal_table(const Volume& volume, const Shear& shear, const Ru
 // 0, but for the directions' rounding).
 // Without a table (a volume too large for one), the corners' gradients from the voxels,
 // blended, then step 10's shade, as step 30 does.
-// Changed in step 38: the light from the quantised normals' shading table.
+// Changed in step 39: the light from the quantised normals' shading table.
 static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
                                 int b, Work& work) {
     work.gradients += 4;
@@ -816,7 +818,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
 // at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
 // stretch of a row costs a jump or two per run however wide it is.
-// Changed in step 38: slice_light() takes the sample's voxel index (its normal indices).
+// Changed in step 39: slice_light() takes the sample's voxel index (its normal indices).
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
@@ -936,6 +938,7 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
 
 // Given: where output pixel (x, y)'s camera ray meets the first slice, in intermediate
 // pixels: the ray there is the ray of that intermediate pixel.
+// Changed in step 36: the ray meets the first slice at an angle, not straight along c.
 static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Camera& camera,
                             int x, int y) {
     const Ray ray = camera_ray(camera, x, y);
@@ -998,7 +1001,7 @@ static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
 // them give transparent samples, which change nothing, so it is composite_row()'s pixel, to
 // the bit. Its samples are traced (when `trace`) at their distance t along `ray`, the output
 // pixel's ray, which runs beside this pixel's at less than a voxel and a half.
-// Changed in step 38: slice_light() takes the sample's voxel index (its normal indices).
+// Changed in step 39: slice_light() takes the sample's voxel index (its normal indices).
 static Accumulated composite_column(const Scene& scene, int u, int v, const Ray& ray,
                                     Work& work, Trace* trace) {
     const Shear& shear = scene.shear;
@@ -1051,6 +1054,7 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
 }
 
 // mip_row()'s pixel (u, v) alone, traced as composite_column() traces.
+// Changed in step 36: each slice's shift, a bilinear sample.
 static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& work,
                         Trace* trace) {
     const Shear& shear = scene.shear;
@@ -1174,7 +1178,7 @@ int main(int argc, char** argv) {
         if (params.projection != "ortho") {
             throw InputError("--projection " + params.projection + ": this step's shear-warp "
                              "is orthographic (a perspective one scales every slice as well: "
-                             "handout 35); step 34 renders it");
+                             "handout 36); step 34 renders it");
         }
         int width = 0, height = 0;
         parse_size(params.size, max_image_side, &width, &height);

@@ -1,27 +1,26 @@
-// 35_shear_warp.cpp: a different algorithm, the one VolPack uses: shear-warp (Lacroute &
-// Levoy 1994). Rays are not walked through the volume; slices are composited into an image.
+// 35_object_order.cpp: a different order of work, the one VolPack uses: object order. Rays
+// are not walked through the volume; the volume's slices are composited into the image.
 //
-// New here:   the view is factored into a shear and a warp. The slices of voxels across the
-//             axis the rays run most along (the principal axis) are composited front to back
-//             into an intermediate image with one pixel per voxel column, each slice shifted
-//             by the shear (one bilinear sample per pixel, the same four weights for the
-//             whole slice, read in memory order); then one 2D warp takes that image to the
-//             camera's. Every cell of every slice is read (steps 36-38 add the tricks that
-//             skip work); a pixel already opaque is not composited further. The rows of the
-//             intermediate image go to the threads. Along an axis the pictures are step
-//             30's (to rounding); at an angle a sample lies on every slice, not every unit of
-//             length, and the warp resamples the image: a stated error (handout 35).
-//             Orthographic only; one sample per slice, so no --step. --work-map is refused:
-//             the work is counted per row of the intermediate image.
+// New here:   the camera looks along an axis of the volume (the orbit camera at multiples of
+//             90 degrees only; any other angle is refused: step 36 turns freely). Then each
+//             ray runs straight along one voxel column, and the slices of voxels across that
+//             axis can be composited front to back, slice after slice, into an image with one
+//             pixel per voxel column: one sample per voxel, read in memory order, the same
+//             light and table as step 30. A pixel already opaque is not composited further.
+//             The rows of the column image go to the threads; warp_pixel() places it in
+//             the camera's image (a shift, a mirror and the zoom). The pictures are step 30's
+//             along an axis (to rounding: one sample per slice, not per unit of length).
+//             Orthographic only; no --step; --work-map is refused: the work is counted per
+//             row of the column image.
 // Builds on:  30_speed_baseline (its camera, table, gradients and light; not its rays).
-// Handout:    handouts/35_shear_warp.md
-// Run:        make run STEP=35 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/35_shear_warp_camera.png: the default run (lit composite,
-//             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// Handout:    handouts/35_object_order.md
+// Run:        make run STEP=35 ARGS="--azimuth 90 --elevation 0 --size 256x256"
+// Reference:  data/reference/35_object_order_camera.png: the default run (lit composite,
+//             from above: azimuth 180, elevation 90, orthographic, 256x256), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "35_shear_warp";
+constexpr const char* step_name = "35_object_order";
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
@@ -32,11 +31,12 @@ constexpr double default_light_angle = 30;  // degrees to the right of the viewe
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
-constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
-constexpr double default_elevation = 20;  // degrees above the i-j plane
+constexpr double default_azimuth = 180;   // degrees around the vertical, 0: facing the face
+constexpr double default_elevation = 90;  // degrees above the i-j plane: from above
+constexpr double axis_angle = 90;         // degrees: the only turns this step takes
 constexpr double default_fov = 30;        // degrees, the perspective image's height
 constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
-constexpr const char* default_size = "512x512";  // pixels, columns x rows
+constexpr const char* default_size = "256x256";  // pixels, columns x rows
 constexpr int max_image_side = 8192;             // pixels, --size limit per side
 
 struct Params {
@@ -253,10 +253,6 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 // Given: a value fraction f of the way from a to b: a itself when f = 0.
 static float lerp(float a, float b, float f) { return a + f * (b - a); }
 
-
-// Given: lerp() for gradients.
-static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
-
 //> lesson: gradient
 // Step 10's derivative and gradient at a voxel, unchanged.
 template <class Sample>
@@ -331,49 +327,32 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
-// --- Step 35: shear-warp ---
+// --- Step 35: object order, along an axis ---
 
-// The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
-// of voxels across the principal axis c, the axis the view direction runs most along in
-// voxels; a and b are a slice's two axes, a along its rows (the lower axis, so that a row is
-// contiguous in memory when a is i). The intermediate image has one pixel per voxel column:
-// the ray of its pixel (u, v) meets slice m (counted front to back) at
-// a = u + base_a + m * delta_a, b = v + base_b + m * delta_b. Orthographic: one shear for all.
+// The slices are the planes of voxels across axis c, the axis the camera looks along; a and b
+// are a slice's two axes, a along its rows (the lower axis, so that a row is contiguous in
+// memory when a is i). Along an axis every ray runs down one voxel column: the column image
+// has one pixel per column, and pixel (u, v) meets slice c at voxel (a, b) = (u, v). (At an
+// angle the slices would have to shift against each other: the shear of step 36.)
 struct Shear {
     int a = 0, b = 1, c = 2;     // the axes: 0 i, 1 j, 2 k
     int na = 1, nb = 1, nc = 1;  // voxels along a, b, c
     size_t stride_a = 1, stride_b = 1, stride_c = 1;  // volume.index() steps along a, b, c
     int first_slice = 0, slice_step = 1;  // slice m is c = first_slice + m * slice_step
-    double delta_a = 0, delta_b = 0;      // voxels along a and b from one slice to the next
-    double base_a = 0, base_b = 0;        // where the ray of pixel (0, 0) meets slice 0
-    int width = 1, height = 1;            // the intermediate image, pixels
+    int width = 1, height = 1;            // the column image, pixels
     double spacing = 1;  // physical length along a ray from one slice to the next
 };
-
-// Where the intermediate image meets slice m: pixel (u, v) samples the cell whose low corner
-// is voxel (u + ia, v + ib) of the slice, fa and fb of the way past it. The shear only moves a
-// slice, so the fractions (the bilinear weights) are the same for every pixel of the slice.
-struct SliceShift {
-    int slice = 0;          // its c
-    int ia = 0, ib = 0;     // from pixel to cell, voxels
-    float fa = 0, fb = 0;   // the fractions past the low corner, 0..1
-    size_t da = 0, db = 0;  // index steps to the cell's high corner (0 when the fraction is 0)
-    int last_a = 0, last_b = 0;  // the last cell: n - 1 when the fraction is 0, else n - 2
-};
-
-constexpr int mip_stretch = 16;  // pixels per vector loop of mip_row
 
 // Everything a render needs that is the same for every pixel.
 struct Scene {
     const Volume& volume;
     const Shear& shear;
-    const std::vector<SliceShift>& shifts;  // slice m's, front to back
     const Lut& lut;                  // opacities corrected for shear.spacing
     Vec3 to_light;                   // unit vector towards the light; unused when unlit
     const Params& params;
 };
 
-// Given: voxel (a, b, c) of the shear's axes as (i, j, k).
+// Given: voxel (a, b, c) of the slices' axes as (i, j, k).
 static Voxel voxel_of(const Shear& shear, int a, int b, int c) {
     int ijk[3] = {0, 0, 0};
     ijk[shear.a] = a;
@@ -382,87 +361,46 @@ static Voxel voxel_of(const Shear& shear, int a, int b, int c) {
     return Voxel{ijk[0], ijk[1], ijk[2]};
 }
 
-//> lesson: shear
-// The factorisation for an orthographic camera. The principal axis is the one along which the
-// view direction crosses most voxels per unit of length: then a ray crosses every slice once,
-// and each slice is shifted by at most one voxel against the one before. Front to back is the
-// direction's sign along it. The intermediate image is wide enough for every slice's shift.
+// Given: does the camera look along an axis (two of forward's components exactly 0)? The
+// orbit camera does at multiples of 90 degrees (sin_degrees() is exact there).
+static bool along_an_axis(const Camera& camera) {
+    int zeros = 0;
+    for (int axis = 0; axis < 3; ++axis) zeros += camera.forward[axis] == 0;
+    return zeros == 2;
+}
+
+//> lesson: slices
+// The slices for a camera along an axis: c is the axis it looks along, front to back is the
+// sign of the view direction along it. The column image is one pixel per voxel column.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
     const size_t strides[3] = {1, size_t(volume.nx), size_t(volume.nx) * size_t(volume.ny)};
-    double per_unit[3];  // voxels crossed along each axis per physical unit along the view
-    for (int axis = 0; axis < 3; ++axis) per_unit[axis] = camera.forward[axis] / spacing[axis];
     Shear shear;
-    shear.c = 2;  // k first: on a tie, the slices are contiguous in memory
-    for (int axis = 1; axis >= 0; --axis) {
-        if (std::fabs(per_unit[axis]) > std::fabs(per_unit[shear.c])) shear.c = axis;
+    for (int axis = 0; axis < 3; ++axis) {
+        if (camera.forward[axis] != 0) shear.c = axis;
     }
     shear.a = shear.c == 0 ? 1 : 0;
     shear.b = shear.c == 2 ? 1 : 2;
     shear.na = counts[shear.a], shear.nb = counts[shear.b], shear.nc = counts[shear.c];
     shear.stride_a = strides[shear.a], shear.stride_b = strides[shear.b];
     shear.stride_c = strides[shear.c];
-    const double along_c = per_unit[shear.c];
-    shear.first_slice = along_c > 0 ? 0 : shear.nc - 1;
-    shear.slice_step = along_c > 0 ? 1 : -1;
-    shear.delta_a = per_unit[shear.a] / std::fabs(along_c);
-    shear.delta_b = per_unit[shear.b] / std::fabs(along_c);
-    const double last = shear.nc - 1;  // slices after the first
-    shear.base_a = -std::max(0.0, last * shear.delta_a);  // pixel 0 meets some slice at a = 0
-    shear.base_b = -std::max(0.0, last * shear.delta_b);
-    shear.width = int(std::floor(shear.na - 1 + last * std::fabs(shear.delta_a))) + 1;
-    shear.height = int(std::floor(shear.nb - 1 + last * std::fabs(shear.delta_b))) + 1;
-    shear.spacing = spacing[shear.c] / std::fabs(camera.forward[shear.c]);
+    const bool forwards = camera.forward[shear.c] > 0;
+    shear.first_slice = forwards ? 0 : shear.nc - 1;
+    shear.slice_step = forwards ? 1 : -1;
+    shear.width = shear.na;
+    shear.height = shear.nb;
+    shear.spacing = spacing[shear.c];
     return shear;
 }
+//< lesson: slices
 
-// Slice m's shift. Nearest samples (--interpolation nearest) round the position to the
-// nearest voxel of the slice (a half rounds up), so both fractions are 0.
-static SliceShift slice_shift(const Shear& shear, int m, bool nearest) {
-    SliceShift s;
-    s.slice = shear.first_slice + m * shear.slice_step;
-    auto split = [&](double position, int count, int* low, float* fraction, int* last) {
-        *low = int(std::floor(position));
-        double past = position - *low;
-        if (nearest) {
-            if (past >= 0.5) ++*low;
-            past = 0;
-        }
-        *fraction = float(past);
-        *last = *fraction == 0.0f ? count - 1 : count - 2;
-    };
-    split(shear.base_a + m * shear.delta_a, shear.na, &s.ia, &s.fa, &s.last_a);
-    split(shear.base_b + m * shear.delta_b, shear.nb, &s.ib, &s.fb, &s.last_b);
-    s.da = s.fa == 0.0f ? 0 : shear.stride_a;
-    s.db = s.fb == 0.0f ? 0 : shear.stride_b;
-    return s;
-}
-
-// A sample in a slice: bilinear in its cell (p: the low corner's value), step 30's trilinear
-// with the fraction along c at 0, in the same order: the same float.
-static inline float slice_value(const int16_t* p, const SliceShift& s) {
-    return lerp(lerp(p[0], p[s.da], s.fa), lerp(p[s.db], p[s.da + s.db], s.fa), s.fb);
-}
-//< lesson: shear
-
-// Given: a sample's light: the gradients of its cell's four corners from the voxels (step
-// 10's gradient_at()), blended as the value is, then step 10's shade: step 30's light, with
-// the fraction along c at 0.
-static inline float slice_light(const Scene& scene, const SliceShift& s, int a, int b,
-                                Work& work) {
-    work.gradients += 4;
-    const Shear& shear = scene.shear;
-    const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
-    Vec3 g[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
-    for (int n = 0; n < 4; ++n) {
-        const Voxel corner = voxel_of(shear, a + (n & 1) * step_a, b + (n >> 1) * step_b,
-                                      s.slice);
-        Work uncounted;
-        g[n] = gradient_at(scene.volume, corner, uncounted);
-    }
-    const Vec3 low = lerp_vector(g[0], g[1], s.fa), high = lerp_vector(g[2], g[3], s.fa);
-    return shade(lerp_vector(low, high, s.fb), scene.to_light);
+// Given: a sample's light: its voxel's gradient (step 10's gradient_at()) and step 10's shade.
+static inline float voxel_light(const Scene& scene, int a, int b, int c, Work& work) {
+    work.gradients += 1;
+    Work uncounted;
+    const Vec3 gradient = gradient_at(scene.volume, voxel_of(scene.shear, a, b, c), uncounted);
+    return shade(gradient, scene.to_light);
 }
 
 //> lesson: composite
@@ -477,87 +415,52 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
     pixel.transparency *= 1 - alpha;
 }
 
-// Row v of the intermediate image, slice by slice front to back. In each slice the row meets
-// one row of cells; each pixel reads its cell's sample and composites it, unless the pixel is
-// already opaque (early termination, pixel by pixel).
+// Row v of the column image, slice by slice front to back. In each slice the row is one row
+// of voxels, read in memory order; each pixel composites its voxel's sample, unless the pixel
+// is already opaque (early termination, pixel by pixel).
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
-    const bool unlit = scene.params.unlit;
     const double stop_below = std::max(scene.params.ert, min_transparency);
-    const Rgba* lut = scene.lut.entries.data();
-    // Speed: the counters and the slice's shift are local copies. The loop stores to the row;
-    // through a reference the compiler would read them again after each store.
-    Work counted;
-    for (const SliceShift& shift : scene.shifts) {
-        const SliceShift s = shift;
-        const int b = v + s.ib;  // the row of cells this image row meets
-        if (b < 0 || b > s.last_b) continue;
-        const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
-        const int16_t* slice_row = &scene.volume.data[row_index];
-        // The pixels whose cell lies in the slice.
-        const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, s.last_a + 1 - s.ia);
-        for (int u = u_low; u < u_high; ++u) {
+    for (int m = 0; m < shear.nc; ++m) {
+        const int c = shear.first_slice + m * shear.slice_step;
+        const int16_t* slice_row = &scene.volume.data[c * shear.stride_c + v * shear.stride_b];
+        for (int u = 0; u < shear.width; ++u) {
             if (row[u].transparency < stop_below) continue;  // opaque already
-            const size_t along = size_t(u + s.ia) * shear.stride_a;
-            const float value = slice_value(slice_row + along, s);
-            const Rgba& sample = lut[int(double(value) - lowest_ct_value)];
-            ++counted.samples;
+            const float value = slice_row[u * shear.stride_a];
+            const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
+            ++work.samples;
             if (sample.a == 0.0f) {
-                ++counted.skipped;
+                ++work.skipped;
                 continue;
             }
             double light = 1.0;  // unlit
-            if (!unlit) light = slice_light(scene, s, u + s.ia, b, counted);
+            if (!scene.params.unlit) light = voxel_light(scene, u, v, c, work);
             add_sample(row[u], sample, light);
-            if (row[u].transparency < stop_below) ++counted.terminated;
+            if (row[u].transparency < stop_below) ++work.terminated;
         }
     }
-    work.add(counted);
 }
 //< lesson: composite
 
 //> lesson: mip
-// Row v of the maximum intensity: every cell the row meets in every slice, each pixel keeping
+// Row v of the maximum intensity: every voxel the row meets in every slice, each pixel keeping
 // its highest sample. -infinity: none yet.
-// Every pixel of a slice row does the same sums on neighbouring voxels: in stretches of a
-// fixed length the compiler turns the loop into vector instructions (SSE2's four floats at a
-// time), the same floats as slice_value() one at a time.
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
     const Shear& shear = scene.shear;
-    for (const SliceShift& s : scene.shifts) {
-        const int b = v + s.ib;
-        if (b < 0 || b > s.last_b) continue;
-        const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
-        const int16_t* slice_row = &scene.volume.data[row_index];
-        const int u_low = std::max(0, -s.ia);
-        const int u_high = std::min(shear.width, s.last_a + 1 - s.ia);
-        int u = u_low;
-        if (shear.stride_a == 1) {  // a row of cells is contiguous: mip_stretch pixels at a time
-            const float fa = s.fa, fb = s.fb;  // (copies: a store to h[] cannot change them)
-            const int16_t* low = slice_row + s.ia;  // the cells' rows, from pixel 0
-            const int16_t* low_next = low + s.da;
-            const int16_t* high = low + s.db;
-            const int16_t* high_next = high + s.da;
-            for (; u + mip_stretch <= u_high; u += mip_stretch) {
-                float* h = highest + u;
-                const int16_t *p = low + u, *q = low_next + u, *r = high + u, *t = high_next + u;
-                for (int n = 0; n < mip_stretch; ++n) {  // a fixed length: vector instructions
-                    h[n] = std::max(h[n], lerp(lerp(p[n], q[n], fa), lerp(r[n], t[n], fa), fb));
-                }
-            }
+    for (int m = 0; m < shear.nc; ++m) {
+        const int c = shear.first_slice + m * shear.slice_step;
+        const int16_t* slice_row = &scene.volume.data[c * shear.stride_c + v * shear.stride_b];
+        for (int u = 0; u < shear.width; ++u) {
+            highest[u] = std::max(highest[u], float(slice_row[u * shear.stride_a]));
         }
-        for (; u < u_high; ++u) {
-            const float value = slice_value(slice_row + size_t(u + s.ia) * shear.stride_a, s);
-            highest[u] = std::max(highest[u], value);
-        }
-        if (u_high > u_low) work.samples += u_high - u_low;
+        work.samples += shear.width;
     }
 }
 //< lesson: mip
 
-// The warp: where the intermediate image is read for output pixel (x, y), in its pixels. It is
-// affine in x and y (the shear's inverse composed with the camera's map): u = u0 + x * du_dx
-// + y * du_dy, the same for v.
+// Given: where output pixel (x, y) reads the column image, in its pixels: affine in x and y,
+// u = u0 + x * du_dx + y * du_dy, the same for v. Along an axis it is a shift, perhaps a
+// mirror, and the zoom's scale; at zoom 1, whole pixels. Step 36 makes it the general warp.
 struct WarpMap {
     double u0 = 0, du_dx = 0, du_dy = 0;
     double v0 = 0, dv_dx = 0, dv_dy = 0;
@@ -570,21 +473,15 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
 }
 
-// Given: where output pixel (x, y)'s camera ray meets the first slice, in intermediate
-// pixels: the ray there is the ray of that intermediate pixel.
+// Where output pixel (x, y)'s camera ray meets the first slice, in column-image pixels.
 static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Camera& camera,
                             int x, int y) {
     const Ray ray = camera_ray(camera, x, y);
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
-    auto in_voxels = [&](const Vec3d& p, int axis) { return p[axis] / spacing[axis]; };
-    const double t = (shear.first_slice - in_voxels(ray.origin, shear.c)) /
-                     in_voxels(ray.direction, shear.c);
-    return {in_voxels(ray.origin, shear.a) + t * in_voxels(ray.direction, shear.a) - shear.base_a,
-            in_voxels(ray.origin, shear.b) + t * in_voxels(ray.direction, shear.b) - shear.base_b};
+    return {ray.origin[shear.a] / spacing[shear.a], ray.origin[shear.b] / spacing[shear.b]};
 }
 
-// Given: the affine map, from three pixels' points: one step along x and one along y. (Along an
-// axis at zoom 1 the steps are whole pixels, and every pixel lands on an intermediate pixel.)
+// The affine map, from three pixels' points: one step along x and one along y.
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
     const WarpPoint origin = warp_point(volume, shear, camera, 0, 0);
     const WarpPoint along_x = warp_point(volume, shear, camera, 1, 0);
@@ -598,8 +495,8 @@ static WarpPoint warp_at(const WarpMap& warp, int x, int y) {
 }
 
 //> lesson: warp
-// The output pixel: the intermediate image read bilinearly at the warp's point; past its edge
-// it is the background (no ray there meets the volume). pixel(u, v) gives a pixel inside.
+// The output pixel: the column image read bilinearly at the point; past its edge it is the
+// background (no ray there meets the volume). pixel(u, v) gives a pixel inside.
 template <class Pixel>
 static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
     const double low_u = std::floor(p.u), low_v = std::floor(p.v);
@@ -614,25 +511,10 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
 }
 //< lesson: warp
 
-// Given: warp_pixel() on the whole intermediate image, the four pixels read directly when they
-// are all inside it (the same numbers in the same order: the same float).
-static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
-    if (!(p.u >= 0 && p.u < image.width - 1 && p.v >= 0 && p.v < image.height - 1)) {
-        return warp_pixel(p, image.width, image.height,
-                          [&](int u, int v) { return image.pixels[size_t(v) * image.width + u]; });
-    }
-    const int u = int(p.u), v = int(p.v);  // >= 0: int() rounds down
-    const float fu = float(p.u - u), fv = float(p.v - v);
-    const Rgb* low = &image.pixels[size_t(v) * image.width + u];
-    const Rgb* high = low + image.width;
-    return mix_rgb(mix_rgb(low[0], low[1], fu), mix_rgb(high[0], high[1], fu), fv);
-}
-
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
 
-// Intermediate pixel (u, v) alone, every slice front to back: composite_row()'s pixel, to
-// the bit. Its samples are traced (when `trace`) at their distance t along `ray`, the output
-// pixel's ray, which runs beside this pixel's at less than a voxel and a half.
+// Column (u, v) alone, every slice front to back: composite_row()'s pixel, to the bit. Its
+// samples are traced (when `trace`) at their distance t along `ray`, the output pixel's ray.
 static Accumulated composite_column(const Scene& scene, int u, int v, const Ray& ray,
                                     Work& work, Trace* trace) {
     const Shear& shear = scene.shear;
@@ -640,27 +522,24 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
     const double stop_below = std::max(scene.params.ert, min_transparency);
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     Accumulated pixel;
-    for (size_t m = 0; m < scene.shifts.size(); ++m) {
-        const SliceShift& s = scene.shifts[m];
-        const int a = u + s.ia, b = v + s.ib;
-        if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) continue;
-        const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
-        const float value = slice_value(&volume.data[index], s);
+    for (int m = 0; m < shear.nc; ++m) {
+        const int c = shear.first_slice + m * shear.slice_step;
+        const size_t index = c * shear.stride_c + v * shear.stride_b + u * shear.stride_a;
+        const float value = volume.data[index];
         const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         double place[3];  // the sample, physical units
-        place[shear.a] = (a + double(s.fa)) * spacing[shear.a];
-        place[shear.b] = (b + double(s.fb)) * spacing[shear.b];
-        place[shear.c] = s.slice * spacing[shear.c];
-        // Its record: where it lies along the output pixel's ray, and its value.
-        TraceSample record(dot(Vec3d{place[0], place[1], place[2]} - ray.origin, ray.direction),
-                           Vec3d{place[0], place[1], place[2]}, value);
+        place[shear.a] = u * spacing[shear.a];
+        place[shear.b] = v * spacing[shear.b];
+        place[shear.c] = c * spacing[shear.c];
+        const Vec3d point = {place[0], place[1], place[2]};
+        TraceSample record(dot(point - ray.origin, ray.direction), point, value);
         if (sample.a == 0.0f) {
             ++work.skipped;
             if (trace) trace->sample(record.skipped());
             continue;
         }
-        const double light = scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
+        const double light = scene.params.unlit ? 1.0 : voxel_light(scene, u, v, c, work);
         add_sample(pixel, sample, light);
         if (trace) {
             record.rgba(sample).light(light);  // what it gave, and the pixel after it
@@ -669,15 +548,7 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
         }
         if (pixel.transparency < stop_below) {
             ++work.terminated;
-            if (trace) {
-                long long left = 0;  // the slices after this one the pixel would have met
-                for (size_t later = m + 1; later < scene.shifts.size(); ++later) {
-                    const SliceShift& l = scene.shifts[later];
-                    left += u + l.ia >= 0 && u + l.ia <= l.last_a && v + l.ib >= 0 &&
-                            v + l.ib <= l.last_b;
-                }
-                trace->stop(pixel.transparency, stop_below, left);
-            }
+            if (trace) trace->stop(pixel.transparency, stop_below, shear.nc - 1 - m);
             break;
         }
     }
@@ -691,18 +562,17 @@ static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& 
     const Volume& volume = scene.volume;
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     float highest = -std::numeric_limits<float>::infinity();
-    for (const SliceShift& s : scene.shifts) {
-        const int a = u + s.ia, b = v + s.ib;
-        if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) continue;
-        const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
-        const float value = slice_value(&volume.data[index], s);
+    for (int m = 0; m < shear.nc; ++m) {
+        const int c = shear.first_slice + m * shear.slice_step;
+        const size_t index = c * shear.stride_c + v * shear.stride_b + u * shear.stride_a;
+        const float value = volume.data[index];
         highest = std::max(highest, value);
         ++work.samples;
         if (trace) {
             double place[3];
-            place[shear.a] = (a + double(s.fa)) * spacing[shear.a];
-            place[shear.b] = (b + double(s.fb)) * spacing[shear.b];
-            place[shear.c] = s.slice * spacing[shear.c];
+            place[shear.a] = u * spacing[shear.a];
+            place[shear.b] = v * spacing[shear.b];
+            place[shear.c] = c * spacing[shear.c];
             const Vec3d point = {place[0], place[1], place[2]};
             trace->sample(TraceSample(dot(point - ray.origin, ray.direction), point, value)
                               .max(highest));
@@ -711,19 +581,19 @@ static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& 
     return highest;
 }
 
-// An intermediate pixel's colour, from the pixel's composite or maximum (as the image's rows
-// give it): over the background, or the maximum's grey (no sample: the background).
+// A column's colour, from its composite or maximum (as the image's rows give it): over the
+// background, or the maximum's grey (no sample: the background).
 static Rgb composite_colour(const Accumulated& pixel) { return over_background(pixel); }
 static Rgb mip_colour(const Volume& volume, float highest) {
     if (highest == -std::numeric_limits<float>::infinity()) return background;
     return grey(display_grey(volume, highest));
 }
 
-// Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
-// composited alone, and the warp's blend of them, the image's pixel to the bit. The trace
-// follows each of the four sample by sample, with its weight in the blend.
-static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
-                            Trace* trace) {
+// Output pixel (x, y) alone: where it reads the column image, the (up to) four columns around
+// it composited alone, and their blend, the image's pixel to the bit. The trace follows each
+// of the four sample by sample, with its weight in the blend.
+static Rgb object_order_pixel(const Scene& scene, const Camera& camera, int x, int y,
+                              Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Shear& shear = scene.shear;
     const Ray ray = camera_ray(camera, x, y);
@@ -734,31 +604,24 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
     if (trace) {
         trace->note({{"u", p.u}, {"v", p.v}, {"principal_axis", double(shear.c)},
                      {"spacing", shear.spacing}},
-                    "warp: the ray meets the first slice (%c = %d) at intermediate pixel "
-                    "u=%.4f v=%.4f; samples one slice apart, %.4f along the ray",
+                    "the ray runs along %c from slice %d at column u=%.4f v=%.4f; samples one "
+                    "slice apart, %.4f along the ray",
                     "ijk"[shear.c], shear.first_slice, p.u, p.v, shear.spacing);
     }
-    // The four pixels in order (those inside the intermediate image), then the warp's blend.
     const int low_u = int(std::floor(p.u)), low_v = int(std::floor(p.v));
     const double fu = p.u - low_u, fv = p.v - low_v;
     Rgb colours[4];
     for (int n = 0; n < 4; ++n) {
         const int u = low_u + (n & 1), v = low_v + (n >> 1);
-        if (u < 0 || u >= shear.width || v < 0 || v >= shear.height) continue;
+        const double weight = ((n & 1) ? fu : 1 - fu) * ((n >> 1) ? fv : 1 - fv);
+        // Outside the image, or no weight in the blend (at zoom 1, three of the four): unread.
+        if (u < 0 || u >= shear.width || v < 0 || v >= shear.height || weight == 0) continue;
         if (trace) {
-            const double weight = ((n & 1) ? fu : 1 - fu) * ((n >> 1) ? fv : 1 - fv);
             trace->note({{"u", double(u)}, {"v", double(v)}, {"weight", weight}},
-                        "intermediate pixel %d,%d, weight %.4f in the warp: its ray", u, v,
-                        weight);
+                        "column %d,%d, weight %.4f in the blend: its ray", u, v, weight);
         }
         colours[n] = mip ? mip_colour(volume, mip_column(scene, u, v, ray, work, trace))
                          : composite_colour(composite_column(scene, u, v, ray, work, trace));
-        if (trace) {
-            trace->note({{"u", double(u)}, {"v", double(v)}, {"r", colours[n].r},
-                         {"g", colours[n].g}, {"b", colours[n].b}},
-                        "intermediate pixel %d,%d: rgb=(%.6f, %.6f, %.6f)", u, v, colours[n].r,
-                        colours[n].g, colours[n].b);
-        }
     }
     auto pixel = [&](int u, int v) { return colours[(u - low_u) + 2 * (v - low_v)]; };
     return warp_pixel(p, shear.width, shear.height, pixel);
@@ -768,8 +631,8 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Shear-warp: the slices composited into an intermediate image, "
-                             "then one warp.");
+        Args args(step_name, "Object order: along an axis, the slices composited front to "
+                             "back into the image.");
         args.add_choice("--mode", &params.mode, {"composite", "mip"},
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,
@@ -784,15 +647,17 @@ int main(int argc, char** argv) {
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the slices' spacing");
         args.add_double("--azimuth", &params.azimuth, -360, 360,
-                        "degrees around the vertical; 0 faces the face, 90 looks along +i");
+                        "degrees around the vertical, a multiple of 90; 0 faces the face, "
+                        "90 looks along +i (default 180)");
         args.add_double("--elevation", &params.elevation, -90, 90,
-                        "degrees above the i-j plane; 90 looks down from the crown");
+                        "degrees above the i-j plane, a multiple of 90; 90 looks down from "
+                        "the crown (default)");
         args.add_double("--zoom", &params.zoom, min_zoom, max_zoom, "pixels per voxel");
         args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
-                        "a sample in its slice: the four voxels around it, or the nearest one");
+                        "along an axis every sample lies on a voxel: both read that voxel");
         args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
                         "parallel rays only (perspective: step 34)");
-        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)");
+        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 256x256)");
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         if (options.view != "all") {
@@ -801,14 +666,20 @@ int main(int argc, char** argv) {
         }
         if (options.work_map) {
             throw InputError(std::string("--work-map: ") + step_name + " counts its work per "
-                             "slice row of the intermediate image, not per ray of the output "
-                             "image (a pixel blends four intermediate pixels), so no per-pixel "
-                             "map would sum to the summary line's counters");
+                             "row of the column image (its intermediate image), not per ray of "
+                             "the output image (a pixel may blend four columns), so no "
+                             "per-pixel map would sum to the summary line's counters");
+        }
+        if (std::fmod(params.azimuth, axis_angle) != 0 ||
+            std::fmod(params.elevation, axis_angle) != 0) {
+            throw InputError("--azimuth " + summary_number(params.azimuth) + " --elevation " +
+                             summary_number(params.elevation) + ": " + step_name + " looks "
+                             "along an axis only (multiples of 90 degrees); step 36 turns freely");
         }
         if (params.projection != "ortho") {
             throw InputError("--projection " + params.projection + ": this step's shear-warp "
                              "is orthographic (a perspective one scales every slice as well: "
-                             "handout 35); step 34 renders it");
+                             "handout 36); step 34 renders it");
         }
         int width = 0, height = 0;
         parse_size(params.size, max_image_side, &width, &height);
@@ -839,73 +710,78 @@ int main(int argc, char** argv) {
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {make_camera_view(width, height)};
 
-        // --- Render: the slices into the intermediate image, rows shared by the threads; then
-        // the warp to the camera's image. The light turns with the camera ---
+        // --- Render: the slices into the column image, rows shared by the threads; then the
+        // column image placed in the camera's image. The light turns with the camera ---
         const bool mip = params.mode == "mip";
-        struct Frame {  // one view's factorisation, and what its pixels share
+        struct Frame {  // one view's slices, and what its pixels share
             Camera camera;
             Shear shear;
-            std::vector<SliceShift> shifts;
-            Vec3 to_light;               // unit vector towards the light; unused when unlit
+            Vec3 to_light;  // unit vector towards the light; unused when unlit
         };
         auto frame_for = [&](const View& view) {
             Frame frame;
             frame.camera = make_camera(volume, params, view);
-            frame.shear = make_shear(volume, frame.camera);
-            for (int m = 0; m < frame.shear.nc; ++m) {
-                frame.shifts.push_back(slice_shift(frame.shear, m, params.nearest));
+            if (!along_an_axis(frame.camera)) {  // (main refuses other angles)
+                throw InputError(std::string(step_name) + ": the camera is not along an axis");
             }
+            frame.shear = make_shear(volume, frame.camera);
             prepare(frame.shear);
             frame.to_light =
                 params.unlit ? Vec3{} : light_direction(frame.camera, params.light_angle);
             return frame;
         };
         auto scene_for = [&](const Frame& frame) {
-            return Scene{volume, frame.shear, frame.shifts, lut,
-                         frame.to_light, params};
+            return Scene{volume, frame.shear, lut, frame.to_light, params};
         };
         renderer.image = [&](const View& view, Work& work) {
             const Frame frame = frame_for(view);
             const Scene scene = scene_for(frame);
             const Shear& shear = frame.shear;
-            Image intermediate(shear.width, shear.height);
+            Image columns(shear.width, shear.height);
             parallel_rows(shear.height, options.threads, work, [&](int v, Work& row_work) {
                 if (mip) {
                     std::vector<float> highest(shear.width,
                                                -std::numeric_limits<float>::infinity());
                     mip_row(scene, v, highest.data(), row_work);
                     for (int u = 0; u < shear.width; ++u) {
-                        intermediate.at(u, v) = mip_colour(volume, highest[u]);
+                        columns.at(u, v) = mip_colour(volume, highest[u]);
                     }
                 } else {
                     std::vector<Accumulated> row(shear.width);
                     composite_row(scene, v, row.data(), row_work);
                     for (int u = 0; u < shear.width; ++u) {
-                        intermediate.at(u, v) = composite_colour(row[u]);
+                        columns.at(u, v) = composite_colour(row[u]);
                     }
                 }
             });
             Image image(view.width, view.height);
             const WarpMap warp = make_warp(volume, shear, frame.camera);
+            auto column = [&](int u, int v) { return columns.at(u, v); };
             parallel_rows(view.height, options.threads, work, [&](int y, Work&) {
                 for (int x = 0; x < view.width; ++x) {
-                    image.at(x, y) = warp_inside(warp_at(warp, x, y), intermediate);
+                    image.at(x, y) = warp_pixel(warp_at(warp, x, y), shear.width, shear.height,
+                                                column);
                 }
             });
             return image;
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Frame frame = frame_for(view);
-            return shear_warp_pixel(scene_for(frame), frame.camera, x, y, work, trace);
+            return object_order_pixel(scene_for(frame), frame.camera, x, y, work, trace);
         };
         renderer.ray_samples = [&](const View& view) {
-            const Shear shear = make_shear(volume, make_camera(volume, params, view));
+            const Shear shear = frame_for(view).shear;
             return "one sample per slice of " + std::string(1, "ijk"[shear.c]) + ", " +
                    summary_number(shear.spacing) + " physical units apart along the ray";
         };
+        // The window turns the camera a quarter at a time: the drag adds up freely, the camera
+        // takes the nearest multiple of 90 degrees.
+        double free_azimuth = params.azimuth, free_elevation = params.elevation;
         renderer.orbit.turn = [&](double azimuth, double elevation) {
-            params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
-            params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
+            free_azimuth = std::remainder(free_azimuth + azimuth, 360.0);  // -180..180
+            free_elevation = std::clamp(free_elevation + elevation, -90.0, 90.0);
+            params.azimuth = axis_angle * std::round(free_azimuth / axis_angle);
+            params.elevation = axis_angle * std::round(free_elevation / axis_angle);
         };
         renderer.orbit.zoom = [&](double factor) {
             params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);

@@ -1,24 +1,24 @@
-// 37_opaque_pixels.cpp: shear-warp's third trick, early termination in image space: the
-// opaque pixels of a row are jumped over, not tested one by one.
+// 36_shear_warp.cpp: object order from any orthographic camera: shear-warp (Lacroute &
+// Levoy 1994), the algorithm VolPack uses.
 //
-// New here:   step 36 tests every pixel of a run against T in every slice, opaque or not.
-//             Here next[u] leads from a pixel to the first one at or after it that is not
-//             opaque (each lookup shortens the path it followed, as a union-find does), so an
-//             opaque stretch of a row costs a jump or two per run however wide it is, and a
-//             row whose pixels are all opaque stops reading slices. The same samples as step
-//             36, in the same order: the same pictures and samples.
-//             Orthographic only; one sample per slice, so no --step. --work-map is refused:
-//             the work is counted per row of the intermediate image.
-// Builds on:  36_slice_runs.
-// Handout:    handouts/37_opaque_pixels.md
-// Run:        make run STEP=37 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/37_opaque_pixels_camera.png: the default run (lit composite,
+// New here:   the view is factored into a shear and a warp. The slices are those across the
+//             axis the rays run most along (the principal axis); each slice is shifted by the
+//             shear, so that a pixel of the intermediate image (one per voxel column) meets
+//             it at one bilinear sample, the same four weights for the whole slice, read in
+//             memory order; then one 2D warp takes that image to the camera's. Every cell of
+//             every slice is read (steps 37-39 add the tricks that skip work). Along an axis
+//             the pictures are step 35's bit for bit; at an angle a sample lies on every
+//             slice, not every unit of length, and the warp resamples the image: a stated
+//             error against step 30 (handout 36). Orthographic only, no --step, no --work-map.
+// Builds on:  35_object_order (its slices, compositing and placing, along an axis only).
+// Handout:    handouts/36_shear_warp.md
+// Run:        make run STEP=36 ARGS="--azimuth 45 --elevation 30 --size 256x256"
+// Reference:  data/reference/36_shear_warp_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
-#include <ctime>   // std::clock: the precomputation's CPU time (the machine may be shared)
 using namespace ctlab;
 
-constexpr const char* step_name = "37_opaque_pixels";
+constexpr const char* step_name = "36_shear_warp";
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
@@ -328,7 +328,7 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
-// --- Step 35: shear-warp ---
+// --- Step 36: shear-warp ---
 
 // The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
 // of voxels across the principal axis c, the axis the view direction runs most along in
@@ -358,34 +358,13 @@ struct SliceShift {
     int last_a = 0, last_b = 0;  // the last cell: n - 1 when the fraction is 0, else n - 2
 };
 
-// The cells of each slice row that the table may see (see find_runs), as runs of cells
-// [begin, end) along a. Made once per transfer function and principal axis.
-constexpr int mip_stretch = 16;   // pixels per vector loop of mip_row
-constexpr int runs_stretch = 16;  // cells tested at once first by find_runs (a slice's air);
-                                  // the folds in find_runs are written for 16
-
-struct Runs {
-    int axis = -1;                // the principal axis they are for; -1: not made
-    int nb = 0;                   // cell rows per slice
-    std::vector<uint32_t> first;  // per slice row c * nb + b: its first run; one past the end
-    std::vector<int32_t> bounds;  // begin, end of every run, in cells along a
-    size_t cells = 0;             // cells in runs, all slices
-
-    // Slice c's row b: its runs, and how many (none for a row it does not hold: runs not
-    // made yet, as in a student's kit before find_runs() is written).
-    const int32_t* row(int c, int b, int* count) const {
-        const size_t r = size_t(c) * nb + b;
-        *count = r + 1 < first.size() ? int(first[r + 1] - first[r]) : 0;
-        return *count > 0 ? &bounds[2 * size_t(first[r])] : nullptr;
-    }
-};
+constexpr int mip_stretch = 16;  // pixels per vector loop of mip_row
 
 // Everything a render needs that is the same for every pixel.
 struct Scene {
     const Volume& volume;
     const Shear& shear;
     const std::vector<SliceShift>& shifts;  // slice m's, front to back
-    const Runs& runs;
     const Lut& lut;                  // opacities corrected for shear.spacing
     Vec3 to_light;                   // unit vector towards the light; unused when unlit
     const Params& params;
@@ -405,6 +384,8 @@ static Voxel voxel_of(const Shear& shear, int a, int b, int c) {
 // view direction crosses most voxels per unit of length: then a ray crosses every slice once,
 // and each slice is shifted by at most one voxel against the one before. Front to back is the
 // direction's sign along it. The intermediate image is wide enough for every slice's shift.
+// Changed in step 36: any direction, not only along an axis; the shift per slice and the
+// intermediate image's size.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -464,126 +445,6 @@ static inline float slice_value(const int16_t* p, const SliceShift& s) {
 }
 //< lesson: shear
 
-//> lesson: runs
-// Classification, once per transfer function and principal axis: the cells of every slice row
-// that the table may see. A bilinear value lies between its cell's lowest and highest corner
-// (the last voxel counts again at an edge), so a cell whose four corners all lie in one
-// stretch of transparent table entries is transparent wherever a sample falls in it: it is
-// left out. Slices are shared among the threads.
-static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, int threads) {
-    std::vector<int32_t> stretch(lut.entries.size());  // per table entry
-    int32_t seen = 0;                                    // entries seen so far
-    for (size_t n = 0; n < stretch.size(); ++n) {
-        if (lut.entries[n].a > 0.0f) {
-            stretch[n] = -1;
-            ++seen;
-        } else {
-            stretch[n] = seen;  // the same for every entry up to the next one seen
-        }
-    }
-    // A range of values [low, high] is transparent when the table sees none of its entries.
-    auto clear = [&](int low, int high) {
-        const int32_t first = stretch[low - lowest_ct_value];
-        return first >= 0 && first == stretch[high - lowest_ct_value];
-    };
-    const int na = shear.na, nb = shear.nb;
-    const size_t sa = shear.stride_a;
-    std::vector<std::vector<int32_t>> bounds(shear.nc);  // per slice, its runs
-    std::vector<std::vector<uint32_t>> counts(shear.nc);  // per slice, runs per row
-    Work unused;
-    parallel_rows(shear.nc, threads, unused, [&](int c, Work&) {
-        counts[c].assign(nb, 0);
-        for (int b = 0; b < nb; ++b) {
-            const int16_t* low = &volume.data[c * shear.stride_c + b * shear.stride_b];
-            const int16_t* high = &volume.data[c * shear.stride_c +
-                                               std::min(b + 1, nb - 1) * shear.stride_b];
-            int begin = -1;  // the run being read; -1: none
-            auto run_ends = [&](int a) {
-                if (begin < 0) return;
-                bounds[c].insert(bounds[c].end(), {begin, a});
-                ++counts[c][b];
-                begin = -1;
-            };
-            // A stretch of runs_stretch cells at a time: each cell's lowest and highest corner
-            // (a loop of fixed length over neighbouring values, which the compiler makes
-            // vector instructions), then the stretch's: most of a slice is air or soft tissue,
-            // clear as a whole. Rows along i are contiguous; others are copied first.
-            int16_t row_low[runs_stretch + 1], row_high[runs_stretch + 1];
-            int16_t cell_low[runs_stretch], cell_high[runs_stretch];
-            for (int from = 0; from < na; from += runs_stretch) {
-                const int to = std::min(from + runs_stretch, na);
-                const int16_t* p = &low[from];
-                const int16_t* q = &high[from];
-                if (sa != 1 || from + runs_stretch > na - 1) {  // copied, the edge repeated
-                    for (int n = 0; n <= runs_stretch; ++n) {
-                        const size_t a = size_t(std::min(from + n, na - 1)) * sa;
-                        row_low[n] = low[a];
-                        row_high[n] = high[a];
-                    }
-                    p = row_low;
-                    q = row_high;
-                }
-                for (int n = 0; n < runs_stretch; ++n) {
-                    cell_low[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
-                    cell_high[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
-                }
-                // The stretch's lowest and highest: halves folded onto each other, each fold a
-                // loop of fixed length (the cells past the slice's edge, in its last stretch,
-                // first take the first cell's values).
-                for (int n = to - from; n < runs_stretch; ++n) {
-                    cell_low[n] = cell_low[0];
-                    cell_high[n] = cell_high[0];
-                }
-                int16_t lowest[runs_stretch / 2], highest[runs_stretch / 2];
-                for (int n = 0; n < runs_stretch / 2; ++n) {
-                    lowest[n] = std::min(cell_low[n], cell_low[n + runs_stretch / 2]);
-                    highest[n] = std::max(cell_high[n], cell_high[n + runs_stretch / 2]);
-                }
-                for (int n = 0; n < runs_stretch / 4; ++n) {
-                    lowest[n] = std::min(lowest[n], lowest[n + runs_stretch / 4]);
-                    highest[n] = std::max(highest[n], highest[n + runs_stretch / 4]);
-                }
-                for (int n = 0; n < runs_stretch / 8; ++n) {
-                    lowest[n] = std::min(lowest[n], lowest[n + runs_stretch / 8]);
-                    highest[n] = std::max(highest[n], highest[n + runs_stretch / 8]);
-                }
-                lowest[0] = std::min(lowest[0], lowest[1]);
-                highest[0] = std::max(highest[0], highest[1]);
-                if (clear(lowest[0], highest[0])) {
-                    run_ends(from);
-                    continue;
-                }
-                for (int n = 0; n < to - from; ++n) {  // cell by cell
-                    if (clear(cell_low[n], cell_high[n])) {
-                        run_ends(from + n);
-                    } else if (begin < 0) {
-                        begin = from + n;
-                    }
-                }
-            }
-            run_ends(na);
-        }
-    });
-    Runs runs;
-    runs.axis = shear.c;
-    runs.nb = nb;
-    runs.first.reserve(size_t(shear.nc) * nb + 1);
-    uint32_t total = 0;
-    for (int c = 0; c < shear.nc; ++c) {
-        for (uint32_t n : counts[c]) {
-            runs.first.push_back(total);
-            total += n;
-        }
-        runs.bounds.insert(runs.bounds.end(), bounds[c].begin(), bounds[c].end());
-    }
-    runs.first.push_back(total);
-    for (size_t n = 0; n < runs.bounds.size(); n += 2) {
-        runs.cells += size_t(runs.bounds[n + 1] - runs.bounds[n]);
-    }
-    return runs;
-}
-//< lesson: runs
-
 // Given: a sample's light: the gradients of its cell's four corners from the voxels (step
 // 10's gradient_at()), blended as the value is, then step 10's shade: step 30's light, with
 // the fraction along c at 0.
@@ -616,28 +477,16 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 }
 
 // Row v of the intermediate image, slice by slice front to back. In each slice the row meets
-// one row of cells, and only the cells in its runs are read; the pixels they fall on are
-// composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
-// at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
-// stretch of a row costs a jump or two per run however wide it is.
-// Changed in step 37: the opaque pixels jumped over through next[], not tested one by one.
+// one row of cells; each pixel reads its cell's sample and composites it, unless the pixel is
+// already opaque (early termination, pixel by pixel).
+// Changed in step 36: each slice shifted, a sample bilinear in its cell (slice_value()).
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
     const double stop_below = std::max(scene.params.ert, min_transparency);
     const Rgba* lut = scene.lut.entries.data();
-    std::vector<int> next(size_t(shear.width) + 1);
-    for (int u = 0; u <= shear.width; ++u) next[u] = u;  // next[width]: the end
-    auto open_from = [&](int u) {  // the first pixel at or after u that is not opaque
-        while (next[u] != u) {
-            next[u] = next[next[u]];
-            u = next[u];
-        }
-        return u;
-    };
-    int open = shear.width;  // pixels not yet opaque
-    // Speed: the counters and the slice's shift are local copies. The loop stores to the row
-    // and to next[]; through a reference the compiler would read them again after each store.
+    // Speed: the counters and the slice's shift are local copies. The loop stores to the row;
+    // through a reference the compiler would read them again after each store.
     Work counted;
     for (const SliceShift& shift : scene.shifts) {
         const SliceShift s = shift;
@@ -645,51 +494,35 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
         if (b < 0 || b > s.last_b) continue;
         const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
         const int16_t* slice_row = &scene.volume.data[row_index];
-        // The pixels whose cell lies in the slice, and the runs of cells the table may see.
+        // The pixels whose cell lies in the slice.
         const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, s.last_a + 1 - s.ia);
-        if (u_low >= u_high) continue;
-        int count = 0;
-        const int32_t* run = scene.runs.row(s.slice, b, &count);
-        long long in_runs = 0;
-        for (int r = 0; r < count && open > 0; ++r) {
-            const int from = std::max(u_low, run[2 * r] - s.ia);
-            const int to = std::min(u_high, run[2 * r + 1] - s.ia);
-            if (from >= to) continue;
-            in_runs += to - from;
-            for (int u = open_from(from); u < to; u = open_from(u + 1)) {
-                const size_t along = size_t(u + s.ia) * shear.stride_a;
-                const float value = slice_value(slice_row + along, s);
-                const Rgba& sample = lut[int(double(value) - lowest_ct_value)];
-                ++counted.samples;
-                if (sample.a == 0.0f) {
-                    ++counted.skipped;
-                    continue;
-                }
-                double light = 1.0;  // unlit
-                if (!unlit) {
-                    light = slice_light(scene, s, u + s.ia, b, counted);
-                }
-                add_sample(row[u], sample, light);
-                if (row[u].transparency < stop_below) {
-                    ++counted.terminated;
-                    next[u] = u + 1;
-                    --open;
-                }
+        for (int u = u_low; u < u_high; ++u) {
+            if (row[u].transparency < stop_below) continue;  // opaque already
+            const size_t along = size_t(u + s.ia) * shear.stride_a;
+            const float value = slice_value(slice_row + along, s);
+            const Rgba& sample = lut[int(double(value) - lowest_ct_value)];
+            ++counted.samples;
+            if (sample.a == 0.0f) {
+                ++counted.skipped;
+                continue;
             }
+            double light = 1.0;  // unlit
+            if (!unlit) light = slice_light(scene, s, u + s.ia, b, counted);
+            add_sample(row[u], sample, light);
+            if (row[u].transparency < stop_below) ++counted.terminated;
         }
-        counted.leapt += (u_high - u_low) - in_runs;  // transparent cells: never read
-        if (open == 0) break;  // the whole row is opaque
     }
     work.add(counted);
 }
 //< lesson: composite
 
 //> lesson: mip
-// Row v of the maximum intensity: every cell the row meets in every slice (no runs: a maximum
-// has no transparent values), each pixel keeping its highest sample. -infinity: none yet.
+// Row v of the maximum intensity: every cell the row meets in every slice, each pixel keeping
+// its highest sample. -infinity: none yet.
 // Every pixel of a slice row does the same sums on neighbouring voxels: in stretches of a
 // fixed length the compiler turns the loop into vector instructions (SSE2's four floats at a
 // time), the same floats as slice_value() one at a time.
+// Changed in step 36: each slice shifted, a sample bilinear in its cell.
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
     const Shear& shear = scene.shear;
     for (const SliceShift& s : scene.shifts) {
@@ -740,6 +573,7 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
 
 // Given: where output pixel (x, y)'s camera ray meets the first slice, in intermediate
 // pixels: the ray there is the ray of that intermediate pixel.
+// Changed in step 36: the ray meets the first slice at an angle, not straight along c.
 static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Camera& camera,
                             int x, int y) {
     const Ray ray = camera_ray(camera, x, y);
@@ -798,10 +632,10 @@ static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
 
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
 
-// Intermediate pixel (u, v) alone, every slice front to back, with no runs: the cells outside
-// them give transparent samples, which change nothing, so it is composite_row()'s pixel, to
+// Intermediate pixel (u, v) alone, every slice front to back: composite_row()'s pixel, to
 // the bit. Its samples are traced (when `trace`) at their distance t along `ray`, the output
 // pixel's ray, which runs beside this pixel's at less than a voxel and a half.
+// Changed in step 36: each slice's shift, a bilinear sample.
 static Accumulated composite_column(const Scene& scene, int u, int v, const Ray& ray,
                                     Work& work, Trace* trace) {
     const Shear& shear = scene.shear;
@@ -854,6 +688,7 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
 }
 
 // mip_row()'s pixel (u, v) alone, traced as composite_column() traces.
+// Changed in step 36: each slice's shift, a bilinear sample.
 static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& work,
                         Trace* trace) {
     const Shear& shear = scene.shear;
@@ -977,7 +812,7 @@ int main(int argc, char** argv) {
         if (params.projection != "ortho") {
             throw InputError("--projection " + params.projection + ": this step's shear-warp "
                              "is orthographic (a perspective one scales every slice as well: "
-                             "handout 35); step 34 renders it");
+                             "handout 36); step 34 renders it");
         }
         int width = 0, height = 0;
         parse_size(params.size, max_image_side, &width, &height);
@@ -985,19 +820,13 @@ int main(int argc, char** argv) {
         // --- Volume ---
         const Volume volume = load_volume(options);
 
-        // --- Transfer function: the file (in the file's units); which values it sees ---
+        // --- Transfer function: the file (in the file's units) ---
         TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
-        const Lut seen = build_lut(tf, 1.0);  // the runs need only which opacities are not 0
 
-        // --- Once per transfer function and principal axis, made by the first render that
-        // needs it (so the first render's time_ms= includes it, and precompute_ms= says how
-        // much): the runs of cells the table may see. Once per view: the table's opacities
-        // for the slices' spacing ---
-        Runs runs[3];  // per principal axis
-        double precompute_ms = 0;  // wall clock, this process
+        // --- Once per view: the table's opacities for the slices' spacing ---
         Lut lut;
         double lut_ratio = -1;  // the ratio lut was made for; -1: none yet
         auto prepare = [&](const Shear& shear) {
@@ -1006,22 +835,6 @@ int main(int argc, char** argv) {
                 lut = build_lut(tf, ratio);
                 lut_ratio = ratio;
             }
-            if (params.mode == "mip") return;
-            if (runs[shear.c].axis >= 0) return;
-            const Timer timer;
-            const std::clock_t cpu_start = std::clock();
-            runs[shear.c] = find_runs(volume, shear, seen, options.threads);
-            const double ms = timer.ms();
-            precompute_ms += ms;
-            const Runs& made = runs[shear.c];
-            // Its cost, once per table and axis (the summary lines are the renders'): memory
-            // and time, in wall clock and CPU (the machine may be shared).
-            std::printf("precompute axis=%c run_cells=%zu of %zu runs=%zu runs_mb=%.2f "
-                        "ms=%.1f cpu_ms=%.1f\n",
-                        "ijk"[shear.c], made.cells, volume.voxel_count(), made.bounds.size() / 2,
-                        (made.bounds.size() * sizeof(int32_t) +
-                         made.first.size() * sizeof(uint32_t)) / 1048576.0,
-                        ms, 1000.0 * double(std::clock() - cpu_start) / CLOCKS_PER_SEC);
         };
 
         // --- View: the camera's image (its camera is made for each render: the window turns
@@ -1052,7 +865,7 @@ int main(int argc, char** argv) {
             return frame;
         };
         auto scene_for = [&](const Frame& frame) {
-            return Scene{volume, frame.shear, frame.shifts, runs[frame.shear.c], lut,
+            return Scene{volume, frame.shear, frame.shifts, lut,
                          frame.to_light, params};
         };
         renderer.image = [&](const View& view, Work& work) {
@@ -1116,8 +929,7 @@ int main(int argc, char** argv) {
                    " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
                    " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
                    " interpolation=" + params.interpolation +
-                   " opacity_ratio=" + summary_number(lut_ratio) +
-                   " precompute_ms=" + summary_number(precompute_ms);
+                   " opacity_ratio=" + summary_number(lut_ratio);
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---
