@@ -258,7 +258,7 @@ static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 // Step 10's derivative and gradient at a voxel, unchanged.
 template <class Sample>
 static float derivative(Sample sample, int n, int count, double spacing) {
-    if (count == 1) return 0.0f;
+    if (count == 1) return 0.0f;  // a volume one voxel thick has no slope along this axis
     if (n == 0) return float((sample(1) - sample(0)) / spacing);
     if (n == count - 1) return float((sample(n) - sample(n - 1)) / spacing);
     return float((sample(n + 1) - sample(n - 1)) / (2 * spacing));
