@@ -82,18 +82,23 @@ if [ "${1:-}" = "--xdotool" ]; then
             wait_for '^step=07_back_to_front ' 3 || finish
             ;;
         type)  # the size field: click, select all, type a new size, Return
-            widget --size || finish
-            # Twice at the most: on a machine busy enough (a sanitizer build beside other
-            # suites) the click that focuses the field can come before the panel takes input,
-            # and the keys then go nowhere (seen once in CI).
-            for attempt in 1 2; do
+            # The field's text is cleared with End and backspaces, not ctrl+a: a ctrl+a that
+            # came in the frame the field took focus was lost, and '96x80' went after the old
+            # text ("--size: expected a whole number, got '12896x80'", 1 run in 12 on an idle
+            # machine). Three times at the most: on a busy machine the click that focuses the
+            # field can come before the panel takes input, and the keys then go nowhere (seen
+            # in CI); each attempt reads the window's place anew, in case it moved.
+            for attempt in 1 2 3; do
+                eval "$(xdotool getwindowgeometry --shell "$window")"
+                widget --size || finish
                 xdotool mousemove $((wx + ww / 2)) $((wy + wh / 2)) click 1
                 sleep 0.3
-                xdotool key ctrl+a
+                xdotool key End
+                xdotool key --repeat 24 --delay 20 BackSpace
                 xdotool type --delay 30 '96x80'
                 xdotool key Return
-                wait_for '^step=.* size=96x80 ' 1 100 && break
-                [ $attempt = 2 ] && finish
+                wait_for '^step=.* size=96x80 ' 1 75 && break
+                [ $attempt = 3 ] && finish
             done
             ;;
     esac
@@ -263,6 +268,14 @@ if command -v xdotool > /dev/null 2>&1; then
     xvfb sh "$0" --xdotool "$step" "$work/drag/drag.log" drag --view top \
         > "$work/drag.out" 2>&1 &
     drag=$!
+    # The second display only once the first answers: two xvfb-run -a started at once can
+    # pick the same display number, and one window then finds no display (1 run in 30).
+    tries=0
+    until grep -q '^window: ' "$work/drag/drag.log" 2>/dev/null || ! kill -0 $drag 2>/dev/null ||
+          [ $tries -gt 150 ]; do
+        tries=$((tries + 1))
+        sleep 0.2
+    done
     step12=$build/24_free_leaping
     xvfb sh "$0" --xdotool "$step12" "$work/type/type.log" type --size 128x128 \
         > "$work/type.out" 2>&1
