@@ -522,14 +522,19 @@ lines_in() { [ "$(grep -c "$2" "$1")" -ge "$3" ]; }
 # shell, which ignores SIGINT as a background job, and the window stayed open for good).
 fresh_stdout() { : > "$work/stdout"; }
 # signal_ends SIGNAL STATUS WHAT: sends SIGNAL to $pid; it must end with STATUS within a second
+# (idle: 10-30 ms). A sanitizer build is given five: the program dies by the signal's default
+# action at once, but the kernel then tears down ASan's terabytes of shadow mappings, and in
+# CI beside other suites that took 1,007 ms once.
+signal_limit_ms=1000
+case "$build" in *san*) signal_limit_ms=5000 ;; esac
 signal_ends() {
     start=$(now_ms)
     kill -"$1" $pid 2> /dev/null  # it may have ended already (the X server going away)
     wait $pid
     status=$?
     took=$(($(now_ms) - start))
-    if [ $status -eq "$2" ] && [ $took -lt 1000 ]; then pass; else
-        fail "$3: SIG$1 gave exit status $status after $took ms (expected $2 within 1000 ms)"
+    if [ $status -eq "$2" ] && [ $took -lt $signal_limit_ms ]; then pass; else
+        fail "$3: SIG$1 gave exit status $status after $took ms (expected $2 within $signal_limit_ms ms)"
     fi
 }
 if command -v python3 > /dev/null 2>&1; then
