@@ -411,29 +411,35 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 }
 
 // Row v of the intermediate image, slice by slice front to back. In each slice the row is one
-// row of voxels, read in memory order; each pixel composites its voxel's sample, unless the pixel
-// is already opaque (early termination, pixel by pixel).
+// row of voxels, read in memory order; each pixel composites its voxel's sample, unless the
+// pixel is already opaque (early termination, pixel by pixel).
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
+    const bool unlit = scene.params.unlit;
     const double stop_below = std::max(scene.params.ert, min_transparency);
+    const Rgba* lut = scene.lut.entries.data();
+    // Speed: the counters are a local copy. The loop stores to the row; through a reference
+    // the compiler would read them again after each store.
+    Work counted;
     for (int m = 0; m < shear.nc; ++m) {
         const int c = shear.first_slice + m * shear.slice_step;
         const int16_t* slice_row = &scene.volume.data[c * shear.stride_c + v * shear.stride_b];
         for (int u = 0; u < shear.width; ++u) {
             if (row[u].transparency < stop_below) continue;  // opaque already
             const float value = slice_row[u * shear.stride_a];
-            const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
-            ++work.samples;
+            const Rgba& sample = lut[int(double(value) - lowest_ct_value)];
+            ++counted.samples;
             if (sample.a == 0.0f) {
-                ++work.skipped;
+                ++counted.skipped;
                 continue;
             }
             double light = 1.0;  // unlit
-            if (!scene.params.unlit) light = voxel_light(scene, u, v, c, work);
+            if (!unlit) light = voxel_light(scene, u, v, c, counted);
             add_sample(row[u], sample, light);
-            if (row[u].transparency < stop_below) ++work.terminated;
+            if (row[u].transparency < stop_below) ++counted.terminated;
         }
     }
+    work.add(counted);
 }
 //< lesson: composite
 
@@ -453,9 +459,10 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
 }
 //< lesson: mip
 
-// Given: where output pixel (x, y) reads the intermediate image, in its pixels: affine in x and y,
-// u = u0 + x * du_dx + y * du_dy, the same for v. Along an axis it is a shift, perhaps a
-// mirror, and the zoom's scale; at zoom 1, whole pixels. Step 36 makes it the general warp.
+// The warp: where the intermediate image is read for output pixel (x, y), in its pixels. It is
+// affine in x and y (the shear's inverse composed with the camera's map): u = u0 + x * du_dx
+// + y * du_dy, the same for v. Along an axis it is a shift, perhaps a mirror, and the zoom's
+// scale; at zoom 1, whole pixels.
 struct WarpMap {
     double u0 = 0, du_dx = 0, du_dy = 0;
     double v0 = 0, dv_dx = 0, dv_dy = 0;
