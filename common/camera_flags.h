@@ -24,9 +24,11 @@ struct CameraFlags {
     std::string projection = "ortho";  // "ortho" or "perspective"
     double fov = 30;                   // degrees, the perspective image's height
     std::string size = "512x512";      // pixels, "WIDTHxHEIGHT"
+    double turn_step = 0;  // degrees; > 0: the camera takes multiples of it only (a step that
+                           // looks along an axis: 90), its --help, drag and refusal say so
 };
 
-// Adds the six flags, with their limits and --help lines.
+// Adds the six flags, with their limits and --help lines (the defaults as `camera` holds them).
 void add_camera_flags(Args& args, CameraFlags* camera);
 
 // The camera's image after Args::parse: --size parsed; --view refused (a part-2 step renders
@@ -34,8 +36,16 @@ void add_camera_flags(Args& args, CameraFlags* camera);
 View camera_view(const Options& options, const CameraFlags& camera);
 
 // The window's mouse: a drag turns the camera (azimuth kept in -180..180, elevation clamped
-// to -90..90), the wheel zooms within min_zoom..max_zoom.
+// to -90..90), the wheel zooms within min_zoom..max_zoom. With a turn_step the drag adds up
+// freely and the camera takes the nearest multiple of it (a quarter turn at a time).
 Orbit camera_orbit(CameraFlags* camera);
+
+// The flags an object-order step (one that composites slices into an intermediate image and
+// warps it) cannot honour, each refused with a one-line error: --work-map (its work is
+// counted per row of the intermediate image, not per ray of the output image, so no
+// per-pixel map would sum to the summary line's counters), --projection perspective (its
+// shear-warp is orthographic), and with a turn_step, an angle not a multiple of it.
+void refuse_object_order_flags(const Options& options, const CameraFlags& camera);
 
 // " projection=ortho azimuth=30 elevation=20 zoom=1 fov=30": the summary line's camera part.
 std::string camera_settings(const CameraFlags& camera);

@@ -476,7 +476,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 15.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -673,29 +673,22 @@ int main(int argc, char** argv) {
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {camera_image};
 
-        // --- Render: one ray per pixel; the light turns with the camera ---
-        auto pixel = [&](const Scene& scene, int x, int y, Work& work, Trace* trace) {
+        // --- Light: towards it from every ray of a render (it turns with the camera), so
+        // worked out once per render, as step 10 does once per view; none with --unlit ---
+        auto light_towards = [&](const Camera& camera) {
+            return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
+        };
+
+        // --- Render: one ray per pixel ---
+        auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
+                         Trace* trace) {
+            const Scene scene{volume, camera, lut, space, to_light, params};
             if (params.mode == "mip") return mip_ray(scene, x, y, work, trace);
             return over_background(composite_ray(scene, x, y, work, trace));
         };
-        auto scene_for = [&](const Camera& camera) {
-            const Vec3 to_light = params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
-            return Scene{volume, camera, lut, space, to_light, params};
-        };
-        renderer.image = [&](const View& view, Work& work) {
-            const Camera camera = make_camera(volume, params, view);
-            const Scene scene = scene_for(camera);
-            return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
-                return pixel(scene, x, y, ray_work, nullptr);
-            });
-        };
-        renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            const Camera camera = make_camera(volume, params, view);
-            return pixel(scene_for(camera), x, y, work, trace);
-        };
-        renderer.ray_samples = [&](const View&) {
-            return "samples " + summary_number(params.step) + " physical units apart";
-        };
+        auto camera_for = [&](const View& view) { return make_camera(volume, params, view); };
+        cast_camera_rays(renderer, options.threads, params.step, camera_for, light_towards,
+                         pixel);  // common/camera_flags.h: renderer.image, .ray, .ray_samples
         renderer.knob = {"step",
                          [&](const View&, int steps) {
                              const double step = std::clamp(

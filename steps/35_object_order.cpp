@@ -7,11 +7,11 @@
 //             axis can be composited front to back, slice after slice, into an image with one
 //             pixel per voxel column: one sample per voxel, read in memory order, the same
 //             light and table as step 30. A pixel already opaque is not composited further.
-//             The rows of the column image go to the threads; warp_pixel() places it in
-//             the camera's image (a shift, a mirror and the zoom). The pictures are step 30's
-//             along an axis (to rounding: one sample per slice, not per unit of length).
+//             The rows of this intermediate image go to the threads; warp_pixel() places it
+//             in the camera's image (a shift, a mirror and the zoom). The pictures are step
+//             30's along an axis (to rounding: one sample per slice, not per unit of length).
 //             Orthographic only; no --step; --work-map is refused: the work is counted per
-//             row of the column image.
+//             row of the intermediate image.
 // Builds on:  30_speed_baseline (its camera, table, gradients and light; not its rays).
 // Handout:    handouts/35_object_order.md
 // Run:        make run STEP=35 ARGS="--azimuth 90 --elevation 0 --size 256x256"
@@ -31,15 +31,9 @@ constexpr double default_light_angle = 30;  // degrees to the right of the viewe
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
-constexpr double default_azimuth = 180;   // degrees around the vertical, 0: facing the face
-constexpr double default_elevation = 90;  // degrees above the i-j plane: from above
 constexpr double axis_angle = 90;         // degrees: the only turns this step takes
-constexpr double default_fov = 30;        // degrees, the perspective image's height
-constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
-constexpr const char* default_size = "256x256";  // pixels, columns x rows
-constexpr int max_image_side = 8192;             // pixels, --size limit per side
 
-struct Params {
+struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, --fov, --size
     std::string mode = "composite";  // "composite" or "mip"
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
     double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
@@ -47,14 +41,15 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 08)
     bool no_correction = false;  // use the TF opacities as they are, whatever the spacing
-    double azimuth = default_azimuth;      // degrees
-    double elevation = default_elevation;  // degrees, -90..90
-    double zoom = 1;                       // ortho: pixels per voxel
-    std::string projection = "ortho";      // "ortho" only (see main)
     std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
     bool nearest = false;                     // interpolation == "nearest"
-    double fov = default_fov;              // degrees, perspective only
-    std::string size = default_size;       // "WxH"
+
+    Params() {  // this step's camera: from above, one pixel per voxel column at zoom 1
+        azimuth = 180;
+        elevation = 90;
+        size = "256x256";
+        turn_step = axis_angle;
+    }
 };
 
 // What a ray has gathered so far, front to back (in double, as step 07 explains).
@@ -298,7 +293,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 15.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -331,15 +326,15 @@ static Rgb over_background(const Accumulated& ray) {
 
 // The slices are the planes of voxels across axis c, the axis the camera looks along; a and b
 // are a slice's two axes, a along its rows (the lower axis, so that a row is contiguous in
-// memory when a is i). Along an axis every ray runs down one voxel column: the column image
-// has one pixel per column, and pixel (u, v) meets slice c at voxel (a, b) = (u, v). (At an
-// angle the slices would have to shift against each other: the shear of step 36.)
+// memory when a is i). Along an axis every ray runs down one voxel column: the intermediate
+// image has one pixel per column, and pixel (u, v) meets slice c at voxel (a, b) = (u, v).
+// (At an angle the slices would have to shift against each other: the shear of step 36.)
 struct Shear {
     int a = 0, b = 1, c = 2;     // the axes: 0 i, 1 j, 2 k
     int na = 1, nb = 1, nc = 1;  // voxels along a, b, c
     size_t stride_a = 1, stride_b = 1, stride_c = 1;  // volume.index() steps along a, b, c
     int first_slice = 0, slice_step = 1;  // slice m is c = first_slice + m * slice_step
-    int width = 1, height = 1;            // the column image, pixels
+    int width = 1, height = 1;            // the intermediate image, pixels
     double spacing = 1;  // physical length along a ray from one slice to the next
 };
 
@@ -371,7 +366,7 @@ static bool along_an_axis(const Camera& camera) {
 
 //> lesson: slices
 // The slices for a camera along an axis: c is the axis it looks along, front to back is the
-// sign of the view direction along it. The column image is one pixel per voxel column.
+// sign of the view direction along it. The intermediate image is one pixel per voxel column.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -415,30 +410,36 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
     pixel.transparency *= 1 - alpha;
 }
 
-// Row v of the column image, slice by slice front to back. In each slice the row is one row
-// of voxels, read in memory order; each pixel composites its voxel's sample, unless the pixel
-// is already opaque (early termination, pixel by pixel).
+// Row v of the intermediate image, slice by slice front to back. In each slice the row is one
+// row of voxels, read in memory order; each pixel composites its voxel's sample, unless the
+// pixel is already opaque (early termination, pixel by pixel).
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
+    const bool unlit = scene.params.unlit;
     const double stop_below = std::max(scene.params.ert, min_transparency);
+    const Rgba* lut = scene.lut.entries.data();
+    // Speed: the counters are a local copy. The loop stores to the row; through a reference
+    // the compiler would read them again after each store.
+    Work counted;
     for (int m = 0; m < shear.nc; ++m) {
         const int c = shear.first_slice + m * shear.slice_step;
         const int16_t* slice_row = &scene.volume.data[c * shear.stride_c + v * shear.stride_b];
         for (int u = 0; u < shear.width; ++u) {
             if (row[u].transparency < stop_below) continue;  // opaque already
             const float value = slice_row[u * shear.stride_a];
-            const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
-            ++work.samples;
+            const Rgba& sample = lut[int(double(value) - lowest_ct_value)];
+            ++counted.samples;
             if (sample.a == 0.0f) {
-                ++work.skipped;
+                ++counted.skipped;
                 continue;
             }
             double light = 1.0;  // unlit
-            if (!scene.params.unlit) light = voxel_light(scene, u, v, c, work);
+            if (!unlit) light = voxel_light(scene, u, v, c, counted);
             add_sample(row[u], sample, light);
-            if (row[u].transparency < stop_below) ++work.terminated;
+            if (row[u].transparency < stop_below) ++counted.terminated;
         }
     }
+    work.add(counted);
 }
 //< lesson: composite
 
@@ -458,9 +459,10 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
 }
 //< lesson: mip
 
-// Given: where output pixel (x, y) reads the column image, in its pixels: affine in x and y,
-// u = u0 + x * du_dx + y * du_dy, the same for v. Along an axis it is a shift, perhaps a
-// mirror, and the zoom's scale; at zoom 1, whole pixels. Step 36 makes it the general warp.
+// The warp: where the intermediate image is read for output pixel (x, y), in its pixels. It is
+// affine in x and y (the shear's inverse composed with the camera's map): u = u0 + x * du_dx
+// + y * du_dy, the same for v. Along an axis it is a shift, perhaps a mirror, and the zoom's
+// scale; at zoom 1, whole pixels.
 struct WarpMap {
     double u0 = 0, du_dx = 0, du_dy = 0;
     double v0 = 0, dv_dx = 0, dv_dy = 0;
@@ -473,7 +475,8 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
 }
 
-// Where output pixel (x, y)'s camera ray meets the first slice, in column-image pixels.
+// Given: where output pixel (x, y)'s camera ray meets the first slice, in intermediate
+// pixels: the ray there is the ray of that intermediate pixel.
 static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Camera& camera,
                             int x, int y) {
     const Ray ray = camera_ray(camera, x, y);
@@ -481,7 +484,8 @@ static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Came
     return {ray.origin[shear.a] / spacing[shear.a], ray.origin[shear.b] / spacing[shear.b]};
 }
 
-// The affine map, from three pixels' points: one step along x and one along y.
+// Given: the affine map, from three pixels' points: one step along x and one along y. (Along an
+// axis at zoom 1 the steps are whole pixels, and every pixel lands on an intermediate pixel.)
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
     const WarpPoint origin = warp_point(volume, shear, camera, 0, 0);
     const WarpPoint along_x = warp_point(volume, shear, camera, 1, 0);
@@ -495,8 +499,8 @@ static WarpPoint warp_at(const WarpMap& warp, int x, int y) {
 }
 
 //> lesson: warp
-// The output pixel: the column image read bilinearly at the point; past its edge it is the
-// background (no ray there meets the volume). pixel(u, v) gives a pixel inside.
+// The output pixel: the intermediate image read bilinearly at the warp's point; past its edge
+// it is the background (no ray there meets the volume). pixel(u, v) gives a pixel inside.
 template <class Pixel>
 static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
     const double low_u = std::floor(p.u), low_v = std::floor(p.v);
@@ -511,10 +515,25 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
 }
 //< lesson: warp
 
+// Given: warp_pixel() on the whole intermediate image, the four pixels read directly when they
+// are all inside it (the same numbers in the same order: the same float).
+static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
+    if (!(p.u >= 0 && p.u < image.width - 1 && p.v >= 0 && p.v < image.height - 1)) {
+        return warp_pixel(p, image.width, image.height,
+                          [&](int u, int v) { return image.pixels[size_t(v) * image.width + u]; });
+    }
+    const int u = int(p.u), v = int(p.v);  // >= 0: int() rounds down
+    const float fu = float(p.u - u), fv = float(p.v - v);
+    const Rgb* low = &image.pixels[size_t(v) * image.width + u];
+    const Rgb* high = low + image.width;
+    return mix_rgb(mix_rgb(low[0], low[1], fu), mix_rgb(high[0], high[1], fu), fv);
+}
+
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
 
-// Column (u, v) alone, every slice front to back: composite_row()'s pixel, to the bit. Its
-// samples are traced (when `trace`) at their distance t along `ray`, the output pixel's ray.
+// Intermediate pixel (u, v) alone, every slice front to back: composite_row()'s pixel, to
+// the bit. Its samples are traced (when `trace`) at their distance t along `ray`, the output
+// pixel's ray.
 static Accumulated composite_column(const Scene& scene, int u, int v, const Ray& ray,
                                     Work& work, Trace* trace) {
     const Shear& shear = scene.shear;
@@ -532,8 +551,9 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
         place[shear.a] = u * spacing[shear.a];
         place[shear.b] = v * spacing[shear.b];
         place[shear.c] = c * spacing[shear.c];
-        const Vec3d point = {place[0], place[1], place[2]};
-        TraceSample record(dot(point - ray.origin, ray.direction), point, value);
+        // Its record: where it lies along the output pixel's ray, and its value.
+        TraceSample record(dot(Vec3d{place[0], place[1], place[2]} - ray.origin, ray.direction),
+                           Vec3d{place[0], place[1], place[2]}, value);
         if (sample.a == 0.0f) {
             ++work.skipped;
             if (trace) trace->sample(record.skipped());
@@ -581,19 +601,19 @@ static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& 
     return highest;
 }
 
-// A column's colour, from its composite or maximum (as the image's rows give it): over the
-// background, or the maximum's grey (no sample: the background).
+// An intermediate pixel's colour, from the pixel's composite or maximum (as the image's rows
+// give it): over the background, or the maximum's grey (no sample: the background).
 static Rgb composite_colour(const Accumulated& pixel) { return over_background(pixel); }
 static Rgb mip_colour(const Volume& volume, float highest) {
     if (highest == -std::numeric_limits<float>::infinity()) return background;
     return grey(display_grey(volume, highest));
 }
 
-// Output pixel (x, y) alone: where it reads the column image, the (up to) four columns around
-// it composited alone, and their blend, the image's pixel to the bit. The trace follows each
-// of the four sample by sample, with its weight in the blend.
-static Rgb object_order_pixel(const Scene& scene, const Camera& camera, int x, int y,
-                              Work& work, Trace* trace) {
+// Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
+// composited alone, and the warp's blend of them, the image's pixel to the bit. The trace
+// follows each of the four sample by sample, with its weight in the blend.
+static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
+                            Trace* trace) {
     const Volume& volume = scene.volume;
     const Shear& shear = scene.shear;
     const Ray ray = camera_ray(camera, x, y);
@@ -604,24 +624,31 @@ static Rgb object_order_pixel(const Scene& scene, const Camera& camera, int x, i
     if (trace) {
         trace->note({{"u", p.u}, {"v", p.v}, {"principal_axis", double(shear.c)},
                      {"spacing", shear.spacing}},
-                    "the ray runs along %c from slice %d at column u=%.4f v=%.4f; samples one "
-                    "slice apart, %.4f along the ray",
+                    "warp: the ray meets the first slice (%c = %d) at intermediate pixel "
+                    "u=%.4f v=%.4f; samples one slice apart, %.4f along the ray",
                     "ijk"[shear.c], shear.first_slice, p.u, p.v, shear.spacing);
     }
+    // The four pixels in order (those inside the intermediate image), then the warp's blend.
     const int low_u = int(std::floor(p.u)), low_v = int(std::floor(p.v));
     const double fu = p.u - low_u, fv = p.v - low_v;
     Rgb colours[4];
     for (int n = 0; n < 4; ++n) {
         const int u = low_u + (n & 1), v = low_v + (n >> 1);
-        const double weight = ((n & 1) ? fu : 1 - fu) * ((n >> 1) ? fv : 1 - fv);
-        // Outside the image, or no weight in the blend (at zoom 1, three of the four): unread.
-        if (u < 0 || u >= shear.width || v < 0 || v >= shear.height || weight == 0) continue;
+        if (u < 0 || u >= shear.width || v < 0 || v >= shear.height) continue;
         if (trace) {
+            const double weight = ((n & 1) ? fu : 1 - fu) * ((n >> 1) ? fv : 1 - fv);
             trace->note({{"u", double(u)}, {"v", double(v)}, {"weight", weight}},
-                        "column %d,%d, weight %.4f in the blend: its ray", u, v, weight);
+                        "intermediate pixel %d,%d, weight %.4f in the warp: its ray", u, v,
+                        weight);
         }
         colours[n] = mip ? mip_colour(volume, mip_column(scene, u, v, ray, work, trace))
                          : composite_colour(composite_column(scene, u, v, ray, work, trace));
+        if (trace) {
+            trace->note({{"u", double(u)}, {"v", double(v)}, {"r", colours[n].r},
+                         {"g", colours[n].g}, {"b", colours[n].b}},
+                        "intermediate pixel %d,%d: rgb=(%.6f, %.6f, %.6f)", u, v, colours[n].r,
+                        colours[n].g, colours[n].b);
+        }
     }
     auto pixel = [&](int u, int v) { return colours[(u - low_u) + 2 * (v - low_v)]; };
     return warp_pixel(p, shear.width, shear.height, pixel);
@@ -646,43 +673,13 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 08");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the slices' spacing");
-        args.add_double("--azimuth", &params.azimuth, -360, 360,
-                        "degrees around the vertical, a multiple of 90; 0 faces the face, "
-                        "90 looks along +i (default 180)");
-        args.add_double("--elevation", &params.elevation, -90, 90,
-                        "degrees above the i-j plane, a multiple of 90; 90 looks down from "
-                        "the crown (default)");
-        args.add_double("--zoom", &params.zoom, min_zoom, max_zoom, "pixels per voxel");
         args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
                         "along an axis every sample lies on a voxel: both read that voxel");
-        args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
-                        "parallel rays only (perspective: step 34)");
-        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 256x256)");
+        add_camera_flags(args, &params);  // common/camera_flags.h
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
-        if (options.view != "all") {
-            throw InputError(std::string("--view: ") + step_name + " renders the camera's "
-                             "view; turn it with --azimuth and --elevation instead");
-        }
-        if (options.work_map) {
-            throw InputError(std::string("--work-map: ") + step_name + " counts its work per "
-                             "row of the column image (its intermediate image), not per ray of "
-                             "the output image (a pixel may blend four columns), so no "
-                             "per-pixel map would sum to the summary line's counters");
-        }
-        if (std::fmod(params.azimuth, axis_angle) != 0 ||
-            std::fmod(params.elevation, axis_angle) != 0) {
-            throw InputError("--azimuth " + summary_number(params.azimuth) + " --elevation " +
-                             summary_number(params.elevation) + ": " + step_name + " looks "
-                             "along an axis only (multiples of 90 degrees); step 36 turns freely");
-        }
-        if (params.projection != "ortho") {
-            throw InputError("--projection " + params.projection + ": this step's shear-warp "
-                             "is orthographic (a perspective one scales every slice as well: "
-                             "handout 36); step 34 renders it");
-        }
-        int width = 0, height = 0;
-        parse_size(params.size, max_image_side, &width, &height);
+        const View camera_image = camera_view(options, params);  // --size; no --view
+        refuse_object_order_flags(options, params);  // --work-map, perspective, angles
 
         // --- Volume ---
         const Volume volume = load_volume(options);
@@ -708,10 +705,10 @@ int main(int argc, char** argv) {
         // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
-        renderer.views = {make_camera_view(width, height)};
+        renderer.views = {camera_image};
 
-        // --- Render: the slices into the column image, rows shared by the threads; then the
-        // column image placed in the camera's image. The light turns with the camera ---
+        // --- Render: the slices into the intermediate image, rows shared by the threads; then
+        // the warp to the camera's image. The light turns with the camera ---
         const bool mip = params.mode == "mip";
         struct Frame {  // one view's slices, and what its pixels share
             Camera camera;
@@ -737,59 +734,42 @@ int main(int argc, char** argv) {
             const Frame frame = frame_for(view);
             const Scene scene = scene_for(frame);
             const Shear& shear = frame.shear;
-            Image columns(shear.width, shear.height);
+            Image intermediate(shear.width, shear.height);
             parallel_rows(shear.height, options.threads, work, [&](int v, Work& row_work) {
                 if (mip) {
                     std::vector<float> highest(shear.width,
                                                -std::numeric_limits<float>::infinity());
                     mip_row(scene, v, highest.data(), row_work);
                     for (int u = 0; u < shear.width; ++u) {
-                        columns.at(u, v) = mip_colour(volume, highest[u]);
+                        intermediate.at(u, v) = mip_colour(volume, highest[u]);
                     }
                 } else {
                     std::vector<Accumulated> row(shear.width);
                     composite_row(scene, v, row.data(), row_work);
                     for (int u = 0; u < shear.width; ++u) {
-                        columns.at(u, v) = composite_colour(row[u]);
+                        intermediate.at(u, v) = composite_colour(row[u]);
                     }
                 }
             });
             Image image(view.width, view.height);
             const WarpMap warp = make_warp(volume, shear, frame.camera);
-            auto column = [&](int u, int v) { return columns.at(u, v); };
             parallel_rows(view.height, options.threads, work, [&](int y, Work&) {
                 for (int x = 0; x < view.width; ++x) {
-                    image.at(x, y) = warp_pixel(warp_at(warp, x, y), shear.width, shear.height,
-                                                column);
+                    image.at(x, y) = warp_inside(warp_at(warp, x, y), intermediate);
                 }
             });
             return image;
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Frame frame = frame_for(view);
-            return object_order_pixel(scene_for(frame), frame.camera, x, y, work, trace);
+            return shear_warp_pixel(scene_for(frame), frame.camera, x, y, work, trace);
         };
         renderer.ray_samples = [&](const View& view) {
             const Shear shear = frame_for(view).shear;
             return "one sample per slice of " + std::string(1, "ijk"[shear.c]) + ", " +
                    summary_number(shear.spacing) + " physical units apart along the ray";
         };
-        // The window turns the camera a quarter at a time: the drag adds up freely, the camera
-        // takes the nearest multiple of 90 degrees.
-        double free_azimuth = params.azimuth, free_elevation = params.elevation;
-        renderer.orbit.turn = [&](double azimuth, double elevation) {
-            free_azimuth = std::remainder(free_azimuth + azimuth, 360.0);  // -180..180
-            free_elevation = std::clamp(free_elevation + elevation, -90.0, 90.0);
-            params.azimuth = axis_angle * std::round(free_azimuth / axis_angle);
-            params.elevation = axis_angle * std::round(free_elevation / axis_angle);
-        };
-        renderer.orbit.zoom = [&](double factor) {
-            params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
-        };
-        renderer.orbit.value = [&] {
-            return "azimuth=" + summary_number(params.azimuth) + " elevation=" +
-                   summary_number(params.elevation) + " zoom=" + summary_number(params.zoom);
-        };
+        renderer.orbit = camera_orbit(&params);  // a quarter turn at a time
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "mode=" + params.mode + " tf=" + tf.source +
@@ -798,9 +778,7 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
-                   " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
-                   " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
-                   " interpolation=" + params.interpolation +
+                   camera_settings(params) + " interpolation=" + params.interpolation +
                    " opacity_ratio=" + summary_number(lut_ratio);
         };
 

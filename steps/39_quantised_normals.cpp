@@ -34,16 +34,10 @@ constexpr double default_light_angle = 30;  // degrees to the right of the viewe
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
-constexpr double default_azimuth = 30;    // degrees around the vertical, 0: facing the face
-constexpr double default_elevation = 20;  // degrees above the i-j plane
-constexpr double default_fov = 30;        // degrees, the perspective image's height
-constexpr double min_zoom = 0.01, max_zoom = 100;  // --zoom limits (and the window's wheel)
-constexpr const char* default_size = "512x512";  // pixels, columns x rows
-constexpr int max_image_side = 8192;             // pixels, --size limit per side
 constexpr double max_table_bytes = 2.0 * (1 << 30);  // bytes: a larger normal table is not
                                                     // built (gradients from the voxels)
 
-struct Params {
+struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, --fov, --size
     std::string mode = "composite";  // "composite" or "mip"
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
     double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
@@ -51,14 +45,8 @@ struct Params {
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 08)
     bool no_correction = false;  // use the TF opacities as they are, whatever the spacing
-    double azimuth = default_azimuth;      // degrees
-    double elevation = default_elevation;  // degrees, -90..90
-    double zoom = 1;                       // ortho: pixels per voxel
-    std::string projection = "ortho";      // "ortho" only (see main)
     std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
     bool nearest = false;                     // interpolation == "nearest"
-    double fov = default_fov;              // degrees, perspective only
-    std::string size = default_size;       // "WxH"
 };
 
 // What a ray has gathered so far, front to back (in double, as step 07 explains).
@@ -306,7 +294,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 15.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -1153,35 +1141,13 @@ int main(int argc, char** argv) {
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 08");
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the slices' spacing");
-        args.add_double("--azimuth", &params.azimuth, -360, 360,
-                        "degrees around the vertical; 0 faces the face, 90 looks along +i");
-        args.add_double("--elevation", &params.elevation, -90, 90,
-                        "degrees above the i-j plane; 90 looks down from the crown");
-        args.add_double("--zoom", &params.zoom, min_zoom, max_zoom, "pixels per voxel");
         args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
                         "a sample in its slice: the four voxels around it, or the nearest one");
-        args.add_choice("--projection", &params.projection, {"ortho", "perspective"},
-                        "parallel rays only (perspective: step 34)");
-        args.add_string("--size", &params.size, "image size WIDTHxHEIGHT (default 512x512)");
+        add_camera_flags(args, &params);  // common/camera_flags.h
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
-        if (options.view != "all") {
-            throw InputError(std::string("--view: ") + step_name + " renders the camera's "
-                             "view; turn it with --azimuth and --elevation instead");
-        }
-        if (options.work_map) {
-            throw InputError(std::string("--work-map: ") + step_name + " counts its work per "
-                             "slice row of the intermediate image, not per ray of the output "
-                             "image (a pixel blends four intermediate pixels), so no per-pixel "
-                             "map would sum to the summary line's counters");
-        }
-        if (params.projection != "ortho") {
-            throw InputError("--projection " + params.projection + ": this step's shear-warp "
-                             "is orthographic (a perspective one scales every slice as well: "
-                             "handout 36); step 34 renders it");
-        }
-        int width = 0, height = 0;
-        parse_size(params.size, max_image_side, &width, &height);
+        const View camera_image = camera_view(options, params);  // --size; no --view
+        refuse_object_order_flags(options, params);  // --work-map, perspective
 
         // --- Volume ---
         const Volume volume = load_volume(options);
@@ -1243,7 +1209,7 @@ int main(int argc, char** argv) {
         // it, and previews at coarser pixels while it does) ---
         Renderer renderer;
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
-        renderer.views = {make_camera_view(width, height)};
+        renderer.views = {camera_image};
 
         // --- Render: the slices into the intermediate image, rows shared by the threads; then
         // the warp to the camera's image. The light turns with the camera ---
@@ -1313,17 +1279,7 @@ int main(int argc, char** argv) {
             return "one sample per slice of " + std::string(1, "ijk"[shear.c]) + ", " +
                    summary_number(shear.spacing) + " physical units apart along the ray";
         };
-        renderer.orbit.turn = [&](double azimuth, double elevation) {
-            params.azimuth = std::remainder(params.azimuth + azimuth, 360.0);  // -180..180
-            params.elevation = std::clamp(params.elevation + elevation, -90.0, 90.0);
-        };
-        renderer.orbit.zoom = [&](double factor) {
-            params.zoom = std::clamp(params.zoom * factor, min_zoom, max_zoom);
-        };
-        renderer.orbit.value = [&] {
-            return "azimuth=" + summary_number(params.azimuth) + " elevation=" +
-                   summary_number(params.elevation) + " zoom=" + summary_number(params.zoom);
-        };
+        renderer.orbit = camera_orbit(&params);  // the window's drag and wheel
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "mode=" + params.mode + " tf=" + tf.source +
@@ -1332,9 +1288,7 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
-                   " projection=" + params.projection + " azimuth=" + summary_number(params.azimuth) +
-                   " elevation=" + summary_number(params.elevation) + " zoom=" + summary_number(params.zoom) +
-                   " interpolation=" + params.interpolation +
+                   camera_settings(params) + " interpolation=" + params.interpolation +
                    " opacity_ratio=" + summary_number(lut_ratio) +
                    " precompute_ms=" + summary_number(precompute_ms);
         };

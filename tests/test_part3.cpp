@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include "common/camera_flags.h"
 #include "harness.h"
 
 using namespace ctlab_test;
@@ -261,6 +262,29 @@ TEST_CASE("part 3: the slice steps refuse --work-map, whose per-ray counts they 
         CHECK(std::count(run.err.begin(), run.err.end(), '\n') == 1);  // one line
         CHECK(std::filesystem::is_empty(folder.path()));  // nothing written
     }
+}
+
+TEST_CASE("part 3: a camera with a turn_step takes the nearest multiple as the drag adds up") {
+    // Step 35's window (common/camera_flags.h): the drag's angles add up freely; the camera
+    // takes the nearest multiple of 90 degrees, so it always looks along an axis.
+    ctlab::CameraFlags camera;
+    camera.azimuth = 180;
+    camera.elevation = 90;
+    camera.turn_step = 90;
+    const ctlab::Orbit orbit = ctlab::camera_orbit(&camera);
+    orbit.turn(30, -30);  // 210 (-150 in -180..180): nearest -180; elevation 60: nearest 90
+    CHECK(camera.azimuth == -180);
+    CHECK(camera.elevation == 90);
+    orbit.turn(30, -20);  // -120: nearest -90; elevation 40: nearest 0
+    CHECK(camera.azimuth == -90);
+    CHECK(camera.elevation == 0);
+    orbit.turn(-40, 0);  // -160: nearest -180 again
+    CHECK(camera.azimuth == -180);
+    // Without a turn_step the drag turns the camera itself, as in part 2.
+    ctlab::CameraFlags free_camera;
+    free_camera.azimuth = 30;
+    ctlab::camera_orbit(&free_camera).turn(15, 0);
+    CHECK(free_camera.azimuth == 45);
 }
 
 TEST_CASE("part 3: the manifest states the tolerance the comparison uses") {
