@@ -300,6 +300,65 @@ TEST_CASE("step 05 marks the interpolated crossing, step 11 its leaps, step 24 t
               .size() == 1);
 }
 
+TEST_CASE("--trace-only: a whole run's traces, records and ray pictures, without its render") {
+    // Part 1 (the other axis views beside the plot) and part 2 (the camera's image and the
+    // volume's axis views): every file but the views' PNGs, byte for byte.
+    const std::vector<std::vector<std::string>> cases = {
+        {"11_empty_space", "--view", "front", "--debug-pixel", "128,30", "--debug-pixel", "40,20"},
+        {"24_free_leaping", "--debug-pixel", "280,300"},
+    };
+    for (const std::vector<std::string>& c : cases) {
+        CAPTURE(c[0]);
+        ctlab::TempFolder whole("trace_whole"), traced("trace_only");
+        std::vector<std::string> flags = ctlab_test::phantom_flags();
+        flags.insert(flags.end(), c.begin() + 1, c.end());
+        std::vector<std::string> whole_flags = flags, traced_flags = flags;
+        whole_flags.insert(whole_flags.end(), {"--out", whole.path()});
+        traced_flags.insert(traced_flags.end(), {"--out", traced.path(), "--trace-only"});
+        const RunResult a = run_step(c[0], whole_flags);
+        const RunResult b = run_step(c[0], traced_flags);
+        REQUIRE(a.status == 0);
+        REQUIRE(b.status == 0);
+        CHECK(!a.summaries.empty());
+        CHECK(b.summaries.empty());  // nothing rendered, nothing to sum up
+        REQUIRE(b.traces.size() == a.traces.size());
+        for (size_t n = 0; n < a.traces.size(); ++n) {
+            CHECK(b.traces[n].header == a.traces[n].header);
+            CHECK(b.traces[n].lines == a.traces[n].lines);
+        }
+        int ray_files = 0, view_pictures = 0;
+        for (const auto& entry : fs::directory_iterator(whole.path())) {
+            const std::string name = entry.path().filename().string();
+            const fs::path same = fs::path(traced.path()) / name;
+            if (name.find("_ray_", c[0].size()) == std::string::npos) {
+                ++view_pictures;
+                CHECK_MESSAGE(!fs::exists(same), name, " was written by --trace-only");
+                continue;
+            }
+            ++ray_files;
+            REQUIRE_MESSAGE(fs::is_regular_file(same), name, " is missing");
+            CHECK_MESSAGE(read_text(same.string()) == read_text(entry.path().string()), name,
+                          " differs from the whole run's");
+        }
+        CHECK(ray_files == 2 * int(a.traces.size()));  // a picture and its numbers each
+        CHECK(view_pictures > 0);
+        CHECK(std::distance(fs::directory_iterator(traced.path()), fs::directory_iterator()) ==
+              ray_files);
+    }
+    // Nothing to trace, or a file of the whole picture asked for: one line, exit status 2.
+    ctlab::TempFolder out("trace_refused");
+    for (const std::vector<std::string>& extra :
+         std::vector<std::vector<std::string>>{{}, {"--debug-pixel", "1,1", "--work-map"},
+                                               {"--debug-pixel", "1,1", "--repeat", "3"}}) {
+        std::vector<std::string> flags = ctlab_test::phantom_flags();
+        flags.insert(flags.end(), {"--out", out.path(), "--trace-only"});
+        flags.insert(flags.end(), extra.begin(), extra.end());
+        const RunResult refused = run_step("02_threshold", flags);
+        CHECK(refused.status == 2);
+        CHECK(refused.err.find("--trace-only") != std::string::npos);
+    }
+}
+
 TEST_CASE("a camera ray is drawn through the box in the volume's axis views") {
     // A 64 x 48 x 32 volume, spacing 1, 1, 2 (physical box 63 x 47 x 62). Rays parallel to an
     // axis, from outside the box: along i at j = 20, k = 30 (voxel 15); along k at i = 10,
