@@ -343,6 +343,14 @@ TEST_CASE("every quoted --debug-pixel trace is what the step prints") {
             if (trace.arguments.find("--no-window") == std::string::npos) {
                 command += " --no-window";
             }
+            // The trace is all a quoted run is read for: its rays alone are cast (no picture
+            // rendered, no ray picture drawn), as a whole run would cast them.
+            bool whole_picture = false;  // a run that asks for a file of the whole picture
+            for (const char* flag : {"--pfm", "--work-map", "--repeat"}) {
+                whole_picture = whole_picture || (arguments + " ").find(std::string(" ") + flag +
+                                                                        " ") != std::string::npos;
+            }
+            if (!whole_picture) command += " --trace-only --no-ray-picture";
             std::istringstream printed(output_of(command + " 2>&1"));
             // Each quoted line, "..." aside, must be printed, in the same order.
             std::string line;

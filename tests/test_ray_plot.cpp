@@ -214,7 +214,8 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
         ctlab::TempFolder out("ray_plot");
         // The phantom painted once (harness.h), not by each run.
         std::vector<std::string> flags = ctlab_test::phantom_flags();
-        flags.insert(flags.end(), {"--out", out.path()});
+        // --trace-only: the rays of the trace and its picture, not the whole render.
+        flags.insert(flags.end(), {"--out", out.path(), "--trace-only"});
         flags.insert(flags.end(), c.flags.begin(), c.flags.end());
         const RunResult run = run_step(c.step, flags);
         REQUIRE(run.status == 0);
@@ -278,7 +279,8 @@ TEST_CASE("step 05 marks the interpolated crossing, step 11 its leaps, step 24 t
     ctlab::TempFolder out("ray_plot_marks");
     const auto flags = [&](std::vector<std::string> more) {
         std::vector<std::string> all = ctlab_test::phantom_flags();
-        all.insert(all.end(), {"--out", out.path()});
+        // The sidecars are all that is read: the traced rays alone, no picture.
+        all.insert(all.end(), {"--out", out.path(), "--trace-only", "--no-ray-picture"});
         all.insert(all.end(), more.begin(), more.end());
         return all;
     };
@@ -435,6 +437,7 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
     const std::string probes = read_text("data/reference/probes.txt");
     REQUIRE(!probes.empty());
     int compared = 0;
+    bool whole_part1 = false, whole_part2 = false;  // a whole run drawn yet, in each part
     std::istringstream lines(probes);
     for (std::string line; std::getline(lines, line);) {
         std::istringstream words(line);
@@ -474,6 +477,12 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
             REQUIRE_MESSAGE(listed, name, " is not a run of data/reference/manifest.txt");
         }
         if (view != "camera") flags.insert(flags.end(), {"--view", view});
+        // The first probe of each part from a whole run (its rendered views in the picture),
+        // the others with --trace-only (only the pixels the picture shows, cast alone): both
+        // must draw the golden picture.
+        bool& whole = view == "camera" ? whole_part2 : whole_part1;
+        if (whole) flags.push_back("--trace-only");
+        whole = true;
         REQUIRE(run_step(step, flags).status == 0);
         const Image drawn = read_image(out.path(drawn_stem + ".png"));
         const Image reference = read_image(golden);
@@ -488,18 +497,23 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
 }
 
 TEST_CASE("a failed run writes no ray picture (all pictures or none)") {
+    // The phantom painted once (harness.h), not by each run.
+    const std::vector<std::string> flags = ctlab_test::phantom_flags();
+    auto with = [&](std::vector<std::string> more) {
+        more.insert(more.begin(), flags.begin(), flags.end());
+        return more;
+    };
     ctlab::TempFolder out("ray_none");
     const RunResult run = run_step(
         "08_compositing_order",
-        {"--volume", "phantom", "--out", out.path(), "--view", "top", "--debug-pixel", "100,128"},
-        120);
+        with({"--out", out.path(), "--view", "top", "--debug-pixel", "100,128"}), 120);
     REQUIRE(run.status == 0);
     // The same run with the third file written failing as if the disk were full: nothing.
     ctlab::TempFolder out2("ray_none2");
     setenv(fail_write_variable, "2", 1);
     const RunResult failed = run_step(
         "08_compositing_order",
-        {"--volume", "phantom", "--out", out2.path(), "--view", "top", "--debug-pixel", "100,128"});
+        with({"--out", out2.path(), "--view", "top", "--debug-pixel", "100,128"}));
     unsetenv(fail_write_variable);
     CHECK(failed.status == 2);
     CHECK(fs::is_empty(out2.path()));
