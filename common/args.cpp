@@ -138,6 +138,9 @@ std::string Args::usage() const {
         "                          (given again: one trace and ray picture per pixel)\n"
         "  --no-ray-picture        --debug-pixel prints its traces and writes their records\n"
         "                          (OUT/..._ray_X_Y.txt), but draws no ray picture\n"
+        "  --trace-only            --debug-pixel casts only the rays it needs: the traced ones\n"
+        "                          and the pixels their ray pictures show; no view PNG, no\n"
+        "                          summary line, no window\n"
         "  --threads N             render threads (default: all cores)\n"
         "  --pfm                   also write OUT/STEP_VIEW.pfm: the float RGB image before\n"
         "                          rounding to 8 bits (colour PFM, little-endian)\n"
@@ -479,6 +482,9 @@ Options Args::parse_words(int argc, char** argv) {
         } else if (flag == "--no-ray-picture") {
             if (has_value) throw InputError(flag + ": takes no value");
             options.ray_pictures = false;
+        } else if (flag == "--trace-only") {
+            if (has_value) throw InputError(flag + ": takes no value");
+            options.trace_only = true;
         } else if (flag == "--threads") {
             options.threads = parse_int(flag, take_value(), 1, max_threads);
         } else if (flag == "--preset") {
@@ -554,6 +560,13 @@ Options Args::parse_words(int argc, char** argv) {
                 throw InputError("unknown option '" + std::string(argv[n]) + "' (see --help)");
             }
         }
+    }
+    if (options.trace_only && !options.has_debug_pixel) {
+        throw InputError("--trace-only: give the rays to trace with --debug-pixel X,Y");
+    }
+    if (options.trace_only && (options.pfm || options.work_map || options.repeat > 1)) {
+        throw InputError("--trace-only renders no whole picture: it takes no --pfm, --work-map "
+                         "or --repeat");
     }
     return options;
 }

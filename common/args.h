@@ -56,6 +56,7 @@ struct Options {
     int debug_x = 0, debug_y = 0;     // image column and row (the first --debug-pixel)
     std::vector<std::pair<int, int>> debug_pixels;  // every --debug-pixel X,Y, in order
     bool ray_pictures = true;         // --no-ray-picture: the traces without their pictures
+    bool trace_only = false;          // --trace-only: the traced rays alone, no whole render
     int threads = 1;                  // resolved: --threads N, default all cores
     bool pfm = false;                 // --pfm: also write OUT/STEP_VIEW.pfm (float RGB)
     bool work_map = false;            // --work-map: also write OUT/STEP_VIEW_work.txt

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
@@ -77,12 +78,12 @@ struct Placed {
     double y(double source_y) const { return top + (source_y + 0.5) * height / source_height; }
 };
 
-// Where `image` would sit in a box x box square at (left, top), without drawing it.
-Placed fitted(const Image& image, const View& view, int box, int left = 0, int top = 0) {
+// Where an image of width x height pixels would sit in a box x box square at (left, top),
+// without drawing it.
+Placed fitted(int width, int height, const View& view, int box, int left = 0, int top = 0) {
     Placed placed;
     placed.left = left, placed.top = top;
-    placed.source_width = std::max(1, image.width),
-    placed.source_height = std::max(1, image.height);
+    placed.source_width = std::max(1, width), placed.source_height = std::max(1, height);
     const bool sizes = view.pixel_width > 0 && view.pixel_height > 0;
     const double wide = placed.source_width * (sizes ? view.pixel_width : 1.0);
     const double tall = placed.source_height * (sizes ? view.pixel_height : 1.0);
@@ -92,14 +93,24 @@ Placed fitted(const Image& image, const View& view, int box, int left = 0, int t
     return placed;
 }
 
+Placed fitted(const Image& image, const View& view, int box, int left = 0, int top = 0) {
+    return fitted(image.width, image.height, view, box, left, top);
+}
+
+// The source pixel (column or row, of `size`) that pixel n of its placed copy (`placed` wide
+// or tall) shows: the nearest one.
+int shown_source(int n, int size, int placed) {
+    return std::min(size - 1, int(int64_t(n) * size / placed));
+}
+
 Placed place_image(Image& picture, const Image& image, const View& view, int left, int top,
                    int box) {
     const Placed placed = fitted(image, view, box, left, top);
     if (image.width <= 0 || image.height <= 0) return placed;
     for (int y = 0; y < placed.height; ++y) {
-        const int source_y = std::min(image.height - 1, y * image.height / placed.height);
+        const int source_y = shown_source(y, image.height, placed.height);
         for (int x = 0; x < placed.width; ++x) {
-            const int source_x = std::min(image.width - 1, x * image.width / placed.width);
+            const int source_x = shown_source(x, image.width, placed.width);
             plot::put(picture, left + x, top + y, clamped(image.at(source_x, source_y)));
         }
     }
@@ -436,14 +447,36 @@ std::string ray_plot_marks(const RayPlot& plot) {
     return text;
 }
 
-std::vector<RayPlotView> mip_views(const Volume& volume) {
+ShownPixels ray_picture_pixels(const View& view, bool as_traced, bool as_other) {
+    ShownPixels shown;
+    shown.columns.assign(size_t(std::max(0, view.width)), false);
+    shown.rows.assign(size_t(std::max(0, view.height)), false);
+    if (view.width <= 0 || view.height <= 0) return shown;
+    for (const bool traced : {true, false}) {
+        if (!(traced ? as_traced : as_other)) continue;
+        const Placed placed = fitted(view.width, view.height, view,
+                                     traced ? main_image_box : small_image_box);
+        for (int x = 0; x < placed.width; ++x) {
+            shown.columns[size_t(shown_source(x, view.width, placed.width))] = true;
+        }
+        for (int y = 0; y < placed.height; ++y) {
+            shown.rows[size_t(shown_source(y, view.height, placed.height))] = true;
+        }
+    }
+    return shown;
+}
+
+std::vector<RayPlotView> mip_views(const Volume& volume, bool shown_only) {
     std::vector<RayPlotView> views;
     const double low = volume.min_value;
     const double range = std::max(1.0, double(volume.max_value) - low);
     for (const View& view : views_named(volume, "all")) {
         Image image(view.width, view.height);
+        const ShownPixels shown = ray_picture_pixels(view, false, true);
         for (int y = 0; y < view.height; ++y) {
+            if (shown_only && !shown.rows[size_t(y)]) continue;
             for (int x = 0; x < view.width; ++x) {
+                if (shown_only && !shown.columns[size_t(x)]) continue;
                 const RayVoxels ray = ray_voxels(volume, view, x, y);
                 int highest = volume.min_value;
                 for (int n = 0; n < view.ray_length; ++n) highest = std::max<int>(highest, ray[n]);

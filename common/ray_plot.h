@@ -88,9 +88,19 @@ struct RayPlotView {
 // window's panel).
 Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, int x, int y);
 
+// The pixels of a view's image that a ray picture shows (each view shrunk to its box, nearest
+// pixel): as the traced view, as one of the others, or both. Pixel (x, y) is shown when
+// columns[x] && rows[y]; a picture made without the whole render (--trace-only) casts those
+// rays alone, the others are never drawn.
+struct ShownPixels {
+    std::vector<bool> columns, rows;
+};
+ShownPixels ray_picture_pixels(const View& view, bool as_traced, bool as_other);
+
 // The axis views of the volume itself, for a camera ray's picture (part 2 renders no axis
 // views): each the maximum value along its rays, grey from the volume's minimum to maximum.
-std::vector<RayPlotView> mip_views(const Volume& volume);
+// shown_only: only the pixels a picture shows of them (ray_picture_pixels), the rest black.
+std::vector<RayPlotView> mip_views(const Volume& volume, bool shown_only = false);
 
 // The numbers the picture was drawn from, one line per sample (the ray picture's sidecar):
 //   # sample t n value alpha T L C.r C.g C.b max     ("-" where the trace has none)

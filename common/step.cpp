@@ -226,6 +226,18 @@ static bool inside(const View& view, int x, int y) {
     return x >= 0 && y >= 0 && x < view.width && y < view.height;
 }
 
+// --trace-only: the pixels of a view that a ray picture shows (as the traced view, as one of
+// the others), each ray cast alone through the ray function; the rest stay black, never drawn.
+static Image shown_image(const Options& options, const View& view, const Renderer& renderer,
+                         bool as_traced, bool as_other) {
+    const ShownPixels shown = ray_picture_pixels(view, as_traced, as_other);
+    Work work;  // the rays of a picture, not a render: counted nowhere
+    return render_image(view, options.threads, work, [&](int x, int y, Work& ray_work) {
+        const bool cast = shown.columns[size_t(x)] && shown.rows[size_t(y)];
+        return cast ? renderer.ray(view, x, y, ray_work, nullptr) : Rgb{};
+    });
+}
+
 static int show_window(const Options& options, const Volume& volume, const Renderer& renderer,
                        const std::vector<View>& views);
 
@@ -262,8 +274,8 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
     // All pictures or none: every file goes to a temporary, renamed when all are written.
     auto outputs = std::make_unique<OutputFiles>();
     // Image memory and threads made ready once, timed on their own (warmup_ms=), so that
-    // time_ms= of the first render is the render alone.
-    warmup_ms = warm_up(views, options.threads, &volume);
+    // time_ms= of the first render is the render alone (--trace-only: no render).
+    if (!options.trace_only) warmup_ms = warm_up(views, options.threads, &volume);
     std::vector<RayPlotView> rendered;  // for the ray pictures of --debug-pixel
     struct TracedRay {
         View view;
@@ -271,12 +283,14 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         RayPlot plot;
     };
     std::vector<TracedRay> plots;
-    for (const View& view : views) {
+    // A view's picture: rendered (timed), written, its summary line printed.
+    auto render_and_write = [&](const View& view) {
         Work work;
         const Timer timer;
         const Image image = render_view(options, view, renderer, work);
         const double ms = timer.ms();
-        const double warm_ms = options.repeat > 1 ? warm_median_ms(options, view, renderer) : -1;
+        const double warm_ms =
+            options.repeat > 1 ? warm_median_ms(options, view, renderer) : -1;
         if (image.width != view.width || image.height != view.height) {
             throw InputError("the " + view.name + " render is " + std::to_string(image.width) +
                              "x" + std::to_string(image.height) + " but the view is " +
@@ -293,6 +307,9 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
         }
         print_summary(options, view, renderer, work, ms, warm_ms);
         if (options.has_debug_pixel) rendered.push_back({view, image});
+    };
+    for (const View& view : views) {
+        if (!options.trace_only) render_and_write(view);  // --trace-only: the traced rays alone
         for (const auto& [x, y] : options.debug_pixels) {
             if (inside(view, x, y)) {
                 plots.push_back({view, x, y, print_trace(options, view, renderer, x, y)});
@@ -306,11 +323,28 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
     // camera ray (part 2) is drawn through the volume's own axis views (mip_views).
     // --no-ray-picture: none of that, the records alone (a ray picture is most of the time of
     // a small run: ~0.7 MB drawn and written per traced ray, whatever the volume's size).
+    // --trace-only: of each view only the pixels its pictures show, cast ray by ray.
     const bool pictures = options.ray_pictures;
-    if (pictures && !plots.empty() && !renderer.views.empty()) {
-        for (RayPlotView& axis_view : mip_views(volume)) rendered.push_back(std::move(axis_view));
+    if (pictures && !plots.empty() && options.trace_only) {
+        const std::vector<View> axis_views = views_named(volume, "all");
+        for (const View& view : renderer.views.empty() ? axis_views : views) {
+            bool as_traced = false, as_other = false;
+            for (const TracedRay& traced : plots) {
+                as_traced = as_traced || traced.view.name == view.name;
+                as_other = as_other || (!view.camera && traced.view.name != view.name);
+            }
+            if (as_traced || as_other) {
+                rendered.push_back({view, shown_image(options, view, renderer, as_traced,
+                                                      as_other)});
+            }
+        }
     }
-    if (pictures && !plots.empty() && renderer.views.empty()) {
+    if (pictures && !plots.empty() && !renderer.views.empty()) {
+        for (RayPlotView& axis_view : mip_views(volume, options.trace_only)) {
+            rendered.push_back(std::move(axis_view));
+        }
+    }
+    if (pictures && !plots.empty() && renderer.views.empty() && !options.trace_only) {
         for (const View& other : views_named(volume, "all")) {
             bool have = false;
             for (const RayPlotView& r : rendered) have = have || r.view.name == other.name;
@@ -339,7 +373,7 @@ int run_views(const Options& options, const Volume& volume, const Renderer& rend
     outputs->commit();
     outputs.reset();  // the signals' own handlers again, for the window
 
-    if (!window_wanted(options)) return 0;
+    if (options.trace_only || !window_wanted(options)) return 0;
     return show_window(options, volume, renderer, views);
 }
 

@@ -137,6 +137,15 @@ done
 work=$(mktemp -d) || exit 1
 [ -n "${KEEP:-}" ] && echo "panel test: files kept in $work"
 [ -n "${KEEP:-}" ] || trap 'rm -rf "$work"' EXIT INT TERM
+# The phantom painted once, to a raw file (build/make_phantom), its size and spacing as that
+# reports them: the scripted runs below read it instead of painting it again. The real-input
+# runs (xdotool) keep the built-in phantom: their timing was made reliable as it is.
+painted=$("$build/make_phantom" "$work/phantom.raw" 2>&1) ||
+    { echo "panel test: $build/make_phantom failed: $painted"; exit 1; }
+phantom=$(echo "$painted" | sed -n "s|.*: \([0-9]*\) x \([0-9]*\) x \([0-9]*\) int16 \
+little-endian, spacing \([0-9.]*\):\([0-9.]*\):\([0-9.]*\),.*|--volume $work/phantom.raw \
+--dims \1,\2,\3 --spacing \4,\5,\6|p")
+[ -n "$phantom" ] || { echo "panel test: make_phantom printed '$painted'"; exit 1; }
 ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"  # as window_test.sh
 export ASAN_OPTIONS
 here=$(dirname "$0")
@@ -152,7 +161,7 @@ shot_image() { sed -n 's/^window: shot image //p' "$1" | sed -n "${2}p"; }
 # --- set:NAME=VALUE: the window's picture is the headless one, and so is its command line's --
 step=$build/02_threshold
 if [ -x "$step" ]; then
-    xvfb "$step" --volume phantom --view top --out "$work/set" \
+    xvfb "$step" $phantom --view top --out "$work/set" \
         --window-script "set:threshold=600,shot,quit" > "$work/set.log" 2>&1
     status=$?
     check "set: the step exits with status 0 (got $status)" [ "$status" -eq 0 ]
@@ -160,12 +169,12 @@ if [ -x "$step" ]; then
         "$work/set.log"
     check "set: the window renders threshold 600 (its summary line)" \
         grep -q '^step=02_threshold view=top .* threshold=600' "$work/set.log"
-    "$step" --volume phantom --view top --out "$work/set_headless" --threshold 600 \
+    "$step" $phantom --view top --out "$work/set_headless" --threshold 600 \
         --no-window > /dev/null 2>&1
     shown=$(shot_image "$work/set.log" 1)
     result=$(compare "$shown" "$work/set_headless/02_threshold_top.png")
     check "set: the window's picture is --threshold 600's PNG ($result)" [ "$result" = same ]
-    "$step" --volume phantom --view top --out "$work/set_default" --no-window > /dev/null 2>&1
+    "$step" $phantom --view top --out "$work/set_default" --no-window > /dev/null 2>&1
     result=$(compare "$shown" "$work/set_default/02_threshold_top.png")
     check "set: ... and not the default threshold's ($result)" \
         sh -c "echo '$result' | grep -q '^[1-9][0-9]* of'"
@@ -181,7 +190,7 @@ if [ -x "$step" ]; then
     check "set: the panel's command line renders the window's picture ($result)" \
         [ "$result" = same ]
     # A value the flag refuses: one line, and the window goes on with the last good one.
-    xvfb "$step" --volume phantom --view top --out "$work/bad" \
+    xvfb "$step" $phantom --view top --out "$work/bad" \
         --window-script "set:threshold=banana,set:nothing=1,key:Up,quit" > "$work/bad.log" 2>&1
     status=$?
     check "set: bad values leave the window running (status $status)" [ "$status" -eq 0 ]
@@ -198,7 +207,7 @@ fi
 # --- The transfer-function editor: edits saved as a .tf that --tf renders the same ----------
 step=$build/07_back_to_front
 if [ -x "$step" ]; then
-    xvfb "$step" --volume phantom --view front --out "$work/tf" --window-script \
+    xvfb "$step" $phantom --view front --out "$work/tf" --window-script \
         "tf:0:opacity=0.3,tf:1:from=1500,tf:add,tf:1:colour=3080ff,tf:1:opacity=0.05,shot,quit" \
         > "$work/tf.log" 2>&1
     status=$?
@@ -210,19 +219,19 @@ if [ -x "$step" ]; then
     # half: 412..1138) with the new colour (red 0x30) and opacity; sorted, no overlap.
     check "tf: the file holds the edited ranges ($ranges)" [ "$ranges" = \
 "-300 50 1 0.3 skin|412 1138 0.1882353 0.05 |1500 32768 1 0.8 bone|" ]
-    "$step" --volume phantom --view front --out "$work/tf_headless" --tf "$saved" \
+    "$step" $phantom --view front --out "$work/tf_headless" --tf "$saved" \
         --no-window > /dev/null 2>&1
     status=$?
     check "tf: --tf reads the saved file (status $status)" [ "$status" -eq 0 ]
     shown=$(shot_image "$work/tf.log" 1)
     result=$(compare "$shown" "$work/tf_headless/07_back_to_front_front.png")
     check "tf: the window's picture is the saved file's through --tf ($result)" [ "$result" = same ]
-    "$step" --volume phantom --view front --out "$work/tf_default" --no-window > /dev/null 2>&1
+    "$step" $phantom --view front --out "$work/tf_default" --no-window > /dev/null 2>&1
     result=$(compare "$shown" "$work/tf_default/07_back_to_front_front.png")
     check "tf: ... and not the classic table's ($result)" \
         sh -c "echo '$result' | grep -q '^[1-9][0-9]* of'"
     # A shared boundary moves for both ranges: no gap, no overlap.
-    xvfb "$step" --volume phantom --view top --out "$work/join" --tf "$saved" \
+    xvfb "$step" $phantom --view top --out "$work/join" --tf "$saved" \
         --window-script "tf:0:to=412,tf:0:to=500,tf:1:from=100,tf:5:opacity=1,quit" \
         > "$work/join.log" 2>&1
     ranges=$(grep -v '^#' "$work/join/07_back_to_front.tf" 2>/dev/null | cut -d' ' -f1,2 |
@@ -242,7 +251,7 @@ for case in "05_interpolated_hits --view front --window-script click:128:30,shot
     step=$build/$1
     shift
     [ -x "$step" ] || { bad "$step not built"; continue; }
-    screen=1024x768 xvfb "$step" --volume phantom --out "$work/small" "$@" \
+    screen=1024x768 xvfb "$step" $phantom --out "$work/small" "$@" \
         > "$work/small.log" 2>&1
     status=$?
     check "$(basename "$step") at 1024x768: exits with status 0 (got $status)" [ "$status" -eq 0 ]

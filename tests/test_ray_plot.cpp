@@ -214,7 +214,8 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
         ctlab::TempFolder out("ray_plot");
         // The phantom painted once (harness.h), not by each run.
         std::vector<std::string> flags = ctlab_test::phantom_flags();
-        flags.insert(flags.end(), {"--out", out.path()});
+        // --trace-only: the rays of the trace and its picture, not the whole render.
+        flags.insert(flags.end(), {"--out", out.path(), "--trace-only"});
         flags.insert(flags.end(), c.flags.begin(), c.flags.end());
         const RunResult run = run_step(c.step, flags);
         REQUIRE(run.status == 0);
@@ -278,7 +279,8 @@ TEST_CASE("step 05 marks the interpolated crossing, step 11 its leaps, step 24 t
     ctlab::TempFolder out("ray_plot_marks");
     const auto flags = [&](std::vector<std::string> more) {
         std::vector<std::string> all = ctlab_test::phantom_flags();
-        all.insert(all.end(), {"--out", out.path()});
+        // The sidecars are all that is read: the traced rays alone, no picture.
+        all.insert(all.end(), {"--out", out.path(), "--trace-only", "--no-ray-picture"});
         all.insert(all.end(), more.begin(), more.end());
         return all;
     };
@@ -298,6 +300,65 @@ TEST_CASE("step 05 marks the interpolated crossing, step 11 its leaps, step 24 t
     REQUIRE(run_step("24_free_leaping", flags({"--debug-pixel", "280,300"})).status == 0);
     CHECK(lines_starting(read_text(out.path("24_free_leaping_camera_ray_280_300.txt")), "mark box ")
               .size() == 1);
+}
+
+TEST_CASE("--trace-only: a whole run's traces, records and ray pictures, without its render") {
+    // Part 1 (the other axis views beside the plot) and part 2 (the camera's image and the
+    // volume's axis views): every file but the views' PNGs, byte for byte.
+    const std::vector<std::vector<std::string>> cases = {
+        {"11_empty_space", "--view", "front", "--debug-pixel", "128,30", "--debug-pixel", "40,20"},
+        {"24_free_leaping", "--debug-pixel", "280,300"},
+    };
+    for (const std::vector<std::string>& c : cases) {
+        CAPTURE(c[0]);
+        ctlab::TempFolder whole("trace_whole"), traced("trace_only");
+        std::vector<std::string> flags = ctlab_test::phantom_flags();
+        flags.insert(flags.end(), c.begin() + 1, c.end());
+        std::vector<std::string> whole_flags = flags, traced_flags = flags;
+        whole_flags.insert(whole_flags.end(), {"--out", whole.path()});
+        traced_flags.insert(traced_flags.end(), {"--out", traced.path(), "--trace-only"});
+        const RunResult a = run_step(c[0], whole_flags);
+        const RunResult b = run_step(c[0], traced_flags);
+        REQUIRE(a.status == 0);
+        REQUIRE(b.status == 0);
+        CHECK(!a.summaries.empty());
+        CHECK(b.summaries.empty());  // nothing rendered, nothing to sum up
+        REQUIRE(b.traces.size() == a.traces.size());
+        for (size_t n = 0; n < a.traces.size(); ++n) {
+            CHECK(b.traces[n].header == a.traces[n].header);
+            CHECK(b.traces[n].lines == a.traces[n].lines);
+        }
+        int ray_files = 0, view_pictures = 0;
+        for (const auto& entry : fs::directory_iterator(whole.path())) {
+            const std::string name = entry.path().filename().string();
+            const fs::path same = fs::path(traced.path()) / name;
+            if (name.find("_ray_", c[0].size()) == std::string::npos) {
+                ++view_pictures;
+                CHECK_MESSAGE(!fs::exists(same), name, " was written by --trace-only");
+                continue;
+            }
+            ++ray_files;
+            REQUIRE_MESSAGE(fs::is_regular_file(same), name, " is missing");
+            CHECK_MESSAGE(read_text(same.string()) == read_text(entry.path().string()), name,
+                          " differs from the whole run's");
+        }
+        CHECK(ray_files == 2 * int(a.traces.size()));  // a picture and its numbers each
+        CHECK(view_pictures > 0);
+        CHECK(std::distance(fs::directory_iterator(traced.path()), fs::directory_iterator()) ==
+              ray_files);
+    }
+    // Nothing to trace, or a file of the whole picture asked for: one line, exit status 2.
+    ctlab::TempFolder out("trace_refused");
+    for (const std::vector<std::string>& extra :
+         std::vector<std::vector<std::string>>{{}, {"--debug-pixel", "1,1", "--work-map"},
+                                               {"--debug-pixel", "1,1", "--repeat", "3"}}) {
+        std::vector<std::string> flags = ctlab_test::phantom_flags();
+        flags.insert(flags.end(), {"--out", out.path(), "--trace-only"});
+        flags.insert(flags.end(), extra.begin(), extra.end());
+        const RunResult refused = run_step("02_threshold", flags);
+        CHECK(refused.status == 2);
+        CHECK(refused.err.find("--trace-only") != std::string::npos);
+    }
 }
 
 TEST_CASE("a camera ray is drawn through the box in the volume's axis views") {
@@ -376,6 +437,7 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
     const std::string probes = read_text("data/reference/probes.txt");
     REQUIRE(!probes.empty());
     int compared = 0;
+    bool whole_part1 = false, whole_part2 = false;  // a whole run drawn yet, in each part
     std::istringstream lines(probes);
     for (std::string line; std::getline(lines, line);) {
         std::istringstream words(line);
@@ -415,6 +477,12 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
             REQUIRE_MESSAGE(listed, name, " is not a run of data/reference/manifest.txt");
         }
         if (view != "camera") flags.insert(flags.end(), {"--view", view});
+        // The first probe of each part from a whole run (its rendered views in the picture),
+        // the others with --trace-only (only the pixels the picture shows, cast alone): both
+        // must draw the golden picture.
+        bool& whole = view == "camera" ? whole_part2 : whole_part1;
+        if (whole) flags.push_back("--trace-only");
+        whole = true;
         REQUIRE(run_step(step, flags).status == 0);
         const Image drawn = read_image(out.path(drawn_stem + ".png"));
         const Image reference = read_image(golden);
@@ -429,18 +497,23 @@ TEST_CASE("golden ray pictures: the probe rays of data/reference/rays/ drawn aga
 }
 
 TEST_CASE("a failed run writes no ray picture (all pictures or none)") {
+    // The phantom painted once (harness.h), not by each run.
+    const std::vector<std::string> flags = ctlab_test::phantom_flags();
+    auto with = [&](std::vector<std::string> more) {
+        more.insert(more.begin(), flags.begin(), flags.end());
+        return more;
+    };
     ctlab::TempFolder out("ray_none");
     const RunResult run = run_step(
         "08_compositing_order",
-        {"--volume", "phantom", "--out", out.path(), "--view", "top", "--debug-pixel", "100,128"},
-        120);
+        with({"--out", out.path(), "--view", "top", "--debug-pixel", "100,128"}), 120);
     REQUIRE(run.status == 0);
     // The same run with the third file written failing as if the disk were full: nothing.
     ctlab::TempFolder out2("ray_none2");
     setenv(fail_write_variable, "2", 1);
     const RunResult failed = run_step(
         "08_compositing_order",
-        {"--volume", "phantom", "--out", out2.path(), "--view", "top", "--debug-pixel", "100,128"});
+        with({"--out", out2.path(), "--view", "top", "--debug-pixel", "100,128"}));
     unsetenv(fail_write_variable);
     CHECK(failed.status == 2);
     CHECK(fs::is_empty(out2.path()));

@@ -8,12 +8,14 @@
 set -u
 
 # --- Inner mode: run inside xvfb-run by the xdotool check below -----------------------------
-# window_test.sh --xdotool STEP_BINARY OUT_FOLDER LOG: opens the window, clicks image pixel
-# (100, 50) of the top view with the real pointer, presses 3 (side view), then q.
+# window_test.sh --xdotool STEP_BINARY OUT_FOLDER LOG VOLUME_FLAGS...: opens the window,
+# clicks image pixel (100, 50) of the top view with the real pointer, presses 3 (side view),
+# then q.
 if [ "${1:-}" = "--xdotool" ]; then
     binary=$2 out=$3 log=$4
+    shift 4
     name=$(basename "$binary")
-    "$binary" --volume phantom --view top --out "$out" > "$log" 2>&1 &
+    "$binary" "$@" --view top --out "$out" > "$log" 2>&1 &
     pid=$!
     # wait_for PATTERN: until the log has a line matching it (at most about 20 s)
     wait_for() {
@@ -86,6 +88,14 @@ binary=$build/02_threshold
 [ -x "$binary" ] || { echo "window test: no $build/02_threshold or 01_ray_loops built"; exit 1; }
 work=$(mktemp -d) || exit 1
 trap 'rm -rf "$work"' EXIT INT TERM
+# The phantom painted once, to a raw file (build/make_phantom), its size and spacing as that
+# reports them: every run below reads it instead of painting it again.
+painted=$("$build/make_phantom" "$work/phantom.raw" 2>&1) ||
+    { echo "window test: $build/make_phantom failed: $painted"; exit 1; }
+phantom=$(echo "$painted" | sed -n "s|.*: \([0-9]*\) x \([0-9]*\) x \([0-9]*\) int16 \
+little-endian, spacing \([0-9.]*\):\([0-9.]*\):\([0-9.]*\),.*|--volume $work/phantom.raw \
+--dims \1,\2,\3 --spacing \4,\5,\6|p")
+[ -n "$phantom" ] || { echo "window test: make_phantom printed '$painted'"; exit 1; }
 # SAN=1 builds: LeakSanitizer is off for the windowed runs only. SDL_Init opens a D-Bus
 # connection that libdbus never frees (SDL 2.26 does not call dbus_shutdown); the headless
 # tests still check our own code for leaks. ASan and UBSan stay on.
@@ -99,7 +109,7 @@ after() { awk -v mark="$1" -v pattern="$2" '$0 == mark { seen = 1; next }
                                            END { exit !found }' "$work/stdout"; }
 
 # --- Scripted SDL events -----------------------------------------------------------------------
-xvfb "$binary" --volume phantom --view top --out "$work/out" \
+xvfb "$binary" $phantom --view top --out "$work/out" \
     --window-script "key:2,key:Up,click:100:50,save,quit" > "$work/stdout" 2> "$work/stderr"
 status=$?
 check "the step exits with status 0 (got $status; 124 = timed out)" [ "$status" -eq 0 ]
@@ -139,11 +149,11 @@ check "the saved file is a PNG (magic bytes: '$magic')" [ "$magic" = "89504e470d
 check "q quits the window" grep -qx "window: key=q" "$work/stdout"
 
 # --- P: the next preset (data/presets in name order), the whole step run again ------------------
-# 07 on the phantom: ct, cthead and eight_bit run (the command line's --volume wins); float's
+# 07 on the phantom: ct, cthead and eight_bit run (the command line's volume wins); float's
 # table (0.12 ..) does not fit CT values: one line, then phantom; the script goes on (Up).
 tf_binary=$build/07_back_to_front
 if [ -x "$tf_binary" ]; then
-    xvfb "$tf_binary" --volume phantom --view top --out "$work/preset_out" \
+    xvfb "$tf_binary" $phantom --view top --out "$work/preset_out" \
         --window-script "key:p,key:p,key:p,key:p,key:Up,quit" > "$work/stdout" 2> "$work/stderr"
     status=$?
     check "presets: the step exits with status 0 (got $status; $(head -c 300 "$work/stderr"))" \
@@ -169,9 +179,16 @@ fi
 # --- The ray panel: a click opens the ray picture beside the image, the knob moves its hit ---
 panel_step=$build/05_interpolated_hits
 if [ -x "$panel_step" ]; then
-    xvfb "$panel_step" --volume phantom --view front --out "$work/panel" \
+    xvfb "$panel_step" $phantom --view front --out "$work/panel" \
         --window-script "click:128:30,shot,key:Up,key:Up,shot,quit" > "$work/panel.log" 2>&1
     status=$?
+    # The same ray traced headless at the threshold the window started with and at the one
+    # its two Ups reach (400 + 2 * 50): its rays alone (--trace-only), its picture and numbers.
+    for threshold in 400 500; do
+        "$panel_step" $phantom --view front --no-window --trace-only \
+            --out "$work/panel_$threshold" --threshold "$threshold" \
+            --debug-pixel 128,30 > /dev/null 2>&1
+    done
     check "the ray panel run exits with status 0 (got $status)" [ "$status" -eq 0 ]
     # "window: ray panel x=128 y=30 view=front WxH hit t=T": once for the click, once per Up.
     panel='^window: ray panel x=128 y=30 view=front [0-9]*x[0-9]* hit t=\([0-9.]*\).*'
@@ -181,12 +198,9 @@ if [ -x "$panel_step" ]; then
     if [ $# -eq 3 ]; then
         check "turning the threshold up moves the hit deeper ($1 < $2 < $3)" \
             awk -v a="$1" -v b="$2" -v c="$3" 'BEGIN { exit !(a < b && b < c) }'
-        # The same ray at the threshold the two Ups reach (400 + 2 * 50), traced headless: the
-        # panel's hit is the ray picture's.
-        "$panel_step" --volume phantom --view front --no-window --out "$work/panel" \
-            --threshold 500 --debug-pixel 128,30 > /dev/null 2>&1
+        # The panel's hit is the ray picture's at the threshold the two Ups reach.
         expected=$(sed -n 's/^mark hit \([^ ]*\) .*/\1/p' \
-                   "$work/panel/05_interpolated_hits_front_ray_128_30.txt")
+                   "$work/panel_500/05_interpolated_hits_front_ray_128_30.txt")
         check "the panel's hit after two Ups ($3) is --threshold 500's ray's ($expected)" \
             awk -v a="$3" -v b="$expected" \
                 'BEGIN { d = a - b; exit !(b != "" && d < 1e-3 && d > -1e-3) }'
@@ -201,11 +215,6 @@ if [ -x "$panel_step" ]; then
         set -- $shots
         check "two shots of the window with the panel open (got '$shots')" [ $# -eq 4 ]
         if [ $# -eq 4 ]; then
-            for threshold in 400 500; do
-                "$panel_step" --volume phantom --view front --no-window \
-                    --out "$work/panel_$threshold" --threshold "$threshold" \
-                    --debug-pixel 128,30 > /dev/null 2>&1
-            done
             picture=05_interpolated_hits_front_ray_128_30.png
             compare="python3 $(dirname "$0")/panel_pixels.py"
             before=$($compare "$1" "$2" "$work/panel_400/$picture" 2>&1)
@@ -225,7 +234,8 @@ fi
 
 # --- Real X input (optional: needs xdotool) ----------------------------------------------------
 if command -v xdotool > /dev/null 2>&1; then
-    xvfb sh "$0" --xdotool "$binary" "$work/real_out" "$work/real.log" > "$work/real.stdout" 2>&1
+    xvfb sh "$0" --xdotool "$binary" "$work/real_out" "$work/real.log" $phantom \
+        > "$work/real.stdout" 2>&1
     status=$?
     check "real X input: the run completes (status $status; $(cat "$work/real.stdout"))" \
         [ "$status" -eq 0 ]
@@ -242,7 +252,7 @@ fi
 # full-size render's summary line, which must show the same camera.
 camera_step=$build/24_free_leaping
 if [ -x "$camera_step" ]; then
-    xvfb "$camera_step" --volume phantom --size 128x128 --zoom 0.5 --out "$work/orbit_out" \
+    xvfb "$camera_step" $phantom --size 128x128 --zoom 0.5 --out "$work/orbit_out" \
         --window-script "press:64:64,move:70:64,move:80:64,release:80:64,wheel:2,wait:500,\
 press:64:64,move:64:70,move:64:90,wait:500,move:64:100,release:64:100,click:64:64,quit" \
         > "$work/orbit.stdout" 2> "$work/orbit.stderr"
