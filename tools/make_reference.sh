@@ -163,11 +163,15 @@ if [ -f "$probes" ]; then
         step=$(basename "$(ls steps/"$number"_*.cpp | head -n 1)" .cpp)
         view_flag="--view $view"
         [ "$view" != camera ] || view_flag=
+        # Only the probe's ray is cast (and, kept as a picture, the pixels its ray picture
+        # shows): the run's whole picture is in the reference already.
+        only=--trace-only
+        [ "$keep" = picture ] || only="$only --no-ray-picture"
         rm -rf "$work/out"
         set -f
         # shellcheck disable=SC2086
         "$build/$step" --volume "$volume" $volume_flags --no-window --out "$work/out" \
-            $arguments $extra $view_flag --debug-pixel "$pixel" > "$work/log" 2>&1 < /dev/null
+            $arguments $extra $view_flag --debug-pixel "$pixel" $only > "$work/log" 2>&1 < /dev/null
         status=$?
         set +f
         if [ "$status" != 0 ]; then
