@@ -130,10 +130,22 @@ grep -q -- ' -Werror' "$build/flags.txt" 2>/dev/null && san="$san WERROR=1"
 # keeps its own flags.
 step_opt="-O0 -g0"
 [ "$build" = build-san ] && step_opt=
+# And they link with gold (or lld) where the compiler can (STEP_LDFLAGS, outside the flags
+# stamp as well): 0.05 s of CPU a link instead of ld.bfd's 0.14, for ~45 links.
+step_ld=
+if [ "$build" != build-san ]; then
+    for linker in gold lld; do
+        printf 'int main() { return 0; }\n' |
+            ${CXX:-g++} -fuse-ld=$linker -x c++ - -o "$work/linker_probe" 2> /dev/null ||
+            continue
+        step_ld=-fuse-ld=$linker
+        break
+    done
+fi
 student_make() {  # student_make TARGET...: make in the student tree, quietly, log in build.log
     # shellcheck disable=SC2086
     env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$student" -j2 BUILD="$build" \
-        STEP_OPT="$step_opt" $san "$@" > "$work/build.log" 2>&1
+        STEP_OPT="$step_opt" STEP_LDFLAGS="$step_ld" $san "$@" > "$work/build.log" 2>&1
 }
 # The kit builds (make -j2) while the checks of its sources below run beside it: they read
 # the generated files and write only into $work.
