@@ -98,6 +98,9 @@ $(BUILD)/tests/%.o: CXXFLAGS += $(TEST_DEBUG)
 ifneq ($(STEP_OPT),)
 $(BUILD)/steps/%.o: CXXFLAGS += $(STEP_OPT)
 endif
+# STEP_LDFLAGS='-fuse-ld=gold': likewise for the steps' links alone, outside the flags stamp
+# (those throw-away builds link ~70 steps: measured 0.05 s of CPU a link with gold, 0.14 with
+# the default ld.bfd).
 
 # The window code alone sees ImGui's headers (see LDLIBS above).
 $(addprefix $(BUILD)/common/,window.o panel.o panel_draw.o): CPPFLAGS += -isystem /usr/include/imgui
@@ -529,7 +532,7 @@ $(BUILD)/ctlab_window.so: $(WINDOW_OBJECTS) $(FLAGS_STAMP)
 
 # Steps and tools open the modules beside them: built with them.
 $(BUILD)/%: $(BUILD)/steps/%.o $(LIBCTLAB) $(FLAGS_STAMP) | $(MODULES)
-	$(CXX) $(LDFLAGS) $< $(PROGRAM_LIB) $(LDLIBS) -o $@
+	$(CXX) $(LDFLAGS) $(STEP_LDFLAGS) $< $(PROGRAM_LIB) $(LDLIBS) -o $@
 
 $(BUILD)/%: $(BUILD)/tools/%.o $(LIBTOOLS) $(LIBCTLAB) $(FLAGS_STAMP) | $(MODULES)
 	$(CXX) $(LDFLAGS) $< $(LIBTOOLS) $(PROGRAM_LIB) $(LDLIBS) -o $@

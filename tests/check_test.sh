@@ -24,7 +24,7 @@ for tool in grade make_phantom; do
 done
 work=$(mktemp -d) || exit 1
 if [ -n "${KEEP:-}" ]; then echo "check test: logs kept in $work"; else
-    trap 'rm -rf "$work"' EXIT INT TERM; fi
+    trap '[ -z "${lab_pid:-}" ] || kill "$lab_pid" 2> /dev/null; rm -rf "$work"' EXIT INT TERM; fi
 case "$build" in *san*) san=SAN=1 ;; *) san= ;; esac
 # The phantom, written once to a raw file that every graded run reads: the same voxels as
 # --volume phantom (the lab's steps pass on it with every counter), without painting the head
@@ -53,9 +53,14 @@ grade_ok() {
 }
 
 # --- The lab's own steps: every run of the manifest, every view, pictures and counters --------
-[ -z "${ONLY:-}" ] && "$build/check" --bin "$build" --volume "$phantom" --out "$work/lab" > "$work/lab.log" 2>&1
-steps=$(ls steps/[0-9][0-9]_*.cpp | wc -l)
-[ -z "${ONLY:-}" ] && grade_ok "the lab's steps" 0 $? "$work/lab.log" "^$steps steps?: $steps passing; result=pass"
+# Graded in the background while the mistakes are patched and built (its verdict is read at
+# the end): check runs one step at a time, and the mutants' make and grading fill the other
+# core.
+lab_pid=
+if [ -z "${ONLY:-}" ]; then
+    "$build/check" --bin "$build" --volume "$phantom" --out "$work/lab" > "$work/lab.log" 2>&1 &
+    lab_pid=$!
+fi
 
 # --- One run of the manifest alone (--run): one picture, one summary line graded ------------
 "$build/check" --bin "$build" --run 02_threshold_skin --view top --volume "$phantom" \
@@ -103,9 +108,11 @@ while IFS='|' read -r name step view script expect shows; do
 done < "$work/mistakes"
 mutants_build
 
+# Each mutant's grading is a command of its own ($work/grading/NAME), run two at a time
+# (MUTANT_JOBS), the part 2 and 3 steps' (the longest) first; their verdicts are read after,
+# in the table's order.
+mkdir -p "$work/grading"
 while IFS='|' read -r name step view source expect shows; do
-    expect=$(echo $expect)
-    shows=$(printf '%s\n' "$shows" | sed 's/^ *//; s/ *$//')
     # VIEW [RUN...]: the view, then the manifest runs graded (all when none is named).
     # shellcheck disable=SC2086
     set -- $view
@@ -124,16 +131,36 @@ while IFS='|' read -r name step view source expect shows; do
     # A part-2 step has one view, the camera's, and no --view to choose it.
     view_flags="--view $view"
     [ "$view" = camera ] && view_flags=
-    # shellcheck disable=SC2086  # view_flags, run_flags: no words or some
-    "$build/check" --bin "$work/bin/$name" --step "$step" $view_flags $run_flags \
-        --volume "$phantom" --out "$work/out/$name" > "$work/$name.log" 2>&1
-    status=$?
+    # $work is mktemp's and the names and runs are words: no quoting needed inside.
+    printf '"%s/check" --bin "%s/bin/%s" --step %s %s%s --volume "%s" --out "%s/out/%s" > "%s/%s.log" 2>&1\necho $? > "%s/%s.status"\n' \
+        "$build" "$work" "$name" "$step" "$view_flags" "$run_flags" "$phantom" "$work" "$name" \
+        "$work" "$name" "$work" "$name" > "$work/grading/$name"
+    echo "$step $name" >> "$work/grading.order"
+done < "$work/patched"
+if [ -f "$work/grading.order" ]; then
+    sort -r "$work/grading.order" | while read -r step name; do echo "$work/grading/$name"; done |
+        xargs -n 1 -P "${MUTANT_JOBS:-2}" sh
+fi
+
+while IFS='|' read -r name step view source expect shows; do
+    expect=$(echo $expect)
+    shows=$(printf '%s\n' "$shows" | sed 's/^ *//; s/ *$//')
+    [ -f "$work/grading/$name" ] || continue  # not built: mutants_build said why
+    status=$(cat "$work/$name.status" 2> /dev/null || echo 127)
     case "$expect" in
         pass) grade_ok "$name (must pass)" 0 $status "$work/$name.log" "$shows" ;;
         fail) grade_ok "$name (must fail)" 1 $status "$work/$name.log" "$shows" ;;
         *) bad "$name: EXPECT is pass or fail, got '$expect'" ;;
     esac
 done < "$work/patched"
+
+if [ -n "$lab_pid" ]; then
+    wait "$lab_pid"
+    status=$?
+    lab_pid=
+    steps=$(ls steps/[0-9][0-9]_*.cpp | wc -l)
+    grade_ok "the lab's steps" 0 $status "$work/lab.log" "^$steps steps?: $steps passing; result=pass"
+fi
 
 echo "check test: $passed passed, $failed failed, $skipped skipped"
 [ "$failed" -eq 0 ]

@@ -20,12 +20,28 @@
 mutant_opt=${MUTANT_OPT:--O1 -g0}
 [ -z "${san:-}" ] || mutant_opt=${MUTANT_OPT:-}
 
+# fast_linker: -fuse-ld=gold (or lld) when the compiler links with it here, else nothing: the
+# steps' links (STEP_LDFLAGS, outside the build's flags stamp) at 0.05 s of CPU each instead
+# of ld.bfd's 0.14. Not for a sanitizer build, which keeps the usual link.
+fast_linker() {
+    [ -z "${san:-}" ] || return 0
+    for linker in gold lld; do
+        if printf 'int main() { return 0; }\n' |
+                ${CXX:-g++} -fuse-ld=$linker -x c++ - -o "$work/linker_probe" 2> /dev/null; then
+            rm -f "$work/linker_probe"
+            echo "-fuse-ld=$linker"
+            return 0
+        fi
+    done
+}
+
 # The library alone, not the objects it was made from: make is told never to remake it, and
 # their ~200 dependency files (BUILD/common/*.d) cost each make ~0.3 s of CPU to read. Without
 # its debug information (20 MB of the library's 21), each link takes 0.10 s of CPU, not 0.17;
 # a sanitizer build keeps it, for its reports' lines.
 mutant_tree() {
     tree=$work/tree
+    mutant_ld=$(fast_linker)
     mkdir -p "$tree/steps" "$tree/$build" || return 1
     cp Makefile "$tree/" && cp -R common "$tree/" &&
         cp "$build/libctlab.a" "$tree/$build/" || { bad "cannot copy the lab into $tree"; return 1; }
@@ -39,7 +55,7 @@ mutant_make() {
     shift
     # shellcheck disable=SC2086
     make --no-print-directory -C "$mutant_folder" BUILD="$build" WERROR=0 \
-        STEP_OPT="$mutant_opt" $san \
+        STEP_OPT="$mutant_opt" STEP_LDFLAGS="$mutant_ld" $san \
         -o "$build/libctlab.a" -o "$build/ctlab_formats.so" -o "$build/ctlab_window.so" "$@"
 }
 
@@ -95,8 +111,8 @@ mutant_patch() {
     # spaces, no quotes.
     {
         printf 'all: %s\n.PHONY: %s\n%s:\n' "$mutant_name" "$mutant_name" "$mutant_name"
-        printf '\t@$(MAKE) --no-print-directory -C %s BUILD=%s WERROR=0 STEP_OPT="%s" %s' \
-            "$own" "$build" "$mutant_opt" "$san"
+        printf '\t@$(MAKE) --no-print-directory -C %s BUILD=%s WERROR=0 STEP_OPT="%s" STEP_LDFLAGS="%s" %s' \
+            "$own" "$build" "$mutant_opt" "$mutant_ld" "$san"
         printf ' -o %s/%s' "$build" libctlab.a "$build" ctlab_formats.so "$build" ctlab_window.so
         printf ' %s/%s > %s/make.log 2>&1\n' "$build" "$mutant_stem" "$own"
     } >> "$work/trees/Makefile"

@@ -19,6 +19,7 @@
 #pragma once
 #include <algorithm>
 #include <cctype>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -663,17 +664,66 @@ struct Leak {
     int line;  // in the file searched, from 1
 };
 
-// Where the answers occur in `text` (any file: code, markdown, data), whitespace-normalised.
+// Where the answers occur in `text` (any file: code, markdown, data), whitespace-normalised;
+// in the answers' order, each answer's finds in the text's order (a whole body: its first).
+// One pass over the text, not one per answer: every answer of at least `prefix` characters
+// is looked up by its first `prefix` characters' hash (a rolling hash of the text's window,
+// a bit table first), then compared whole; a shorter one is searched for on its own. A
+// generated kit (~600 files, ~730 answers): 0.37 s of CPU, 1.41 s with one search per answer.
 inline std::vector<Leak> find_answers(const std::string& text, const std::vector<Answer>& answers) {
+    constexpr size_t prefix = 16;          // characters hashed (answers are mostly >= 24)
+    constexpr uint64_t base = 1099511628211ULL;  // the rolling hash's multiplier (odd)
+    constexpr size_t table_bits = 16;      // the bit table that turns most windows away
+    auto hash_of = [&](const char* at) {
+        uint64_t hash = 0;
+        for (size_t n = 0; n < prefix; ++n) hash = hash * base + static_cast<unsigned char>(at[n]);
+        return hash;
+    };
+    auto slot_of = [&](uint64_t hash) { return static_cast<size_t>(hash >> (64 - table_bits)); };
     std::vector<size_t> offsets;
     const std::string collapsed = collapse_spaces(text, &offsets);
-    std::vector<Leak> leaks;
-    for (const Answer& answer : answers) {
-        for (size_t at = collapsed.find(answer.text); at != std::string::npos;
-             at = collapsed.find(answer.text, at + 1)) {
-            leaks.push_back({&answer, line_of(text, offsets[at])});
-            if (answer.whole_body) break;  // once is enough
+    std::vector<std::pair<size_t, size_t>> finds;  // (answer index, position in collapsed)
+    std::vector<std::pair<uint64_t, size_t>> hashed;  // (prefix hash, answer index), sorted
+    std::vector<bool> table(size_t(1) << table_bits);
+    for (size_t index = 0; index < answers.size(); ++index) {
+        const std::string& wanted = answers[index].text;
+        if (wanted.size() >= prefix) {
+            hashed.push_back({hash_of(wanted.data()), index});
+            table[slot_of(hashed.back().first)] = true;
+            continue;
         }
+        for (size_t at = collapsed.find(wanted); at != std::string::npos;
+             at = collapsed.find(wanted, at + 1)) {
+            finds.push_back({index, at});
+        }
+    }
+    std::sort(hashed.begin(), hashed.end());
+    if (!hashed.empty() && collapsed.size() >= prefix) {
+        uint64_t power = 1;  // base^(prefix - 1): the leaving character's weight
+        for (size_t n = 1; n < prefix; ++n) power *= base;
+        uint64_t hash = hash_of(collapsed.data());
+        for (size_t at = 0;; ++at) {
+            if (table[slot_of(hash)]) {
+                for (auto candidate = std::lower_bound(hashed.begin(), hashed.end(),
+                                                       std::make_pair(hash, size_t(0)));
+                     candidate != hashed.end() && candidate->first == hash; ++candidate) {
+                    const std::string& wanted = answers[candidate->second].text;
+                    if (collapsed.compare(at, wanted.size(), wanted) == 0) {
+                        finds.push_back({candidate->second, at});
+                    }
+                }
+            }
+            if (at + prefix >= collapsed.size()) break;
+            hash = (hash - power * static_cast<unsigned char>(collapsed[at])) * base +
+                   static_cast<unsigned char>(collapsed[at + prefix]);
+        }
+    }
+    std::sort(finds.begin(), finds.end());
+    std::vector<Leak> leaks;
+    for (size_t n = 0; n < finds.size(); ++n) {
+        const auto [index, at] = finds[n];
+        if (answers[index].whole_body && n > 0 && finds[n - 1].first == index) continue;
+        leaks.push_back({&answers[index], line_of(text, offsets[at])});
     }
     return leaks;
 }
