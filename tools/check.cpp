@@ -1399,11 +1399,13 @@ void Grader::first_ray_apart(const Step& step, const Run& run, const std::string
         const std::string sidecar = step.name + "_" + view + "_ray_" + xy + ".txt";
         const fs::path traced_yours = fresh(folder / ("work_ray_" + view));
         const fs::path traced_reference = fresh(folder / ("work_ray_reference_" + view));
-        const Outcome mine =
-            execute(step, arguments_for(traced_yours, {"--debug-pixel", pixel}), traced_yours);
-        const Outcome theirs = run_step_process(
-            reference_program, arguments_for(traced_reference, {"--debug-pixel", pixel}),
-            settings_.tree, traced_reference, settings_.timeout_s);
+        // Only the one ray is cast, and no ray picture drawn: the sidecars are all that is read.
+        const std::vector<std::string> trace_one = {"--debug-pixel", pixel, "--trace-only",
+                                                    "--no-ray-picture"};
+        const Outcome mine = execute(step, arguments_for(traced_yours, trace_one), traced_yours);
+        const Outcome theirs =
+            run_step_process(reference_program, arguments_for(traced_reference, trace_one),
+                             settings_.tree, traced_reference, settings_.timeout_s);
         if (mine.exit_status == 0 && theirs.exit_status == 0 &&
             fs::is_regular_file(traced_yours / sidecar, error) &&
             fs::is_regular_file(traced_reference / sidecar, error)) {
@@ -1561,7 +1563,9 @@ void Grader::probe_rays(const Step& step, const Run& run, const std::string& vie
             if (std::find(views.begin(), views.end(), view) != views.end()) {
                 arguments.insert(arguments.end(), {"--view", view});
             }
-            arguments.insert(arguments.end(), {"--debug-pixel", pixel});
+            // The probe's ray and the pixels its ray picture shows, not the whole picture
+            // again (a run of its own: a crash while tracing is "could not be traced").
+            arguments.insert(arguments.end(), {"--debug-pixel", pixel, "--trace-only"});
             const Outcome outcome = execute(step, arguments, probe_folder);
             ended = !outcome.timed_out && outcome.signal == 0 && outcome.exit_status == 0;
         }
