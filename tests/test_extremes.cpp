@@ -216,8 +216,9 @@ void check_extreme_shape(const Shape& shape) {
         CAPTURE(shape.ny);
         CAPTURE(shape.nz);
         CAPTURE(fill.name);
-        // Written once, read by every run on this fill.
-        const ctlab::TempFolder folder("extremes");
+        // Written once, read by every run on this fill. This folder and each run's (--out)
+        // on a memory file system where there is one (harness.h: scratch_parent()).
+        const ctlab::TempFolder folder("extremes", ctlab_test::scratch_parent());
         const std::vector<std::string> volume_flags =
             ctlab::write_raw_volume(volume, folder.path("volume.raw"));
         for (const std::string& step : ctlab_test::step_names()) {
@@ -243,7 +244,8 @@ void check_extreme_shape(const Shape& shape) {
                 if (v > 0) flags.push_back("--no-ray-picture");
                 flags.insert(flags.begin(), volume_flags.begin(), volume_flags.end());
                 const bool grey = step < "06";
-                const ctlab_test::StepRender run = ctlab_test::render(step, flags);
+                const ctlab::TempFolder out("render", ctlab_test::scratch_parent());
+                const ctlab_test::StepRender run = ctlab_test::render_in(out, step, flags);
                 REQUIRE(run.images.size() == views.size());
                 for (size_t n = 0; n < views.size(); ++n) {
                     CAPTURE(views[n].name);
@@ -275,7 +277,9 @@ void check_extreme_shape(const Shape& shape) {
                                                             std::to_string(last.second)});
                 }
                 if (last_pixels.empty()) continue;
-                const ctlab_test::StepRender last = ctlab_test::render(step, last_flags);
+                const ctlab::TempFolder last_out("render", ctlab_test::scratch_parent());
+                const ctlab_test::StepRender last =
+                    ctlab_test::render_in(last_out, step, last_flags);
                 traces += traces_checked(last, views, last_pixels);
             }
         }

@@ -84,7 +84,8 @@ Volume load_any(const std::string& path) {
 
 // Shared by the test cases: the volumes are written once.
 struct Written {
-    TempFolder folder{"formats"};
+    // On a memory file system where there is one (harness.h): ~500 step runs write here.
+    TempFolder folder{"formats", ctlab_test::scratch_parent()};
     std::string skipped;
     std::vector<Expected> volumes;
     Written() {
