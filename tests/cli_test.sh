@@ -15,7 +15,7 @@ cd "$(dirname "$0")/.." || exit 2
 cthead_bytes=14811136  # 256 x 256 x 113 int16
 passed=0
 failed=0
-work=$(mktemp -d) || exit 2
+work=$(mktemp -d -p "$(sh tests/scratch_parent.sh)") || exit 2
 trap 'rm -rf "$work"' EXIT INT TERM
 
 pass() { passed=$((passed + 1)); }
