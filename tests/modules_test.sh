@@ -39,7 +39,7 @@ mapped() {
     sed -n 's/.*file=\([^ ]*\) *\[0\];* *\(needed\|dynamically loaded\).*/\1/p' \
         "$work/ld.$name".* | sort -u > "$work/$name.libs"
 }
-big='libgdcm|libniftiio|libznz|libteem|libSDL2|libX11|ctlab_formats|ctlab_window'
+big='libgdcm|libniftiio|libznz|libteem|libSDL2|libX11|ctlab_formats|ctlab_dicom|ctlab_window'
 
 mapped help "$step" --help
 mapped phantom "$step" --volume phantom --dims 16,16,8 --no-window --out "$work/out"
