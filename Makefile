@@ -42,9 +42,11 @@ IMGUI_LIBS := -limgui -l:libstb.a
 LDLIBS   += -lz -ldl
 LDFLAGS  += -Wl,--as-needed
 # The volume formats' libraries (common/format_*.cpp): nifticlib, teem (NRRD), GDCM, zlib.
-# Only the format module (common/module.h) links them; the steps open it when a file needs it.
+# Only the format modules (common/module.h) link them; the steps open one when a file needs
+# it. DICOM's GDCM is a module of its own (its dictionaries are built when it is loaded).
 CPPFLAGS += -I/usr/include/gdcm-3.0 -I/usr/include/nifti
-FORMAT_LIBS := -lniftiio -lznz -lteem -lgdcmMSFF -lgdcmDSED -lgdcmCommon -lz
+DICOM_LIBS  := -lgdcmMSFF -lgdcmDSED -lgdcmCommon
+FORMAT_LIBS := -lniftiio -lznz -lteem $(DICOM_LIBS) -lz
 # A module holds only its own code: what it uses of common/ (Volume, Image, the presets' state)
 # is the program's own, exported by the program (--export-dynamic, every member of libctlab.a
 # linked), so that a module and its program share one copy of everything. A function the
@@ -117,7 +119,8 @@ WINDOW_SOURCES := common/window.cpp common/panel.cpp common/panel_draw.cpp commo
 WINDOW_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(WINDOW_SOURCES))
 COMMON_SOURCES := $(filter-out $(FORMAT_SOURCES) $(WINDOW_SOURCES),$(wildcard common/*.cpp))
 COMMON_OBJECTS := $(patsubst %.cpp,$(BUILD)/%.o,$(COMMON_SOURCES))
-MODULES        := $(BUILD)/ctlab_formats.so $(BUILD)/ctlab_window.so
+DICOM_OBJECTS  := $(BUILD)/common/format_dicom.o $(BUILD)/common/format_dicom_entry.o
+MODULES        := $(BUILD)/ctlab_formats.so $(BUILD)/ctlab_dicom.so $(BUILD)/ctlab_window.so
 # tools/run_step.cpp, process.cpp and sandbox.cpp are no tools: they start the programs the
 # tests and tools run; compare, image_read and output_folder are the checker's and grader's
 # picture code, class_cache a class run's shared builds and runs (libctlab_tools: never linked
@@ -524,8 +527,11 @@ MODULE_LINK = $(CXX) $(MODULE_LDFLAGS) $(LDFLAGS) $(filter %.o,$^)
 # A module's code is position-independent; no semantic interposition, so that its calls
 # inline as they would in a program.
 $(FORMAT_OBJECTS) $(WINDOW_OBJECTS): CXXFLAGS += -fPIC -fno-semantic-interposition
-$(BUILD)/ctlab_formats.so: $(FORMAT_OBJECTS) $(FLAGS_STAMP)
-	$(MODULE_LINK) $(FORMAT_LIBS) -o $@
+$(BUILD)/ctlab_formats.so: $(filter-out $(DICOM_OBJECTS),$(FORMAT_OBJECTS)) $(FLAGS_STAMP)
+	$(MODULE_LINK) $(filter-out $(DICOM_LIBS),$(FORMAT_LIBS)) -o $@
+
+$(BUILD)/ctlab_dicom.so: $(DICOM_OBJECTS) $(FLAGS_STAMP)
+	$(MODULE_LINK) $(DICOM_LIBS) -o $@
 
 $(BUILD)/ctlab_window.so: $(WINDOW_OBJECTS) $(FLAGS_STAMP)
 	$(MODULE_LINK) $(IMGUI_LIBS) $(SDL_LIBS) -o $@

@@ -28,8 +28,13 @@ std::string volume_format_of(const std::string& path) {
 
 Volume load_volume_file(const std::string& format, const std::string& path) {
     using Entry = VolumeReader (*)(const char* format);
+    // DICOM's GDCM builds its dictionaries when loaded (~60 million instructions, most of a
+    // small run): a module of its own, opened for a DICOM series only.
+    const bool dicom = format == "dicom";
     const auto entry = reinterpret_cast<Entry>(
-        module_entry("ctlab_formats.so", "ctlab_volume_reader", "to read " + format + " files"));
+        module_entry(dicom ? "ctlab_dicom.so" : "ctlab_formats.so",
+                     dicom ? "ctlab_dicom_reader" : "ctlab_volume_reader",
+                     "to read " + format + " files"));
     const VolumeReader reader = entry(format.c_str());
     if (!reader) throw InputError("no reader for the volume format '" + printable(format) + "'");
     return reader(path);

@@ -19,10 +19,12 @@
 namespace ctlab {
 
 unsigned char to_byte(float value) {
-    // Clamp in float first: casting 256.0f (or NaN) to a byte is undefined behaviour.
-    if (!(value > 0.0f)) return 0;  // also catches NaN
-    if (value >= 1.0f) return 255;
-    return static_cast<unsigned char>(value * 255.0f + 0.5f);
+    // Clamp in float first: casting 256.0f (or NaN) to a byte is undefined behaviour. Without
+    // branches (max and min), so that a picture's loop over its pixels has none; 1 rounds
+    // to 255.5, cut to 255.
+    const float above = value > 0.0f ? value : 0.0f;  // NaN is no more than 0
+    const float clamped = above < 1.0f ? above : 1.0f;
+    return static_cast<unsigned char>(clamped * 255.0f + 0.5f);
 }
 
 void make_folder(const std::string& path) {
@@ -95,133 +97,179 @@ static void put_u32(unsigned char* out, uint32_t value) {  // big-endian
     for (int n = 0; n < 4; ++n) out[n] = (value >> (24 - 8 * n)) & 255;
 }
 
-// An 8-bit RGB PNG of `rgb` (rows top to bottom, 3 bytes a pixel), its rows stored. Written
-// straight into the one buffer it returns (each row copied once), its size known beforehand.
-static std::vector<unsigned char> stored_png(const unsigned char* rgb, int width, int height) {
+// Adler-32 (zlib's checksum of the uncompressed stream), fed in pieces.
+class Adler32 {
+public:
+    void add(const unsigned char* bytes, size_t count) {
+        while (count > 0) {
+            const size_t run = std::min(count, adler_run - since_reduced_);
+            size_t n = 0;
+            // 16 bytes x0..x15 at a time: a grows by their sum, b by 16 a + sum (16 - i) xi,
+            // what the loop below adds byte by byte (a sum the compiler can vectorise).
+            for (; n + 16 <= run; n += 16) {
+                uint32_t sum_x = 0, weighted = 0;
+                for (uint32_t i = 0; i < 16; ++i) {
+                    sum_x += bytes[n + i];
+                    weighted += (16 - i) * bytes[n + i];
+                }
+                b_ += 16 * a_ + weighted;
+                a_ += sum_x;
+            }
+            for (; n < run; ++n) {
+                a_ += bytes[n];
+                b_ += a_;
+            }
+            bytes += run;
+            count -= run;
+            since_reduced_ += run;
+            if (since_reduced_ == adler_run) {
+                a_ %= adler_base;
+                b_ %= adler_base;
+                since_reduced_ = 0;
+            }
+        }
+    }
+    uint32_t value() const { return (b_ % adler_base) << 16 | (a_ % adler_base); }
+
+private:
+    // The sums are reduced once per 5552 bytes at the most, the longest run that cannot
+    // overflow 32 bits (zlib's NMAX).
+    static constexpr uint32_t adler_base = 65521;
+    static constexpr size_t adler_run = 5552;
+    uint32_t a_ = 1, b_ = 0;
+    size_t since_reduced_ = 0;
+};
+
+// Writes `image` to `file` as an 8-bit RGB PNG whose rows are stored, a row at a time through
+// one small buffer: a ray picture (~0.7 MB) is never held whole as bytes, nor twice (its
+// pages, faulted in and unmapped per picture, were as costly as its checksums).
+static bool write_stored_png(const Image& image, std::FILE* file) {
+    const int width = image.width, height = image.height;
     const size_t row_bytes = size_t(width) * 3;
     const size_t rows_size = (row_bytes + 1) * size_t(height);  // a filter byte 0 (none) a row
     constexpr size_t max_block = 65535;  // a stored block's largest length
     const size_t blocks = std::max<size_t>(1, (rows_size + max_block - 1) / max_block);
     const size_t zlib_size = 2 + 5 * blocks + rows_size + 4;
-    constexpr size_t chunk_extra = 12;  // length, type, CRC
     constexpr unsigned char signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-    std::vector<unsigned char> png(sizeof signature + (chunk_extra + 13) +
-                                   (chunk_extra + zlib_size) + chunk_extra);
-    unsigned char* out = png.data();
-    std::memcpy(out, signature, sizeof signature);
-    out += sizeof signature;
-    // Each chunk: its length, then its type and data, which its CRC covers.
-    auto chunk = [&](const char* type, size_t size,
-                     const std::function<void(unsigned char*)>& fill) {
-        put_u32(out, uint32_t(size));
-        std::memcpy(out + 4, type, 4);
-        fill(out + 8);
-        put_u32(out + 8 + size, crc32_of(out + 4, size + 4));
-        out += chunk_extra + size;
+    bool written = std::fwrite(signature, 1, sizeof signature, file) == sizeof signature;
+
+    // A chunk's length, then its type and data, which its CRC covers.
+    unsigned char header[8 + 13 + 4];
+    put_u32(header, 13);
+    std::memcpy(header + 4, "IHDR", 4);
+    put_u32(header + 8, uint32_t(width));
+    put_u32(header + 12, uint32_t(height));
+    const unsigned char rest[5] = {8, 2, 0, 0, 0};  // 8 bits, RGB, deflate, filters, no interlace
+    std::memcpy(header + 16, rest, sizeof rest);
+    put_u32(header + 21, crc32_of(header + 4, 4 + 13));
+    written = written && std::fwrite(header, 1, sizeof header, file) == sizeof header;
+
+    unsigned char idat[8];
+    put_u32(idat, uint32_t(zlib_size));
+    std::memcpy(idat + 4, "IDAT", 4);
+    written = written && std::fwrite(idat, 1, sizeof idat, file) == sizeof idat;
+    uint32_t crc = crc32_of(idat + 4, 4);
+
+    // The IDAT data through `buffer`: its CRC taken and written each time it fills.
+    constexpr size_t buffer_size = 64 * 1024;
+    std::vector<unsigned char> buffer(buffer_size);
+    size_t used = 0;
+    auto flush = [&] {
+        crc = crc32_of(buffer.data(), used, crc);
+        written = written && std::fwrite(buffer.data(), 1, used, file) == used;
+        used = 0;
     };
-    chunk("IHDR", 13, [&](unsigned char* header) {
-        put_u32(header, uint32_t(width));
-        put_u32(header + 4, uint32_t(height));
-        // 8 bits, RGB, deflate, filters, no interlace
-        const unsigned char rest[5] = {8, 2, 0, 0, 0};
-        std::memcpy(header + 8, rest, sizeof rest);
-    });
-    chunk("IDAT", zlib_size, [&](unsigned char* zlib) {
-        *zlib++ = 0x78;  // deflate, 32 KiB window
-        *zlib++ = 0x01;  // no dictionary, fastest
-        // Adler-32 of the rows as they are laid down; the sums are reduced once per 5552 bytes
-        // at the most, the longest run that cannot overflow 32 bits (zlib's NMAX).
-        constexpr uint32_t adler_base = 65521;
-        constexpr size_t adler_run = 5552;
-        uint32_t a = 1, b = 0;
-        size_t since_reduced = 0;
-        auto sum = [&](const unsigned char* bytes, size_t count) {
-            while (count > 0) {
-                const size_t run = std::min(count, adler_run - since_reduced);
-                size_t n = 0;
-                // 16 bytes x0..x15 at a time: a grows by their sum, b by 16 a + sum (16 - i) xi,
-                // what the loop below adds byte by byte (a sum the compiler can vectorise).
-                for (; n + 16 <= run; n += 16) {
-                    uint32_t sum_x = 0, weighted = 0;
-                    for (uint32_t i = 0; i < 16; ++i) {
-                        sum_x += bytes[n + i];
-                        weighted += (16 - i) * bytes[n + i];
-                    }
-                    b += 16 * a + weighted;
-                    a += sum_x;
-                }
-                for (; n < run; ++n) {
-                    a += bytes[n];
-                    b += a;
-                }
-                bytes += run;
-                count -= run;
-                since_reduced += run;
-                if (since_reduced == adler_run) {
-                    a %= adler_base;
-                    b %= adler_base;
-                    since_reduced = 0;
-                }
-            }
-        };
-        // Stored blocks of up to max_block bytes of the row stream, cut wherever they fall.
-        size_t done = 0;  // bytes of the row stream written
-        size_t block_left = 0;
-        auto put = [&](const unsigned char* bytes, size_t count) {
-            while (count > 0) {
-                if (block_left == 0) {
-                    const size_t length = std::min(max_block, rows_size - done);
-                    *zlib++ = done + length == rows_size ? 1 : 0;  // BFINAL, BTYPE 00 (stored)
-                    *zlib++ = length & 255;
-                    *zlib++ = length >> 8;
-                    *zlib++ = ~length & 255;
-                    *zlib++ = (~length >> 8) & 255;
-                    block_left = length;
-                }
-                const size_t part = std::min(count, block_left);
-                std::memcpy(zlib, bytes, part);
-                sum(bytes, part);
-                zlib += part;
-                bytes += part;
-                count -= part;
-                block_left -= part;
-                done += part;
-            }
-        };
-        const unsigned char no_filter = 0;
-        for (int y = 0; y < height; ++y) {
-            put(&no_filter, 1);
-            put(rgb + y * row_bytes, row_bytes);
+    auto emit = [&](const unsigned char* bytes, size_t count) {
+        while (count > 0) {
+            if (used == buffer_size) flush();
+            const size_t part = std::min(count, buffer_size - used);
+            std::memcpy(buffer.data() + used, bytes, part);
+            used += part;
+            bytes += part;
+            count -= part;
         }
-        if (rows_size == 0) {  // no rows: one empty final block
-            const unsigned char empty[5] = {1, 0, 0, 0xff, 0xff};
-            std::memcpy(zlib, empty, sizeof empty);
-            zlib += sizeof empty;
+    };
+    const unsigned char zlib_header[2] = {0x78, 0x01};  // deflate, 32 KiB window; fastest
+    emit(zlib_header, sizeof zlib_header);
+
+    // Stored blocks of up to max_block bytes of the row stream, cut wherever they fall.
+    Adler32 adler;
+    size_t done = 0;  // bytes of the row stream written
+    size_t block_left = 0;
+    auto put = [&](const unsigned char* bytes, size_t count) {
+        adler.add(bytes, count);
+        while (count > 0) {
+            if (block_left == 0) {
+                const size_t length = std::min(max_block, rows_size - done);
+                const unsigned char block[5] = {
+                    static_cast<unsigned char>(done + length == rows_size),  // BFINAL, stored
+                    static_cast<unsigned char>(length & 255),
+                    static_cast<unsigned char>(length >> 8),
+                    static_cast<unsigned char>(~length & 255),
+                    static_cast<unsigned char>((~length >> 8) & 255)};
+                emit(block, sizeof block);
+                block_left = length;
+            }
+            const size_t part = std::min(count, block_left);
+            emit(bytes, part);
+            bytes += part;
+            count -= part;
+            block_left -= part;
+            done += part;
         }
-        a %= adler_base;
-        b %= adler_base;
-        put_u32(zlib, (b << 16) | a);
-    });
-    chunk("IEND", 0, [](unsigned char*) {});
-    return png;
+    };
+    std::vector<unsigned char> row(row_bytes + 1, 0);  // the filter byte 0, then the pixels
+    // A ray picture is mostly runs of one colour (its background, a curve's fill): a pixel
+    // with the bits of the one before it gets its bytes without converting them again.
+    Rgb last{};
+    unsigned char last_bytes[3] = {0, 0, 0};
+    bool have_last = false;
+    for (int y = 0; y < height; ++y) {
+        const Rgb* pixel = &image.pixels[size_t(y) * size_t(width)];
+        unsigned char* byte = row.data() + 1;
+        for (int x = 0; x < width; ++x, ++pixel, byte += 3) {
+            if (!have_last || std::memcmp(pixel, &last, sizeof last) != 0) {
+                last = *pixel;
+                last_bytes[0] = to_byte(pixel->r);
+                last_bytes[1] = to_byte(pixel->g);
+                last_bytes[2] = to_byte(pixel->b);
+                have_last = true;
+            }
+            byte[0] = last_bytes[0];
+            byte[1] = last_bytes[1];
+            byte[2] = last_bytes[2];
+        }
+        put(row.data(), row.size());
+    }
+    if (rows_size == 0) {  // no rows: one empty final block
+        const unsigned char empty[5] = {1, 0, 0, 0xff, 0xff};
+        emit(empty, sizeof empty);
+    }
+    unsigned char checksum[4];
+    put_u32(checksum, adler.value());
+    emit(checksum, sizeof checksum);
+    flush();
+    unsigned char end[4 + 12];  // the IDAT's CRC, then IEND
+    put_u32(end, crc);
+    put_u32(end + 4, 0);
+    std::memcpy(end + 8, "IEND", 4);
+    put_u32(end + 12, crc32_of(end + 8, 4));
+    return written && std::fwrite(end, 1, sizeof end, file) == sizeof end;
 }
 
 void write_png(const Image& image, const std::string& path, int compression) {
+    // Through a temporary renamed into place: the PNG appears whole or not at all (and, during
+    // a step's run, only together with the other views: see output_files.h).
+    if (compression == stored_png_compression) {
+        write_output_file(path, [&](std::FILE* file) { return write_stored_png(image, file); });
+        return;
+    }
     std::vector<unsigned char> bytes(static_cast<size_t>(image.width) * image.height * 3);
     unsigned char* byte = bytes.data();
     for (const Rgb& pixel : image.pixels) {
         *byte++ = to_byte(pixel.r);
         *byte++ = to_byte(pixel.g);
         *byte++ = to_byte(pixel.b);
-    }
-    // Through a temporary renamed into place: the PNG appears whole or not at all (and, during
-    // a step's run, only together with the other views: see output_files.h).
-    if (compression == stored_png_compression) {
-        const std::vector<unsigned char> png = stored_png(bytes.data(), image.width, image.height);
-        write_output_file(path, [&](std::FILE* file) {
-            return std::fwrite(png.data(), 1, png.size(), file) == png.size();
-        });
-        return;
     }
     stbi_write_png_compression_level = compression;
     stbi_write_force_png_filter = compression < default_png_compression ? 1 : -1;

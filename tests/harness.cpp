@@ -1,8 +1,12 @@
 // harness.cpp: the steps run as processes for the tests (see harness.h).
 #include "harness.h"
 #include <doctest/doctest.h>
+#include <sys/statfs.h>
+#include <sys/statvfs.h>
+#include <unistd.h>
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <filesystem>
 #include "phantom.h"
 
@@ -88,8 +92,27 @@ const ctlab::Image& StepRender::image(const std::string& view) const {
     throw std::runtime_error(run.command() + ": no image of the " + view + " view");
 }
 
-static StepRender render_in(const TempFolder& folder, const std::string& name,
-                            std::vector<std::string> flags) {
+const std::string& scratch_parent() {
+    static const std::string parent = [] {
+        const char* memory = "/dev/shm";
+        constexpr unsigned long long tmpfs_magic = 0x01021994;     // statfs f_type
+        constexpr unsigned long long least_free = 256ull << 20;   // bytes
+        struct statfs kind {};
+        struct statvfs room {};
+        if (std::getenv("TMPDIR") || statfs(memory, &kind) != 0 ||
+            static_cast<unsigned long long>(kind.f_type) != tmpfs_magic ||
+            statvfs(memory, &room) != 0 ||
+            static_cast<unsigned long long>(room.f_bavail) * room.f_frsize < least_free ||
+            access(memory, W_OK | X_OK) != 0) {
+            return std::string();
+        }
+        return std::string(memory);
+    }();
+    return parent;
+}
+
+StepRender render_in(const TempFolder& folder, const std::string& name,
+                     std::vector<std::string> flags) {
     flags.insert(flags.end(), {"--pfm", "--out", folder.path()});
     StepRender result;
     result.run = ctlab::run_step(name, flags);

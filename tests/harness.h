@@ -100,6 +100,12 @@ struct StepRender {
     const ctlab::Summary& summary(const std::string& view) const { return run.summary(view); }
 };
 
+// Where the tests that start hundreds of step processes keep their scratch files (for
+// TempFolder's `parent`): /dev/shm when it is a memory file system (tmpfs) with at least
+// 256 MiB free and TMPDIR is not set, else "" (the system temp folder). Creating, renaming and
+// removing each run's files on a disk's file system (ext4) was ~15% of such a test's CPU.
+const std::string& scratch_parent();
+
 // Runs step `name` with these flags plus --pfm and --out (a temporary folder) and reads every
 // view's float image. With a volume, it is written to a temporary raw file first and loaded
 // with --volume/--dims/--spacing; without one, the flags say which volume. Checks (doctest)
@@ -107,6 +113,11 @@ struct StepRender {
 StepRender render(const std::string& name, const std::vector<std::string>& flags);
 StepRender render(const std::string& name, const std::vector<std::string>& flags,
                   const ctlab::Volume& volume);
+
+// The same with --out `folder`, the caller's (a new one for each run: a picture left there by
+// an earlier run would be read as this one's).
+StepRender render_in(const TempFolder& folder, const std::string& name,
+                     std::vector<std::string> flags);
 
 // The images alone, in top, front, side order as rendered.
 std::vector<ctlab::Image> render_step(const std::string& name,

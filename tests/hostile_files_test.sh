@@ -24,7 +24,7 @@ step="$build/02_threshold"
 with_step=
 passed=0
 failed=0
-work=$(mktemp -d) || exit 2
+work=$(mktemp -d -p "$(sh tests/scratch_parent.sh)") || exit 2
 trap 'rm -rf "$work"' EXIT INT TERM
 pass() { passed=$((passed + 1)); }
 fail() {

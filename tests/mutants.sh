@@ -56,7 +56,8 @@ mutant_make() {
     # shellcheck disable=SC2086
     make --no-print-directory -C "$mutant_folder" BUILD="$build" WERROR=0 \
         STEP_OPT="$mutant_opt" STEP_LDFLAGS="$mutant_ld" $san \
-        -o "$build/libctlab.a" -o "$build/ctlab_formats.so" -o "$build/ctlab_window.so" "$@"
+        -o "$build/libctlab.a" -o "$build/ctlab_formats.so" -o "$build/ctlab_dicom.so" \
+        -o "$build/ctlab_window.so" "$@"
 }
 
 # mutant_write TREE: the mutant's source, $mutant_source patched by $mutant_script (- for the
@@ -113,7 +114,8 @@ mutant_patch() {
         printf 'all: %s\n.PHONY: %s\n%s:\n' "$mutant_name" "$mutant_name" "$mutant_name"
         printf '\t@$(MAKE) --no-print-directory -C %s BUILD=%s WERROR=0 STEP_OPT="%s" STEP_LDFLAGS="%s" %s' \
             "$own" "$build" "$mutant_opt" "$mutant_ld" "$san"
-        printf ' -o %s/%s' "$build" libctlab.a "$build" ctlab_formats.so "$build" ctlab_window.so
+        printf ' -o %s/%s' "$build" libctlab.a "$build" ctlab_formats.so "$build" ctlab_dicom.so \
+            "$build" ctlab_window.so
         printf ' %s/%s > %s/make.log 2>&1\n' "$build" "$mutant_stem" "$own"
     } >> "$work/trees/Makefile"
 }

@@ -94,7 +94,7 @@ reuse_objects() {
     # CPU, not 0.17 (the kit's steps are built without any); a sanitizer build keeps it.
     [ "$build" = build-san ] || strip -g "$student/$build/libctlab.a" 2>/dev/null || true
     cp "$build/flags.txt" "$student/$build/"
-    for library in libctlab_tools.a ctlab_formats.so ctlab_window.so; do
+    for library in libctlab_tools.a ctlab_formats.so ctlab_dicom.so ctlab_window.so; do
         [ -f "$build/$library" ] && cp "$build/$library" "$student/$build/"
     done
     for folder in tools tests; do

@@ -6,13 +6,15 @@
 // int16 extremes and on noise) must exit 0, and its float
 // pictures (--pfm) have the view's size and no NaN or infinity; the --debug-pixel trace of
 // the first pixel (and of the last, in the default run on noise) must give the picture's value
-// (the default runs draw its ray pictures too; the flag variants trace without them). Under
+// (the default runs draw its ray pictures too, each checked written; the flag variants trace
+// without them). Under
 // `make test SAN=1` the steps are sanitizer builds: this is also the out-of-bounds check of
 // every ray loop.
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <random>
 #include <string>
@@ -216,8 +218,9 @@ void check_extreme_shape(const Shape& shape) {
         CAPTURE(shape.ny);
         CAPTURE(shape.nz);
         CAPTURE(fill.name);
-        // Written once, read by every run on this fill.
-        const ctlab::TempFolder folder("extremes");
+        // Written once, read by every run on this fill. This folder and each run's (--out)
+        // on a memory file system where there is one (harness.h: scratch_parent()).
+        const ctlab::TempFolder folder("extremes", ctlab_test::scratch_parent());
         const std::vector<std::string> volume_flags =
             ctlab::write_raw_volume(volume, folder.path("volume.raw"));
         for (const std::string& step : ctlab_test::step_names()) {
@@ -237,13 +240,42 @@ void check_extreme_shape(const Shape& shape) {
                 for (const std::string& flag : flags) text += flag + " ";
                 CAPTURE(step);
                 CAPTURE(text);
+                // The default run on noise traces the last pixel of each view too (each view
+                // the pixels that lie inside it): part 2's in that run (one view: its one more
+                // ray picture costs about what a process does, and step 16 makes its
+                // blue-noise tile, 0.2 s of CPU, once, not twice), part 1's in a run of its
+                // own without ray pictures (three views: more pictures than a process costs).
+                std::vector<std::pair<int, int>> last_pixels;
+                if (v == 0 && std::string(fill.name) == "noise") {
+                    for (const View& view : views) {
+                        const std::pair<int, int> last = {view.width - 1, view.height - 1};
+                        if (last == std::make_pair(0, 0)) continue;  // that is 0,0
+                        if (std::find(last_pixels.begin(), last_pixels.end(), last) !=
+                            last_pixels.end()) {
+                            continue;  // two views of the same size
+                        }
+                        last_pixels.push_back(last);
+                    }
+                }
+                std::vector<std::string> last_flags;
+                for (const auto& [x, y] : last_pixels) {
+                    const std::string pixel = std::to_string(x) + "," + std::to_string(y);
+                    last_flags.insert(last_flags.end(), {"--debug-pixel", pixel});
+                }
+                const bool last_here = ctlab_test::is_camera_step(step) && !last_pixels.empty();
+                std::vector<std::pair<int, int>> traced = {{0, 0}};
                 flags.insert(flags.end(), {"--threads", "2", "--debug-pixel", "0,0"});
+                if (last_here) {
+                    flags.insert(flags.end(), last_flags.begin(), last_flags.end());
+                    traced.insert(traced.end(), last_pixels.begin(), last_pixels.end());
+                }
                 // The ray pictures are drawn in the default runs (every shape and fill);
                 // the variants trace without them (most of a small run's time).
                 if (v > 0) flags.push_back("--no-ray-picture");
                 flags.insert(flags.begin(), volume_flags.begin(), volume_flags.end());
                 const bool grey = step < "06";
-                const ctlab_test::StepRender run = ctlab_test::render(step, flags);
+                const ctlab::TempFolder out("render", ctlab_test::scratch_parent());
+                const ctlab_test::StepRender run = ctlab_test::render_in(out, step, flags);
                 REQUIRE(run.images.size() == views.size());
                 for (size_t n = 0; n < views.size(); ++n) {
                     CAPTURE(views[n].name);
@@ -254,28 +286,27 @@ void check_extreme_shape(const Shape& shape) {
                     REQUIRE(image.height == views[n].height);
                     CHECK(bad_pixels(image, grey) == 0);
                 }
-                traces += traces_checked(run, views, {{0, 0}});
-                if (v != 0 || std::string(fill.name) != "noise") continue;
-                // The default run on noise again, tracing the last pixel of each view (one
-                // run: each view traces the pixels that lie inside it).
-                std::vector<std::pair<int, int>> last_pixels;
-                std::vector<std::string> last_flags = ctlab_test::size_flags(step);
-                last_flags.insert(last_flags.end(), volume_flags.begin(), volume_flags.end());
-                last_flags.push_back("--no-ray-picture");
-                for (const View& view : views) {
-                    const std::pair<int, int> last = {view.width - 1, view.height - 1};
-                    if (last == std::make_pair(0, 0)) continue;  // that was 0,0
-                    if (std::find(last_pixels.begin(), last_pixels.end(), last) !=
-                        last_pixels.end()) {
-                        continue;  // two views of the same size
+                traces += traces_checked(run, views, traced);
+                if (v == 0) {  // each trace drew its ray picture (OUT/STEP_VIEW_ray_X_Y.png)
+                    for (const PixelTrace& trace : run.run.traces) {
+                        const std::string picture = ctlab::step_output(
+                            out.path(), step,
+                            trace.view + "_ray_" + std::to_string(trace.x) + "_" +
+                                std::to_string(trace.y),
+                            "png");
+                        std::error_code error;  // none: the file is there
+                        const auto bytes = std::filesystem::file_size(picture, error);
+                        CHECK_MESSAGE((!error && bytes > 0), picture);
                     }
-                    last_pixels.push_back(last);
-                    last_flags.insert(last_flags.end(),
-                                      {"--debug-pixel", std::to_string(last.first) + "," +
-                                                            std::to_string(last.second)});
                 }
-                if (last_pixels.empty()) continue;
-                const ctlab_test::StepRender last = ctlab_test::render(step, last_flags);
+                if (last_pixels.empty() || last_here) continue;
+                std::vector<std::string> last_run = ctlab_test::size_flags(step);
+                last_run.insert(last_run.end(), volume_flags.begin(), volume_flags.end());
+                last_run.push_back("--no-ray-picture");
+                last_run.insert(last_run.end(), last_flags.begin(), last_flags.end());
+                const ctlab::TempFolder last_out("render", ctlab_test::scratch_parent());
+                const ctlab_test::StepRender last =
+                    ctlab_test::render_in(last_out, step, last_run);
                 traces += traces_checked(last, views, last_pixels);
             }
         }

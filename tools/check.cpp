@@ -425,7 +425,7 @@ constexpr bool lab_has_sanitizers = true;  // this grader, and so the lab's libr
 constexpr bool lab_has_sanitizers = false;
 #endif
 // The lab's modules beside its library (common/module.h): staged with it, never rebuilt.
-constexpr const char* lab_modules[] = {"ctlab_formats.so", "ctlab_window.so"};
+constexpr const char* lab_modules[] = {"ctlab_formats.so", "ctlab_dicom.so", "ctlab_window.so"};
 constexpr size_t max_source_bytes = 4 << 20;        // one step's .cpp
 constexpr size_t max_run_folder_bytes = 64 << 20;   // what a run may leave in its folder
 constexpr size_t max_run_folder_files = 256;

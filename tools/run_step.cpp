@@ -246,9 +246,12 @@ std::vector<std::string> write_raw_volume(const Volume& volume, const std::strin
                              number_text(volume.sz)};
 }
 
-TempFolder::TempFolder(const std::string& tag) {
-    std::string pattern =
-        (std::filesystem::temp_directory_path() / ("ctlab_" + tag + "_XXXXXX")).string();
+TempFolder::TempFolder(const std::string& tag) : TempFolder(tag, "") {}
+
+TempFolder::TempFolder(const std::string& tag, const std::string& parent) {
+    const std::filesystem::path folder =
+        parent.empty() ? std::filesystem::temp_directory_path() : std::filesystem::path(parent);
+    std::string pattern = (folder / ("ctlab_" + tag + "_XXXXXX")).string();
     if (!mkdtemp(pattern.data())) {
         throw std::runtime_error("cannot create a temporary folder: " +
                                  std::string(strerror(errno)));

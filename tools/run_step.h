@@ -95,6 +95,8 @@ std::vector<std::string> write_raw_volume(const Volume& volume, const std::strin
 class TempFolder {
 public:
     explicit TempFolder(const std::string& tag);
+    // The same under `parent` (a folder that exists); "" is the system temp folder.
+    TempFolder(const std::string& tag, const std::string& parent);
     ~TempFolder();
     TempFolder(const TempFolder&) = delete;
     TempFolder& operator=(const TempFolder&) = delete;
