@@ -6,10 +6,13 @@
 #include <cmath>
 #include <string>
 #include <vector>
+#include "error.h"
 #include "image.h"
 #include "render.h"
 #include "step.h"
+#include "vec3.h"
 #include "view.h"
+#include "volume.h"
 
 namespace ctlab {
 
@@ -108,6 +111,36 @@ Rgb warp_traced(const WarpPoint& p, int width, int height, Trace* trace, Column 
     }
     auto pixel = [&](int u, int v) { return colours[(u - low_u) + 2 * (v - low_v)]; };
     return warp_pixel(p, width, height, pixel);
+}
+
+// Voxel (a, b, c) along the slices' axes as (i, j, k): `axes` names them (axes.a, axes.b and
+// axes.c are each 0 for i, 1 for j or 2 for k).
+template <class Axes>
+Voxel voxel_of(const Axes& axes, int a, int b, int c) {
+    int ijk[3] = {0, 0, 0};
+    ijk[axes.a] = a;
+    ijk[axes.b] = b;
+    ijk[axes.c] = c;
+    return Voxel{ijk[0], ijk[1], ijk[2]};
+}
+
+// The physical point at (a, b, c) along the slices' axes, in voxels: a trace record's place.
+template <class Axes>
+Vec3d slice_point(const Volume& volume, const Axes& axes, double a, double b, double c) {
+    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
+    double place[3];
+    place[axes.a] = a * spacing[axes.a];
+    place[axes.b] = b * spacing[axes.b];
+    place[axes.c] = c * spacing[axes.c];
+    return {place[0], place[1], place[2]};
+}
+
+// An object-order step takes a camera along an axis only (two of forward's components exactly
+// 0; its main refuses other angles first): any other is an error naming `step`.
+inline void require_along_an_axis(const Vec3d& forward, const std::string& step) {
+    int zeros = 0;
+    for (int axis = 0; axis < 3; ++axis) zeros += forward[axis] == 0;
+    if (zeros != 2) throw InputError(step + ": the camera is not along an axis");
 }
 
 // The summary's and trace header's sample spacing: "one sample per slice of k, 2 physical

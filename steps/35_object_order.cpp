@@ -347,23 +347,6 @@ struct Scene {
     const Params& params;
 };
 
-// Given: voxel (a, b, c) of the slices' axes as (i, j, k).
-static Voxel voxel_of(const Shear& shear, int a, int b, int c) {
-    int ijk[3] = {0, 0, 0};
-    ijk[shear.a] = a;
-    ijk[shear.b] = b;
-    ijk[shear.c] = c;
-    return Voxel{ijk[0], ijk[1], ijk[2]};
-}
-
-// Given: does the camera look along an axis (two of forward's components exactly 0)? The
-// orbit camera does at multiples of 90 degrees (sin_degrees() is exact there).
-static bool along_an_axis(const Camera& camera) {
-    int zeros = 0;
-    for (int axis = 0; axis < 3; ++axis) zeros += camera.forward[axis] == 0;
-    return zeros == 2;
-}
-
 //> lesson: slices
 // The slices for a camera along an axis: c is the axis it looks along, front to back is the
 // sign of the view direction along it. The intermediate image is one pixel per voxel column.
@@ -504,7 +487,6 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
     const Shear& shear = scene.shear;
     const Volume& volume = scene.volume;
     const double stop_below = std::max(scene.params.ert, min_transparency);
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     Accumulated pixel;
     for (int m = 0; m < shear.nc; ++m) {
         const int c = shear.first_slice + m * shear.slice_step;
@@ -512,13 +494,9 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
         const float value = volume.data[index];
         const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
-        double place[3];  // the sample, physical units
-        place[shear.a] = u * spacing[shear.a];
-        place[shear.b] = v * spacing[shear.b];
-        place[shear.c] = c * spacing[shear.c];
         // Its record: where it lies along the output pixel's ray, and its value.
-        TraceSample record(dot(Vec3d{place[0], place[1], place[2]} - ray.origin, ray.direction),
-                           Vec3d{place[0], place[1], place[2]}, value);
+        const Vec3d point = slice_point(volume, shear, u, v, c);
+        TraceSample record(dot(point - ray.origin, ray.direction), point, value);
         if (sample.a == 0.0f) {
             ++work.skipped;
             if (trace) trace->sample(record.skipped());
@@ -545,7 +523,6 @@ static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& 
                         Trace* trace) {
     const Shear& shear = scene.shear;
     const Volume& volume = scene.volume;
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     float highest = -std::numeric_limits<float>::infinity();
     for (int m = 0; m < shear.nc; ++m) {
         const int c = shear.first_slice + m * shear.slice_step;
@@ -554,11 +531,7 @@ static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& 
         highest = std::max(highest, value);
         ++work.samples;
         if (trace) {
-            double place[3];
-            place[shear.a] = u * spacing[shear.a];
-            place[shear.b] = v * spacing[shear.b];
-            place[shear.c] = c * spacing[shear.c];
-            const Vec3d point = {place[0], place[1], place[2]};
+            const Vec3d point = slice_point(volume, shear, u, v, c);
             trace->sample(TraceSample(dot(point - ray.origin, ray.direction), point, value)
                               .max(highest));
         }
@@ -661,9 +634,7 @@ int main(int argc, char** argv) {
         auto frame_for = [&](const View& view) {
             Frame frame;
             frame.camera = make_camera(volume, params, view);
-            if (!along_an_axis(frame.camera)) {  // (main refuses other angles)
-                throw InputError(std::string(step_name) + ": the camera is not along an axis");
-            }
+            require_along_an_axis(frame.camera.forward, step_name);  // (main refuses others)
             frame.shear = make_shear(volume, frame.camera);
             prepare(frame.shear);
             frame.to_light =

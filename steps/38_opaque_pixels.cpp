@@ -379,15 +379,6 @@ struct Scene {
     const Params& params;
 };
 
-// Given: voxel (a, b, c) of the shear's axes as (i, j, k).
-static Voxel voxel_of(const Shear& shear, int a, int b, int c) {
-    int ijk[3] = {0, 0, 0};
-    ijk[shear.a] = a;
-    ijk[shear.b] = b;
-    ijk[shear.c] = c;
-    return Voxel{ijk[0], ijk[1], ijk[2]};
-}
-
 //> lesson: shear
 // The factorisation for an orthographic camera. The principal axis is the one along which the
 // view direction crosses most voxels per unit of length: then a ray crosses every slice once,
@@ -764,7 +755,6 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
     const Shear& shear = scene.shear;
     const Volume& volume = scene.volume;
     const double stop_below = std::max(scene.params.ert, min_transparency);
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     Accumulated pixel;
     for (size_t m = 0; m < scene.shifts.size(); ++m) {
         const SliceShift& s = scene.shifts[m];
@@ -774,13 +764,10 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
         const float value = slice_value(&volume.data[index], s);
         const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
-        double place[3];  // the sample, physical units
-        place[shear.a] = (a + double(s.fa)) * spacing[shear.a];
-        place[shear.b] = (b + double(s.fb)) * spacing[shear.b];
-        place[shear.c] = s.slice * spacing[shear.c];
         // Its record: where it lies along the output pixel's ray, and its value.
-        TraceSample record(dot(Vec3d{place[0], place[1], place[2]} - ray.origin, ray.direction),
-                           Vec3d{place[0], place[1], place[2]}, value);
+        const Vec3d point =
+            slice_point(volume, shear, a + double(s.fa), b + double(s.fb), s.slice);
+        TraceSample record(dot(point - ray.origin, ray.direction), point, value);
         if (sample.a == 0.0f) {
             ++work.skipped;
             if (trace) trace->sample(record.skipped());
@@ -816,7 +803,6 @@ static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& 
                         Trace* trace) {
     const Shear& shear = scene.shear;
     const Volume& volume = scene.volume;
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     float highest = -std::numeric_limits<float>::infinity();
     for (const SliceShift& s : scene.shifts) {
         const int a = u + s.ia, b = v + s.ib;
@@ -826,11 +812,8 @@ static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& 
         highest = std::max(highest, value);
         ++work.samples;
         if (trace) {
-            double place[3];
-            place[shear.a] = (a + double(s.fa)) * spacing[shear.a];
-            place[shear.b] = (b + double(s.fb)) * spacing[shear.b];
-            place[shear.c] = s.slice * spacing[shear.c];
-            const Vec3d point = {place[0], place[1], place[2]};
+            const Vec3d point =
+                slice_point(volume, shear, a + double(s.fa), b + double(s.fb), s.slice);
             trace->sample(TraceSample(dot(point - ray.origin, ray.direction), point, value)
                               .max(highest));
         }
