@@ -379,15 +379,6 @@ struct Scene {
     const Params& params;
 };
 
-// Given: voxel (a, b, c) of the shear's axes as (i, j, k).
-static Voxel voxel_of(const Shear& shear, int a, int b, int c) {
-    int ijk[3] = {0, 0, 0};
-    ijk[shear.a] = a;
-    ijk[shear.b] = b;
-    ijk[shear.c] = c;
-    return Voxel{ijk[0], ijk[1], ijk[2]};
-}
-
 //> lesson: shear
 // The factorisation for an orthographic camera. The principal axis is the one along which the
 // view direction crosses most voxels per unit of length: then a ray crosses every slice once,
@@ -713,17 +704,6 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
 }
 //< lesson: mip
 
-// The warp: where the intermediate image is read for output pixel (x, y), in its pixels. It is
-// affine in x and y (the shear's inverse composed with the camera's map): u = u0 + x * du_dx
-// + y * du_dy, the same for v.
-struct WarpMap {
-    double u0 = 0, du_dx = 0, du_dy = 0;
-    double v0 = 0, dv_dx = 0, dv_dy = 0;
-};
-struct WarpPoint {
-    double u = 0, v = 0;
-};
-
 static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
 }
@@ -742,18 +722,9 @@ static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Came
             in_voxels(ray.origin, shear.b) + t * in_voxels(ray.direction, shear.b) - shear.base_b};
 }
 
-// Given: the affine map, from three pixels' points: one step along x and one along y. (Along an
-// axis at zoom 1 the steps are whole pixels, and every pixel lands on an intermediate pixel.)
+// Given: the affine map of the warp (common/object_order.h), from warp_point()'s points.
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
-    const WarpPoint origin = warp_point(volume, shear, camera, 0, 0);
-    const WarpPoint along_x = warp_point(volume, shear, camera, 1, 0);
-    const WarpPoint along_y = warp_point(volume, shear, camera, 0, 1);
-    return {origin.u, along_x.u - origin.u, along_y.u - origin.u,
-            origin.v, along_x.v - origin.v, along_y.v - origin.v};
-}
-
-static WarpPoint warp_at(const WarpMap& warp, int x, int y) {
-    return {warp.u0 + x * warp.du_dx + y * warp.du_dy, warp.v0 + x * warp.dv_dx + y * warp.dv_dy};
+    return affine_warp([&](int x, int y) { return warp_point(volume, shear, camera, x, y); });
 }
 
 //> lesson: warp
@@ -773,20 +744,6 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
 }
 //< lesson: warp
 
-// Given: warp_pixel() on the whole intermediate image, the four pixels read directly when they
-// are all inside it (the same numbers in the same order: the same float).
-static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
-    if (!(p.u >= 0 && p.u < image.width - 1 && p.v >= 0 && p.v < image.height - 1)) {
-        return warp_pixel(p, image.width, image.height,
-                          [&](int u, int v) { return image.pixels[size_t(v) * image.width + u]; });
-    }
-    const int u = int(p.u), v = int(p.v);  // >= 0: int() rounds down
-    const float fu = float(p.u - u), fv = float(p.v - v);
-    const Rgb* low = &image.pixels[size_t(v) * image.width + u];
-    const Rgb* high = low + image.width;
-    return mix_rgb(mix_rgb(low[0], low[1], fu), mix_rgb(high[0], high[1], fu), fv);
-}
-
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
 
 // Intermediate pixel (u, v) alone, every slice front to back, with no runs: the cells outside
@@ -798,7 +755,6 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
     const Shear& shear = scene.shear;
     const Volume& volume = scene.volume;
     const double stop_below = std::max(scene.params.ert, min_transparency);
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     Accumulated pixel;
     for (size_t m = 0; m < scene.shifts.size(); ++m) {
         const SliceShift& s = scene.shifts[m];
@@ -808,13 +764,10 @@ static Accumulated composite_column(const Scene& scene, int u, int v, const Ray&
         const float value = slice_value(&volume.data[index], s);
         const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
-        double place[3];  // the sample, physical units
-        place[shear.a] = (a + double(s.fa)) * spacing[shear.a];
-        place[shear.b] = (b + double(s.fb)) * spacing[shear.b];
-        place[shear.c] = s.slice * spacing[shear.c];
         // Its record: where it lies along the output pixel's ray, and its value.
-        TraceSample record(dot(Vec3d{place[0], place[1], place[2]} - ray.origin, ray.direction),
-                           Vec3d{place[0], place[1], place[2]}, value);
+        const Vec3d point =
+            slice_point(volume, shear, a + double(s.fa), b + double(s.fb), s.slice);
+        TraceSample record(dot(point - ray.origin, ray.direction), point, value);
         if (sample.a == 0.0f) {
             ++work.skipped;
             if (trace) trace->sample(record.skipped());
@@ -850,7 +803,6 @@ static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& 
                         Trace* trace) {
     const Shear& shear = scene.shear;
     const Volume& volume = scene.volume;
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     float highest = -std::numeric_limits<float>::infinity();
     for (const SliceShift& s : scene.shifts) {
         const int a = u + s.ia, b = v + s.ib;
@@ -860,11 +812,8 @@ static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& 
         highest = std::max(highest, value);
         ++work.samples;
         if (trace) {
-            double place[3];
-            place[shear.a] = (a + double(s.fa)) * spacing[shear.a];
-            place[shear.b] = (b + double(s.fb)) * spacing[shear.b];
-            place[shear.c] = s.slice * spacing[shear.c];
-            const Vec3d point = {place[0], place[1], place[2]};
+            const Vec3d point =
+                slice_point(volume, shear, a + double(s.fa), b + double(s.fb), s.slice);
             trace->sample(TraceSample(dot(point - ray.origin, ray.direction), point, value)
                               .max(highest));
         }
@@ -891,38 +840,16 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
     const Vec3d high = box_high(volume);
     trace_ray(trace, ray, intersect_box(ray, Vec3d{}, high), high, shear.spacing);
     const WarpPoint p = warp_at(make_warp(volume, shear, camera), x, y);
+    trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
     const bool mip = scene.params.mode == "mip";
-    if (trace) {
-        trace->note({{"u", p.u}, {"v", p.v}, {"principal_axis", double(shear.c)},
-                     {"spacing", shear.spacing}},
-                    "warp: the ray meets the first slice (%c = %d) at intermediate pixel "
-                    "u=%.4f v=%.4f; samples one slice apart, %.4f along the ray",
-                    "ijk"[shear.c], shear.first_slice, p.u, p.v, shear.spacing);
-    }
-    // The four pixels in order (those inside the intermediate image), then the warp's blend.
-    const int low_u = int(std::floor(p.u)), low_v = int(std::floor(p.v));
-    const double fu = p.u - low_u, fv = p.v - low_v;
-    Rgb colours[4];
-    for (int n = 0; n < 4; ++n) {
-        const int u = low_u + (n & 1), v = low_v + (n >> 1);
-        if (u < 0 || u >= shear.width || v < 0 || v >= shear.height) continue;
-        if (trace) {
-            const double weight = ((n & 1) ? fu : 1 - fu) * ((n >> 1) ? fv : 1 - fv);
-            trace->note({{"u", double(u)}, {"v", double(v)}, {"weight", weight}},
-                        "intermediate pixel %d,%d, weight %.4f in the warp: its ray", u, v,
-                        weight);
-        }
-        colours[n] = mip ? mip_colour(volume, mip_column(scene, u, v, ray, work, trace))
-                         : composite_colour(composite_column(scene, u, v, ray, work, trace));
-        if (trace) {
-            trace->note({{"u", double(u)}, {"v", double(v)}, {"r", colours[n].r},
-                         {"g", colours[n].g}, {"b", colours[n].b}},
-                        "intermediate pixel %d,%d: rgb=(%.6f, %.6f, %.6f)", u, v, colours[n].r,
-                        colours[n].g, colours[n].b);
-        }
-    }
-    auto pixel = [&](int u, int v) { return colours[(u - low_u) + 2 * (v - low_v)]; };
-    return warp_pixel(p, shear.width, shear.height, pixel);
+    auto column = [&](int u, int v) {  // intermediate pixel (u, v) alone, traced
+        return mip ? mip_colour(volume, mip_column(scene, u, v, ray, work, trace))
+                   : composite_colour(composite_column(scene, u, v, ray, work, trace));
+    };
+    auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
+        return warp_pixel(q, width, height, pixel);
+    };
+    return warp_traced(p, shear.width, shear.height, trace, column, blend);  // with notes
 }
 
 int main(int argc, char** argv) {
@@ -1029,31 +956,17 @@ int main(int argc, char** argv) {
             const Frame frame = frame_for(view);
             const Scene scene = scene_for(frame);
             const Shear& shear = frame.shear;
-            Image intermediate(shear.width, shear.height);
-            parallel_rows(shear.height, options.threads, work, [&](int v, Work& row_work) {
-                if (mip) {
-                    std::vector<float> highest(shear.width,
-                                               -std::numeric_limits<float>::infinity());
-                    mip_row(scene, v, highest.data(), row_work);
-                    for (int u = 0; u < shear.width; ++u) {
-                        intermediate.at(u, v) = mip_colour(volume, highest[u]);
-                    }
-                } else {
-                    std::vector<Accumulated> row(shear.width);
-                    composite_row(scene, v, row.data(), row_work);
-                    for (int u = 0; u < shear.width; ++u) {
-                        intermediate.at(u, v) = composite_colour(row[u]);
-                    }
-                }
-            });
-            Image image(view.width, view.height);
-            const WarpMap warp = make_warp(volume, shear, frame.camera);
-            parallel_rows(view.height, options.threads, work, [&](int y, Work&) {
-                for (int x = 0; x < view.width; ++x) {
-                    image.at(x, y) = warp_inside(warp_at(warp, x, y), intermediate);
-                }
-            });
-            return image;
+            const Image intermediate =  // common/object_order.h: rows to the threads
+                mip ? intermediate_image(scene, shear.width, shear.height, options.threads,
+                                         work, -std::numeric_limits<float>::infinity(),
+                                         mip_row, [&](float h) { return mip_colour(volume, h); })
+                    : intermediate_image(scene, shear.width, shear.height, options.threads,
+                                         work, Accumulated{}, composite_row, composite_colour);
+            auto blend = [](const WarpPoint& p, int width, int height, auto pixel) {
+                return warp_pixel(p, width, height, pixel);
+            };
+            return warp_image(view, options.threads, work,
+                              make_warp(volume, shear, frame.camera), intermediate, blend);
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Frame frame = frame_for(view);
@@ -1061,8 +974,7 @@ int main(int argc, char** argv) {
         };
         renderer.ray_samples = [&](const View& view) {
             const Shear shear = make_shear(volume, make_camera(volume, params, view));
-            return "one sample per slice of " + std::string(1, "ijk"[shear.c]) + ", " +
-                   summary_number(shear.spacing) + " physical units apart along the ray";
+            return slice_samples(shear.c, shear.spacing);
         };
         renderer.orbit = camera_orbit(&params);  // the window's drag and wheel
         renderer.settings = [&] {

@@ -1,0 +1,153 @@
+// object_order.h: the wiring of the object-order steps (35 on), as cast_camera_rays() is ray
+// order's: the intermediate image's rows handed to the threads, the warp's loop over the
+// output image, and the records of one output pixel's trace through the warp. Wiring only:
+// compositing a slice row, the shear and the warp's bilinear read are the steps' lessons.
+#pragma once
+#include <cmath>
+#include <string>
+#include <vector>
+#include "error.h"
+#include "image.h"
+#include "render.h"
+#include "step.h"
+#include "vec3.h"
+#include "view.h"
+#include "volume.h"
+
+namespace ctlab {
+
+// The warp: where the intermediate image is read for output pixel (x, y), in its pixels. It is
+// affine in x and y (the shear's inverse composed with the camera's map): u = u0 + x * du_dx
+// + y * du_dy, the same for v.
+struct WarpMap {
+    double u0 = 0, du_dx = 0, du_dy = 0;
+    double v0 = 0, dv_dx = 0, dv_dy = 0;
+};
+struct WarpPoint {
+    double u = 0, v = 0;
+};
+
+inline WarpPoint warp_at(const WarpMap& warp, int x, int y) {
+    return {warp.u0 + x * warp.du_dx + y * warp.du_dy, warp.v0 + x * warp.dv_dx + y * warp.dv_dy};
+}
+
+// The affine map from three pixels' points, point(x, y): one step along x and one along y.
+template <class Point>
+WarpMap affine_warp(Point point) {
+    const WarpPoint origin = point(0, 0), along_x = point(1, 0), along_y = point(0, 1);
+    return {origin.u, along_x.u - origin.u, along_y.u - origin.u,
+            origin.v, along_x.v - origin.v, along_y.v - origin.v};
+}
+
+// The intermediate image, width x height, its rows handed to the threads (the rows' work
+// summed into `work`). Each row starts as `width` copies of `blank`; row(scene, v, values,
+// row_work) composites row v into them, and colour(value) turns each into its pixel.
+template <class Scene, class Value, class Row, class Colour>
+Image intermediate_image(const Scene& scene, int width, int height, int threads, Work& work,
+                         Value blank, Row row, Colour colour) {
+    Image image(width, height);
+    parallel_rows(height, threads, work, [&](int v, Work& row_work) {
+        std::vector<Value> values(size_t(width), blank);
+        row(scene, v, values.data(), row_work);
+        for (int u = 0; u < width; ++u) image.at(u, v) = colour(values[u]);
+    });
+    return image;
+}
+
+// The camera's image: each output pixel is warp_pixel(p, width, height, pixel) at its warp
+// point p, pixel(u, v) reading the intermediate image (width x height) inside its edge.
+template <class WarpPixel>
+Image warp_image(const View& view, int threads, Work& work, const WarpMap& warp,
+                 const Image& intermediate, WarpPixel warp_pixel) {
+    Image image(view.width, view.height);
+    auto pixel = [&](int u, int v) { return intermediate.at(u, v); };
+    parallel_rows(view.height, threads, work, [&](int y, Work&) {
+        for (int x = 0; x < view.width; ++x) {
+            image.at(x, y) = warp_pixel(warp_at(warp, x, y), intermediate.width,
+                                        intermediate.height, pixel);
+        }
+    });
+    return image;
+}
+
+// The trace's note of where output pixel's ray meets the first slice (slice `first_slice`
+// across `axis`, 0 i, 1 j, 2 k) in intermediate pixels, and the samples' spacing along it.
+inline void trace_warp_point(Trace* trace, const WarpPoint& p, int axis, int first_slice,
+                             double spacing) {
+    if (!trace) return;
+    trace->note({{"u", p.u}, {"v", p.v}, {"principal_axis", double(axis)},
+                 {"spacing", spacing}},
+                "warp: the ray meets the first slice (%c = %d) at intermediate pixel "
+                "u=%.4f v=%.4f; samples one slice apart, %.4f along the ray",
+                "ijk"[axis], first_slice, p.u, p.v, spacing);
+}
+
+// One output pixel alone, at warp point p: the (up to) four intermediate pixels around it
+// inside the width x height image, in order, each made by column(u, v) (which traces its
+// samples) between two notes, its weight in the blend and its colour; then the step's
+// warp_pixel(p, width, height, pixel) blends them, the image's pixel to the bit.
+template <class Column, class WarpPixel>
+Rgb warp_traced(const WarpPoint& p, int width, int height, Trace* trace, Column column,
+                WarpPixel warp_pixel) {
+    const int low_u = int(std::floor(p.u)), low_v = int(std::floor(p.v));
+    const double fu = p.u - low_u, fv = p.v - low_v;
+    Rgb colours[4];
+    for (int n = 0; n < 4; ++n) {
+        const int u = low_u + (n & 1), v = low_v + (n >> 1);
+        if (u < 0 || u >= width || v < 0 || v >= height) continue;
+        if (trace) {
+            const double weight = ((n & 1) ? fu : 1 - fu) * ((n >> 1) ? fv : 1 - fv);
+            trace->note({{"u", double(u)}, {"v", double(v)}, {"weight", weight}},
+                        "intermediate pixel %d,%d, weight %.4f in the warp: its ray", u, v,
+                        weight);
+        }
+        colours[n] = column(u, v);
+        if (trace) {
+            trace->note({{"u", double(u)}, {"v", double(v)}, {"r", colours[n].r},
+                         {"g", colours[n].g}, {"b", colours[n].b}},
+                        "intermediate pixel %d,%d: rgb=(%.6f, %.6f, %.6f)", u, v, colours[n].r,
+                        colours[n].g, colours[n].b);
+        }
+    }
+    auto pixel = [&](int u, int v) { return colours[(u - low_u) + 2 * (v - low_v)]; };
+    return warp_pixel(p, width, height, pixel);
+}
+
+// Voxel (a, b, c) along the slices' axes as (i, j, k): `axes` names them (axes.a, axes.b and
+// axes.c are each 0 for i, 1 for j or 2 for k).
+template <class Axes>
+Voxel voxel_of(const Axes& axes, int a, int b, int c) {
+    int ijk[3] = {0, 0, 0};
+    ijk[axes.a] = a;
+    ijk[axes.b] = b;
+    ijk[axes.c] = c;
+    return Voxel{ijk[0], ijk[1], ijk[2]};
+}
+
+// The physical point at (a, b, c) along the slices' axes, in voxels: a trace record's place.
+template <class Axes>
+Vec3d slice_point(const Volume& volume, const Axes& axes, double a, double b, double c) {
+    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
+    double place[3];
+    place[axes.a] = a * spacing[axes.a];
+    place[axes.b] = b * spacing[axes.b];
+    place[axes.c] = c * spacing[axes.c];
+    return {place[0], place[1], place[2]};
+}
+
+// An object-order step takes a camera along an axis only (two of forward's components exactly
+// 0; its main refuses other angles first): any other is an error naming `step`.
+inline void require_along_an_axis(const Vec3d& forward, const std::string& step) {
+    int zeros = 0;
+    for (int axis = 0; axis < 3; ++axis) zeros += forward[axis] == 0;
+    if (zeros != 2) throw InputError(step + ": the camera is not along an axis");
+}
+
+// The summary's and trace header's sample spacing: "one sample per slice of k, 2 physical
+// units apart along the ray".
+inline std::string slice_samples(int axis, double spacing) {
+    return "one sample per slice of " + std::string(1, "ijk"[axis]) + ", " +
+           summary_number(spacing) + " physical units apart along the ray";
+}
+
+}  // namespace ctlab
