@@ -204,13 +204,16 @@ demo: deps
 # test cases in $(BUILD)/ctlab_tests) and each script tests/NAME_test.sh is one suite, its
 # output in $(BUILD)/test-logs/NAME.log, printed whole when it ends (tests/run_suite.sh). The
 # last line adds them all up: "test: N passed, M failed" (tests/test_summary.sh).
-# The slowest suites start first, so that the last one to finish is a short one (make -j takes
-# the goals in order): by their CPU time in a whole make test on an idle machine
-# (build/test-logs/NAME.cpu), check and student (~80 and ~60 s) first. The suites that spend
-# most of their time waiting for a time limit in the sandbox (WAITING_SUITES: class and
-# sandbox, ~40 s of wall time each for 3-5 s of CPU) run beside the job slots, started first,
-# so that no core idles while they wait (build/test-logs/NAME.time: when each suite started
-# and ended, seconds since the epoch).
+# The programs are built first (after `make demo`: nothing to do); then every suite is a goal
+# of one make -j, needing only what it runs: a script suite the programs, a doctest file the
+# test binary too (and the student kit, which copies it). So the scripts start while tests/
+# compiles. The slowest suites start first, so that the last one to finish is a short one
+# (make -j takes the goals in order): by their CPU time in a whole make test on an idle
+# machine (build/test-logs/NAME.cpu), check and student (~80 and ~60 s) first. The suites
+# that spend most of their time waiting for a time limit in the sandbox (WAITING_SUITES:
+# class and sandbox, ~40 s of wall time each for 3-5 s of CPU) run beside the job slots,
+# started first, so that no core idles while they wait (build/test-logs/NAME.time: when each
+# suite started and ended, seconds since the epoch).
 # A long doctest file runs as shards side by side (FILE.KofN, tests/shard_cases.sh): no
 # single suite of it is the critical path.
 # SKIP_SUITES=NAMES leaves suites out, and the summary names them (CI: the sanitizer run);
@@ -221,11 +224,14 @@ SLOW_SUITES := $(WAITING_SUITES) check student test_formats grade test_handouts 
                printed_commands test_steps $(SHARDED) test_ray_plot hostile_files window \
                threshold_mistakes test_free_camera test_compositing bad_input peers \
                test_shadows test_threads test_golden test_isosurface test_jitter test_part3
+SCRIPT_SUITES := $(patsubst tests/%_test.sh,%,$(wildcard tests/*_test.sh))
 ALL_SUITES  := $(SLOW_SUITES) $(filter-out $(SLOW_SUITES) $(basename $(SHARDED)),\
-               $(patsubst tests/%_test.sh,%,$(wildcard tests/*_test.sh)) \
-               $(basename $(notdir $(wildcard tests/test_*.cpp))))
+               $(SCRIPT_SUITES) $(basename $(notdir $(wildcard tests/test_*.cpp))))
 SKIPPED     := $(filter $(SKIP_SUITES) $(addsuffix .%,$(SKIP_SUITES)),$(ALL_SUITES))
 TEST_SUITES := $(filter-out $(SKIPPED),$(ALL_SUITES))
+# The suites that run build/ctlab_tests: the doctest files and their shards, and student
+# (its kit takes the lab's test binary rather than building its own).
+BINARY_SUITES := $(filter-out $(SCRIPT_SUITES),$(ALL_SUITES)) student
 # What the suites run: every program, but under SAN=1 (a build of its own, every object
 # instrumented) not the ones no suite of this run starts: bench and study (run by make bench
 # and make study, in the release build), and make_student, find_answers and handout_listings
@@ -235,7 +241,7 @@ SAN_UNUSED    := bench study $(if $(filter student,$(SKIPPED)),make_student find
 TEST_PROGRAMS := $(if $(filter 1,$(SAN)),$(filter-out $(addprefix $(BUILD)/,$(SAN_UNUSED)),\
                  $(STEP_BINARIES) $(TOOL_BINARIES) $(MODULES) $(PEER_BINARIES)),all)
 test: deps
-	@$(MAKE) --no-print-directory $(PARALLEL) $(TEST_PROGRAMS) $(BUILD)/ctlab_tests
+	@$(MAKE) --no-print-directory $(PARALLEL) $(TEST_PROGRAMS)
 	@rm -rf $(BUILD)/test-logs
 	@for name in $(filter $(WAITING_SUITES),$(TEST_SUITES)); do \
 	    sh tests/run_suite.sh $(BUILD) $$name & \
@@ -246,7 +252,13 @@ test: deps
 	@$(if $(SKIPPED),echo "test: SKIPPED (SKIP_SUITES): $(SKIPPED)")
 	@sh tests/test_summary.sh $(BUILD) $(TEST_SUITES)
 
-test-suite-%:
+# One suite: `make test-suite-cli`, `make test-suite-test_extremes.2of4`, with what it needs.
+.PHONY: $(addprefix test-suite-,$(ALL_SUITES))
+$(addprefix test-suite-,$(ALL_SUITES)): test-suite-%: $(TEST_PROGRAMS)
+	@sh tests/run_suite.sh $(BUILD) $*
+$(addprefix test-suite-,$(BINARY_SUITES)): $(BUILD)/ctlab_tests
+# Any other shard of a doctest file (test_extremes.3of8), with the test binary.
+test-suite-%: $(TEST_PROGRAMS) $(BUILD)/ctlab_tests
 	@sh tests/run_suite.sh $(BUILD) $*
 
 # One step by name: `make 03_depth_shading`.

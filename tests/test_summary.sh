@@ -22,7 +22,7 @@ shard() {
 }
 for name in "$@"; do
     log=$logs/$name.log
-    read -r status seconds < "$logs/$name.status" 2>/dev/null || { status=none; seconds=0; }
+    { read -r status seconds < "$logs/$name.status"; } 2>/dev/null || { status=none; seconds=0; }
     if [ -f "tests/$name.cpp" ] || [ -n "$(shard "$name")" ]; then
         # [doctest] test cases:  8 |  8 passed | 0 failed | 161 skipped
         line=$(grep '^\[doctest\] test cases:' "$log" 2>/dev/null | tail -n 1)
@@ -38,7 +38,13 @@ for name in "$@"; do
     failed=$((failed + ${f:-0}))
     slowest="$slowest$seconds $name
 "
-    if [ -z "$p" ] || [ "$status" != 0 ] || [ "${f:-0}" != 0 ]; then
+    if [ "$status" = none ] && [ ! -f "$log" ]; then
+        # make test runs a suite once what it needs is built (make -k): a build that failed
+        # leaves it not run.
+        failed=$((failed + 1))
+        broken="$broken $name"
+        echo "test: FAILED suite $name: not run (what it needs did not build: make's errors above)"
+    elif [ -z "$p" ] || [ "$status" != 0 ] || [ "${f:-0}" != 0 ]; then
         [ -n "$p" ] || failed=$((failed + 1))  # a suite that never counted is one failure
         broken="$broken $name"
         echo "test: FAILED suite $name (exit status $status; log $log), its last lines:"
