@@ -28,6 +28,14 @@ for name in "$@"; do
         line=$(grep '^\[doctest\] test cases:' "$log" 2>/dev/null | tail -n 1)
         p=$(printf '%s\n' "$line" | sed -n 's/.*| *\([0-9]*\) passed.*/\1/p')
         f=$(printf '%s\n' "$line" | sed -n 's/.*| *\([0-9]*\) failed.*/\1/p')
+        # A file whose test cases are not in the binary runs none: not compiled (the
+        # Makefile's TEST_UNIT_N), not a pass.
+        if [ -f "tests/$name.cpp" ] && [ -n "$line" ] && [ "$(printf '%s\n' "$line" |
+                sed -n 's/^\[doctest\] test cases: *\([0-9]*\) .*/\1/p')" = 0 ]; then
+            echo "test: FAILED suite $name: no test case of tests/$name.cpp in $build/ctlab_tests" \
+                 "(not compiled in? make -B $build/ctlab_tests)"
+            p=
+        fi
     else
         # "cli test: 351 passed, 0 failed" (with anything after it: "(2 skipped)")
         line=$(grep -E '^[a-z0-9 _-]+: [0-9]+ passed, [0-9]+ failed' "$log" 2>/dev/null | tail -n 1)
