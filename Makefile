@@ -244,26 +244,45 @@ SAN_UNUSED    := bench study $(if $(filter student,$(SKIPPED)),make_student find
                  handout_listings)
 TEST_PROGRAMS := $(if $(filter 1,$(SAN)),$(filter-out $(addprefix $(BUILD)/,$(SAN_UNUSED)),\
                  $(STEP_BINARIES) $(TOOL_BINARIES) $(MODULES) $(PEER_BINARIES)),all)
+# Job slots and priorities. check and student use about half a core each for most of their
+# run (an idle run: check 81 s of CPU in 126 s, student 56 s in 112: serial phases, waits),
+# so with one slot a core the cores idled while they ran (~1.2 of 2 busy). Each of them
+# (SERIAL_SUITES, when in this run) adds a job slot: TEST_JOBS = JOBS + 2. Those two are the
+# critical path (student starts once tests/ is compiled), and some suites need a whole core
+# at the time they run (FULL_CORE_SUITES: real windows on a virtual display, signals sent to
+# running steps, the peers' timings); they and the compiler run at normal priority, the other
+# suites at nice TEST_NICE: they take the cores that the first leave idle, and no more, so
+# that the slot more oversubscribes none of them. TEST_NICE=0: all at one priority.
+# TEST_JOBS is the suites' own make's, whatever -j the outer make was given: `make -j2 test`
+# (CI) passed its jobserver of 2 down before, and ignored JOBS=3.
+SERIAL_SUITES    := check student
+FULL_CORE_SUITES := $(SERIAL_SUITES) panel window bad_input peers
+TEST_JOBS ?= $(shell expr $(JOBS) + $(words $(filter $(SERIAL_SUITES),$(TEST_SUITES))))
+TEST_NICE ?= 10
+SUITES_MAKE = MAKEFLAGS='$(subst ','\'',$(filter-out -j% --jobserver-auth=%,$(MAKEFLAGS)))' \
+              $(MAKE) --no-print-directory -j$(TEST_JOBS) -k SUITE_NICE=$(TEST_NICE)
 test: deps
 	@$(MAKE) --no-print-directory $(PARALLEL) $(TEST_PROGRAMS)
 	@rm -rf $(BUILD)/test-logs
 	@for name in $(filter $(WAITING_SUITES),$(TEST_SUITES)); do \
 	    sh tests/run_suite.sh $(BUILD) $$name & \
 	 done; \
-	 $(MAKE) --no-print-directory $(PARALLEL) -k \
-	     $(addprefix test-suite-,$(filter-out $(WAITING_SUITES),$(TEST_SUITES))); \
+	 $(SUITES_MAKE) $(addprefix test-suite-,$(filter-out $(WAITING_SUITES),$(TEST_SUITES))); \
 	 wait
 	@$(if $(SKIPPED),echo "test: SKIPPED (SKIP_SUITES): $(SKIPPED)")
 	@sh tests/test_summary.sh $(BUILD) $(TEST_SUITES)
 
-# One suite: `make test-suite-cli`, `make test-suite-test_extremes.2of4`, with what it needs.
+# One suite: `make test-suite-cli`, `make test-suite-test_extremes.2of4`, with what it needs
+# (at normal priority: SUITE_NICE is make test's).
+RUN_SUITE = $(if $(filter-out 0,$(SUITE_NICE)),$(if $(filter-out $(FULL_CORE_SUITES),$*),\
+                nice -n $(SUITE_NICE) ))sh tests/run_suite.sh $(BUILD) $*
 .PHONY: $(addprefix test-suite-,$(ALL_SUITES))
 $(addprefix test-suite-,$(ALL_SUITES)): test-suite-%: $(TEST_PROGRAMS)
-	@sh tests/run_suite.sh $(BUILD) $*
+	@$(RUN_SUITE)
 $(addprefix test-suite-,$(BINARY_SUITES)): $(BUILD)/ctlab_tests
 # Any other shard of a doctest file (test_extremes.3of8), with the test binary.
 test-suite-%: $(TEST_PROGRAMS) $(BUILD)/ctlab_tests
-	@sh tests/run_suite.sh $(BUILD) $*
+	@$(RUN_SUITE)
 
 # One step by name: `make 03_depth_shading`.
 $(STEP_NAMES): %: $(BUILD)/%
