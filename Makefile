@@ -155,7 +155,8 @@ all: $(STEP_BINARIES) $(TOOL_BINARIES) $(MODULES) $(PEER_BINARIES)
 help:
 	@echo "make            build every step into $(BUILD)/NN_name, and the tools"
 	@echo "make demo       install missing packages, build, render every step on the phantom"
-	@echo "make test       build and run every test (SAN=1: with ASan and UBSan)"
+	@echo "make test       build and run every test (SAN=1: with ASan and UBSan); TEST_JOBS=N"
+	@echo "                suites at once, TEST_NICE=0 all at one priority (see the Makefile)"
 	@echo "make NN_name    build one step, e.g. make 03_depth_shading"
 	@echo "make run STEP=NN [ARGS='--view front']   build and run step NN"
 	@echo "make diff STEP=NN   what step NN adds to step NN-1"
