@@ -127,8 +127,10 @@ TOOL_BINARIES  := $(patsubst tools/%.cpp,$(BUILD)/%,$(TOOL_SOURCES))
 # rules below); main.cpp, harness.cpp and the fuzz targets (crash replays) one by one.
 TEST_FILES     := $(sort $(wildcard tests/test_*.cpp))
 TEST_SOURCES   := $(filter-out $(TEST_FILES),$(wildcard tests/*.cpp)) tests/fuzz/targets.cpp
-TEST_OBJECTS   := $(patsubst %.cpp,$(BUILD)/%.o,$(TEST_SOURCES)) \
-                  $(addprefix $(BUILD)/tests/unit_,1.o 2.o 3.o 4.o)
+# The longest first (make -j starts them in this order: make test's suites take the slots
+# left over).
+TEST_OBJECTS   := $(addprefix $(BUILD)/tests/unit_,2.o 3.o 1.o 4.o) \
+                  $(patsubst %.cpp,$(BUILD)/%.o,$(TEST_SOURCES))
 LIBCTLAB       := $(BUILD)/libctlab.a
 LIBTOOLS       := $(BUILD)/libctlab_tools.a
 
@@ -524,27 +526,10 @@ $(BUILD)/steps/%.o: CPPFLAGS := -I$(BUILD)/pch $(CPPFLAGS)
 $(patsubst %.cpp,$(BUILD)/%.o,$(STEP_SOURCES)): $(STEP_PCH)
 endif
 
-# The tests' precompiled header: tests/pch.h (doctest and the standard headers) compiled once
-# with the tests' flags and put in front of every test file (-include) but main.cpp, which
-# defines DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN before doctest.h, and the fuzz harnesses. Measured
-# at -O0 -g1: test_golden.cpp 1.70 -> 0.84 s of compiler CPU, test_formats.cpp 2.42 -> 1.75,
-# test_volume.cpp 3.51 -> 2.48; the header itself 3.9 s, once. All 32 test objects: 70 -> 61 s
-# of compiler CPU (a busy machine, load ~10). As for the steps, GCC reads
-# the header's text instead when the precompiled one was made with other flags; not for clang.
-ifeq ($(findstring clang,$(CXX)),)
-TEST_PCH := $(BUILD)/pch_tests/tests_pch.h.gch
-$(TEST_PCH): OPT := $(TEST_OPT)
-$(TEST_PCH): CXXFLAGS += $(TEST_DEBUG)
-$(TEST_PCH): tests/pch.h $(FLAGS_STAMP)
-	@mkdir -p $(dir $@)
-	echo '#include "tests/pch.h"' > $(BUILD)/pch_tests/tests_pch.h
-	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -MT $@ -MF $(@:.gch=.d) \
-	    -x c++-header $(BUILD)/pch_tests/tests_pch.h -o $@
-PCH_TEST_OBJECTS := $(filter-out $(BUILD)/tests/main.o $(BUILD)/tests/fuzz/%,$(TEST_OBJECTS))
-$(PCH_TEST_OBJECTS): CPPFLAGS += -include $(BUILD)/pch_tests/tests_pch.h
-$(PCH_TEST_OBJECTS): $(TEST_PCH)
-endif
-
+# The tests compile without a precompiled header: as four units (below) a precompiled header
+# of doctest and the standard headers saved ~1.6 s of compiler CPU a unit, and cost 4 s to
+# make, before any unit could start; in `make test` the suites then took the job slots that
+# the units waited for (make -j starts the next goal's job while a unit waits for its header).
 # The doctest files in four units, by the letter after "test_": a file's unit depends on its
 # own name only, so a new test file compiles its unit again and not the others. Unit N is a
 # generated source ($(BUILD)/tests/unit_N.cpp, tests/unity_source.sh) that includes its files,
