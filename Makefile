@@ -129,8 +129,14 @@ TOOL_LIB_SOURCES := tools/run_step.cpp tools/process.cpp tools/sandbox.cpp tools
                     tools/image_read.cpp tools/output_folder.cpp tools/class_cache.cpp
 TOOL_SOURCES   := $(filter-out $(TOOL_LIB_SOURCES),$(wildcard tools/*.cpp))
 TOOL_BINARIES  := $(patsubst tools/%.cpp,$(BUILD)/%,$(TOOL_SOURCES))
-TEST_SOURCES   := $(wildcard tests/*.cpp) tests/fuzz/targets.cpp  # targets: crash replays
-TEST_OBJECTS   := $(patsubst %.cpp,$(BUILD)/%.o,$(TEST_SOURCES))
+# The doctest files tests/test_*.cpp compile as four translation units (TEST_UNIT_1..4, the
+# rules below); main.cpp, harness.cpp and the fuzz targets (crash replays) one by one.
+TEST_FILES     := $(sort $(wildcard tests/test_*.cpp))
+TEST_SOURCES   := $(filter-out $(TEST_FILES),$(wildcard tests/*.cpp)) tests/fuzz/targets.cpp
+# The longest first (make -j starts them in this order: make test's suites take the slots
+# left over).
+TEST_OBJECTS   := $(addprefix $(BUILD)/tests/unit_,2.o 3.o 1.o 4.o) \
+                  $(patsubst %.cpp,$(BUILD)/%.o,$(TEST_SOURCES))
 LIBCTLAB       := $(BUILD)/libctlab.a
 LIBTOOLS       := $(BUILD)/libctlab_tools.a
 
@@ -157,7 +163,8 @@ all: $(STEP_BINARIES) $(TOOL_BINARIES) $(MODULES) $(PEER_BINARIES)
 help:
 	@echo "make            build every step into $(BUILD)/NN_name, and the tools"
 	@echo "make demo       install missing packages, build, render every step on the phantom"
-	@echo "make test       build and run every test (SAN=1: with ASan and UBSan)"
+	@echo "make test       build and run every test (SAN=1: with ASan and UBSan); TEST_JOBS=N"
+	@echo "                suites at once, TEST_NICE=0 all at one priority (see the Makefile)"
 	@echo "make NN_name    build one step, e.g. make 03_depth_shading"
 	@echo "make run STEP=NN [ARGS='--view front']   build and run step NN"
 	@echo "make diff STEP=NN   what step NN adds to step NN-1"
@@ -210,13 +217,16 @@ demo: deps
 # test cases in $(BUILD)/ctlab_tests) and each script tests/NAME_test.sh is one suite, its
 # output in $(BUILD)/test-logs/NAME.log, printed whole when it ends (tests/run_suite.sh). The
 # last line adds them all up: "test: N passed, M failed" (tests/test_summary.sh).
-# The slowest suites start first, so that the last one to finish is a short one (make -j takes
-# the goals in order): by their CPU time in a whole make test on an idle machine
-# (build/test-logs/NAME.cpu), check and student (~80 and ~60 s) first. The suites that spend
-# most of their time waiting for a time limit in the sandbox (WAITING_SUITES: class and
-# sandbox, ~40 s of wall time each for 3-5 s of CPU) run beside the job slots, started first,
-# so that no core idles while they wait (build/test-logs/NAME.time: when each suite started
-# and ended, seconds since the epoch).
+# The programs are built first (after `make demo`: nothing to do); then every suite is a goal
+# of one make -j, needing only what it runs: a script suite the programs, a doctest file the
+# test binary too (and the student kit, which copies it). So the scripts start while tests/
+# compiles. The slowest suites start first, so that the last one to finish is a short one
+# (make -j takes the goals in order): by their CPU time in a whole make test on an idle
+# machine (build/test-logs/NAME.cpu), check and student (~80 and ~60 s) first. The suites
+# that spend most of their time waiting for a time limit in the sandbox (WAITING_SUITES:
+# class and sandbox, ~40 s of wall time each for 3-5 s of CPU) run beside the job slots,
+# started first, so that no core idles while they wait (build/test-logs/NAME.time: when each
+# suite started and ended, seconds since the epoch).
 # A long doctest file runs as shards side by side (FILE.KofN, tests/shard_cases.sh): no
 # single suite of it is the critical path.
 # SKIP_SUITES=NAMES leaves suites out, and the summary names them (CI: the sanitizer run);
@@ -227,11 +237,14 @@ SLOW_SUITES := $(WAITING_SUITES) check student test_formats grade test_handouts 
                printed_commands test_steps $(SHARDED) test_ray_plot hostile_files window \
                threshold_mistakes test_free_camera test_compositing bad_input peers \
                test_shadows test_threads test_golden test_isosurface test_jitter test_part3
+SCRIPT_SUITES := $(patsubst tests/%_test.sh,%,$(wildcard tests/*_test.sh))
 ALL_SUITES  := $(SLOW_SUITES) $(filter-out $(SLOW_SUITES) $(basename $(SHARDED)),\
-               $(patsubst tests/%_test.sh,%,$(wildcard tests/*_test.sh)) \
-               $(basename $(notdir $(wildcard tests/test_*.cpp))))
+               $(SCRIPT_SUITES) $(basename $(notdir $(wildcard tests/test_*.cpp))))
 SKIPPED     := $(filter $(SKIP_SUITES) $(addsuffix .%,$(SKIP_SUITES)),$(ALL_SUITES))
 TEST_SUITES := $(filter-out $(SKIPPED),$(ALL_SUITES))
+# The suites that run build/ctlab_tests: the doctest files and their shards, and student
+# (its kit takes the lab's test binary rather than building its own).
+BINARY_SUITES := $(filter-out $(SCRIPT_SUITES),$(ALL_SUITES)) student
 # What the suites run: every program, but under SAN=1 (a build of its own, every object
 # instrumented) not the ones no suite of this run starts: bench and study (run by make bench
 # and make study, in the release build), and make_student, find_answers and handout_listings
@@ -240,20 +253,57 @@ SAN_UNUSED    := bench study $(if $(filter student,$(SKIPPED)),make_student find
                  handout_listings)
 TEST_PROGRAMS := $(if $(filter 1,$(SAN)),$(filter-out $(addprefix $(BUILD)/,$(SAN_UNUSED)),\
                  $(STEP_BINARIES) $(TOOL_BINARIES) $(MODULES) $(PEER_BINARIES)),all)
+# Job slots and priorities. check and student use about half a core each for most of their
+# run (an idle run: check 81 s of CPU in 126 s, student 56 s in 112: serial phases, waits),
+# so with one slot a core the cores idled while they ran (~1.2 of 2 busy). Each of them
+# (SERIAL_SUITES, when in this run) adds a job slot: TEST_JOBS = JOBS + 2. Those two are the
+# critical path (student starts once tests/ is compiled), and some suites need a whole core
+# at the time they run (FULL_CORE_SUITES: real windows on a virtual display, signals sent to
+# running steps, the peers' timings); they and the compiler run at normal priority, the other
+# suites at nice TEST_NICE: they take the cores that the first leave idle, and no more, so
+# that the slot more oversubscribes none of them. TEST_NICE=0: all at one priority.
+# TEST_JOBS is the suites' own make's, whatever -j the outer make was given: `make -j2 test`
+# (CI) passed its jobserver of 2 down before, and ignored JOBS=3.
+SERIAL_SUITES    := check student
+# test_process: a program spinning to its 1 s CPU limit within a 20 s wall-clock limit; at
+# nice 10 on a machine at load ~17 it got less than 1 s of CPU in 20 s (one run in three).
+FULL_CORE_SUITES := $(SERIAL_SUITES) panel window bad_input peers test_process
+TEST_JOBS ?= $(shell expr $(JOBS) + $(words $(filter $(SERIAL_SUITES),$(TEST_SUITES))))
+TEST_NICE ?= 10
+SUITES_MAKE = MAKEFLAGS='$(subst ','\'',$(filter-out -j% --jobserver-auth=%,$(MAKEFLAGS)))' \
+              $(MAKE) --no-print-directory -k SUITE_NICE=$(TEST_NICE)
+# Two makes side by side: the critical path (check, then tests/ compiled, linked, student and
+# the doctest files) in TEST_JOBS slots, and the other scripts in JOBS slots of their own. In
+# one make, a script suite took the slot that the test binary's link waited for: make -j
+# starts the next goal's job in the first slot that frees, and while the last unit compiled
+# that was a script suite's (measured at load ~17: all objects compiled 251 s in, the link
+# waited until check ended at 431 s).
+CRITICAL_SUITES := $(filter $(SERIAL_SUITES) $(BINARY_SUITES),$(TEST_SUITES))
+OTHER_SUITES    := $(filter-out $(WAITING_SUITES) $(CRITICAL_SUITES),$(TEST_SUITES))
 test: deps
-	@$(MAKE) --no-print-directory $(PARALLEL) $(TEST_PROGRAMS) $(BUILD)/ctlab_tests
+	@$(MAKE) --no-print-directory $(PARALLEL) $(TEST_PROGRAMS)
 	@rm -rf $(BUILD)/test-logs
 	@for name in $(filter $(WAITING_SUITES),$(TEST_SUITES)); do \
 	    sh tests/run_suite.sh $(BUILD) $$name & \
 	 done; \
-	 $(MAKE) --no-print-directory $(PARALLEL) -k \
-	     $(addprefix test-suite-,$(filter-out $(WAITING_SUITES),$(TEST_SUITES))); \
+	 $(if $(OTHER_SUITES),$(SUITES_MAKE) -j$(JOBS) $(addprefix test-suite-,$(OTHER_SUITES)) &) \
+	 $(if $(CRITICAL_SUITES),$(SUITES_MAKE) -j$(TEST_JOBS) \
+	     $(addprefix test-suite-,$(CRITICAL_SUITES))); \
 	 wait
 	@$(if $(SKIPPED),echo "test: SKIPPED (SKIP_SUITES): $(SKIPPED)")
 	@sh tests/test_summary.sh $(BUILD) $(TEST_SUITES)
 
-test-suite-%:
-	@sh tests/run_suite.sh $(BUILD) $*
+# One suite: `make test-suite-cli`, `make test-suite-test_extremes.2of4`, with what it needs
+# (at normal priority: SUITE_NICE is make test's).
+RUN_SUITE = $(if $(filter-out 0,$(SUITE_NICE)),$(if $(filter-out $(FULL_CORE_SUITES),$*),\
+                nice -n $(SUITE_NICE) ))sh tests/run_suite.sh $(BUILD) $*
+.PHONY: $(addprefix test-suite-,$(ALL_SUITES))
+$(addprefix test-suite-,$(ALL_SUITES)): test-suite-%: $(TEST_PROGRAMS)
+	@$(RUN_SUITE)
+$(addprefix test-suite-,$(BINARY_SUITES)): $(BUILD)/ctlab_tests
+# Any other shard of a doctest file (test_extremes.3of8), with the test binary.
+test-suite-%: $(TEST_PROGRAMS) $(BUILD)/ctlab_tests
+	@$(RUN_SUITE)
 
 # One step by name: `make 03_depth_shading`.
 $(STEP_NAMES): %: $(BUILD)/%
@@ -494,26 +544,38 @@ $(BUILD)/steps/%.o: CPPFLAGS := -I$(BUILD)/pch $(CPPFLAGS)
 $(patsubst %.cpp,$(BUILD)/%.o,$(STEP_SOURCES)): $(STEP_PCH)
 endif
 
-# The tests' precompiled header: tests/pch.h (doctest and the standard headers) compiled once
-# with the tests' flags and put in front of every test file (-include) but main.cpp, which
-# defines DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN before doctest.h, and the fuzz harnesses. Measured
-# at -O0 -g1: test_golden.cpp 1.70 -> 0.84 s of compiler CPU, test_formats.cpp 2.42 -> 1.75,
-# test_volume.cpp 3.51 -> 2.48; the header itself 3.9 s, once. All 32 test objects: 70 -> 61 s
-# of compiler CPU (a busy machine, load ~10). As for the steps, GCC reads
-# the header's text instead when the precompiled one was made with other flags; not for clang.
-ifeq ($(findstring clang,$(CXX)),)
-TEST_PCH := $(BUILD)/pch_tests/tests_pch.h.gch
-$(TEST_PCH): OPT := $(TEST_OPT)
-$(TEST_PCH): CXXFLAGS += $(TEST_DEBUG)
-$(TEST_PCH): tests/pch.h $(FLAGS_STAMP)
+# The tests compile without a precompiled header: as four units (below) a precompiled header
+# of doctest and the standard headers saved ~1.6 s of compiler CPU a unit, and cost 4 s to
+# make, before any unit could start; in `make test` the suites then took the job slots that
+# the units waited for (make -j starts the next goal's job while a unit waits for its header).
+# The doctest files in four units, by the letter after "test_": a file's unit depends on its
+# own name only, so a new test file compiles its unit again and not the others. Unit N is a
+# generated source ($(BUILD)/tests/unit_N.cpp, tests/unity_source.sh) that includes its files,
+# each in a namespace of its own. One by one, each file parsed the same headers and compiled
+# the same templates of doctest and the standard library (std::regex, std::filesystem) again:
+# measured at -O0 -g1, the 29 files took 51 s of compiler CPU one by one, 27 s as one unit
+# (one run each, load ~12); the four units, each ~1/4 of that work, still compile side by side.
+# The generated source is no prerequisite, its files are: the student kit copies the objects
+# and not the generated sources, and does not compile them again. __FILE__ names each test file
+# as before ("tests/NAME.cpp", not "./tests/NAME.cpp"): doctest's --source-file filters and
+# failure messages are unchanged. (tests/test_summary.sh fails a doctest file with no test case
+# in the binary: a file renamed into another unit keeps its time, and that unit may not see it
+# as new. `make -B build/ctlab_tests` then.)
+TEST_UNIT_1 := $(filter tests/test_a% tests/test_b% tests/test_c% tests/test_d% tests/test_e% \
+                        tests/test_f%,$(TEST_FILES))
+TEST_UNIT_2 := $(filter tests/test_g% tests/test_h% tests/test_i% tests/test_j% tests/test_k% \
+                        tests/test_l% tests/test_m% tests/test_n% tests/test_o%,$(TEST_FILES))
+TEST_UNIT_3 := $(filter tests/test_p% tests/test_q% tests/test_r%,$(TEST_FILES))
+TEST_UNIT_4 := $(filter-out $(TEST_UNIT_1) $(TEST_UNIT_2) $(TEST_UNIT_3),$(TEST_FILES))
+$(BUILD)/tests/unit_1.o: $(TEST_UNIT_1)
+$(BUILD)/tests/unit_2.o: $(TEST_UNIT_2)
+$(BUILD)/tests/unit_3.o: $(TEST_UNIT_3)
+$(BUILD)/tests/unit_4.o: $(TEST_UNIT_4)
+$(BUILD)/tests/unit_%.o: tests/unity_source.sh $(FLAGS_STAMP)
 	@mkdir -p $(dir $@)
-	echo '#include "tests/pch.h"' > $(BUILD)/pch_tests/tests_pch.h
-	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -MT $@ -MF $(@:.gch=.d) \
-	    -x c++-header $(BUILD)/pch_tests/tests_pch.h -o $@
-PCH_TEST_OBJECTS := $(filter-out $(BUILD)/tests/main.o $(BUILD)/tests/fuzz/%,$(TEST_OBJECTS))
-$(PCH_TEST_OBJECTS): CPPFLAGS += -include $(BUILD)/pch_tests/tests_pch.h
-$(PCH_TEST_OBJECTS): $(TEST_PCH)
-endif
+	sh tests/unity_source.sh $(TEST_UNIT_$*) > $(@:.o=.cpp)
+	$(CXX) $(CPPFLAGS) -fmacro-prefix-map=./= $(CXXFLAGS) -c $(@:.o=.cpp) -o $@
+	@sed -i '1s| $(@:.o=.cpp)||' $(@:.o=.d)
 
 $(LIBCTLAB): $(COMMON_OBJECTS)
 	rm -f $@

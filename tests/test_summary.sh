@@ -22,12 +22,20 @@ shard() {
 }
 for name in "$@"; do
     log=$logs/$name.log
-    read -r status seconds < "$logs/$name.status" 2>/dev/null || { status=none; seconds=0; }
+    { read -r status seconds < "$logs/$name.status"; } 2>/dev/null || { status=none; seconds=0; }
     if [ -f "tests/$name.cpp" ] || [ -n "$(shard "$name")" ]; then
         # [doctest] test cases:  8 |  8 passed | 0 failed | 161 skipped
         line=$(grep '^\[doctest\] test cases:' "$log" 2>/dev/null | tail -n 1)
         p=$(printf '%s\n' "$line" | sed -n 's/.*| *\([0-9]*\) passed.*/\1/p')
         f=$(printf '%s\n' "$line" | sed -n 's/.*| *\([0-9]*\) failed.*/\1/p')
+        # A file whose test cases are not in the binary runs none: not compiled (the
+        # Makefile's TEST_UNIT_N), not a pass.
+        if [ -f "tests/$name.cpp" ] && [ -n "$line" ] && [ "$(printf '%s\n' "$line" |
+                sed -n 's/^\[doctest\] test cases: *\([0-9]*\) .*/\1/p')" = 0 ]; then
+            echo "test: FAILED suite $name: no test case of tests/$name.cpp in $build/ctlab_tests" \
+                 "(not compiled in? make -B $build/ctlab_tests)"
+            p=
+        fi
     else
         # "cli test: 351 passed, 0 failed" (with anything after it: "(2 skipped)")
         line=$(grep -E '^[a-z0-9 _-]+: [0-9]+ passed, [0-9]+ failed' "$log" 2>/dev/null | tail -n 1)
@@ -38,7 +46,13 @@ for name in "$@"; do
     failed=$((failed + ${f:-0}))
     slowest="$slowest$seconds $name
 "
-    if [ -z "$p" ] || [ "$status" != 0 ] || [ "${f:-0}" != 0 ]; then
+    if [ "$status" = none ] && [ ! -f "$log" ]; then
+        # make test runs a suite once what it needs is built (make -k): a build that failed
+        # leaves it not run.
+        failed=$((failed + 1))
+        broken="$broken $name"
+        echo "test: FAILED suite $name: not run (what it needs did not build: make's errors above)"
+    elif [ -z "$p" ] || [ "$status" != 0 ] || [ "${f:-0}" != 0 ]; then
         [ -n "$p" ] || failed=$((failed + 1))  # a suite that never counted is one failure
         broken="$broken $name"
         echo "test: FAILED suite $name (exit status $status; log $log), its last lines:"
