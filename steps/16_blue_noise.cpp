@@ -433,7 +433,21 @@ struct Pattern {
 //> lesson: blue_noise
 // Sets pixel p to 1 or back to 0, adding or taking away its Gaussian. The distance wraps around
 // the tile's edges, so the tile repeats without a seam.
+// The Gaussian depends only on the wrapped distance, dx and dy each 0 .. tile_side / 2: its
+// values are worked out once, not with a std::exp per pixel in each of the ~5000 flips (0.2 s
+// at every start-up).
 static void flip(Pattern& pattern, int p) {
+    constexpr int reach = tile_side / 2 + 1;  // the wrapped distances along an axis
+    static const std::vector<double> gaussian = [] {
+        std::vector<double> values(reach * reach);
+        for (int dy = 0; dy < reach; ++dy) {
+            for (int dx = 0; dx < reach; ++dx) {
+                const double r2 = double(dx * dx + dy * dy);
+                values[dy * reach + dx] = std::exp(-r2 / (2 * tile_sigma * tile_sigma));
+            }
+        }
+        return values;
+    }();
     const bool now_one = !pattern.ones[p];
     pattern.ones[p] = now_one;
     pattern.count += now_one ? 1 : -1;
@@ -443,9 +457,7 @@ static void flip(Pattern& pattern, int p) {
         const int dy = std::min(std::abs(y - py), tile_side - std::abs(y - py));
         for (int x = 0; x < tile_side; ++x) {
             const int dx = std::min(std::abs(x - px), tile_side - std::abs(x - px));
-            const double r2 = double(dx * dx + dy * dy);
-            pattern.energy[y * tile_side + x] +=
-                sign * std::exp(-r2 / (2 * tile_sigma * tile_sigma));
+            pattern.energy[y * tile_side + x] += sign * gaussian[dy * reach + dx];
         }
     }
 }
