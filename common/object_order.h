@@ -54,18 +54,14 @@ Image intermediate_image(const Scene& scene, int width, int height, int threads,
     return image;
 }
 
-// The camera's image: each output pixel is warp_pixel(p, width, height, pixel) at its warp
-// point p, pixel(u, v) reading the intermediate image (width x height) inside its edge.
-template <class WarpPixel>
+// The camera's image, its rows handed to the threads: output pixel (x, y) is pixel_at(p), p
+// its warp point (the step's bilinear read of the intermediate image there).
+template <class PixelAt>
 Image warp_image(const View& view, int threads, Work& work, const WarpMap& warp,
-                 const Image& intermediate, WarpPixel warp_pixel) {
+                 PixelAt pixel_at) {
     Image image(view.width, view.height);
-    auto pixel = [&](int u, int v) { return intermediate.at(u, v); };
     parallel_rows(view.height, threads, work, [&](int y, Work&) {
-        for (int x = 0; x < view.width; ++x) {
-            image.at(x, y) = warp_pixel(warp_at(warp, x, y), intermediate.width,
-                                        intermediate.height, pixel);
-        }
+        for (int x = 0; x < view.width; ++x) image.at(x, y) = pixel_at(warp_at(warp, x, y));
     });
     return image;
 }
