@@ -434,7 +434,7 @@ struct Pattern {
 // Sets pixel p to 1 or back to 0, adding or taking away its Gaussian. The distance wraps around
 // the tile's edges, so the tile repeats without a seam.
 // The Gaussian depends only on the wrapped distance, dx and dy each 0 .. tile_side / 2: its
-// values are worked out once, not with a std::exp per pixel in each of the ~5000 flips (0.2 s
+// values are worked out once, not with a std::exp per pixel in each of the ~5000 flips (0.1 s
 // at every start-up).
 static void flip(Pattern& pattern, int p) {
     constexpr int reach = tile_side / 2 + 1;  // the wrapped distances along an axis
