@@ -18,7 +18,7 @@
 // Reference:  data/reference/39_quantised_normals_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
-#include <cstring>  // std::memcpy: a mask's bytes at once, a float's bits
+#include <cstring>  // std::memcpy: a float's bits
 #include <ctime>   // std::clock: the precomputation's CPU time (the machine may be shared)
 #include <memory>  // std::unique_ptr: the normal table, left unwritten where not needed
 using namespace ctlab;
@@ -398,9 +398,9 @@ struct NormalTable {
 
 //> lesson: normals
 // The index of the direction nearest g's (0 when g is 0). Written without a branch or
-// a float comparison but != (fill_normal_table() calls it sixteen voxels at a time, and the
-// compiler makes that vector instructions only when no step of it could trap): the fold's
-// test is k's sign bit, its signs std::copysign, the clamps on integers.
+// a float comparison but != (step 41 calls it sixteen voxels at a time, and the compiler
+// makes that vector instructions only when no step of it could trap): the fold's test is
+// k's sign bit, its signs std::copysign, the clamps on integers.
 static inline uint16_t normal_index(Vec3 g) {
     const float sum = std::fabs(g.i) + std::fabs(g.j) + std::fabs(g.k);
     const float inverse = 1.0f / (sum + std::numeric_limits<float>::min());  // finite at 0
@@ -652,22 +652,35 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
 }
 //< lesson: runs
 
-// Given: the normal index of every voxel a lit sample can read, the corners of the runs' cells,
-// slice by slice (the slices shared among the threads: each writes only its own slice's
-// voxels). A voxel with all six neighbours takes its central differences straight from the
-// voxels (step 10's gradient_at() without its edge cases; the direction is all that is kept);
-// one on the volume's faces calls gradient_at(). A table made for another principal axis keeps
-// what it holds.
+// Given: voxel (i, j, k)'s normal index. A voxel with all six neighbours takes its central
+// differences straight from the voxels (step 10's gradient_at() without its edge cases; the
+// direction is all that is kept); one on the volume's faces calls gradient_at().
+static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
+    const int i = voxel.i, j = voxel.j, k = voxel.k;
+    if (i > 0 && j > 0 && k > 0 && i < volume.nx - 1 && j < volume.ny - 1 &&
+        k < volume.nz - 1) {
+        const ptrdiff_t step_j = volume.nx, step_k = ptrdiff_t(volume.nx) * volume.ny;
+        const int16_t* p = &volume.data[volume.index(i, j, k)];
+        return normal_index({float(p[1] - p[-1]) * float(0.5 / volume.sx),
+                             float(p[step_j] - p[-step_j]) * float(0.5 / volume.sy),
+                             float(p[step_k] - p[-step_k]) * float(0.5 / volume.sz)});
+    }
+    Work uncounted;
+    return normal_index(gradient_at(volume, voxel, uncounted));
+}
+
+// Given: the normal index of every voxel a lit sample can read, the corners of the runs' cells
+// (each run's voxels and one more, on its row and the next), marked first so that a voxel two
+// runs share is computed once; slice by slice, the slices shared among the threads (each
+// writes only its own slice's voxels). A table made for another principal axis keeps what it
+// holds.
 static void fill_normal_table(const Volume& volume, const Shear& shear, const Runs& runs,
                               int threads, NormalTable& table) {
     if (!table.indices) table.indices.reset(new uint16_t[volume.voxel_count()]);
     const int na = shear.na, nb = shear.nb;
-    const size_t step_j = size_t(volume.nx), step_k = size_t(volume.nx) * volume.ny;
-    const float per_i = float(0.5 / volume.sx), per_j = float(0.5 / volume.sy),
-                per_k = float(0.5 / volume.sz);
     std::vector<size_t> filled(shear.nc, 0);  // per slice: no two threads count in one
     Work unused;
-    parallel_rows(shear.nc, threads, unused, [&](int c, Work& uncounted) {
+    parallel_rows(shear.nc, threads, unused, [&](int c, Work&) {
         std::vector<uint8_t> needed(size_t(na) * nb, 0);
         for (int b = 0; b < nb; ++b) {
             int count = 0;
@@ -680,68 +693,15 @@ static void fill_normal_table(const Volume& volume, const Shear& shear, const Ru
                 }
             }
         }
-        // Speed: plain locals (a store to the table, int16_t's unsigned twin, could change
-        // any value read through a reference); the mask read eight or sixteen bytes at a time;
-        // and where a row is contiguous (a is i), its inside voxels sixteen at a time in loops
-        // of fixed length, which the compiler makes vector instructions (normal_index() has
-        // no branch for that reason).
-        const int16_t* data = volume.data.data();
-        uint16_t* out = table.indices.get();
-        const size_t sa = shear.stride_a, sb = shear.stride_b, sc = shear.stride_c;
-        const bool slice_inside = c > 0 && c < shear.nc - 1;
-        auto none_needed = [](const uint8_t* mask, int bytes) {  // bytes: 8 or 16
-            uint64_t eight[2] = {0, 0};
-            std::memcpy(eight, mask, size_t(bytes));
-            return (eight[0] | eight[1]) == 0;
-        };
-        size_t count = 0;
         for (int b = 0; b < nb; ++b) {
-            const uint8_t* needed_row = &needed[size_t(b) * na];
-            const bool row_inside = slice_inside && b > 0 && b < nb - 1;
-            const size_t row_index = c * sc + b * sb;
-            auto fill_one = [&](int a) {
-                const size_t index = row_index + a * sa;
-                Vec3 g;
-                if (row_inside && a > 0 && a < na - 1) {
-                    const int16_t* p = data + index;
-                    g = {float(p[1] - p[-1]) * per_i,
-                         float(p[step_j] - p[-ptrdiff_t(step_j)]) * per_j,
-                         float(p[step_k] - p[-ptrdiff_t(step_k)]) * per_k};
-                } else {
-                    g = gradient_at(volume, voxel_of(shear, a, b, c), uncounted);
-                }
-                out[index] = normal_index(g);
-                ++count;
-            };
-            int a = 0;
-            if (sa == 1 && row_inside) {  // a = 0 alone, then the inside sixteen at a time
-                if (needed_row[0]) fill_one(0);
-                for (a = 1; a + 16 <= na - 1; a += 16) {
-                    if (none_needed(needed_row + a, 16)) continue;
-                    const int16_t* p = data + row_index + a;
-                    uint16_t indices[16];
-                    for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
-                        indices[n] = normal_index(
-                            {float(p[n + 1] - p[n - 1]) * per_i,
-                             float(p[n + step_j] - p[n - ptrdiff_t(step_j)]) * per_j,
-                             float(p[n + step_k] - p[n - ptrdiff_t(step_k)]) * per_k});
-                    }
-                    for (int n = 0; n < 16; ++n) {
-                        if (!needed_row[a + n]) continue;
-                        out[row_index + a + n] = indices[n];
-                        ++count;
-                    }
-                }
-            }
-            for (; a < na; ++a) {
-                if (a % 8 == 0 && a + 8 <= na && none_needed(needed_row + a, 8)) {
-                    a += 7;  // eight voxels not needed: skipped at once
-                    continue;
-                }
-                if (needed_row[a]) fill_one(a);
+            for (int a = 0; a < na; ++a) {
+                if (!needed[size_t(b) * na + a]) continue;
+                const Voxel voxel = voxel_of(shear, a, b, c);
+                table.indices[volume.index(voxel.i, voxel.j, voxel.k)] =
+                    voxel_normal(volume, voxel);
+                ++filled[c];
             }
         }
-        filled[c] = count;
     });
     for (size_t slice : filled) table.voxels_filled += slice;
     table.filled[shear.c] = true;
