@@ -386,7 +386,7 @@ endif
 # time per render on one thread (build/bench --gain; CPU time from the child's rusage, so a
 # shared machine spoils it less than wall time): out/part3_gain.md, copied into the handouts'
 # <!-- measured: gain:NN_name --> blocks.
-PART3_BINARIES := $(filter $(BUILD)/3%,$(STEP_BINARIES))
+PART3_BINARIES := $(filter $(BUILD)/3% $(BUILD)/4%,$(STEP_BINARIES))  # part 3: steps 30 on
 gain: $(BUILD)/bench $(BUILD)/measured $(PART3_BINARIES)
 	$(BUILD)/bench --gain --out out/part3_gain.md
 	$(BUILD)/measured out/part3_gain.md

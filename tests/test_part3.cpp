@@ -5,8 +5,9 @@
 // does not read it counts as leapt: samples + leapt is step 30's samples. Steps 35 on (object
 // order, then shear-warp and its tricks) sample on the slices instead of along the rays: along
 // an axis at one pixel per voxel each renders step 30's pictures within the same tolerance
-// (lit, from step 39 on, within the quantised normals' own), step 36 step 35's bit for bit; at
-// an angle (step 36 on: step 35 refuses one) within the mean and RMS error the manifest states. And each trick's handout quotes its measured gain in a block
+// (lit, from step 39 on, within the quantised normals' own), step 36 step 35's bit for bit and
+// step 40 on step 39's; at an angle (step 36 on: step 35 refuses one) within the mean and RMS
+// error the manifest states. And each trick's handout quotes its measured gain in a block
 // that make gain fills.
 #include <doctest/doctest.h>
 #include <algorithm>
@@ -28,6 +29,9 @@ constexpr const char* first_part3_step = "30_speed_baseline";
 constexpr const char* object_order_step = "35_object_order";
 constexpr const char* shear_warp_step = "36_shear_warp";
 constexpr const char* quantised_normals_step = "39_quantised_normals";
+// From the run records' step on, the samples are step 39's read from packed records instead
+// of the volume: step 39's pictures, bit for bit.
+constexpr const char* run_records_step = "40_run_records";
 // The manifest's tol=2 for part 3, in 8-bit units, as a float channel difference.
 constexpr double tolerance = 2.0 / 255;
 // The manifest's bounds for shear-warp at an angle: the mean and the RMS channel error, 8-bit.
@@ -36,11 +40,11 @@ constexpr double shear_warp_mean = 3.0 / 255, shear_warp_rms = 12.0 / 255;
 // rounded to a fixed set of directions (quantised normals, shaded through a table).
 constexpr double shear_warp_lit_tolerance = 5.0 / 255;
 
-// The part-3 steps after the first: 31_... on.
+// The part-3 steps after the first: 31_... on (part 3 is every step from 30 up).
 std::vector<std::string> trick_steps() {
     std::vector<std::string> tricks;
     for (const std::string& name : step_names()) {
-        if (name.compare(0, 1, "3") == 0 && name > first_part3_step) tricks.push_back(name);
+        if (name > first_part3_step) tricks.push_back(name);
     }
     return tricks;
 }
@@ -183,12 +187,18 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
          {with(top, {"--unlit"}), top, with(top, {"--mode", "mip"})}) {
         const StepRender plain = render(first_part3_step, flags);
         ctlab::Image object_order;  // step 35's: shear-warp's along an axis, bit for bit
+        ctlab::Image quantised;     // step 39's: the run records' steps', bit for bit
         for (const std::string& step : steps) {
             const StepRender fast = render(step, flags);
             INFO(step << " " << flags.back());
             if (step == object_order_step) object_order = fast.image("camera");
             if (step == shear_warp_step) {
                 CHECK(largest_difference(fast.image("camera"), object_order) == 0);
+            }
+            if (step == quantised_normals_step) quantised = fast.image("camera");
+            if (step >= run_records_step) {
+                REQUIRE(!quantised.pixels.empty());
+                CHECK(largest_difference(fast.image("camera"), quantised) == 0);
             }
             const bool lit = flags.back() == "1";  // `top` alone ends with --zoom 1
             const bool rounded = lit && step >= quantised_normals_step;
@@ -214,6 +224,7 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
                                         std::to_string(1.356 * 96 / 512)});
         const ctlab::Image expected = render(first_part3_step, flags).image("camera");
         ctlab::Image first;  // step 36's: the steps before the quantised normals render it
+        ctlab::Image quantised;  // step 39's: the run records' steps render it
         for (const std::string& step : steps) {
             if (ctlab::looks_along_axes_only(step)) {
                 // Its own --help says so; it refuses the angle in one line, exit status 2.
@@ -229,6 +240,12 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
             }
             const ctlab::Image image = render(step, flags).image("camera");
             if (step == shear_warp_step) first = image;
+            if (step == quantised_normals_step) quantised = image;
+            if (step >= run_records_step) {
+                INFO(step << ": step 39's picture, bit for bit (the same samples, from records)");
+                REQUIRE(!quantised.pixels.empty());
+                CHECK(largest_difference(image, quantised) == 0);
+            }
             if (step > shear_warp_step && step < quantised_normals_step) {
                 INFO(step << ": step 36's picture, bit for bit (the same samples composited)");
                 CHECK(largest_difference(image, first) == 0);

@@ -882,7 +882,7 @@ void add_ctlab_run(PeerFigure& figure, const std::string& step,
     }
     // The tables' memory: a step that makes tables once per process prints a line
     // "precompute ... runs_mb=R normals_mb=N ..." as it makes them (MiB; runs per principal
-    // axis, normals so far).
+    // axis, normals so far; records_mb=, the runs' packed voxels, per axis like the runs).
     std::istringstream out(run.out);
     double runs_mib = 0, normals_mib = 0;
     bool tables = false;
@@ -890,6 +890,7 @@ void add_ctlab_run(PeerFigure& figure, const std::string& step,
         if (text.rfind("precompute ", 0) != 0) continue;
         const Summary made = parse_summary(text);
         if (made.count("runs_mb")) runs_mib += summary_number(made, "runs_mb");
+        if (made.count("records_mb")) runs_mib += summary_number(made, "records_mb");
         if (made.count("normals_mb")) normals_mib = summary_number(made, "normals_mb");
         tables = true;
     }
