@@ -532,6 +532,23 @@ static inline float slice_value(const int16_t* p, const SliceShift& s) {
 }
 //< lesson: shear
 
+// Given: voxel (i, j, k)'s normal index. A voxel with all six neighbours takes its central
+// differences straight from the voxels (step 10's gradient_at() without its edge cases; the
+// direction is all that is kept); one on the volume's faces calls gradient_at().
+static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
+    const int i = voxel.i, j = voxel.j, k = voxel.k;
+    if (i > 0 && j > 0 && k > 0 && i < volume.nx - 1 && j < volume.ny - 1 &&
+        k < volume.nz - 1) {
+        const ptrdiff_t step_j = volume.nx, step_k = ptrdiff_t(volume.nx) * volume.ny;
+        const int16_t* p = &volume.data[volume.index(i, j, k)];
+        return normal_index({float(p[1] - p[-1]) * float(0.5 / volume.sx),
+                             float(p[step_j] - p[-step_j]) * float(0.5 / volume.sy),
+                             float(p[step_k] - p[-step_k]) * float(0.5 / volume.sz)});
+    }
+    Work uncounted;
+    return normal_index(gradient_at(volume, voxel, uncounted));
+}
+
 //> lesson: runs
 // Classification, once per transfer function and principal axis: the cells of every slice row
 // that the table may see. A bilinear value lies between its cell's lowest and highest corner
@@ -651,23 +668,6 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
     return runs;
 }
 //< lesson: runs
-
-// Given: voxel (i, j, k)'s normal index. A voxel with all six neighbours takes its central
-// differences straight from the voxels (step 10's gradient_at() without its edge cases; the
-// direction is all that is kept); one on the volume's faces calls gradient_at().
-static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
-    const int i = voxel.i, j = voxel.j, k = voxel.k;
-    if (i > 0 && j > 0 && k > 0 && i < volume.nx - 1 && j < volume.ny - 1 &&
-        k < volume.nz - 1) {
-        const ptrdiff_t step_j = volume.nx, step_k = ptrdiff_t(volume.nx) * volume.ny;
-        const int16_t* p = &volume.data[volume.index(i, j, k)];
-        return normal_index({float(p[1] - p[-1]) * float(0.5 / volume.sx),
-                             float(p[step_j] - p[-step_j]) * float(0.5 / volume.sy),
-                             float(p[step_k] - p[-step_k]) * float(0.5 / volume.sz)});
-    }
-    Work uncounted;
-    return normal_index(gradient_at(volume, voxel, uncounted));
-}
 
 // Given: the normal index of every voxel a lit sample can read, the corners of the runs' cells
 // (each run's voxels and one more, on its row and the next), marked first so that a voxel two
