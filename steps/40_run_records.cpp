@@ -411,7 +411,7 @@ struct NormalTable {
 
 //> lesson: normals
 // The index of the direction nearest g's (0 when g is 0). Written without a branch or
-// a float comparison but != (step 41 calls it sixteen voxels at a time, and the compiler
+// a float comparison but != (step 42 calls it sixteen voxels at a time, and the compiler
 // makes that vector instructions only when no step of it could trap): the fold's test is
 // k's sign bit, its signs std::copysign, the clamps on integers.
 static inline uint16_t normal_index(Vec3 g) {
