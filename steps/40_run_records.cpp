@@ -7,7 +7,7 @@
 //             memory scattered over 15 MB and more. Here each run keeps a record per voxel
 //             column it covers (its two rows' values and their normal indices, 8 bytes),
 //             packed run after run in slice order once per transfer function and principal
-//             axis (pack_records()), so a sample reads its record and the next one: one
+//             axis (pack_slice()), so a sample reads its record and the next one: one
 //             stream. The pictures are step 39's, to the bit.
 // Builds on:  39_quantised_normals.
 // Handout:    handouts/40_run_records.md
@@ -17,7 +17,7 @@
 #include "common/ctlab.h"
 #include <cstring>  // std::memcpy: a float's bits
 #include <ctime>   // std::clock: the precomputation's CPU time (the machine may be shared)
-#include <memory>  // std::unique_ptr: the normal table, left unwritten where not needed
+#include <memory>  // std::unique_ptr: the normal table and a slice's records, left unset
 using namespace ctlab;
 
 constexpr const char* step_name = "40_run_records";
@@ -356,7 +356,7 @@ constexpr int mip_stretch = 16;   // pixels per vector loop of mip_row
 constexpr int runs_stretch = 16;  // cells tested at once first by find_runs (a slice's air);
                                   // the folds in find_runs are written for 16
 
-// A run's voxels, packed (pack_records()). A run of cells [begin, end) along a in slice row b
+// A run's voxels, packed (pack_slice()). A run of cells [begin, end) along a in slice row b
 // keeps one record per voxel column a = begin .. end (one more than its cells: a cell's high
 // corner), the runs one after another in slice order: a sample of cell a reads record a and
 // the next one, and nothing else (lit or not).
@@ -365,6 +365,7 @@ struct Record {
                         // and column repeated at the slice's edges)
     uint16_t low_normal, high_normal;  // their normal indices; lit composite only, else 0
 };
+using Records = std::unique_ptr<Record[]>;  // one slice's, left unset until packed
 
 struct Runs {
     int axis = -1;                // the principal axis they are for; -1: not made
@@ -372,8 +373,9 @@ struct Runs {
     std::vector<uint32_t> first;  // per slice row c * nb + b: its first run; one past the end
     std::vector<int32_t> bounds;  // begin, end of every run, in cells along a
     size_t cells = 0;             // cells in runs, all slices
-    std::vector<Record> records;  // every run's, in the order of bounds
-    std::vector<size_t> start;    // per run: its first record; empty: not packed
+    std::vector<Records> records;      // per slice: its runs', in order
+    std::vector<const Record*> start;  // per run: its first record; empty: not packed
+    size_t record_count = 0;           // records, all slices
 
     // Slice c's row b: its runs, and how many (none for a row it does not hold: runs not
     // made yet, as in a student's kit before find_runs() is written).
@@ -384,9 +386,25 @@ struct Runs {
     }
     // The records of the run that `run` (a pointer row() gave) starts, from its first column.
     const Record* records_of(const int32_t* run) const {
-        return &records[start[size_t(run - bounds.data()) / 2]];
+        return start[size_t(run - bounds.data()) / 2];
     }
 };
+
+// Given: each run's first record, in its slice's records (none when a slice's records were
+// not written, as in a student's kit before pack_slice()), and the records' count.
+static void find_starts(const Shear& shear, Runs& runs) {
+    runs.start.clear();
+    for (int c = 0; c < shear.nc; ++c) {
+        const Record* next = runs.records[c].get();
+        const uint32_t end = runs.first[size_t(c + 1) * shear.nb];  // past its last run
+        for (uint32_t r = runs.first[size_t(c) * shear.nb]; r < end; ++r) {
+            if (!next) return runs.start.clear();  // not packed
+            runs.start.push_back(next);
+            next += runs.bounds[2 * r + 1] - runs.bounds[2 * r] + 1;
+        }
+    }
+    runs.record_count = runs.cells + runs.bounds.size() / 2;  // a run: one column more than cells
+}
 
 // Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
 // direction nearest its gradient's in a fixed set, two bytes at (k*ny + j)*nx + i like the
@@ -562,6 +580,48 @@ static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
     return normal_index(gradient_at(volume, voxel, uncounted));
 }
 
+//> lesson: records
+// VolPack's run-length-encoded volume, one slice at a time: the records of slice c's runs
+// (counts: its rows' numbers of runs, bounds: their begin and end), run after run. Column a's
+// record holds the values at (a, b) and (a, b + 1) and, for a lit composite, their normal
+// indices (from the normal table; computed here when there is none). The last column and row
+// count again at the slice's edges.
+static void pack_slice(const Volume& volume, const Shear& shear, int c, const uint32_t* counts,
+                       const int32_t* bounds, const NormalTable& normals, bool lit,
+                       Records& records) {
+    const int na = shear.na, nb = shear.nb;
+    auto normal_of = [&](int a, int b) {  // voxel (a, b) of the slice's; 0 when unlit
+        if (!lit) return uint16_t(0);
+        const Voxel voxel = voxel_of(shear, a, b, c);
+        return normals.indices ? normals.indices[volume.index(voxel.i, voxel.j, voxel.k)]
+                               : voxel_normal(volume, voxel);
+    };
+    size_t columns = 0;  // the records it writes
+    const int32_t* run = bounds;
+    for (int b = 0; b < nb; ++b) {
+        for (uint32_t r = 0; r < counts[b]; ++r, run += 2) {
+            columns += size_t(run[1] - run[0]) + 1;
+        }
+    }
+    const size_t sa = shear.stride_a;
+    records.reset(new Record[columns]);  // left unset: every record is written below
+    Record* out = records.get();
+    run = bounds;
+    for (int b = 0; b < nb; ++b) {
+        const int below = std::min(b + 1, nb - 1);  // the next row, or the last again
+        const int16_t* low = &volume.data[c * shear.stride_c + b * shear.stride_b];
+        const int16_t* high = &volume.data[c * shear.stride_c + below * shear.stride_b];
+        for (uint32_t r = 0; r < counts[b]; ++r, run += 2) {
+            for (int a = run[0]; a <= run[1]; ++a, ++out) {
+                const int column = std::min(a, na - 1);  // past the end: the last
+                *out = {low[column * sa], high[column * sa], normal_of(column, b),
+                        normal_of(column, below)};
+            }
+        }
+    }
+}
+//< lesson: records
+
 //> lesson: runs
 // Classification, once per transfer function and principal axis: the cells of every slice row
 // that the table may see. A bilinear value lies between its cell's lowest and highest corner
@@ -720,49 +780,21 @@ static void fill_normal_table(const Volume& volume, const Shear& shear, const Ru
     table.filled[shear.c] = true;
 }
 
-//> lesson: records
-// VolPack's run-length-encoded volume: each run's voxel columns copied into records, run after
-// run in the order of runs.bounds (slice by slice, row by row): column a's record holds the
-// values at (a, b) and (a, b + 1) and, for a lit composite, their normal indices (from the
-// normal table; computed here when there is none). The last column and row count again at
-// the slice's edges. Each run's first record is counted first; the slices are shared among
-// the threads, each writing its own runs' records.
+// Given: every slice's records (pack_slice()), the slices shared among the threads, each
+// writing its own; then each run's first record.
 static void pack_records(const Volume& volume, const Shear& shear, const NormalTable& normals,
                          bool lit, int threads, Runs& runs) {
-    const size_t run_count = runs.bounds.size() / 2;
-    runs.start.assign(run_count, 0);
-    size_t total = 0;
-    for (size_t r = 0; r < run_count; ++r) {
-        runs.start[r] = total;
-        total += size_t(runs.bounds[2 * r + 1] - runs.bounds[2 * r]) + 1;
-    }
-    runs.records.assign(total, Record{0, 0, 0, 0});
-    auto normal_of = [&](const Voxel& voxel) {
-        if (!lit) return uint16_t(0);
-        const size_t index = volume.index(voxel.i, voxel.j, voxel.k);
-        return normals.indices ? normals.indices[index] : voxel_normal(volume, voxel);
-    };
+    runs.records.resize(shear.nc);
     Work unused;
     parallel_rows(shear.nc, threads, unused, [&](int c, Work&) {
-        for (int b = 0; b < shear.nb; ++b) {
-            int count = 0;
-            const int32_t* run = runs.row(c, b, &count);
-            const int below = std::min(b + 1, shear.nb - 1);  // the next row, or the last again
-            for (int r = 0; r < count; ++r) {
-                const size_t first = size_t(run - runs.bounds.data()) / 2 + r;  // run r, counted
-                Record* out = &runs.records[runs.start[first]];
-                for (int a = run[2 * r]; a <= run[2 * r + 1]; ++a, ++out) {
-                    const int column = std::min(a, shear.na - 1);  // past the end: the last
-                    const Voxel low = voxel_of(shear, column, b, c);
-                    const Voxel high = voxel_of(shear, column, below, c);
-                    *out = {volume.at(low.i, low.j, low.k), volume.at(high.i, high.j, high.k),
-                            normal_of(low), normal_of(high)};
-                }
-            }
-        }
+        const uint32_t* first = &runs.first[size_t(c) * shear.nb];  // its rows' first runs
+        std::vector<uint32_t> counts(shear.nb);
+        for (int b = 0; b < shear.nb; ++b) counts[b] = first[b + 1] - first[b];
+        pack_slice(volume, shear, c, counts.data(), runs.bounds.data() + 2 * size_t(first[0]),
+                   normals, lit, runs.records[c]);
     });
+    find_starts(shear, runs);
 }
-//< lesson: records
 
 // Given: a sample's light from its cell's records (p: the low corner's; p[1] the next
 // column's): the four corners' light from the shading table, blended as the values are,
@@ -853,7 +885,7 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
         if (u_low >= u_high) continue;
         int count = 0;
         const int32_t* run = scene.runs.row(s.slice, b, &count);
-        if (scene.runs.start.empty()) count = 0;  // no records (a kit before pack_records())
+        if (scene.runs.start.empty()) count = 0;  // no records (a kit before pack_slice())
         long long in_runs = 0;
         for (int r = 0; r < count && open > 0; ++r) {
             const int from = std::max(u_low, run[2 * r] - s.ia);
@@ -1181,7 +1213,7 @@ int main(int argc, char** argv) {
                          made.first.size() * sizeof(uint32_t)) / 1048576.0,
                         normals.voxels_filled,
                         normals.voxels_filled * sizeof(uint16_t) / 1048576.0,
-                        made.records.size(), made.records.size() * sizeof(Record) / 1048576.0, ms,
+                        made.record_count, made.record_count * sizeof(Record) / 1048576.0, ms,
                         1000.0 * double(std::clock() - cpu_start) / CLOCKS_PER_SEC);
         };
 

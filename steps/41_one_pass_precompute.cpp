@@ -1,15 +1,12 @@
 // 41_one_pass_precompute.cpp: shear-warp's precomputation made fast: the runs, the records
 // and the normals in one threaded pass over the volume.
 //
-// New here:   step 40's first render makes its tables in three passes: find_runs(), then for
-//             a lit composite fill_normal_table() (a volume of normal indices, one voxel at a
-//             time), then pack_records() (a voxel_of() per record). Here find_runs() packs
-//             each slice's records (pack_slice()) as soon as the slice's runs are found, while
-//             its voxels are in the cache; the normal indices are computed there, per slice,
-//             only for the voxels the records hold (slice_normals()), and the normal volume
-//             goes.
-//             The one-pixel path computes its corners' normals from the voxels. The pictures
-//             are step 40's (and 39's), to the bit.
+// New here:   step 40's first render makes its tables in passes over the volume: find_runs(),
+//             for a lit composite fill_normal_table() (a volume of normal indices), then
+//             pack_slice() per slice. Here find_runs() calls pack_slice() as soon as a slice's
+//             runs are found, while its voxels are in the cache, and pack_slice() computes the
+//             normal indices of the voxels its records hold (slice_normals()): no normal
+//             volume. The pictures are step 40's (and 39's), to the bit.
 // Builds on:  40_run_records.
 // Handout:    handouts/41_one_pass_precompute.md
 // Run:        make run STEP=41 ARGS="--azimuth 180 --elevation 90 --size 256x256"
@@ -18,7 +15,7 @@
 #include "common/ctlab.h"
 #include <cstring>  // std::memcpy: a float's bits
 #include <ctime>   // std::clock: the precomputation's CPU time (the machine may be shared)
-#include <memory>  // std::unique_ptr: a slice's records and normals, left unset until written
+#include <memory>  // std::unique_ptr: arrays left unset until written
 using namespace ctlab;
 
 constexpr const char* step_name = "41_one_pass_precompute";
@@ -387,9 +384,25 @@ struct Runs {
     }
 };
 
+// Given: each run's first record, in its slice's records (none when a slice's records were
+// not written, as in a student's kit before pack_slice()), and the records' count.
+static void find_starts(const Shear& shear, Runs& runs) {
+    runs.start.clear();
+    for (int c = 0; c < shear.nc; ++c) {
+        const Record* next = runs.records[c].get();
+        const uint32_t end = runs.first[size_t(c + 1) * shear.nb];  // past its last run
+        for (uint32_t r = runs.first[size_t(c) * shear.nb]; r < end; ++r) {
+            if (!next) return runs.start.clear();  // not packed
+            runs.start.push_back(next);
+            next += runs.bounds[2 * r + 1] - runs.bounds[2 * r] + 1;
+        }
+    }
+    runs.record_count = runs.cells + runs.bounds.size() / 2;  // a run: one column more than cells
+}
+
 // Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
-// direction nearest its gradient's in a fixed set, two bytes in its records (step 39: in a
-// volume of its own); a table made per render holds the light of every direction. A lit sample is then
+// direction nearest its gradient's in a fixed set, two bytes beside the voxel's value in the
+// records; a table made per render holds the light of every direction. A lit sample is then
 // four indices and four table reads, blended as the values are: no gradient, no shade. The
 // set is the octahedral one: a direction d is put on the octahedron |x| + |y| + |z| = 1 (d
 // over its length in that sum, no square root), its lower half folded over the upper, and
@@ -569,21 +582,17 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
     return count;
 }
 
-// The records of slice c's runs (counts: its rows' numbers of runs, bounds: their begin and
-// end), run after run, as step 40's pack_records() writes them: each run's voxel columns, its
-// row's value and the next row's, and for a lit composite their normal indices, each needed
-// voxel's computed once (slice_normals()). How many normal indices it computed. Changed in
-// step 41: one slice, called by find_runs() as soon as the slice's runs are found; the rows
-// read through pointers, not voxel_of(); no normal volume. Kept a call of its own
-// (gnu::noinline): inlined into find_runs(), the compiler no longer made find_runs()' cell
-// test vector instructions (callgrind, case a's first render: 342 M against 182 M).
+// VolPack's run-length-encoded volume, one slice at a time: the records of slice c's runs
+// (counts: its rows' numbers of runs, bounds: their begin and end), run after run. Column a's
+// record holds the values at (a, b) and (a, b + 1) and, for a lit composite, their normal
+// indices. The last column and row count again at the slice's edges. Changed in step 41:
+// the normal indices of the voxels the records hold, computed once (slice_normals()); how
+// many. Not inlined into find_runs() (its cell test would lose its vector instructions).
 [[gnu::noinline]] static size_t pack_slice(const Volume& volume, const Shear& shear, int c,
-                         const uint32_t* counts, const int32_t* bounds, bool lit,
-                         Records& records) {
+                                           const uint32_t* counts, const int32_t* bounds,
+                                           bool lit, Records& records) {
     const int na = shear.na, nb = shear.nb;
-    // The slice's normal indices where a record needs one: each run's columns on its row and
-    // the next.
-    std::vector<uint8_t> needed(lit ? size_t(na) * nb : 0, 0);
+    std::vector<uint8_t> needed(lit ? size_t(na) * nb : 0, 0);  // voxels a record holds
     std::unique_ptr<uint16_t[]> normals(new uint16_t[needed.size()]);  // only the needed read
     size_t columns = 0;  // the records it writes
     const int32_t* run = bounds;
@@ -652,7 +661,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
     std::vector<std::vector<int32_t>> bounds(shear.nc);  // per slice, its runs
     std::vector<std::vector<uint32_t>> counts(shear.nc);  // per slice, runs per row
     std::vector<Records> records(shear.nc);               // per slice, its runs' records
-    std::vector<size_t> normals(shear.nc, 0);                 // per slice, indices computed
+    std::vector<size_t> normals(shear.nc, 0);             // per slice, indices computed
     Work unused;
     parallel_rows(shear.nc, threads, unused, [&](int c, Work&) {
         counts[c].assign(nb, 0);
@@ -742,23 +751,12 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
         runs.bounds.insert(runs.bounds.end(), bounds[c].begin(), bounds[c].end());
     }
     runs.first.push_back(total);
-    // Each run's first record, in its slice's records (none when a slice's records were not
-    // written, as in a student's kit before pack_slice()).
-    bool packed = true;
-    for (int c = 0; c < shear.nc; ++c) packed = packed && (records[c] || bounds[c].empty());
-    for (int c = 0; c < shear.nc && packed; ++c) {
-        const Record* next = records[c].get();
-        for (size_t n = 0; n < bounds[c].size(); n += 2) {
-            runs.start.push_back(next);
-            next += bounds[c][n + 1] - bounds[c][n] + 1;
-        }
-    }
     for (size_t n = 0; n < runs.bounds.size(); n += 2) {
         runs.cells += size_t(runs.bounds[n + 1] - runs.bounds[n]);
     }
-    runs.record_count = runs.cells + runs.bounds.size() / 2;  // one more column than cells
-    for (size_t n : normals) runs.normals += n;
     runs.records = std::move(records);
+    find_starts(shear, runs);
+    for (size_t n : normals) runs.normals += n;
     return runs;
 }
 //< lesson: runs
