@@ -388,8 +388,7 @@ constexpr int normal_grid = 129;  // points per side, odd so that the axes are p
                                   // on average; handout 39, Quality)
 constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
 
-// Only the voxels a sample can read are filled (see fill_normal_table): the others are never
-// written, nor read, their memory pages never touched.
+// Only the voxels a sample can read are filled (fill_normal_table); other pages untouched.
 struct NormalTable {
     std::unique_ptr<uint16_t[]> indices;  // per voxel its direction's index; null: no table
     bool filled[3] = {false, false, false};  // for the runs of principal axis 0, 1, 2
@@ -397,10 +396,8 @@ struct NormalTable {
 };
 
 //> lesson: normals
-// The index of the direction nearest g's (0 when g is 0). Written without a branch or
-// a float comparison but != (step 42 calls it sixteen voxels at a time, and the compiler
-// makes that vector instructions only when no step of it could trap): the fold's test is
-// k's sign bit, its signs std::copysign, the clamps on integers.
+// The index of the direction nearest g's (0 when g is 0), without a branch (step 42 calls it
+// sixteen voxels at a time): the fold's test is k's sign bit, its signs std::copysign.
 static inline uint16_t normal_index(Vec3 g) {
     const float sum = std::fabs(g.i) + std::fabs(g.j) + std::fabs(g.k);
     const float inverse = 1.0f / (sum + std::numeric_limits<float>::min());  // finite at 0
@@ -669,11 +666,8 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
 }
 //< lesson: runs
 
-// Given: the normal index of every voxel a lit sample can read, the corners of the runs' cells
-// (each run's voxels and one more, on its row and the next), marked first so that a voxel two
-// runs share is computed once; slice by slice, the slices shared among the threads (each
-// writes only its own slice's voxels). A table made for another principal axis keeps what it
-// holds.
+// Given: the normal index of every voxel a lit sample can read (each run's voxels and one
+// more, on its row and the next), marked first so each is computed once; a slice per thread.
 static void fill_normal_table(const Volume& volume, const Shear& shear, const Runs& runs,
                               int threads, NormalTable& table) {
     if (!table.indices) table.indices.reset(new uint16_t[volume.voxel_count()]);

@@ -416,10 +416,8 @@ constexpr int normal_grid = 129;  // points per side, odd so that the axes are p
 constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
 
 //> lesson: normals
-// The index of the direction nearest g's (0 when g is 0). Written without a branch or
-// a float comparison but != (step 42 calls it sixteen voxels at a time, and the compiler
-// makes that vector instructions only when no step of it could trap): the fold's test is
-// k's sign bit, its signs std::copysign, the clamps on integers.
+// The index of the direction nearest g's (0 when g is 0), without a branch (step 42 calls it
+// sixteen voxels at a time): the fold's test is k's sign bit, its signs std::copysign.
 static inline uint16_t normal_index(Vec3 g) {
     const float sum = std::fabs(g.i) + std::fabs(g.j) + std::fabs(g.k);
     const float inverse = 1.0f / (sum + std::numeric_limits<float>::min());  // finite at 0
@@ -1162,12 +1160,11 @@ int main(int argc, char** argv) {
 
         // --- Once per transfer function and principal axis, made by the first render that
         // needs it (so the first render's time_ms= includes it, and precompute_ms= says how
-        // much): in one pass, the runs of cells the table may see and their records, with the
-        // normal indices for a lit composite (the directions' set once per process). Once per
-        // view: the table's opacities for the slices' spacing; for a lit composite, the
-        // shading table ---
+        // much): in one pass, the runs of cells the table may see, their records and for a lit
+        // composite their normal indices (the directions' set once per process). Once per view:
+        // the table's opacities for the slices' spacing; for a lit composite, the shading table ---
         Runs runs[3];  // per principal axis
-        std::vector<Vec3> directions;  // per normal index, made with the first records
+        std::vector<Vec3> directions;  // per normal index, made with the first table
         const bool lit = params.mode == "composite" && !params.unlit;
         double precompute_ms = 0;  // wall clock, this process
         Lut lut;
@@ -1214,7 +1211,7 @@ int main(int argc, char** argv) {
             Shear shear;
             std::vector<SliceShift> shifts;
             Vec3 to_light;               // unit vector towards the light; unused when unlit
-            std::vector<float> shading;  // lit composite: the light per normal index
+            std::vector<float> shading;  // lit with normals: the light per normal index
         };
         auto frame_for = [&](const View& view) {
             Frame frame;
