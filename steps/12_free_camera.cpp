@@ -1,13 +1,10 @@
 // 12_free_camera.cpp: part 2 begins: any view, from an orbit camera.
 //
-// New here:   an orbit camera around the centre of the volume's box (common/camera_flags.h's
-//             flags); one ray per pixel in physical space, voxel (i, j, k) at (i*sx, j*sy,
-//             k*sz), sampled every --step units where it is inside the box of voxel centres,
-//             each sample read from its nearest voxel. The light turns with the camera.
-// Defaults:   azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light 30 degrees
-//             right of the camera and 20 above it, a black background.
-// Builds on:  10_opacity_correction (lit front to back, a step in physical units; step 11's
-//             leaping waits for a free ray: step 24).
+// New here:   an orbit camera around the volume's box: a ray per pixel in physical space,
+//             sampled every --step inside the box, from the nearest voxel; the light turns too.
+// Defaults:   azimuth 30, elevation 20, ortho, 512x512, --fov 30; the light 30 degrees right
+//             of the camera and 20 above it; a black background.
+// Builds on:  10_opacity_correction (step 11's leaping waits for a free ray: step 24).
 // Handout:    handouts/12_free_camera.md
 // Run:        make run STEP=12 ARGS="--azimuth 60 --projection perspective"
 // Reference:  data/reference/12_free_camera_camera.png: the default run, on the phantom.
@@ -247,10 +244,9 @@ static Accumulated composite_front_to_back(const Volume& volume, const Camera& c
         const double t = t_mid + m * params.step;  // physical units along the ray
         if (t < 0) continue;                        // behind the eye
         const Vec3d point = ray.origin + t * ray.direction;
-        if (point.i < 0 || point.i > high.i || point.j < 0 || point.j > high.j ||
-            point.k < 0 || point.k > high.k) {
-            continue;  // outside the box of voxel centres: nothing to read
-        }
+        const bool inside = point.i >= 0 && point.i <= high.i && point.j >= 0 &&
+                            point.j <= high.j && point.k >= 0 && point.k <= high.k;
+        if (!inside) continue;  // outside the box of voxel centres: nothing to read
         // The sample reads its nearest voxel (a half rounds up).
         const Voxel voxel = {int(std::floor(point.i / volume.sx + 0.5)),
                              int(std::floor(point.j / volume.sy + 0.5)),

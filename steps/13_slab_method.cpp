@@ -1,10 +1,7 @@
 // 13_slab_method.cpp: where a ray enters and leaves the volume's box: the slab method.
 //
-// New here:   instead of testing every sample for being inside the box (step 12), each ray
-//             works out where it enters and leaves the box (the slab method, with its stiff
-//             case: a ray parallel to a face, d = 0 or -0) and samples from the entry, on the
-//             face, to the exit, in voxel units (the walk). The trace records where the ray
-//             meets the box, or that it misses it.
+// New here:   where each ray enters and leaves the box (the slab method, stiff case d = +-0),
+//             walked from its entry (on the face) to its exit; the trace: the box, or a miss.
 // Builds on:  12_free_camera (the orbit camera and its rays, nearest samples).
 // Handout:    handouts/13_slab_method.md
 // Run:        make run STEP=13 ARGS="--azimuth 60 --projection perspective"
@@ -328,10 +325,7 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 }
 
 //> lesson: front_to_back
-// Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit.
-// Each sample is read from its nearest voxel, classified by the table, lit by that voxel's
-// gradient where it is not transparent, and composited front to back; early ray termination
-// as in step 08.
+// Step 12's compositing, at t_entry + n * step until t_exit, each sample from its nearest voxel.
 // Changed in step 13: from the box's entry to its exit (the slab method), not a test per sample.
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,

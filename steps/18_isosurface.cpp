@@ -1,9 +1,8 @@
 // 18_isosurface.cpp: the surface where the volume crosses an iso value, found by bisection.
 //
-// New here:   along the camera's ray, the first sample above --iso (default 400: bone) and
-//             the one before it bracket the crossing; bisection on the trilinear field narrows
-//             it to 1e-4 voxel. There the surface is lit as step 14 lights a sample (shade(),
-//             from the trilinear gradient). --mode composite is step 14's picture.
+// New here:   the first sample above --iso (default 400: bone) and the one before bracket the
+//             crossing; bisection on the trilinear field narrows it to 1e-4 voxel, lit there
+//             by shade() as step 14 lights a sample. --mode composite is step 14's picture.
 // Defaults:   as step 14: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
 //             30 degrees right of the camera and 20 above it, a black background.
 // Builds on:  14_trilinear (the orbit camera, the slab method, trilinear samples).
@@ -551,8 +550,7 @@ static SurfaceHit first_crossing(const Volume& volume, const Ray& ray, const Spa
     return hit;
 }
 
-// One pixel of the iso render: the first crossing, its normal -gradient / |gradient|, lit by
-// step 14's shade(), a white surface. A zero gradient has no normal: ambient only.
+// One pixel of the iso render: the first crossing, a white surface lit by step 14's shade().
 static Rgb isosurface_ray(const Volume& volume, const Camera& camera, int x, int y,
                           const Params& params, Work& work, Trace* trace) {
     const Vec3d high = box_high(volume);

@@ -1,16 +1,13 @@
 // 21_shadow_rays.cpp: light that is blocked on its way: a shadow ray per lit sample.
 //
-// New here:   step 14 lights every sample as if nothing stood between it and the light. Here
-//             each lit sample asks how much of the light reaches it through the volume: a
-//             shadow ray marched towards the light multiplies the transparencies it meets,
-//             T_light = product of (1 - alpha) (Beer-Lambert, with the opacity-corrected
-//             table), and T_light darkens the diffuse light. --shadows none is step 14's
-//             picture.
+// New here:   each lit sample asks how much light reaches it through the volume: a shadow ray
+//             marched towards the light multiplies the transparencies it meets, T_light =
+//             product of (1 - alpha) (Beer-Lambert, with the opacity-corrected table), and
+//             T_light darkens the diffuse light. --shadows none is step 14's picture.
 // Defaults:   --shadows ray.
 //             As step 14: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the
 //             light 30 degrees right of the camera and 20 above it, a black background.
-// Builds on:  14_trilinear (the orbit camera, the slab method, trilinear samples, lit front to
-//             back).
+// Builds on:  14_trilinear (the orbit camera, the slab method, trilinear samples, lit).
 // Handout:    handouts/21_shadow_rays.md
 // Run:        make run STEP=21 ARGS="--light-angle 80"
 // Reference:  data/reference/21_shadow_rays_camera.png: the default run, on the phantom.

@@ -42,8 +42,7 @@ struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, 
     bool no_correction = false;  // use the TF opacities as they are, whatever the step
     std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
     bool nearest = false;                     // interpolation == "nearest"
-    std::string shadows = "volume";  // "volume": read from a light-transmittance volume;
-                                     // "ray": a shadow ray per lit sample; "none"
+    std::string shadows = "volume";  // "volume": a light-transmittance volume; "ray"; "none"
 };
 
 // What a ray has gathered so far, front to back (in double, as step 07 explains).
@@ -436,8 +435,7 @@ static bool faces_light(Vec3 gradient, Vec3 to_light) {
 // layout, so a sample's Cell reads it as it reads the values.
 using LightVolume = std::vector<float>;
 
-// What light that is blocked needs beside step 14's table: with --shadows volume, the
-// light-transmittance volume of the current light (empty otherwise).
+// What blocked light needs beside step 14's table: --shadows volume's light volume, or none.
 struct Blocking {
     LightVolume light;
     Vec3d light_towards;  // the light direction `light` was swept for
@@ -450,8 +448,7 @@ struct Blocking {
 // q = p + d L on the slice before (d = s_a / |L_a|), times what the segment lets through:
 // T(p) = T(q) * (1 - alpha_d(v(q))). q is the same offset from every p, so T(q) and v(q) are
 // bilinear reads with the same weights; a q outside the box gets T = 1 (light from a side).
-// Plane after plane (c fixed), each slice by slice; with more threads a plane's slices in
-// `parts` runs, run p of plane n at stage n + p (it reads earlier stages').
+// Plane by plane (c fixed): threads take plane n's slices in `parts` runs, run p at stage n+p.
 static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
                                const Vec3d& to_light, bool corrected, int threads, Work& work) {
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -516,8 +513,7 @@ static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
     return light;
 }
 
-// T_light at a sample from the light-transmittance volume: a trilinear read through the
-// sample's cell, as trilinear() reads the values.
+// T_light at a sample: the light volume read through the sample's cell, as trilinear() reads.
 static double light_from_volume(const Volume& volume, const LightVolume& light, const Cell& c) {
     auto at = [&](int i, int j, int k) { return light[volume.index(i, j, k)]; };
     const float low_low = lerp(at(c.i, c.j, c.k), at(c.i1, c.j, c.k), c.fi);
@@ -676,9 +672,8 @@ int main(int argc, char** argv) {
             return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
         };
 
-        // --- The light-transmittance volume (--shadows volume): the light turns with the
-        // camera, so every render sweeps it again, in the render's time and work; a traced ray
-        // (render_work null) reuses it while the light has not moved ---
+        // --- The light volume (--shadows volume): it turns with the camera, so each render
+        // sweeps it again, in its time and work; a traced ray reuses it if the light stayed ---
         auto light_and_sweep = [&](const Camera& camera, Work* render_work) {
             const Vec3 to_light = light_towards(camera);
             if (params.shadows != "volume" || params.unlit) return to_light;

@@ -460,8 +460,7 @@ struct Blocking {
 // q = p + d L on the slice before (d = s_a / |L_a|), times what the segment lets through:
 // T(p) = T(q) * (1 - alpha_d(v(q))). q is the same offset from every p, so T(q) and v(q) are
 // bilinear reads with the same weights; a q outside the box gets T = 1 (light from a side).
-// Plane after plane (c fixed), each slice by slice; with more threads a plane's slices in
-// `parts` runs, run p of plane n at stage n + p (it reads earlier stages').
+// Plane by plane (c fixed): threads take plane n's slices in `parts` runs, run p at stage n+p.
 static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
                                const Vec3d& to_light, bool corrected, int threads, Work& work) {
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -526,8 +525,7 @@ static LightVolume sweep_light(const Volume& volume, const TransferFunction& tf,
     return light;
 }
 
-// T_light at a sample from the light-transmittance volume: a trilinear read through the
-// sample's cell, as trilinear() reads the values.
+// T_light at a sample: the light volume read through the sample's cell, as trilinear() reads.
 static double light_from_volume(const Volume& volume, const LightVolume& light, const Cell& c) {
     auto at = [&](int i, int j, int k) { return light[volume.index(i, j, k)]; };
     const float low_low = lerp(at(c.i, c.j, c.k), at(c.i1, c.j, c.k), c.fi);
@@ -720,9 +718,8 @@ int main(int argc, char** argv) {
             return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
         };
 
-        // --- The light-transmittance volume (--shadows volume): the light turns with the
-        // camera, so every render sweeps it again, in the render's time and work; a traced ray
-        // (render_work null) reuses it while the light has not moved ---
+        // --- The light volume (--shadows volume): it turns with the camera, so each render
+        // sweeps it again, in its time and work; a traced ray reuses it if the light stayed ---
         auto light_and_sweep = [&](const Camera& camera, Work* render_work) {
             const Vec3 to_light = light_towards(camera);
             if (params.shadows != "volume" || params.unlit) return to_light;
