@@ -1,10 +1,9 @@
 // 31_empty_space_skipping.cpp: the first trick: leap over space that cannot change the pixel.
 //
-// New here:   step 24's leaping over empty bricks, timed on its own: the volume's min-max
-//             bricks (common/bricks.h, 8 voxels a side, made once per volume) and, per table,
-//             each empty brick's reach (the cube of empty bricks around it). A composite ray
-//             leaps out of that cube; a MIP ray leaps over a brick whose largest value is no
-//             more than its maximum so far. The same pictures as step 30, bit for bit.
+// New here:   step 24's leaping over empty bricks, timed on its own: min-max bricks (8 voxels
+//             a side, once per volume) and, per table, each empty brick's reach (the cube of
+//             empty bricks around it), which a composite ray leaps out of; a MIP ray leaps over
+//             bricks that cannot raise its maximum. The same pictures as step 30, bit for bit.
 // Defaults:   as step 14: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
 //             30 degrees right of the camera and 20 above it, a black background.
 // Builds on:  30_speed_baseline and 24_free_leaping (its leaping, along any ray).
