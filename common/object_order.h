@@ -3,13 +3,16 @@
 // output image, and the records of one output pixel's trace through the warp. Wiring only:
 // compositing a slice row, the shear and the warp's bilinear read are the steps' lessons.
 #pragma once
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 #include "error.h"
 #include "image.h"
 #include "render.h"
 #include "step.h"
+#include "transfer_function.h"
 #include "vec3.h"
 #include "view.h"
 #include "volume.h"
@@ -107,6 +110,72 @@ Rgb warp_traced(const WarpPoint& p, int width, int height, Trace* trace, Column 
     }
     auto pixel = [&](int u, int v) { return colours[(u - low_u) + 2 * (v - low_v)]; };
     return warp_pixel(p, width, height, pixel);
+}
+
+// One intermediate pixel's sample in one slice, for the one-pixel path below.
+struct ColumnSample {
+    bool inside = false;  // the pixel's cell lies in the slice (else no sample there)
+    Vec3d point;          // the sample's place, physical units (its trace record's)
+    float value = 0;      // its value
+};
+
+// Intermediate pixel alone, slices 0 .. slices - 1 front to back, as the step's row function
+// composites it (to the bit, the same counters): at(m) is its ColumnSample in slice m;
+// lut[value - lowest_ct_value] its RGBA; light(m) the light of a sample that is not
+// transparent; add(pixel, rgba, light) composites it. It stops once pixel.transparency is
+// below stop_below. Each sample is traced (when `trace`) at its distance along `ray` (the
+// output pixel's ray).
+template <class Pixel, class Ray, class At, class Light, class Add>
+Pixel composite_column(int slices, const Rgba* lut, double stop_below, const Ray& ray,
+                       Work& work, Trace* trace, At at, Light light, Add add) {
+    Pixel pixel;
+    for (int m = 0; m < slices; ++m) {
+        const ColumnSample s = at(m);
+        if (!s.inside) continue;
+        const Rgba& sample = lut[int(double(s.value) - lowest_ct_value)];
+        ++work.samples;
+        TraceSample record(dot(s.point - ray.origin, ray.direction), s.point, s.value);
+        if (sample.a == 0.0f) {
+            ++work.skipped;
+            if (trace) trace->sample(record.skipped());
+            continue;
+        }
+        const double sample_light = light(m);
+        add(pixel, sample, sample_light);
+        if (trace) {
+            record.rgba(sample).light(sample_light);  // what it gave, and the pixel after it
+            record.colour(pixel.r, pixel.g, pixel.b).transparency(pixel.transparency);
+            trace->sample(record);
+        }
+        if (pixel.transparency < stop_below) {
+            ++work.terminated;
+            if (trace) {
+                long long left = 0;  // the slices after this one the pixel would have met
+                for (int later = m + 1; later < slices; ++later) left += at(later).inside;
+                trace->stop(pixel.transparency, stop_below, left);
+            }
+            break;
+        }
+    }
+    return pixel;
+}
+
+// The maximum of the same samples (as the step's mip row keeps it), traced the same way;
+// -infinity when the pixel meets no slice.
+template <class Ray, class At>
+float maximum_column(int slices, const Ray& ray, Work& work, Trace* trace, At at) {
+    float highest = -std::numeric_limits<float>::infinity();
+    for (int m = 0; m < slices; ++m) {
+        const ColumnSample s = at(m);
+        if (!s.inside) continue;
+        highest = std::max(highest, s.value);
+        ++work.samples;
+        if (trace) {
+            trace->sample(TraceSample(dot(s.point - ray.origin, ray.direction), s.point, s.value)
+                              .max(highest));
+        }
+    }
+    return highest;
 }
 
 // Voxel (a, b, c) along the slices' axes as (i, j, k): `axes` names them (axes.a, axes.b and

@@ -760,81 +760,6 @@ static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
 
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
 
-// Intermediate pixel (u, v) alone, every slice front to back, with no runs: the cells outside
-// them give transparent samples, which change nothing, so it is composite_row()'s pixel, to
-// the bit. Its samples are traced (when `trace`) at their distance t along `ray`, the output
-// pixel's ray, which runs beside this pixel's at less than a voxel and a half.
-static Accumulated composite_column(const Scene& scene, int u, int v, const Ray& ray,
-                                    Work& work, Trace* trace) {
-    const Shear& shear = scene.shear;
-    const Volume& volume = scene.volume;
-    const double stop_below = std::max(scene.params.ert, min_transparency);
-    Accumulated pixel;
-    for (size_t m = 0; m < scene.shifts.size(); ++m) {
-        const SliceShift& s = scene.shifts[m];
-        const int a = u + s.ia, b = v + s.ib;
-        if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) continue;
-        const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
-        const float value = slice_value(&volume.data[index], s);
-        const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
-        ++work.samples;
-        // Its record: where it lies along the output pixel's ray, and its value.
-        const Vec3d point =
-            slice_point(volume, shear, a + double(s.fa), b + double(s.fb), s.slice);
-        TraceSample record(dot(point - ray.origin, ray.direction), point, value);
-        if (sample.a == 0.0f) {
-            ++work.skipped;
-            if (trace) trace->sample(record.skipped());
-            continue;
-        }
-        const double light = scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
-        add_sample(pixel, sample, light);
-        if (trace) {
-            record.rgba(sample).light(light);  // what it gave, and the pixel after it
-            record.colour(pixel.r, pixel.g, pixel.b).transparency(pixel.transparency);
-            trace->sample(record);
-        }
-        if (pixel.transparency < stop_below) {
-            ++work.terminated;
-            if (trace) {
-                long long left = 0;  // the slices after this one the pixel would have met
-                for (size_t later = m + 1; later < scene.shifts.size(); ++later) {
-                    const SliceShift& l = scene.shifts[later];
-                    left += u + l.ia >= 0 && u + l.ia <= l.last_a && v + l.ib >= 0 &&
-                            v + l.ib <= l.last_b;
-                }
-                trace->stop(pixel.transparency, stop_below, left);
-            }
-            break;
-        }
-    }
-    return pixel;
-}
-
-// mip_row()'s pixel (u, v) alone, traced as composite_column() traces.
-// Changed in step 36: each slice's shift, a bilinear sample.
-static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& work,
-                        Trace* trace) {
-    const Shear& shear = scene.shear;
-    const Volume& volume = scene.volume;
-    float highest = -std::numeric_limits<float>::infinity();
-    for (const SliceShift& s : scene.shifts) {
-        const int a = u + s.ia, b = v + s.ib;
-        if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) continue;
-        const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
-        const float value = slice_value(&volume.data[index], s);
-        highest = std::max(highest, value);
-        ++work.samples;
-        if (trace) {
-            const Vec3d point =
-                slice_point(volume, shear, a + double(s.fa), b + double(s.fb), s.slice);
-            trace->sample(TraceSample(dot(point - ray.origin, ray.direction), point, value)
-                              .max(highest));
-        }
-    }
-    return highest;
-}
-
 // An intermediate pixel's colour, from the pixel's composite or maximum (as the image's rows
 // give it): over the background, or the maximum's grey (no sample: the background).
 static Rgb composite_colour(const Accumulated& pixel) { return over_background(pixel); }
@@ -844,8 +769,8 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 }
 
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
-// composited alone, and the warp's blend of them, the image's pixel to the bit. The trace
-// follows each of the four sample by sample, with its weight in the blend.
+// composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
+// image's pixel to the bit. The trace follows each of the four sample by sample.
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;
@@ -855,10 +780,29 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
     trace_ray(trace, ray, intersect_box(ray, Vec3d{}, high), high, shear.spacing);
     const WarpPoint p = warp_at(make_warp(volume, shear, camera), x, y);
     trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
-    const bool mip = scene.params.mode == "mip";
+    const double stop_below = std::max(scene.params.ert, min_transparency);
     auto column = [&](int u, int v) {  // intermediate pixel (u, v) alone, traced
-        return mip ? mip_colour(volume, mip_column(scene, u, v, ray, work, trace))
-                   : composite_colour(composite_column(scene, u, v, ray, work, trace));
+        auto at = [&](int m) {  // its cell in slice m, if the slice holds it
+            const SliceShift& s = scene.shifts[m];
+            const int a = u + s.ia, b = v + s.ib;
+            if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) return ColumnSample{};
+            const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
+            return ColumnSample{true,
+                                slice_point(volume, shear, a + double(s.fa), b + double(s.fb),
+                                            s.slice),
+                                slice_value(&volume.data[index], s)};
+        };
+        auto light = [&](int m) {
+            const SliceShift& s = scene.shifts[m];
+            const int a = u + s.ia, b = v + s.ib;
+            return scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
+        };
+        if (scene.params.mode == "mip") {
+            return mip_colour(volume, maximum_column(shear.nc, ray, work, trace, at));
+        }
+        return composite_colour(composite_column<Accumulated>(
+            shear.nc, scene.lut.entries.data(), stop_below, ray, work, trace, at, light,
+            add_sample));
     };
     auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
         return warp_pixel(q, width, height, pixel);
