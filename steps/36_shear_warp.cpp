@@ -346,8 +346,6 @@ struct SliceShift {
     int last_a = 0, last_b = 0;  // the last cell: n - 1 when the fraction is 0, else n - 2
 };
 
-constexpr int mip_stretch = 16;  // pixels per vector loop of mip_row
-
 // Everything a render needs that is the same for every pixel.
 struct Scene {
     const Volume& volume;
@@ -498,9 +496,8 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
 //> lesson: mip
 // Row v of the maximum intensity: every cell the row meets in every slice, each pixel keeping
 // its highest sample. -infinity: none yet.
-// Every pixel of a slice row does the same sums on neighbouring voxels: in stretches of a
-// fixed length the compiler turns the loop into vector instructions (SSE2's four floats at a
-// time), the same floats as slice_value() one at a time.
+// A row of cells contiguous in memory goes first through max_in_stretches() (given: vector
+// instructions, the same floats as slice_value()).
 // Changed in step 36: each slice shifted, a sample bilinear in its cell.
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
     const Shear& shear = scene.shear;
@@ -512,19 +509,8 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
         const int u_low = std::max(0, -s.ia);
         const int u_high = std::min(shear.width, s.last_a + 1 - s.ia);
         int u = u_low;
-        if (shear.stride_a == 1) {  // a row of cells is contiguous: mip_stretch pixels at a time
-            const float fa = s.fa, fb = s.fb;  // (copies: a store to h[] cannot change them)
-            const int16_t* low = slice_row + s.ia;  // the cells' rows, from pixel 0
-            const int16_t* low_next = low + s.da;
-            const int16_t* high = low + s.db;
-            const int16_t* high_next = high + s.da;
-            for (; u + mip_stretch <= u_high; u += mip_stretch) {
-                float* h = highest + u;
-                const int16_t *p = low + u, *q = low_next + u, *r = high + u, *t = high_next + u;
-                for (int n = 0; n < mip_stretch; ++n) {  // a fixed length: vector instructions
-                    h[n] = std::max(h[n], lerp(lerp(p[n], q[n], fa), lerp(r[n], t[n], fa), fb));
-                }
-            }
+        if (shear.stride_a == 1) {  // a row of cells contiguous in memory: stretches at a time
+            u = max_in_stretches(highest, u, u_high, slice_row + s.ia, s.da, s.db, s.fa, s.fb);
         }
         for (; u < u_high; ++u) {
             const float value = slice_value(slice_row + size_t(u + s.ia) * shear.stride_a, s);
