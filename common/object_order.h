@@ -43,6 +43,24 @@ WarpMap affine_warp(Point point) {
             origin.v, along_x.v - origin.v, along_y.v - origin.v};
 }
 
+// The warp's affine map from the camera's rays: output pixel (x, y)'s ray, ray_of(x, y)
+// (origin and direction, physical), meets the first slice at voxel (a, b) of the slice, which
+// is intermediate pixel (a - base_a, b - base_b): the ray there is that pixel's ray.
+template <class Shear, class RayOf>
+WarpMap slice_warp(const Volume& volume, const Shear& shear, double base_a, double base_b,
+                   RayOf ray_of) {
+    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
+    auto in_voxels = [&](const Vec3d& p, int axis) { return p[axis] / spacing[axis]; };
+    return affine_warp([&](int x, int y) {
+        const auto ray = ray_of(x, y);
+        const double t = (shear.first_slice - in_voxels(ray.origin, shear.c)) /
+                         in_voxels(ray.direction, shear.c);  // to the first slice
+        return WarpPoint{
+            in_voxels(ray.origin, shear.a) + t * in_voxels(ray.direction, shear.a) - base_a,
+            in_voxels(ray.origin, shear.b) + t * in_voxels(ray.direction, shear.b) - base_b};
+    });
+}
+
 // The intermediate image, width x height, its rows handed to the threads (the rows' work
 // summed into `work`). Each row starts as `width` copies of `blank`; row(scene, v, values,
 // row_work) composites row v into them, and colour(value) turns each into its pixel.

@@ -680,23 +680,10 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
 }
 
-// Given: where output pixel (x, y)'s camera ray meets the first slice, in intermediate
-// pixels: the ray there is the ray of that intermediate pixel.
-// Changed in step 36: the ray meets the first slice at an angle, not straight along c.
-static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Camera& camera,
-                            int x, int y) {
-    const Ray ray = camera_ray(camera, x, y);
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
-    auto in_voxels = [&](const Vec3d& p, int axis) { return p[axis] / spacing[axis]; };
-    const double t = (shear.first_slice - in_voxels(ray.origin, shear.c)) /
-                     in_voxels(ray.direction, shear.c);
-    return {in_voxels(ray.origin, shear.a) + t * in_voxels(ray.direction, shear.a) - shear.base_a,
-            in_voxels(ray.origin, shear.b) + t * in_voxels(ray.direction, shear.b) - shear.base_b};
-}
-
-// Given: the affine map of the warp (common/object_order.h), from warp_point()'s points.
+// Given: the warp's affine map (common/object_order.h), from the camera's rays.
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
-    return affine_warp([&](int x, int y) { return warp_point(volume, shear, camera, x, y); });
+    auto ray = [&](int x, int y) { return camera_ray(camera, x, y); };
+    return slice_warp(volume, shear, shear.base_a, shear.base_b, ray);
 }
 
 //> lesson: warp
