@@ -15,7 +15,6 @@
 // Reference:  data/reference/38_opaque_pixels_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
-#include <ctime>   // std::clock: the precomputation's CPU time (the machine may be shared)
 using namespace ctlab;
 
 constexpr const char* step_name = "38_opaque_pixels";
@@ -348,8 +347,6 @@ struct SliceShift {
 
 // The cells of each slice row that the table may see (see find_runs), as runs of cells
 // [begin, end) along a. Made once per transfer function and principal axis.
-constexpr int runs_stretch = 16;  // cells tested at once first by find_runs (a slice's air);
-                                  // the folds in find_runs are written for 16
 
 struct Runs {
     int axis = -1;                // the principal axis they are for; -1: not made
@@ -484,57 +481,17 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
                 ++counts[c][b];
                 begin = -1;
             };
-            // A stretch of runs_stretch cells at a time: each cell's lowest and highest corner
-            // (a loop of fixed length over neighbouring values, which the compiler makes
-            // vector instructions), then the stretch's: most of a slice is air or soft tissue,
-            // clear as a whole. Rows along i are contiguous; others are copied first.
-            int16_t row_low[runs_stretch + 1], row_high[runs_stretch + 1];
-            int16_t cell_low[runs_stretch], cell_high[runs_stretch];
-            for (int from = 0; from < na; from += runs_stretch) {
-                const int to = std::min(from + runs_stretch, na);
-                const int16_t* p = &low[from];
-                const int16_t* q = &high[from];
-                if (sa != 1 || from + runs_stretch > na - 1) {  // copied, the edge repeated
-                    for (int n = 0; n <= runs_stretch; ++n) {
-                        const size_t a = size_t(std::min(from + n, na - 1)) * sa;
-                        row_low[n] = low[a];
-                        row_high[n] = high[a];
-                    }
-                    p = row_low;
-                    q = row_high;
-                }
-                for (int n = 0; n < runs_stretch; ++n) {
-                    cell_low[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
-                    cell_high[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
-                }
-                // The stretch's lowest and highest: halves folded onto each other, each fold a
-                // loop of fixed length (the cells past the slice's edge, in its last stretch,
-                // first take the first cell's values).
-                for (int n = to - from; n < runs_stretch; ++n) {
-                    cell_low[n] = cell_low[0];
-                    cell_high[n] = cell_high[0];
-                }
-                int16_t lowest[runs_stretch / 2], highest[runs_stretch / 2];
-                for (int n = 0; n < runs_stretch / 2; ++n) {
-                    lowest[n] = std::min(cell_low[n], cell_low[n + runs_stretch / 2]);
-                    highest[n] = std::max(cell_high[n], cell_high[n + runs_stretch / 2]);
-                }
-                for (int n = 0; n < runs_stretch / 4; ++n) {
-                    lowest[n] = std::min(lowest[n], lowest[n + runs_stretch / 4]);
-                    highest[n] = std::max(highest[n], highest[n + runs_stretch / 4]);
-                }
-                for (int n = 0; n < runs_stretch / 8; ++n) {
-                    lowest[n] = std::min(lowest[n], lowest[n + runs_stretch / 8]);
-                    highest[n] = std::max(highest[n], highest[n + runs_stretch / 8]);
-                }
-                lowest[0] = std::min(lowest[0], lowest[1]);
-                highest[0] = std::max(highest[0], highest[1]);
-                if (clear(lowest[0], highest[0])) {
+            // Given: cell_stretch cells at a time, each cell's lowest and highest corner and
+            // the stretch's (common/object_order.h): a stretch of air is clear as a whole.
+            CellStretch cells;
+            for (int from = 0; from < na; from += cell_stretch) {
+                cells.read(low, high, sa, na, from);
+                if (clear(cells.lowest, cells.highest)) {
                     run_ends(from);
                     continue;
                 }
-                for (int n = 0; n < to - from; ++n) {  // cell by cell
-                    if (clear(cell_low[n], cell_high[n])) {
+                for (int n = 0; n < cells.count; ++n) {  // cell by cell
+                    if (clear(cells.low[n], cells.high[n])) {
                         run_ends(from + n);
                     } else if (begin < 0) {
                         begin = from + n;
@@ -837,20 +794,10 @@ int main(int argc, char** argv) {
             }
             if (params.mode == "mip") return;
             if (runs[shear.c].axis >= 0) return;
-            const Timer timer;
-            const std::clock_t cpu_start = std::clock();
-            runs[shear.c] = find_runs(volume, shear, seen, options.threads);
-            const double ms = timer.ms();
-            precompute_ms += ms;
-            const Runs& made = runs[shear.c];
-            // Its cost, once per table and axis (the summary lines are the renders'): memory
-            // and time, in wall clock and CPU (the machine may be shared).
-            std::printf("precompute axis=%c run_cells=%zu of %zu runs=%zu runs_mb=%.2f "
-                        "ms=%.1f cpu_ms=%.1f\n",
-                        "ijk"[shear.c], made.cells, volume.voxel_count(), made.bounds.size() / 2,
-                        (made.bounds.size() * sizeof(int32_t) +
-                         made.first.size() * sizeof(uint32_t)) / 1048576.0,
-                        ms, 1000.0 * double(std::clock() - cpu_start) / CLOCKS_PER_SEC);
+            Runs& made = runs[shear.c];  // and its "precompute" line (common/object_order.h)
+            precompute_ms += timed_precompute(
+                shear.c, [&] { made = find_runs(volume, shear, seen, options.threads); },
+                [&] { return runs_held(made, volume.voxel_count()); });
         };
 
         // --- View: the camera's image (its camera is made for each render: the window turns
