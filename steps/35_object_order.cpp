@@ -1,17 +1,13 @@
 // 35_object_order.cpp: a different order of work, the one VolPack uses: object order. Rays
 // are not walked through the volume; the volume's slices are composited into the image.
 //
-// New here:   the camera looks along an axis of the volume (the orbit camera at multiples of
-//             90 degrees only; any other angle is refused: step 36 turns freely). Then each
-//             ray runs straight along one voxel column, and the slices of voxels across that
-//             axis can be composited front to back, slice after slice, into an image with one
-//             pixel per voxel column: one sample per voxel, read in memory order, the same
-//             light and table as step 30. A pixel already opaque is not composited further.
-//             The rows of this intermediate image go to the threads; warp_pixel() places it
-//             in the camera's image (a shift, a mirror and the zoom). The pictures are step
-//             30's along an axis (to rounding: one sample per slice, not per unit of length).
-//             Orthographic only; no --step; --work-map is refused: the work is counted per
-//             row of the intermediate image.
+// New here:   a camera along an axis of the volume (multiples of 90 degrees; step 36 turns
+//             freely): each ray runs down one voxel column, so the slices across that axis
+//             are composited front to back into an intermediate image, one pixel per column
+//             and one sample per voxel, read in memory order; warp_pixel() places that image
+//             in the camera's. Step 30's pictures along an axis (to rounding).
+//             Orthographic only; one sample per slice, so no --step. --work-map is refused:
+//             the work is counted per row of the intermediate image.
 // Builds on:  30_speed_baseline (its camera, table, gradients and light; not its rays).
 // Handout:    handouts/35_object_order.md
 // Run:        make run STEP=35 ARGS="--azimuth 90 --elevation 0 --size 256x256"
@@ -469,20 +465,6 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
 }
 //< lesson: warp
 
-// Given: warp_pixel() on the whole intermediate image, the four pixels read directly when they
-// are all inside it (the same numbers in the same order: the same float).
-static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
-    if (!(p.u >= 0 && p.u < image.width - 1 && p.v >= 0 && p.v < image.height - 1)) {
-        return warp_pixel(p, image.width, image.height,
-                          [&](int u, int v) { return image.pixels[size_t(v) * image.width + u]; });
-    }
-    const int u = int(p.u), v = int(p.v);  // >= 0: int() rounds down
-    const float fu = float(p.u - u), fv = float(p.v - v);
-    const Rgb* low = &image.pixels[size_t(v) * image.width + u];
-    const Rgb* high = low + image.width;
-    return mix_rgb(mix_rgb(low[0], low[1], fu), mix_rgb(high[0], high[1], fu), fv);
-}
-
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
 
 // An intermediate pixel's colour, from the pixel's composite or maximum (as the image's rows
@@ -613,17 +595,20 @@ int main(int argc, char** argv) {
                                          mip_row, [&](float h) { return mip_colour(volume, h); })
                     : intermediate_image(scene, shear.width, shear.height, options.threads,
                                          work, Accumulated{}, composite_row, composite_colour);
-            // warp_pixel() with the inside pixels read directly: 10M instructions less per
-            // 256x256 render than through a pixel(u, v) (callgrind, step 39, 1 thread).
-            return warp_image(view, options.threads, work, make_warp(volume, shear, frame.camera),
-                              [&](const WarpPoint& p) { return warp_inside(p, intermediate); });
+            auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
+                return warp_pixel(q, width, height, pixel);
+            };
+            auto mix = [](const Rgb& p, const Rgb& q, float f) { return mix_rgb(p, q, f); };
+            return warp_intermediate(view, options.threads, work,  // common/object_order.h
+                                     make_warp(volume, shear, frame.camera), intermediate, blend,
+                                     mix);
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Frame frame = frame_for(view);
             return shear_warp_pixel(scene_for(frame), frame.camera, x, y, work, trace);
         };
         renderer.ray_samples = [&](const View& view) {
-            const Shear shear = frame_for(view).shear;
+            const Shear shear = make_shear(volume, make_camera(volume, params, view));
             return slice_samples(shear.c, shear.spacing);
         };
         renderer.orbit = camera_orbit(&params);  // a quarter turn at a time

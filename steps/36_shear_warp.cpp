@@ -1,15 +1,12 @@
 // 36_shear_warp.cpp: object order from any orthographic camera: shear-warp (Lacroute &
 // Levoy 1994), the algorithm VolPack uses.
 //
-// New here:   the view is factored into a shear and a warp. The slices are those across the
-//             axis the rays run most along (the principal axis); each slice is shifted by the
-//             shear, so that a pixel of the intermediate image (one per voxel column) meets
-//             it at one bilinear sample, the same four weights for the whole slice, read in
-//             memory order; then one 2D warp takes that image to the camera's. Every cell of
-//             every slice is read (steps 37-39 add the tricks that skip work). Along an axis
-//             the pictures are step 35's bit for bit; at an angle a sample lies on every
-//             slice, not every unit of length, and the warp resamples the image: a stated
-//             error against step 30 (handout 36). Orthographic only, no --step, no --work-map.
+// New here:   the slices are those across the principal axis (the one the rays run most
+//             along), each shifted by the shear so that an intermediate pixel meets it at one
+//             bilinear sample, the same weights for the whole slice; then one warp. Along an
+//             axis step 35's pictures bit for bit; at an angle a stated error against step 30.
+//             Orthographic only; one sample per slice, so no --step. --work-map is refused:
+//             the work is counted per row of the intermediate image.
 // Builds on:  35_object_order (its slices, compositing and placing, along an axis only).
 // Handout:    handouts/36_shear_warp.md
 // Run:        make run STEP=36 ARGS="--azimuth 45 --elevation 30 --size 256x256"
@@ -548,20 +545,6 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
 }
 //< lesson: warp
 
-// Given: warp_pixel() on the whole intermediate image, the four pixels read directly when they
-// are all inside it (the same numbers in the same order: the same float).
-static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
-    if (!(p.u >= 0 && p.u < image.width - 1 && p.v >= 0 && p.v < image.height - 1)) {
-        return warp_pixel(p, image.width, image.height,
-                          [&](int u, int v) { return image.pixels[size_t(v) * image.width + u]; });
-    }
-    const int u = int(p.u), v = int(p.v);  // >= 0: int() rounds down
-    const float fu = float(p.u - u), fv = float(p.v - v);
-    const Rgb* low = &image.pixels[size_t(v) * image.width + u];
-    const Rgb* high = low + image.width;
-    return mix_rgb(mix_rgb(low[0], low[1], fu), mix_rgb(high[0], high[1], fu), fv);
-}
-
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
 
 // An intermediate pixel's colour, from the pixel's composite or maximum (as the image's rows
@@ -702,10 +685,13 @@ int main(int argc, char** argv) {
                                          mip_row, [&](float h) { return mip_colour(volume, h); })
                     : intermediate_image(scene, shear.width, shear.height, options.threads,
                                          work, Accumulated{}, composite_row, composite_colour);
-            // warp_pixel() with the inside pixels read directly: 10M instructions less per
-            // 256x256 render than through a pixel(u, v) (callgrind, step 39, 1 thread).
-            return warp_image(view, options.threads, work, make_warp(volume, shear, frame.camera),
-                              [&](const WarpPoint& p) { return warp_inside(p, intermediate); });
+            auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
+                return warp_pixel(q, width, height, pixel);
+            };
+            auto mix = [](const Rgb& p, const Rgb& q, float f) { return mix_rgb(p, q, f); };
+            return warp_intermediate(view, options.threads, work,  // common/object_order.h
+                                     make_warp(volume, shear, frame.camera), intermediate, blend,
+                                     mix);
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Frame frame = frame_for(view);

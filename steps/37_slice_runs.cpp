@@ -1,13 +1,11 @@
 // 37_slice_runs.cpp: shear-warp's second trick, VolPack's: each slice row keeps the runs of
 // cells the transfer function may see, and the rest of the volume is never read.
 //
-// New here:   step 36 reads every cell of every slice. Once per transfer function and
-//             principal axis, find_runs() keeps, per slice row, the runs of cells whose four
-//             corners do not all lie in one stretch of transparent table entries (a bilinear
-//             value lies between its cell's lowest and highest corner); composite_row() reads
-//             only those, and counts the others as leapt. The same samples that give light
-//             as step 36, in the same order: the same pictures. The runs' time and memory are
-//             printed on a "precompute" line, and precompute_ms= in the summary.
+// New here:   once per transfer function and principal axis, find_runs() keeps each slice
+//             row's runs of cells the table may see (a cell whose four corners all lie in one
+//             stretch of transparent entries is left out); composite_row() reads only those,
+//             and counts the rest as leapt. Step 36's pictures; the runs' cost is printed on a
+//             "precompute" line, and precompute_ms= in the summary.
 //             Orthographic only; one sample per slice, so no --step. --work-map is refused:
 //             the work is counted per row of the intermediate image.
 // Builds on:  36_shear_warp.
@@ -660,20 +658,6 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
 }
 //< lesson: warp
 
-// Given: warp_pixel() on the whole intermediate image, the four pixels read directly when they
-// are all inside it (the same numbers in the same order: the same float).
-static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
-    if (!(p.u >= 0 && p.u < image.width - 1 && p.v >= 0 && p.v < image.height - 1)) {
-        return warp_pixel(p, image.width, image.height,
-                          [&](int u, int v) { return image.pixels[size_t(v) * image.width + u]; });
-    }
-    const int u = int(p.u), v = int(p.v);  // >= 0: int() rounds down
-    const float fu = float(p.u - u), fv = float(p.v - v);
-    const Rgb* low = &image.pixels[size_t(v) * image.width + u];
-    const Rgb* high = low + image.width;
-    return mix_rgb(mix_rgb(low[0], low[1], fu), mix_rgb(high[0], high[1], fu), fv);
-}
-
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
 
 // An intermediate pixel's colour, from the pixel's composite or maximum (as the image's rows
@@ -826,10 +810,13 @@ int main(int argc, char** argv) {
                                          mip_row, [&](float h) { return mip_colour(volume, h); })
                     : intermediate_image(scene, shear.width, shear.height, options.threads,
                                          work, Accumulated{}, composite_row, composite_colour);
-            // warp_pixel() with the inside pixels read directly: 10M instructions less per
-            // 256x256 render than through a pixel(u, v) (callgrind, step 39, 1 thread).
-            return warp_image(view, options.threads, work, make_warp(volume, shear, frame.camera),
-                              [&](const WarpPoint& p) { return warp_inside(p, intermediate); });
+            auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
+                return warp_pixel(q, width, height, pixel);
+            };
+            auto mix = [](const Rgb& p, const Rgb& q, float f) { return mix_rgb(p, q, f); };
+            return warp_intermediate(view, options.threads, work,  // common/object_order.h
+                                     make_warp(volume, shear, frame.camera), intermediate, blend,
+                                     mix);
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Frame frame = frame_for(view);
