@@ -1,7 +1,9 @@
 // object_order.h: the wiring of the object-order steps (35 on), as cast_camera_rays() is ray
-// order's: the intermediate image's rows handed to the threads, the warp's loop over the
-// output image, and the records of one output pixel's trace through the warp. Wiring only:
-// compositing a slice row, the shear and the warp's bilinear read are the steps' lessons.
+// order's: the intermediate image's rows handed to the threads, the warp's map and its loop
+// over the output image, one output pixel alone with the records of its trace through the
+// warp, and the "precompute" line. Wiring, and two given loops of part 3's speed (vector
+// stretches for the maximum and for the runs): compositing a slice row, the shear, the runs
+// and the warp's bilinear read are the steps' lessons.
 #pragma once
 #include <algorithm>
 #include <cmath>

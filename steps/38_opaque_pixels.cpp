@@ -783,9 +783,10 @@ int main(int argc, char** argv) {
             if (params.mode == "mip") return;
             if (runs[shear.c].axis >= 0) return;
             Runs& made = runs[shear.c];  // and its "precompute" line (common/object_order.h)
-            precompute_ms += timed_precompute(
-                shear.c, [&] { made = find_runs(volume, shear, seen, options.threads); },
-                [&] { return runs_held(made, volume.voxel_count()); });
+            auto make = [&] { made = find_runs(volume, shear, seen, options.threads); };
+            precompute_ms += timed_precompute(shear.c, make, [&] {
+                return runs_held(made, volume.voxel_count());
+            });
         };
 
         // --- View: the camera's image (its camera is made for each render: the window turns
