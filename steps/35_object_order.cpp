@@ -501,9 +501,11 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
         if (scene.params.mode == "mip") {
             return mip_colour(volume, maximum_column(shear.nc, ray, work, trace, at));
         }
+        auto add = [](Accumulated& pixel, const Rgba& sample, double light_of_sample) {
+            add_sample(pixel, sample, light_of_sample);
+        };
         return composite_colour(composite_column<Accumulated>(
-            shear.nc, scene.lut.entries.data(), stop_below, ray, work, trace, at, light,
-            add_sample));
+            shear.nc, scene.lut.entries.data(), stop_below, ray, work, trace, at, light, add));
     };
     auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
         return warp_pixel(q, width, height, pixel);
