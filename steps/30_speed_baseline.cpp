@@ -1,12 +1,12 @@
 // 30_speed_baseline.cpp: part 3 begins: part 2's renderer, plain, as the start for its tricks.
 //
 // New here:   nothing to see: one program renders part 3's four bench cases (composite with
-//             the classic table, lit or --unlit; --mode mip, step 17's grey), so that each
+//             the classic table, lit or --unlit; --mode mip, step 18's grey), so that each
 //             trick of steps 31 on is timed against it and renders its pictures within the
 //             manifest's tolerance. Part 2's lesson code, unchanged: the dense volume, no caches.
-// Defaults:   as step 14: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+// Defaults:   as step 15: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
 //             30 degrees right of the camera and 20 above it, a black background.
-// Builds on:  14_trilinear (camera, slab, trilinear, lit compositing) and 17_projection_modes.
+// Builds on:  15_trilinear (camera, slab, trilinear, lit compositing) and 18_projection_modes.
 // Handout:    handouts/30_speed_baseline.md
 // Run:        make run STEP=30 ARGS="--mode mip --azimuth 180 --elevation 90 --size 256x256"
 // Reference:  data/reference/30_speed_baseline_camera.png: the default run, on the phantom.
@@ -381,7 +381,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 18.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -476,7 +476,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
 //< lesson: composite
 
 //> lesson: mip
-// Case d: step 17's maximum intensity along the same samples, from the first sample (CT
+// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
 // values go below 0), shown as grey; a ray that misses the box shows the background.
 // Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
 static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {

@@ -1,12 +1,12 @@
 // 31_empty_space_skipping.cpp: the first trick: leap over space that cannot change the pixel.
 //
-// New here:   step 24's leaping over empty bricks, timed on its own: min-max bricks (8 voxels
+// New here:   step 25's leaping over empty bricks, timed on its own: min-max bricks (8 voxels
 //             a side, once per volume) and, per table, each empty brick's reach (the cube of
 //             empty bricks around it), which a composite ray leaps out of; a MIP ray leaps over
 //             bricks that cannot raise its maximum. The same pictures as step 30, bit for bit.
-// Defaults:   as step 14: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+// Defaults:   as step 15: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
 //             30 degrees right of the camera and 20 above it, a black background.
-// Builds on:  30_speed_baseline and 24_free_leaping (its leaping, along any ray).
+// Builds on:  30_speed_baseline and 25_free_leaping (its leaping, along any ray).
 // Handout:    handouts/31_empty_space_skipping.md
 // Run:        make run STEP=31 ARGS="--mode mip --azimuth 180 --elevation 90 --size 256x256"
 // Reference:  data/reference/31_empty_space_skipping_camera.png: the default run, on the phantom.
@@ -473,7 +473,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 18.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -517,7 +517,7 @@ struct Scene {
 // each read by trilinear interpolation, classified by the table, lit where it is not
 // transparent, composited front to back; early ray termination as in step 08.
 // The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
-// Changed in step 31: step 24's leaping: a sample in an empty brick leaps past the empty
+// Changed in step 31: step 25's leaping: a sample in an empty brick leaps past the empty
 // cube around it (leap_past), and every sample leapt over would have been transparent.
 static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
@@ -579,7 +579,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
 //< lesson: composite
 
 //> lesson: mip
-// Case d: step 17's maximum intensity along the same samples, from the first sample (CT
+// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
 // values go below 0), shown as grey; a ray that misses the box shows the background.
 // Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
 // Changed in step 31: leaps over every brick whose largest value is no more than the maximum

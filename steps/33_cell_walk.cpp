@@ -8,7 +8,7 @@
 //             the position converted to int, the eight corners are its index plus three
 //             strides, read again only when the sample has left their cell. The pictures:
 //             step 30's within the manifest's tolerance (positions added up round differently).
-// Defaults:   as step 14: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+// Defaults:   as step 15: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
 //             30 degrees right of the camera and 20 above it, a black background.
 // Builds on:  32_gradient_table.
 // Handout:    handouts/33_cell_walk.md
@@ -644,7 +644,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 18.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -689,7 +689,7 @@ struct Scene {
 // each read by trilinear interpolation, classified by the table, lit where it is not
 // transparent, composited front to back; early ray termination as in step 08.
 // The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
-// Changed in step 31: step 24's leaping: a sample in an empty brick leaps past the empty
+// Changed in step 31: step 25's leaping: a sample in an empty brick leaps past the empty
 // cube around it (leap_past), and every sample leapt over would have been transparent.
 // Changed in step 32: a lit sample's gradient read from the table.
 // Changed in step 33: each sample's cell from the walk through the cells.
@@ -762,7 +762,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
 //< lesson: composite
 
 //> lesson: mip
-// Case d: step 17's maximum intensity along the same samples, from the first sample (CT
+// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
 // values go below 0), shown as grey; a ray that misses the box shows the background.
 // Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
 // Changed in step 31: leaps over every brick whose largest value is no more than the maximum

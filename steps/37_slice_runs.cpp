@@ -285,7 +285,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 18.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;

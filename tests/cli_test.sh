@@ -144,7 +144,7 @@ for source in steps/[0-9][0-9]_*.cpp; do
 
     # A good run: one PNG and one summary line per view, nothing on stderr. It traces a pixel
     # too (checked below): one render of the phantom serves both.
-    # Part 1 (00..11) renders the three axis views; part 2 (12 on) one camera picture, of its
+    # Part 1 (00..11) renders the three axis views; part 2 (13 on) one camera picture, of its
     # default size (512x512) in the first camera step and in a step with a --size flag of its
     # own (35 on; step 35's default is 256x256); the other camera steps take that flag from common/camera_flags.h, as the first
     # does, and render 64x48 here, traced at its centre (a 512x512 render of the phantom is up

@@ -78,7 +78,7 @@ constexpr int max_details = 4;             // lines of "look at" printed per ste
 constexpr int gap = 4;                     // pixels between the side-by-side panels
 constexpr int exit_pass = 0, exit_fail = 1;
 const std::vector<std::string> views = {"top", "front", "side"};
-// The pictures a run may write: part 1's views, or part 2's one camera picture (steps 12 on).
+// The pictures a run may write: part 1's views, or part 2's one camera picture (steps 13 on).
 const std::vector<std::string> pictures = {"top", "front", "side", "camera"};
 // The work counters of the summary line that a run must reproduce (common/render.h's Work).
 const std::vector<std::string> work_counters = {"samples", "skipped", "leapt",
