@@ -1,10 +1,10 @@
-// 13_free_camera.cpp: part 2 begins: any view, from an orbit camera.
+// 13_free_camera.cpp: any view, from an orbit camera.
 //
-// New here:   an orbit camera around the volume's box: a ray per pixel in physical space,
-//             sampled every --step inside the box, from the nearest voxel; the light turns too.
+// New here:   an orbit camera around the volume's box (azimuth, elevation, ortho or
+//             perspective): step 12's rays from any angle; the light turns with it.
 // Defaults:   azimuth 30, elevation 20, ortho, 512x512, --fov 30; the light 30 degrees right
 //             of the camera and 20 above it; a black background.
-// Builds on:  10_opacity_correction (step 11's leaping waits for a free ray: step 25).
+// Builds on:  12_physical_rays (rays in physical space, tested against the box).
 // Handout:    handouts/13_free_camera.md
 // Run:        make run STEP=13 ARGS="--azimuth 60 --projection perspective"
 // Reference:  data/reference/13_free_camera_camera.png: the default run, on the phantom.
@@ -225,11 +225,10 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 //< lesson: shade
 
 //> lesson: front_to_back
-// Step 10's compositing along the camera's ray, at t_mid + m * step (t_mid: the point of the
-// ray nearest the box's centre) for |m * step| <= half the box's diagonal and t >= 0 (an eye
-// inside the box). Only samples inside the box of voxel centres count, each read from its
-// nearest voxel: a camera along an axis samples the voxel centres as part 1 did.
-// Changed in step 13: along the camera's ray.
+// Step 10's compositing along a ray in physical space, at t_mid + m * step (t_mid: the point
+// of the ray nearest the box's centre) for |m * step| <= half the box's diagonal. Only samples
+// inside the box of voxel centres count, each read from its nearest voxel.
+// Changed in step 13: along the camera's ray; t >= 0 only (an eye inside the box).
 static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
                                            int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
                                            Trace* trace) {

@@ -90,7 +90,7 @@ constexpr int thread_counts[2] = {1, 2};
 // orthographic, 512x512, the classic table); VTK's CPU ray caster needs about 30 ms for it.
 constexpr double camera_budget_ms = 10;     // target: step 25 (composite, leaping), 2 threads
 constexpr double isosurface_budget_ms = 15;  // target: step 19 (the isosurface), 2 threads
-const char* const first_camera_step = "13_";  // part 2 begins: camera views only from here
+const char* const first_camera_step = "13_";  // camera views only from here (12: axis views)
 const char* const camera_step = "25_";       // the composite camera step's number (leaping)
 const char* const isosurface_step = "19_";   // checked once a step 19_* exists
 // Blocked light: a default picture usable in the window (shadow rays are allowed longer).
