@@ -502,7 +502,7 @@ TEST_CASE("free camera: step 14 is step 15's nearest picture, step 15 is step 25
 }
 
 // Step 13 tests every sample for being in the box, at whole steps from the box's centre; step
-// 11 walks from the box's entry to its exit. Looking straight down with part 1's top-view
+// 14 walks from the box's entry to its exit. Looking straight down with part 1's top-view
 // settings both sample the voxel centres, so the pictures and the work are the same, bit for
 // bit; from the default camera the samples lie elsewhere along the rays, and the pictures
 // differ by a few nearest-voxel staircases only.
@@ -521,4 +521,32 @@ TEST_CASE("free camera: step 13's test per sample is step 14's slab method along
               summary_count(b.summary("camera"), counter));
     }
     CHECK(summary_count(a.summary("camera"), "samples") > 0);
+}
+
+// Step 12 samples part 1's rays at whole steps from the box's centre. Along k on the phantom
+// (spacing 2, 113 slices: the centre is slice 56), --step 2 puts every sample on a slice, where
+// step 10's linear samples read that slice too: the same picture and the same work, bit for
+// bit. At --step 1 every other sample lies between two slices: step 12 reads the nearer one (a
+// half rounds up), step 10 interpolates, and the pictures differ.
+TEST_CASE("physical rays: step 12's top view at step 2 is step 10's, bit for bit") {
+    const std::string step12 = "12_physical_rays";
+    const std::vector<std::string>& phantom = ctlab_test::phantom_flags();
+    for (const char* step : {"2", "1"}) {
+        CAPTURE(step);
+        TempFolder ten("rays10"), twelve("rays12");
+        const RunResult a = render(part1, phantom, {"--view", "top", "--step", step}, ten);
+        const RunResult b = render(step12, phantom, {"--view", "top", "--step", step}, twelve);
+        const int differing = differing_pixels(pfm_of(ten, part1, "top"),
+                                               pfm_of(twelve, step12, "top"), false);
+        if (std::string(step) == "2") {
+            CHECK(differing == 0);
+            for (const char* counter : {"samples", "skipped", "gradients", "terminated"}) {
+                CAPTURE(counter);
+                CHECK(summary_count(a.summary("top"), counter) ==
+                      summary_count(b.summary("top"), counter));
+            }
+        } else {
+            CHECK(differing > 0);
+        }
+    }
 }
