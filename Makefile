@@ -451,9 +451,9 @@ carry-lab: export CTLAB_FROM := $(value FROM)
 carry-lab: $(BUILD)/carry
 	@'$(BUILD)/carry' --lab --function "$$CTLAB_FUNCTION" --from "$$CTLAB_FROM"
 
-# The README's pictures of the window's control panel: steps 07 and 24 on a virtual X display
+# The README's pictures of the window's control panel: steps 07 and 25 on a virtual X display
 # (xvfb-run), into handouts/panel_NN_name.png (tools/panel_screenshots.sh).
-screenshots: $(BUILD)/07_back_to_front $(BUILD)/24_free_leaping
+screenshots: $(BUILD)/07_back_to_front $(BUILD)/25_free_leaping
 	sh tools/panel_screenshots.sh $(BUILD) handouts
 
 # Rewrite every <!-- listing: FILE MARKER --> block in handouts/*.md from the code.

@@ -2,7 +2,7 @@
 // --azimuth, --elevation, --zoom, --projection, --fov and --size, the window's drag and wheel,
 // their part of the summary line, and the renderer's wiring of a camera made for each render.
 // Wiring only: the camera itself (make_camera() and camera_ray(), from these values) is step
-// 12's lesson, in the steps.
+// 13's lesson, in the steps.
 #pragma once
 #include <string>
 #include <type_traits>
@@ -57,7 +57,7 @@ std::string camera_settings(const CameraFlags& camera);
 //                                         camera (the direction towards the light, which
 //                                         turns with it), worked out once per render;
 //   pixel(camera, to_light, x, y, work, trace)   one ray's colour.
-// A light that does work of its own (step 22 sweeps a light volume) takes a second argument,
+// A light that does work of its own (step 23 sweeps a light volume) takes a second argument,
 // light(camera, Work* render_work): the render's work for an image, nullptr for one traced
 // ray (whose trace counts that ray's work only). The trace header reads "samples `step`
 // physical units apart" (step is read at each trace: the window's knob changes it).

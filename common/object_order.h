@@ -1,15 +1,23 @@
 // object_order.h: the wiring of the object-order steps (35 on), as cast_camera_rays() is ray
-// order's: the intermediate image's rows handed to the threads, the warp's loop over the
-// output image, and the records of one output pixel's trace through the warp. Wiring only:
-// compositing a slice row, the shear and the warp's bilinear read are the steps' lessons.
+// order's: the intermediate image's rows handed to the threads, the warp's map and its loop
+// over the output image, one output pixel alone with the records of its trace through the
+// warp, and the "precompute" line. Wiring, and two given loops of part 3's speed (vector
+// stretches for the maximum and for the runs): compositing a slice row, the shear, the runs
+// and the warp's bilinear read are the steps' lessons.
 #pragma once
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <ctime>
+#include <limits>
 #include <string>
 #include <vector>
 #include "error.h"
 #include "image.h"
 #include "render.h"
 #include "step.h"
+#include "transfer_function.h"
 #include "vec3.h"
 #include "view.h"
 #include "volume.h"
@@ -39,6 +47,24 @@ WarpMap affine_warp(Point point) {
             origin.v, along_x.v - origin.v, along_y.v - origin.v};
 }
 
+// The warp's affine map from the camera's rays: output pixel (x, y)'s ray, ray_of(x, y)
+// (origin and direction, physical), meets the first slice at voxel (a, b) of the slice, which
+// is intermediate pixel (a - base_a, b - base_b): the ray there is that pixel's ray.
+template <class Shear, class RayOf>
+WarpMap slice_warp(const Volume& volume, const Shear& shear, double base_a, double base_b,
+                   RayOf ray_of) {
+    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
+    auto in_voxels = [&](const Vec3d& p, int axis) { return p[axis] / spacing[axis]; };
+    return affine_warp([&](int x, int y) {
+        const auto ray = ray_of(x, y);
+        const double t = (shear.first_slice - in_voxels(ray.origin, shear.c)) /
+                         in_voxels(ray.direction, shear.c);  // to the first slice
+        return WarpPoint{
+            in_voxels(ray.origin, shear.a) + t * in_voxels(ray.direction, shear.a) - base_a,
+            in_voxels(ray.origin, shear.b) + t * in_voxels(ray.direction, shear.b) - base_b};
+    });
+}
+
 // The intermediate image, width x height, its rows handed to the threads (the rows' work
 // summed into `work`). Each row starts as `width` copies of `blank`; row(scene, v, values,
 // row_work) composites row v into them, and colour(value) turns each into its pixel.
@@ -64,6 +90,28 @@ Image warp_image(const View& view, int threads, Work& work, const WarpMap& warp,
         for (int x = 0; x < view.width; ++x) image.at(x, y) = pixel_at(warp_at(warp, x, y));
     });
     return image;
+}
+
+// The camera's image from the intermediate one (warp_image()): output pixel p is the step's
+// warp_pixel(p, width, height, pixel), except where the four intermediate pixels around p all
+// lie inside the image: those are read directly and blended by the step's mix(p, q, f), as
+// warp_pixel() blends them (the same numbers in the same order: the same float), 10 M
+// instructions less per 256x256 render than through a pixel(u, v) (callgrind, 1 thread).
+template <class WarpPixel, class Mix>
+Image warp_intermediate(const View& view, int threads, Work& work, const WarpMap& warp,
+                        const Image& image, WarpPixel warp_pixel, Mix mix) {
+    return warp_image(view, threads, work, warp, [&](const WarpPoint& p) {
+        if (!(p.u >= 0 && p.u < image.width - 1 && p.v >= 0 && p.v < image.height - 1)) {
+            return warp_pixel(p, image.width, image.height, [&](int u, int v) {
+                return image.pixels[size_t(v) * image.width + u];
+            });
+        }
+        const int u = int(p.u), v = int(p.v);  // >= 0: int() rounds down
+        const float fu = float(p.u - u), fv = float(p.v - v);
+        const Rgb* low = &image.pixels[size_t(v) * image.width + u];
+        const Rgb* high = low + image.width;
+        return mix(mix(low[0], low[1], fu), mix(high[0], high[1], fu), fv);
+    });
 }
 
 // The trace's note of where output pixel's ray meets the first slice (slice `first_slice`
@@ -107,6 +155,178 @@ Rgb warp_traced(const WarpPoint& p, int width, int height, Trace* trace, Column 
     }
     auto pixel = [&](int u, int v) { return colours[(u - low_u) + 2 * (v - low_v)]; };
     return warp_pixel(p, width, height, pixel);
+}
+
+// One intermediate pixel's sample in one slice, for the one-pixel path below.
+struct ColumnSample {
+    bool inside = false;  // the pixel's cell lies in the slice (else no sample there)
+    Vec3d point;          // the sample's place, physical units (its trace record's)
+    float value = 0;      // its value
+};
+
+// Intermediate pixel alone, slices 0 .. slices - 1 front to back, as the step's row function
+// composites it (to the bit, the same counters): at(m) is its ColumnSample in slice m;
+// lut[value - lowest_ct_value] its RGBA; light(m) the light of a sample that is not
+// transparent; add(pixel, rgba, light) composites it. It stops once pixel.transparency is
+// below stop_below. Each sample is traced (when `trace`) at its distance along `ray` (the
+// output pixel's ray).
+template <class Pixel, class Ray, class At, class Light, class Add>
+Pixel composite_column(int slices, const Rgba* lut, double stop_below, const Ray& ray,
+                       Work& work, Trace* trace, At at, Light light, Add add) {
+    Pixel pixel;
+    for (int m = 0; m < slices; ++m) {
+        const ColumnSample s = at(m);
+        if (!s.inside) continue;
+        const Rgba& sample = lut[int(double(s.value) - lowest_ct_value)];
+        ++work.samples;
+        TraceSample record(dot(s.point - ray.origin, ray.direction), s.point, s.value);
+        if (sample.a == 0.0f) {
+            ++work.skipped;
+            if (trace) trace->sample(record.skipped());
+            continue;
+        }
+        const double sample_light = light(m);
+        add(pixel, sample, sample_light);
+        if (trace) {
+            record.rgba(sample).light(sample_light);  // what it gave, and the pixel after it
+            record.colour(pixel.r, pixel.g, pixel.b).transparency(pixel.transparency);
+            trace->sample(record);
+        }
+        if (pixel.transparency < stop_below) {
+            ++work.terminated;
+            if (trace) {
+                long long left = 0;  // the slices after this one the pixel would have met
+                for (int later = m + 1; later < slices; ++later) left += at(later).inside;
+                trace->stop(pixel.transparency, stop_below, left);
+            }
+            break;
+        }
+    }
+    return pixel;
+}
+
+// The maximum of the same samples (as the step's mip row keeps it), traced the same way;
+// -infinity when the pixel meets no slice.
+template <class Ray, class At>
+float maximum_column(int slices, const Ray& ray, Work& work, Trace* trace, At at) {
+    float highest = -std::numeric_limits<float>::infinity();
+    for (int m = 0; m < slices; ++m) {
+        const ColumnSample s = at(m);
+        if (!s.inside) continue;
+        highest = std::max(highest, s.value);
+        ++work.samples;
+        if (trace) {
+            trace->sample(TraceSample(dot(s.point - ray.origin, ray.direction), s.point, s.value)
+                              .max(highest));
+        }
+    }
+    return highest;
+}
+
+// The maximum intensity's speed trick (given, part 3): a slice row of cells contiguous in
+// memory (cell u's corners low[u], low[u + da], low[u + db], low[u + da + db]) sampled in
+// stretches of max_stretch pixels from u, while a whole stretch lies before u_high: a loop of
+// fixed length over neighbouring values, which the compiler turns into vector instructions
+// (SSE2's four floats at a time). Each pixel keeps the higher of highest[u] and its bilinear
+// sample, the step's lerp(lerp(p, q, fa), lerp(r, t, fa), fb) to the bit. Returns the first
+// pixel not done, for the step's own loop.
+constexpr int max_stretch = 16;  // pixels per vector loop
+inline int max_in_stretches(float* highest, int u, int u_high, const int16_t* low, size_t da,
+                            size_t db, float fa, float fb) {
+    auto lerp = [](float a, float b, float f) { return a + f * (b - a); };  // the step's
+    const int16_t* low_next = low + da;
+    const int16_t* high = low + db;
+    const int16_t* high_next = high + da;
+    for (; u + max_stretch <= u_high; u += max_stretch) {
+        float* h = highest + u;
+        const int16_t *p = low + u, *q = low_next + u, *r = high + u, *t = high_next + u;
+        for (int n = 0; n < max_stretch; ++n) {  // a fixed length: vector instructions
+            h[n] = std::max(h[n], lerp(lerp(p[n], q[n], fa), lerp(r[n], t[n], fa), fb));
+        }
+    }
+    return u;
+}
+
+// The runs' speed trick (given, part 3): cell_stretch cells of a slice row at a time, from
+// cell `from` of na. Cell n's corners are low_row[n], low_row[n + 1], high_row[n] and
+// high_row[n + 1] (voxels sa apart along the row; the last voxel repeated at its end). Each
+// cell's lowest and highest corner, then the stretch's (halves folded onto each other), in
+// loops of fixed length over neighbouring values, which the compiler turns into vector
+// instructions: most stretches of a slice are air or soft tissue, clear as a whole.
+constexpr int cell_stretch = 16;  // cells; the folds in read() are written for 16
+struct CellStretch {
+    int count = 0;                                  // cells in it: fewer at the row's end
+    int16_t low[cell_stretch], high[cell_stretch];  // each cell's lowest and highest corner
+    int16_t lowest = 0, highest = 0;                // the whole stretch's
+
+    // Inlined always: a call per stretch cost 12 M instructions more per find_runs() of the
+    // phantom (callgrind, step 37 along k), the folds' arrays kept in registers no longer.
+    [[gnu::always_inline]] void read(const int16_t* low_row, const int16_t* high_row, size_t sa,
+                                     int na, int from) {
+        count = std::min(from + cell_stretch, na) - from;
+        const int16_t* p = &low_row[from];
+        const int16_t* q = &high_row[from];
+        int16_t row_low[cell_stretch + 1], row_high[cell_stretch + 1];
+        if (sa != 1 || from + cell_stretch > na - 1) {  // copied, the edge repeated
+            for (int n = 0; n <= cell_stretch; ++n) {
+                const size_t a = size_t(std::min(from + n, na - 1)) * sa;
+                row_low[n] = low_row[a];
+                row_high[n] = high_row[a];
+            }
+            p = row_low;
+            q = row_high;
+        }
+        for (int n = 0; n < cell_stretch; ++n) {
+            low[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
+            high[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
+        }
+        for (int n = count; n < cell_stretch; ++n) {  // past the row's end: the first cell's
+            low[n] = low[0];
+            high[n] = high[0];
+        }
+        int16_t l[cell_stretch / 2], h[cell_stretch / 2];
+        for (int n = 0; n < cell_stretch / 2; ++n) {
+            l[n] = std::min(low[n], low[n + cell_stretch / 2]);
+            h[n] = std::max(high[n], high[n + cell_stretch / 2]);
+        }
+        for (int n = 0; n < cell_stretch / 4; ++n) {
+            l[n] = std::min(l[n], l[n + cell_stretch / 4]);
+            h[n] = std::max(h[n], h[n + cell_stretch / 4]);
+        }
+        for (int n = 0; n < cell_stretch / 8; ++n) {
+            l[n] = std::min(l[n], l[n + cell_stretch / 8]);
+            h[n] = std::max(h[n], h[n + cell_stretch / 8]);
+        }
+        lowest = std::min(l[0], l[1]);
+        highest = std::max(h[0], h[1]);
+    }
+};
+
+// A table made once per transfer function and principal axis, and its cost, on a line of its
+// own (the summary lines are the renders'): make() makes it, what() says what it holds, and
+// the line adds the time it took, wall clock and CPU (the machine may be shared):
+// "precompute axis=k <what> ms=47.8 cpu_ms=11.6". Returns the wall clock ms.
+template <class Make, class What>
+double timed_precompute(int axis, Make make, What what) {
+    const Timer timer;
+    const std::clock_t cpu_start = std::clock();
+    make();
+    const double ms = timer.ms();
+    const std::string held = what();
+    std::printf("precompute axis=%c %s ms=%.1f cpu_ms=%.1f\n", "ijk"[axis], held.c_str(), ms,
+                1000.0 * double(std::clock() - cpu_start) / CLOCKS_PER_SEC);
+    return ms;
+}
+
+// The runs' part of that line: the cells in runs of the volume's voxels, the runs, their MB.
+template <class Runs>
+std::string runs_held(const Runs& runs, size_t voxels) {
+    char text[200];
+    std::snprintf(text, sizeof text, "run_cells=%zu of %zu runs=%zu runs_mb=%.2f", runs.cells,
+                  voxels, runs.bounds.size() / 2,
+                  (runs.bounds.size() * sizeof(runs.bounds[0]) +
+                   runs.first.size() * sizeof(runs.first[0])) / 1048576.0);
+    return text;
 }
 
 // Voxel (a, b, c) along the slices' axes as (i, j, k): `axes` names them (axes.a, axes.b and

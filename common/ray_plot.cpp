@@ -240,7 +240,7 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
                                   record.number("direction.k", 0)};
                 continue;
             case TraceKind::sample:
-            case TraceKind::bisection:  // step 16's halvings are samples of the ray too
+            case TraceKind::bisection:  // step 17's halvings are samples of the ray too
                 break;
             default:
                 break;
@@ -248,7 +248,7 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
         switch (record.kind) {
             case TraceKind::hit:
                 if (record.has("t")) {
-                    // part 2's surface hit (step 16)
+                    // part 2's surface hit (step 17)
                     t = record.number("t", 0);
                     plot.marks.push_back({RayMark::hit, t, t});
                 } else if (!view.camera) {

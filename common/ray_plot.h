@@ -11,7 +11,7 @@
 //   a sample   a sample record (or a bisection's) at "t" (physical units) or "n" (sample
 //              index, one per voxel), with "value" and what it has of "rgba.a", "L", "C.r..b",
 //              "T", "max"; a sample that hit the threshold is marked as a hit
-//   hit        a hit record: step 05's crossing at n + fraction, step 16's hit point at "t"
+//   hit        a hit record: step 05's crossing at n + fraction, step 17's hit point at "t"
 //   terminated a stop record, at the last sample's "t" or "n"
 //   leapt      a leap record: from "t" to "t_end"
 //   the box    part 2: a box record, entry "t" to "t_exit" (or that the ray missed the box)

@@ -53,12 +53,12 @@ private:
 // made from the records. Nothing reads a printed line back.
 enum class TraceKind {
     sample,     // one sample along the ray: where it is, its value, what it gave
-    hit,        // the ray met the surface: step 05's crossing, step 16's hit point
+    hit,        // the ray met the surface: step 05's crossing, step 17's hit point
     leap,       // samples leapt over (bricks known to be empty)
     stop,       // early ray termination: the samples left are not visited
     ray,        // part 2: the camera ray, origin and direction
     box,        // part 2: where the ray enters and leaves the volume's box, or that it missed
-    bisection,  // step 18: one halving of the bracket around the crossing
+    bisection,  // step 19: one halving of the bracket around the crossing
     shade,      // the light at a hit: gradient and shade, Phong's terms
     note,       // anything else a lesson says, with its numbers named
 };
@@ -95,12 +95,12 @@ public:
 
     TraceSample& grey(double grey);                          // step 00's grey level
     TraceSample& max(double highest);                        // step 01: the maximum so far
-    TraceSample& projection(double highest, double lowest, double mean);  // step 17
+    TraceSample& projection(double highest, double lowest, double mean);  // step 18
     TraceSample& threshold_hit(bool above);                  // "> threshold: hit" when above
     TraceSample& skipped();                                  // "transparent: skipped"
-    TraceSample& iso(bool above);                            // step 18: "> iso" or "<= iso"
+    TraceSample& iso(bool above);                            // step 19: "> iso" or "<= iso"
     TraceSample& rgba(const Rgba& colour);                   // the table's colour and alpha
-    // Steps 21-22: light reaching the sample and the shadow ray's work; step 23 adds
+    // Steps 22-23: light reaching the sample and the shadow ray's work; step 24 adds
     // ambient occlusion (its probes' reads counted with the shadow ray's).
     TraceSample& shadow(double light_transmittance, unsigned long long samples,
                         unsigned long long leapt);
@@ -144,12 +144,12 @@ public:
     void sample(const TraceSample& sample);
     // Step 05: the threshold crossed between samples n and n + 1, a fraction of the way.
     void crossing(int n, double fraction);
-    // Step 18: the surface's hit point, its normal, and where the normal came from.
+    // Step 19: the surface's hit point, its normal, and where the normal came from.
     void surface_hit(double t, const Vec3d& point, const Vec3& normal, const char* from);
     // Step 11: samples from t = from to t = to leapt over, empty bricks up to voxel last_voxel.
     void leap_to_voxel(double from, double to, long long samples, int last_voxel);
     // Part 2: samples from t = from to t = to leapt over, empty bricks of reach `reach`
-    // (below_iso: step 16's bricks whose values are all at or below the iso value).
+    // (below_iso: step 17's bricks whose values are all at or below the iso value).
     void leap(double from, double to, long long samples, int reach, bool below_iso = false);
     // Early ray termination at the last sample recorded: T fell below `threshold`.
     void stop(double transparency, double threshold, long long not_visited);
@@ -159,19 +159,19 @@ public:
     // and leaves the box (0,0,0)..high, and the step along it.
     void box(const Vec3d& high, double t_entry, const Vec3d& entry, int entry_axis,
              double t_exit, const Vec3d& exit, double step);
-    // Step 18: one halving of the bracket [from, to] around the crossing.
+    // Step 19: one halving of the bracket [from, to] around the crossing.
     void bisection(int iteration, double t, double value, bool above, double from, double to);
     void gradient(const Vec3& gradient, double shade);  // steps 04-05: the light at the hit
-    // Step 19: the Phong terms at the hit (L and V unit vectors towards light and viewer).
+    // Step 20: the Phong terms at the hit (L and V unit vectors towards light and viewer).
     void phong(const Vec3& to_light, const Vec3& to_viewer, double ambient, double diffuse,
                double specular, double shininess);
-    // Step 16: the jitter's u (0..1) and how far past the entry the first sample lies.
+    // Step 17: the jitter's u (0..1) and how far past the entry the first sample lies.
     void jitter(const std::string& mode, double u, double past_entry);
-    // Step 20: the clip plane n.p <= d; the ray's span left by it (from, to), entering
+    // Step 21: the clip plane n.p <= d; the ray's span left by it (from, to), entering
     // through the plane or not, or (cut_away) none of it.
     void clip(const Vec3d& normal, double d, bool cut_away, double from = 0, double to = 0,
               bool entering = false);
-    // Step 18: the first crossing lies between t = from and t = to: bisection follows.
+    // Step 19: the first crossing lies between t = from and t = to: bisection follows.
     void bracket(double from, double to, double tolerance);
     // Anything else: the line printf-formatted, and its numbers named in `fields`.
     void note(std::vector<TraceField> fields, const char* format, ...)

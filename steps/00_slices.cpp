@@ -1,7 +1,6 @@
 // 00_slices.cpp: look inside the volume one slice at a time.
 //
-// New here:   reading cthead[k][j][i]; showing CT values as grey, min..max -> 0..1 in floating
-//             point; histogram equalisation computed over the whole 3D volume (--equalise).
+// New here:   reading cthead[k][j][i]; CT values as grey, min..max or --equalise (over 3D).
 // Builds on:  nothing: this is the first step.
 // Handout:    handouts/00_slices.md
 // Run:        make run STEP=00 ARGS="--view front --slice 128"

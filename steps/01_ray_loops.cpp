@@ -1,7 +1,6 @@
 // 01_ray_loops.cpp: a ray through every pixel; maximum intensity projection (MIP).
 //
-// New here:   the three axis-aligned ray loops written out in full (for y, for x, for the ray
-//             axis); the first ray function, MIP: the largest value met along the ray.
+// New here:   the ray loops written out (for y, for x, along the ray); MIP: the largest value.
 // Builds on:  00_slices (the same min..max grey mapping).
 // Handout:    handouts/01_ray_loops.md
 // Run:        make run STEP=01 ARGS="--view side"

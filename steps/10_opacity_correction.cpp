@@ -1,9 +1,7 @@
 // 10_opacity_correction.cpp: sample in physical units, and correct the opacity for the step.
 //
-// New here:   samples --step physical units apart, linear between the voxels along the ray
-//             (values and gradients, as in step 05), their opacity corrected for the step: the
-//             picture keeps its opacity at any step and in every view (CThead's slices are 2
-//             units apart, its rows and columns 1).
+// New here:   samples --step physical units apart, linear between voxels (as in step 05), with
+//             opacity corrected for the step: the picture keeps its opacity at any step.
 // Builds on:  09_lit_compositing (lit front to back with early ray termination).
 // Handout:    handouts/10_opacity_correction.md
 // Run:        make run STEP=10 ARGS="--step 0.5 --view top"
@@ -92,14 +90,11 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 //< lesson: lookup_table
 
 //> lesson: sample_along_ray
-// The CT value `position` voxels along the ray of pixel (x, y) (fractional): linear between
-// the two voxels on the ray axis around it. Past the last voxel it stays at the last one:
-// nothing outside is read.
-static float value_along_ray(const Volume& volume, const View& view, int x, int y,
-                             double position) {
-    const int before = std::min(int(position), view.ray_length - 1);
+// The CT value a fraction (0..1) of the way from the ray's voxel `before` to the next one:
+// linear between the two; past the last voxel it stays at the last one (nothing outside).
+static float value_along_ray(const Volume& volume, const View& view, int x, int y, int before,
+                             float fraction) {
     const int after = std::min(before + 1, view.ray_length - 1);
-    const float fraction = float(position - before);
     const Voxel voxel_before = view.voxel(x, y, before), voxel_after = view.voxel(x, y, after);
     const float value_before = volume.at(voxel_before.i, voxel_before.j, voxel_before.k);
     const float value_after = volume.at(voxel_after.i, voxel_after.j, voxel_after.k);
@@ -162,8 +157,7 @@ static Vec3 light_direction(const View& view, double angle) {
 }
 //< lesson: shade
 
-// Samples along a ray of `view`, `step` physical units apart: its depth over the step, at
-// least one. check_sample_count() keeps it within an int.
+// Samples along a ray: its depth over `step`, at least one (an int: too_many_samples()).
 static int samples_along_ray(const View& view, double step) {
     return std::max(1, int(std::lround(view.ray_length * view.ray_spacing / step)));
 }
@@ -175,9 +169,8 @@ static int samples_along_ray(const View& view, double step) {
 // than T*max(c): stop there (early ray termination). Even with --ert 0, stop once T is below
 // 1e-300: nothing behind can show, and one more sample (T times 1 - alpha, at least 6e-8 for
 // a float alpha < 1) could make T subnormal (below 2.2e-308), where arithmetic is slow.
-// Samples are `step` physical units apart and each stands for `step` units of the volume's
-// depth; the light L (0..1) darkens the colour only, never the opacity.
-// Changed in step 10: samples `step` units apart, between the voxels.
+// The light L (0..1) darkens the colour only, never the opacity.
+// Changed in step 10: samples `step` physical units apart, between the voxels.
 static Accumulated composite_front_to_back(const Volume& volume, const View& view, int x, int y,
                                            const Lut& lut, Vec3 to_light, const Params& params,
                                            Work& work, Trace* trace) {
@@ -190,7 +183,7 @@ static Accumulated composite_front_to_back(const Volume& volume, const View& vie
         const double position = n * voxels_per_sample;  // the same in voxels, fractional
         const int before = std::min(int(position), view.ray_length - 1);  // voxel at or before
         const float fraction = float(position - before);  // of the way to the next voxel, 0..1
-        const float value = value_along_ray(volume, view, x, y, position);
+        const float value = value_along_ray(volume, view, x, y, before, fraction);
         // The entry of the whole value at or below it (the range [from, to) it falls into):
         // value - lowest_ct_value >= 0, so int() rounds down.
         const Rgba& sample = lut.entries[int(double(value) - lowest_ct_value)];
@@ -236,8 +229,8 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Translucent skin over bone, lit by the gradient, sampled every "
-                             "--step physical units with opacity correction.");
+        Args args(step_name, "Translucent skin over bone, composited front to back, each "
+                             "sample lit, --step units apart, with opacity correction.");
         args.add_string("--tf", &params.tf_path,
                         "transfer function file (default data/tf/classic.tf)");
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,

@@ -1,21 +1,15 @@
-// 30_speed_baseline.cpp: part 3 begins: part 2's renderer as the plain start for the speed
-// tricks that follow, one trick per step.
+// 30_speed_baseline.cpp: part 3 begins: part 2's renderer, plain, as the start for its tricks.
 //
-// New here:   nothing to see: one program renders all four of part 3's bench cases, so that
-//             every later step can be timed and compared against it. Composite with the
-//             classic table, lit (part 2's light) or --unlit, or the maximum intensity
-//             (--mode mip, step 17's grey), from step 12's orbit camera and its flags,
-//             trilinear samples every --step, early ray termination. The code is plain lesson
-//             code, part 2's unchanged: the dense volume, every gradient from the voxels,
-//             every sample read, no caches. Each trick of steps 31 on is measured against
-//             this step and renders its pictures within the manifest's tolerance.
-// Builds on:  14_trilinear (camera, slab method, trilinear, lit compositing; step 24's
-//             leaping over empty bricks is step 31's trick here) and 17_projection_modes
-//             (MIP).
+// New here:   nothing to see: one program renders part 3's four bench cases (composite with
+//             the classic table, lit or --unlit; --mode mip, step 18's grey), so that each
+//             trick of steps 31 on is timed against it and renders its pictures within the
+//             manifest's tolerance. Part 2's lesson code, unchanged: the dense volume, no caches.
+// Defaults:   as step 15: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+//             30 degrees right of the camera and 20 above it, a black background.
+// Builds on:  15_trilinear (camera, slab, trilinear, lit compositing) and 18_projection_modes.
 // Handout:    handouts/30_speed_baseline.md
 // Run:        make run STEP=30 ARGS="--mode mip --azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/30_speed_baseline_camera.png: the default run (lit composite,
-//             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// Reference:  data/reference/30_speed_baseline_camera.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
@@ -387,7 +381,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 18.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -426,10 +420,10 @@ struct Scene {
 };
 
 //> lesson: composite
-// Case a, b and c: part 2's compositing along the camera's ray, without its leaping: samples
-// at t_entry + n * step until t_exit, each read by trilinear interpolation, classified by the
-// table, lit where it is not transparent (unless --unlit), composited front to back, until T
-// falls below the early-termination threshold.
+// Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
+// each read by trilinear interpolation, classified by the table, lit where it is not
+// transparent, composited front to back; early ray termination as in step 08.
+// The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
 static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Params& params = scene.params;
@@ -446,6 +440,8 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
         const Cell cell = cell_at(volume, q, params.nearest);
         const double t = span.t_entry + n * params.step;  // physical units along the ray
         const float value = sample_value(volume, cell, params.nearest);
+        // The entry of the whole value at or below it (the range [from, to) it falls into):
+        // value - lowest_ct_value >= 0, so int() rounds down.
         const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
@@ -458,7 +454,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
         if (!params.unlit) {
             light = shade(sample_gradient(volume, cell, params.nearest, work), scene.to_light);
         }
-        const double alpha = sample.a;
+        const double alpha = sample.a;  // the opacity, after the TF
         const double weight = pixel.transparency * alpha * light;
         pixel.r += weight * sample.r;
         pixel.g += weight * sample.g;
@@ -480,7 +476,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
 //< lesson: composite
 
 //> lesson: mip
-// Case d: step 17's maximum intensity along the same samples, from the first sample (CT
+// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
 // values go below 0), shown as grey; a ray that misses the box shows the background.
 // Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
 static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
@@ -512,8 +508,7 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Part 3's starting point: composite (lit or unlit) or maximum "
-                             "intensity from an orbit camera, plain code, for the bench.");
+        Args args(step_name, "Part 3's start: part 2's plain renderer, for the bench's cases.");
         args.add_choice("--mode", &params.mode, {"composite", "mip"},
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,

@@ -1,18 +1,15 @@
 // 31_empty_space_skipping.cpp: the first trick: leap over space that cannot change the pixel.
 //
-// New here:   step 24's empty-space leaping, brought back into part 3's renderer and timed on
-//             its own: the volume's min-max bricks (common/bricks.h, 8 voxels a side, made
-//             once per volume) and, for the table, each empty brick's reach (the cube of
-//             empty bricks around it). A composite ray in an empty brick leaps to where it
-//             leaves that cube (every sample leapt over is transparent). A MIP ray leaps over
-//             a brick whose largest value is no more than the ray's maximum so far (none of
-//             its samples can raise it). The same pictures as step 30, bit for bit.
-// Builds on:  30_speed_baseline and 24_free_leaping (its leaping over empty bricks, along
-//             any ray).
+// New here:   step 25's leaping over empty bricks, timed on its own: min-max bricks (8 voxels
+//             a side, once per volume) and, per table, each empty brick's reach (the cube of
+//             empty bricks around it), which a composite ray leaps out of; a MIP ray leaps over
+//             bricks that cannot raise its maximum. The same pictures as step 30, bit for bit.
+// Defaults:   as step 15: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+//             30 degrees right of the camera and 20 above it, a black background.
+// Builds on:  30_speed_baseline and 25_free_leaping (its leaping, along any ray).
 // Handout:    handouts/31_empty_space_skipping.md
 // Run:        make run STEP=31 ARGS="--mode mip --azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/31_empty_space_skipping_camera.png: the default run (lit
-//             composite, azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// Reference:  data/reference/31_empty_space_skipping_camera.png: the default run, on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
@@ -476,7 +473,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 18.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -516,10 +513,12 @@ struct Scene {
 };
 
 //> lesson: composite
-// Case a, b and c: step 30's compositing with step 24's leaping: a sample in an empty brick
-// leaps past the empty cube around it (leap_past), and every sample leapt over would have
-// been transparent.
-// Changed in step 31: the leaping is this step's trick.
+// Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
+// each read by trilinear interpolation, classified by the table, lit where it is not
+// transparent, composited front to back; early ray termination as in step 08.
+// The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
+// Changed in step 31: step 25's leaping: a sample in an empty brick leaps past the empty
+// cube around it (leap_past), and every sample leapt over would have been transparent.
 static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Params& params = scene.params;
@@ -544,6 +543,8 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
             continue;
         }
         const float value = sample_value(volume, cell, params.nearest);
+        // The entry of the whole value at or below it (the range [from, to) it falls into):
+        // value - lowest_ct_value >= 0, so int() rounds down.
         const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
@@ -556,7 +557,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
         if (!params.unlit) {
             light = shade(sample_gradient(volume, cell, params.nearest, work), scene.to_light);
         }
-        const double alpha = sample.a;
+        const double alpha = sample.a;  // the opacity, after the TF
         const double weight = pixel.transparency * alpha * light;
         pixel.r += weight * sample.r;
         pixel.g += weight * sample.g;
@@ -578,11 +579,13 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
 //< lesson: composite
 
 //> lesson: mip
-// Case d: step 30's maximum intensity, leaping over every brick whose largest value is no
-// more than the maximum so far: none of its samples can raise it (a trilinear sample lies
-// between its corners' values, and a brick's range covers the voxel past it). The leap is
-// leap_past with reach 1, the brick itself. The first sample is always read.
-// Changed in step 31: the leaping over bricks that cannot raise the maximum is this step's trick.
+// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
+// values go below 0), shown as grey; a ray that misses the box shows the background.
+// Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
+// Changed in step 31: leaps over every brick whose largest value is no more than the maximum
+// so far: none of its samples can raise it (a trilinear sample lies between its corners'
+// values, and a brick's range covers the voxel past it). The leap is leap_past with reach 1,
+// the brick itself. The first sample is always read.
 static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Params& params = scene.params;
@@ -600,10 +603,8 @@ static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
         if (n > 0 && bricks.ranges[bricks.index(cell.i, cell.j, cell.k)].max <= highest) {
             const long long next = leap_past(walk, bricks, cell, 1, n);
             work.leapt += next - n;
-            if (trace) {
-                const double t = span.t_entry + n * params.step;
-                trace->leap(t, span.t_entry + (next - 1) * params.step, next - n, 1);
-            }
+            if (trace) trace->leap(span.t_entry + n * params.step,
+                                   span.t_entry + (next - 1) * params.step, next - n, 1);
             n = next - 1;
             continue;
         }
@@ -623,8 +624,7 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 30 plus leaping over empty bricks (composite) and bricks "
-                             "that cannot raise the maximum (MIP).");
+        Args args(step_name, "Step 30 plus leaping over bricks that cannot change the pixel.");
         args.add_choice("--mode", &params.mode, {"composite", "mip"},
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,

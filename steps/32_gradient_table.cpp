@@ -1,21 +1,18 @@
 // 32_gradient_table.cpp: the second trick: each voxel's gradient worked out once, not at
 // every lit sample.
 //
-// New here:   a lit sample needs the gradient at its eight corner voxels, each from six
-//             voxel reads (central differences): 48 reads and 8 gradient evaluations per
-//             sample, and a neighbouring sample does the same for the same voxels again. Here
-//             the gradient of every voxel a lit sample can read (those of the bricks the table
-//             does not leave empty, and the voxel past them) is computed once, before the
-//             first lit render, into a table of three floats per voxel; a lit sample reads its
-//             eight corners' gradients from it and blends them as before. The same numbers,
-//             so the same pictures as step 30, bit for bit. Only a lit composite builds the
-//             table (--unlit and --mode mip need none); a volume whose table would pass
-//             max_table_bytes keeps step 31's way.
+// New here:   a lit sample blends the gradients of its eight corner voxels, six voxel reads
+//             each, and the next sample does it again for the same voxels. Here the gradient
+//             of every voxel a lit sample can read (the bricks the table does not leave empty,
+//             and the voxel past them) is worked out once, into a table of three floats per
+//             voxel. The same numbers: the same pictures as step 30, bit for bit. Only a lit
+//             composite builds it; a volume whose table would pass max_table_bytes has none.
+// Defaults:   as step 15: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+//             30 degrees right of the camera and 20 above it, a black background.
 // Builds on:  31_empty_space_skipping.
 // Handout:    handouts/32_gradient_table.md
 // Run:        make run STEP=32 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/32_gradient_table_camera.png: the default run (lit composite,
-//             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// Reference:  data/reference/32_gradient_table_camera.png: the default run, on the phantom.
 #include "common/ctlab.h"
 #include <ctime>   // std::clock: the table's CPU time (the machine may be shared)
 #include <memory>  // std::unique_ptr: the table's floats, left unwritten where not needed
@@ -573,7 +570,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 18.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -614,8 +611,13 @@ struct Scene {
 };
 
 //> lesson: composite
-// Case a, b and c: step 31's compositing, a lit sample's gradient from the table.
-// Changed in step 32: the gradient read from the table is this step's trick.
+// Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
+// each read by trilinear interpolation, classified by the table, lit where it is not
+// transparent, composited front to back; early ray termination as in step 08.
+// The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
+// Changed in step 31: step 25's leaping: a sample in an empty brick leaps past the empty
+// cube around it (leap_past), and every sample leapt over would have been transparent.
+// Changed in step 32: a lit sample's gradient read from the table.
 static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Params& params = scene.params;
@@ -640,6 +642,8 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
             continue;
         }
         const float value = sample_value(volume, cell, params.nearest);
+        // The entry of the whole value at or below it (the range [from, to) it falls into):
+        // value - lowest_ct_value >= 0, so int() rounds down.
         const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
@@ -654,7 +658,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
                                               work),
                           scene.to_light);
         }
-        const double alpha = sample.a;
+        const double alpha = sample.a;  // the opacity, after the TF
         const double weight = pixel.transparency * alpha * light;
         pixel.r += weight * sample.r;
         pixel.g += weight * sample.g;
@@ -676,10 +680,13 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
 //< lesson: composite
 
 //> lesson: mip
-// Case d: step 30's maximum intensity, leaping over every brick whose largest value is no
-// more than the maximum so far: none of its samples can raise it (a trilinear sample lies
-// between its corners' values, and a brick's range covers the voxel past it). The leap is
-// leap_past with reach 1, the brick itself. The first sample is always read.
+// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
+// values go below 0), shown as grey; a ray that misses the box shows the background.
+// Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
+// Changed in step 31: leaps over every brick whose largest value is no more than the maximum
+// so far: none of its samples can raise it (a trilinear sample lies between its corners'
+// values, and a brick's range covers the voxel past it). The leap is leap_past with reach 1,
+// the brick itself. The first sample is always read.
 static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Params& params = scene.params;
@@ -697,10 +704,8 @@ static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
         if (n > 0 && bricks.ranges[bricks.index(cell.i, cell.j, cell.k)].max <= highest) {
             const long long next = leap_past(walk, bricks, cell, 1, n);
             work.leapt += next - n;
-            if (trace) {
-                const double t = span.t_entry + n * params.step;
-                trace->leap(t, span.t_entry + (next - 1) * params.step, next - n, 1);
-            }
+            if (trace) trace->leap(span.t_entry + n * params.step,
+                                   span.t_entry + (next - 1) * params.step, next - n, 1);
             n = next - 1;
             continue;
         }
@@ -720,8 +725,7 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 31 plus a table of the voxels' gradients, made once, for "
-                             "lit samples.");
+        Args args(step_name, "Step 31 plus the voxels' gradients in a table, made once.");
         args.add_choice("--mode", &params.mode, {"composite", "mip"},
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,

@@ -10,11 +10,12 @@
 //             leaps. The brick size is now the step's own constant, and leap_past() takes
 //             it from the bricks. The maximum intensity keeps bricks of 8 (slower with 4).
 //             The same pictures as step 30, bit for bit.
+// Defaults:   as step 15: azimuth 30, elevation 20, orthographic, 512x512, --fov 30, the light
+//             30 degrees right of the camera and 20 above it, a black background.
 // Builds on:  33_cell_walk.
 // Handout:    handouts/34_fine_bricks.md
 // Run:        make run STEP=34 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/34_fine_bricks_camera.png: the default run (lit composite,
-//             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// Reference:  data/reference/34_fine_bricks_camera.png: the default run, on the phantom.
 #include "common/ctlab.h"
 #include <ctime>   // std::clock: the table's CPU time (the machine may be shared)
 #include <memory>  // std::unique_ptr: the table's floats, left unwritten where not needed
@@ -648,7 +649,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 18.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -689,8 +690,14 @@ struct Scene {
 };
 
 //> lesson: composite
-// Case a, b and c: step 32's compositing, each sample's cell from the walk.
-// Changed in step 33: the walk through the cells is this step's trick.
+// Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
+// each read by trilinear interpolation, classified by the table, lit where it is not
+// transparent, composited front to back; early ray termination as in step 08.
+// The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
+// Changed in step 31: step 25's leaping: a sample in an empty brick leaps past the empty
+// cube around it (leap_past), and every sample leapt over would have been transparent.
+// Changed in step 32: a lit sample's gradient read from the table.
+// Changed in step 33: each sample's cell from the walk through the cells.
 static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Params& params = scene.params;
@@ -723,6 +730,8 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
         if (!params.nearest) read_corners(volume, cell, corners);
         const float value = params.nearest ? sample_value(volume, cell, true)
                                            : blend_corners(corners, cell);
+        // The entry of the whole value at or below it (the range [from, to) it falls into):
+        // value - lowest_ct_value >= 0, so int() rounds down.
         const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
         ++work.samples;
         if (sample.a == 0.0f) {
@@ -736,7 +745,7 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
                                               work),
                           scene.to_light);
         }
-        const double alpha = sample.a;
+        const double alpha = sample.a;  // the opacity, after the TF
         const double weight = pixel.transparency * alpha * light;
         pixel.r += weight * sample.r;
         pixel.g += weight * sample.g;
@@ -758,7 +767,13 @@ static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, T
 //< lesson: composite
 
 //> lesson: mip
-// Case d: step 31's maximum intensity, each sample's cell from the walk.
+// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
+// values go below 0), shown as grey; a ray that misses the box shows the background.
+// Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
+// Changed in step 31: leaps over every brick whose largest value is no more than the maximum
+// so far: none of its samples can raise it (a trilinear sample lies between its corners'
+// values, and a brick's range covers the voxel past it). The leap is leap_past with reach 1,
+// the brick itself. The first sample is always read.
 // Changed in step 33: the walk through the cells, as in composite_ray().
 static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
@@ -778,10 +793,8 @@ static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
         if (n > 0 && bricks.ranges[bricks.index(cell.i, cell.j, cell.k)].max <= highest) {
             const long long next = leap_past(walk, bricks, cell, 1, n);
             work.leapt += next - n;
-            if (trace) {
-                const double t = span.t_entry + n * params.step;
-                trace->leap(t, span.t_entry + (next - 1) * params.step, next - n, 1);
-            }
+            if (trace) trace->leap(span.t_entry + n * params.step,
+                                   span.t_entry + (next - 1) * params.step, next - n, 1);
             n = next - 1;
             at = walk_from(walk, n);
             continue;
@@ -804,8 +817,7 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Step 33 with bricks of 4 voxels a side: empty space at a "
-                             "finer scale.");
+        Args args(step_name, "Step 33 with bricks of 4 voxels a side: empty space finer.");
         args.add_choice("--mode", &params.mode, {"composite", "mip"},
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,

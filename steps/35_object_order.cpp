@@ -1,17 +1,13 @@
 // 35_object_order.cpp: a different order of work, the one VolPack uses: object order. Rays
 // are not walked through the volume; the volume's slices are composited into the image.
 //
-// New here:   the camera looks along an axis of the volume (the orbit camera at multiples of
-//             90 degrees only; any other angle is refused: step 36 turns freely). Then each
-//             ray runs straight along one voxel column, and the slices of voxels across that
-//             axis can be composited front to back, slice after slice, into an image with one
-//             pixel per voxel column: one sample per voxel, read in memory order, the same
-//             light and table as step 30. A pixel already opaque is not composited further.
-//             The rows of this intermediate image go to the threads; warp_pixel() places it
-//             in the camera's image (a shift, a mirror and the zoom). The pictures are step
-//             30's along an axis (to rounding: one sample per slice, not per unit of length).
-//             Orthographic only; no --step; --work-map is refused: the work is counted per
-//             row of the intermediate image.
+// New here:   a camera along an axis of the volume (multiples of 90 degrees; step 36 turns
+//             freely): each ray runs down one voxel column, so the slices across that axis
+//             are composited front to back into an intermediate image, one pixel per column
+//             and one sample per voxel, read in memory order; warp_pixel() places that image
+//             in the camera's. Step 30's pictures along an axis (to rounding).
+//             Orthographic only; one sample per slice, so no --step. --work-map is refused:
+//             the work is counted per row of the intermediate image.
 // Builds on:  30_speed_baseline (its camera, table, gradients and light; not its rays).
 // Handout:    handouts/35_object_order.md
 // Run:        make run STEP=35 ARGS="--azimuth 90 --elevation 0 --size 256x256"
@@ -293,7 +289,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 18.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -446,18 +442,10 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
 }
 
-// Given: where output pixel (x, y)'s camera ray meets the first slice, in intermediate
-// pixels: the ray there is the ray of that intermediate pixel.
-static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Camera& camera,
-                            int x, int y) {
-    const Ray ray = camera_ray(camera, x, y);
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
-    return {ray.origin[shear.a] / spacing[shear.a], ray.origin[shear.b] / spacing[shear.b]};
-}
-
-// Given: the affine map of the warp (common/object_order.h), from warp_point()'s points.
+// Given: the warp's affine map (common/object_order.h), from the camera's rays.
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
-    return affine_warp([&](int x, int y) { return warp_point(volume, shear, camera, x, y); });
+    auto ray = [&](int x, int y) { return camera_ray(camera, x, y); };
+    return slice_warp(volume, shear, 0, 0, ray);
 }
 
 //> lesson: warp
@@ -477,81 +465,7 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
 }
 //< lesson: warp
 
-// Given: warp_pixel() on the whole intermediate image, the four pixels read directly when they
-// are all inside it (the same numbers in the same order: the same float).
-static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
-    if (!(p.u >= 0 && p.u < image.width - 1 && p.v >= 0 && p.v < image.height - 1)) {
-        return warp_pixel(p, image.width, image.height,
-                          [&](int u, int v) { return image.pixels[size_t(v) * image.width + u]; });
-    }
-    const int u = int(p.u), v = int(p.v);  // >= 0: int() rounds down
-    const float fu = float(p.u - u), fv = float(p.v - v);
-    const Rgb* low = &image.pixels[size_t(v) * image.width + u];
-    const Rgb* high = low + image.width;
-    return mix_rgb(mix_rgb(low[0], low[1], fu), mix_rgb(high[0], high[1], fu), fv);
-}
-
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
-
-// Intermediate pixel (u, v) alone, every slice front to back: composite_row()'s pixel, to
-// the bit. Its samples are traced (when `trace`) at their distance t along `ray`, the output
-// pixel's ray.
-static Accumulated composite_column(const Scene& scene, int u, int v, const Ray& ray,
-                                    Work& work, Trace* trace) {
-    const Shear& shear = scene.shear;
-    const Volume& volume = scene.volume;
-    const double stop_below = std::max(scene.params.ert, min_transparency);
-    Accumulated pixel;
-    for (int m = 0; m < shear.nc; ++m) {
-        const int c = shear.first_slice + m * shear.slice_step;
-        const size_t index = c * shear.stride_c + v * shear.stride_b + u * shear.stride_a;
-        const float value = volume.data[index];
-        const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
-        ++work.samples;
-        // Its record: where it lies along the output pixel's ray, and its value.
-        const Vec3d point = slice_point(volume, shear, u, v, c);
-        TraceSample record(dot(point - ray.origin, ray.direction), point, value);
-        if (sample.a == 0.0f) {
-            ++work.skipped;
-            if (trace) trace->sample(record.skipped());
-            continue;
-        }
-        const double light = scene.params.unlit ? 1.0 : voxel_light(scene, u, v, c, work);
-        add_sample(pixel, sample, light);
-        if (trace) {
-            record.rgba(sample).light(light);  // what it gave, and the pixel after it
-            record.colour(pixel.r, pixel.g, pixel.b).transparency(pixel.transparency);
-            trace->sample(record);
-        }
-        if (pixel.transparency < stop_below) {
-            ++work.terminated;
-            if (trace) trace->stop(pixel.transparency, stop_below, shear.nc - 1 - m);
-            break;
-        }
-    }
-    return pixel;
-}
-
-// mip_row()'s pixel (u, v) alone, traced as composite_column() traces.
-static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& work,
-                        Trace* trace) {
-    const Shear& shear = scene.shear;
-    const Volume& volume = scene.volume;
-    float highest = -std::numeric_limits<float>::infinity();
-    for (int m = 0; m < shear.nc; ++m) {
-        const int c = shear.first_slice + m * shear.slice_step;
-        const size_t index = c * shear.stride_c + v * shear.stride_b + u * shear.stride_a;
-        const float value = volume.data[index];
-        highest = std::max(highest, value);
-        ++work.samples;
-        if (trace) {
-            const Vec3d point = slice_point(volume, shear, u, v, c);
-            trace->sample(TraceSample(dot(point - ray.origin, ray.direction), point, value)
-                              .max(highest));
-        }
-    }
-    return highest;
-}
 
 // An intermediate pixel's colour, from the pixel's composite or maximum (as the image's rows
 // give it): over the background, or the maximum's grey (no sample: the background).
@@ -562,8 +476,8 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 }
 
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
-// composited alone, and the warp's blend of them, the image's pixel to the bit. The trace
-// follows each of the four sample by sample, with its weight in the blend.
+// composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
+// image's pixel to the bit. The trace follows each of the four sample by sample.
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;
@@ -573,10 +487,25 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
     trace_ray(trace, ray, intersect_box(ray, Vec3d{}, high), high, shear.spacing);
     const WarpPoint p = warp_at(make_warp(volume, shear, camera), x, y);
     trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
-    const bool mip = scene.params.mode == "mip";
+    const double stop_below = std::max(scene.params.ert, min_transparency);
     auto column = [&](int u, int v) {  // intermediate pixel (u, v) alone, traced
-        return mip ? mip_colour(volume, mip_column(scene, u, v, ray, work, trace))
-                   : composite_colour(composite_column(scene, u, v, ray, work, trace));
+        auto slice = [&](int m) { return shear.first_slice + m * shear.slice_step; };
+        auto at = [&](int m) {  // its voxel in slice m
+            const Voxel voxel = voxel_of(shear, u, v, slice(m));
+            return ColumnSample{true, slice_point(volume, shear, u, v, slice(m)),
+                                float(volume.at(voxel.i, voxel.j, voxel.k))};
+        };
+        auto light = [&](int m) {
+            return scene.params.unlit ? 1.0 : voxel_light(scene, u, v, slice(m), work);
+        };
+        if (scene.params.mode == "mip") {
+            return mip_colour(volume, maximum_column(shear.nc, ray, work, trace, at));
+        }
+        auto add = [](Accumulated& pixel, const Rgba& sample, double light_of_sample) {
+            add_sample(pixel, sample, light_of_sample);
+        };
+        return composite_colour(composite_column<Accumulated>(
+            shear.nc, scene.lut.entries.data(), stop_below, ray, work, trace, at, light, add));
     };
     auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
         return warp_pixel(q, width, height, pixel);
@@ -668,17 +597,20 @@ int main(int argc, char** argv) {
                                          mip_row, [&](float h) { return mip_colour(volume, h); })
                     : intermediate_image(scene, shear.width, shear.height, options.threads,
                                          work, Accumulated{}, composite_row, composite_colour);
-            // warp_pixel() with the inside pixels read directly: 10M instructions less per
-            // 256x256 render than through a pixel(u, v) (callgrind, step 39, 1 thread).
-            return warp_image(view, options.threads, work, make_warp(volume, shear, frame.camera),
-                              [&](const WarpPoint& p) { return warp_inside(p, intermediate); });
+            auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
+                return warp_pixel(q, width, height, pixel);
+            };
+            auto mix = [](const Rgb& p, const Rgb& q, float f) { return mix_rgb(p, q, f); };
+            return warp_intermediate(view, options.threads, work,  // common/object_order.h
+                                     make_warp(volume, shear, frame.camera), intermediate, blend,
+                                     mix);
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Frame frame = frame_for(view);
             return shear_warp_pixel(scene_for(frame), frame.camera, x, y, work, trace);
         };
         renderer.ray_samples = [&](const View& view) {
-            const Shear shear = frame_for(view).shear;
+            const Shear shear = make_shear(volume, make_camera(volume, params, view));
             return slice_samples(shear.c, shear.spacing);
         };
         renderer.orbit = camera_orbit(&params);  // a quarter turn at a time

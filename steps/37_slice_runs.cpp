@@ -1,13 +1,11 @@
 // 37_slice_runs.cpp: shear-warp's second trick, VolPack's: each slice row keeps the runs of
 // cells the transfer function may see, and the rest of the volume is never read.
 //
-// New here:   step 36 reads every cell of every slice. Once per transfer function and
-//             principal axis, find_runs() keeps, per slice row, the runs of cells whose four
-//             corners do not all lie in one stretch of transparent table entries (a bilinear
-//             value lies between its cell's lowest and highest corner); composite_row() reads
-//             only those, and counts the others as leapt. The same samples that give light
-//             as step 36, in the same order: the same pictures. The runs' time and memory are
-//             printed on a "precompute" line, and precompute_ms= in the summary.
+// New here:   once per transfer function and principal axis, find_runs() keeps each slice
+//             row's runs of cells the table may see (a cell whose four corners all lie in one
+//             stretch of transparent entries is left out); composite_row() reads only those,
+//             and counts the rest as leapt. Step 36's pictures; the runs' cost is printed on a
+//             "precompute" line, and precompute_ms= in the summary.
 //             Orthographic only; one sample per slice, so no --step. --work-map is refused:
 //             the work is counted per row of the intermediate image.
 // Builds on:  36_shear_warp.
@@ -16,7 +14,6 @@
 // Reference:  data/reference/37_slice_runs_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
-#include <ctime>   // std::clock: the precomputation's CPU time (the machine may be shared)
 using namespace ctlab;
 
 constexpr const char* step_name = "37_slice_runs";
@@ -288,7 +285,7 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 }
 //< lesson: shade
 
-// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 17.
+// CT value -> grey 0..1: (value - min) / (max - min) of the whole volume, as in step 18.
 static float display_grey(const Volume& volume, double value) {
     const int range = volume.max_value - volume.min_value;  // 0 for a constant volume
     return range > 0 ? float((value - volume.min_value) / range) : 0.0f;
@@ -349,9 +346,6 @@ struct SliceShift {
 
 // The cells of each slice row that the table may see (see find_runs), as runs of cells
 // [begin, end) along a. Made once per transfer function and principal axis.
-constexpr int mip_stretch = 16;   // pixels per vector loop of mip_row
-constexpr int runs_stretch = 16;  // cells tested at once first by find_runs (a slice's air);
-                                  // the folds in find_runs are written for 16
 
 struct Runs {
     int axis = -1;                // the principal axis they are for; -1: not made
@@ -486,57 +480,17 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
                 ++counts[c][b];
                 begin = -1;
             };
-            // A stretch of runs_stretch cells at a time: each cell's lowest and highest corner
-            // (a loop of fixed length over neighbouring values, which the compiler makes
-            // vector instructions), then the stretch's: most of a slice is air or soft tissue,
-            // clear as a whole. Rows along i are contiguous; others are copied first.
-            int16_t row_low[runs_stretch + 1], row_high[runs_stretch + 1];
-            int16_t cell_low[runs_stretch], cell_high[runs_stretch];
-            for (int from = 0; from < na; from += runs_stretch) {
-                const int to = std::min(from + runs_stretch, na);
-                const int16_t* p = &low[from];
-                const int16_t* q = &high[from];
-                if (sa != 1 || from + runs_stretch > na - 1) {  // copied, the edge repeated
-                    for (int n = 0; n <= runs_stretch; ++n) {
-                        const size_t a = size_t(std::min(from + n, na - 1)) * sa;
-                        row_low[n] = low[a];
-                        row_high[n] = high[a];
-                    }
-                    p = row_low;
-                    q = row_high;
-                }
-                for (int n = 0; n < runs_stretch; ++n) {
-                    cell_low[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
-                    cell_high[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
-                }
-                // The stretch's lowest and highest: halves folded onto each other, each fold a
-                // loop of fixed length (the cells past the slice's edge, in its last stretch,
-                // first take the first cell's values).
-                for (int n = to - from; n < runs_stretch; ++n) {
-                    cell_low[n] = cell_low[0];
-                    cell_high[n] = cell_high[0];
-                }
-                int16_t lowest[runs_stretch / 2], highest[runs_stretch / 2];
-                for (int n = 0; n < runs_stretch / 2; ++n) {
-                    lowest[n] = std::min(cell_low[n], cell_low[n + runs_stretch / 2]);
-                    highest[n] = std::max(cell_high[n], cell_high[n + runs_stretch / 2]);
-                }
-                for (int n = 0; n < runs_stretch / 4; ++n) {
-                    lowest[n] = std::min(lowest[n], lowest[n + runs_stretch / 4]);
-                    highest[n] = std::max(highest[n], highest[n + runs_stretch / 4]);
-                }
-                for (int n = 0; n < runs_stretch / 8; ++n) {
-                    lowest[n] = std::min(lowest[n], lowest[n + runs_stretch / 8]);
-                    highest[n] = std::max(highest[n], highest[n + runs_stretch / 8]);
-                }
-                lowest[0] = std::min(lowest[0], lowest[1]);
-                highest[0] = std::max(highest[0], highest[1]);
-                if (clear(lowest[0], highest[0])) {
+            // Given: cell_stretch cells at a time, each cell's lowest and highest corner and
+            // the stretch's (common/object_order.h): a stretch of air is clear as a whole.
+            CellStretch cells;
+            for (int from = 0; from < na; from += cell_stretch) {
+                cells.read(low, high, sa, na, from);
+                if (clear(cells.lowest, cells.highest)) {
                     run_ends(from);
                     continue;
                 }
-                for (int n = 0; n < to - from; ++n) {  // cell by cell
-                    if (clear(cell_low[n], cell_high[n])) {
+                for (int n = 0; n < cells.count; ++n) {  // cell by cell
+                    if (clear(cells.low[n], cells.high[n])) {
                         run_ends(from + n);
                     } else if (begin < 0) {
                         begin = from + n;
@@ -653,9 +607,8 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
 //> lesson: mip
 // Row v of the maximum intensity: every cell the row meets in every slice (no runs: a maximum
 // has no transparent values), each pixel keeping its highest sample. -infinity: none yet.
-// Every pixel of a slice row does the same sums on neighbouring voxels: in stretches of a
-// fixed length the compiler turns the loop into vector instructions (SSE2's four floats at a
-// time), the same floats as slice_value() one at a time.
+// A row of cells contiguous in memory goes first through max_in_stretches() (given: vector
+// instructions, the same floats as slice_value()).
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
     const Shear& shear = scene.shear;
     for (const SliceShift& s : scene.shifts) {
@@ -666,19 +619,8 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
         const int u_low = std::max(0, -s.ia);
         const int u_high = std::min(shear.width, s.last_a + 1 - s.ia);
         int u = u_low;
-        if (shear.stride_a == 1) {  // a row of cells is contiguous: mip_stretch pixels at a time
-            const float fa = s.fa, fb = s.fb;  // (copies: a store to h[] cannot change them)
-            const int16_t* low = slice_row + s.ia;  // the cells' rows, from pixel 0
-            const int16_t* low_next = low + s.da;
-            const int16_t* high = low + s.db;
-            const int16_t* high_next = high + s.da;
-            for (; u + mip_stretch <= u_high; u += mip_stretch) {
-                float* h = highest + u;
-                const int16_t *p = low + u, *q = low_next + u, *r = high + u, *t = high_next + u;
-                for (int n = 0; n < mip_stretch; ++n) {  // a fixed length: vector instructions
-                    h[n] = std::max(h[n], lerp(lerp(p[n], q[n], fa), lerp(r[n], t[n], fa), fb));
-                }
-            }
+        if (shear.stride_a == 1) {  // a row of cells contiguous in memory: stretches at a time
+            u = max_in_stretches(highest, u, u_high, slice_row + s.ia, s.da, s.db, s.fa, s.fb);
         }
         for (; u < u_high; ++u) {
             const float value = slice_value(slice_row + size_t(u + s.ia) * shear.stride_a, s);
@@ -693,23 +635,11 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
 }
 
-// Given: where output pixel (x, y)'s camera ray meets the first slice, in intermediate
-// pixels: the ray there is the ray of that intermediate pixel.
-// Changed in step 36: the ray meets the first slice at an angle, not straight along c.
-static WarpPoint warp_point(const Volume& volume, const Shear& shear, const Camera& camera,
-                            int x, int y) {
-    const Ray ray = camera_ray(camera, x, y);
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
-    auto in_voxels = [&](const Vec3d& p, int axis) { return p[axis] / spacing[axis]; };
-    const double t = (shear.first_slice - in_voxels(ray.origin, shear.c)) /
-                     in_voxels(ray.direction, shear.c);
-    return {in_voxels(ray.origin, shear.a) + t * in_voxels(ray.direction, shear.a) - shear.base_a,
-            in_voxels(ray.origin, shear.b) + t * in_voxels(ray.direction, shear.b) - shear.base_b};
-}
-
-// Given: the affine map of the warp (common/object_order.h), from warp_point()'s points.
+// Given: the warp's affine map (common/object_order.h), from the camera's rays.
+// Changed in step 36: the shear's base offsets (0 along an axis).
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
-    return affine_warp([&](int x, int y) { return warp_point(volume, shear, camera, x, y); });
+    auto ray = [&](int x, int y) { return camera_ray(camera, x, y); };
+    return slice_warp(volume, shear, shear.base_a, shear.base_b, ray);
 }
 
 //> lesson: warp
@@ -729,96 +659,7 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
 }
 //< lesson: warp
 
-// Given: warp_pixel() on the whole intermediate image, the four pixels read directly when they
-// are all inside it (the same numbers in the same order: the same float).
-static inline Rgb warp_inside(const WarpPoint& p, const Image& image) {
-    if (!(p.u >= 0 && p.u < image.width - 1 && p.v >= 0 && p.v < image.height - 1)) {
-        return warp_pixel(p, image.width, image.height,
-                          [&](int u, int v) { return image.pixels[size_t(v) * image.width + u]; });
-    }
-    const int u = int(p.u), v = int(p.v);  // >= 0: int() rounds down
-    const float fu = float(p.u - u), fv = float(p.v - v);
-    const Rgb* low = &image.pixels[size_t(v) * image.width + u];
-    const Rgb* high = low + image.width;
-    return mix_rgb(mix_rgb(low[0], low[1], fu), mix_rgb(high[0], high[1], fu), fv);
-}
-
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
-
-// Intermediate pixel (u, v) alone, every slice front to back, with no runs: the cells outside
-// them give transparent samples, which change nothing, so it is composite_row()'s pixel, to
-// the bit. Its samples are traced (when `trace`) at their distance t along `ray`, the output
-// pixel's ray, which runs beside this pixel's at less than a voxel and a half.
-static Accumulated composite_column(const Scene& scene, int u, int v, const Ray& ray,
-                                    Work& work, Trace* trace) {
-    const Shear& shear = scene.shear;
-    const Volume& volume = scene.volume;
-    const double stop_below = std::max(scene.params.ert, min_transparency);
-    Accumulated pixel;
-    for (size_t m = 0; m < scene.shifts.size(); ++m) {
-        const SliceShift& s = scene.shifts[m];
-        const int a = u + s.ia, b = v + s.ib;
-        if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) continue;
-        const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
-        const float value = slice_value(&volume.data[index], s);
-        const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
-        ++work.samples;
-        // Its record: where it lies along the output pixel's ray, and its value.
-        const Vec3d point =
-            slice_point(volume, shear, a + double(s.fa), b + double(s.fb), s.slice);
-        TraceSample record(dot(point - ray.origin, ray.direction), point, value);
-        if (sample.a == 0.0f) {
-            ++work.skipped;
-            if (trace) trace->sample(record.skipped());
-            continue;
-        }
-        const double light = scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
-        add_sample(pixel, sample, light);
-        if (trace) {
-            record.rgba(sample).light(light);  // what it gave, and the pixel after it
-            record.colour(pixel.r, pixel.g, pixel.b).transparency(pixel.transparency);
-            trace->sample(record);
-        }
-        if (pixel.transparency < stop_below) {
-            ++work.terminated;
-            if (trace) {
-                long long left = 0;  // the slices after this one the pixel would have met
-                for (size_t later = m + 1; later < scene.shifts.size(); ++later) {
-                    const SliceShift& l = scene.shifts[later];
-                    left += u + l.ia >= 0 && u + l.ia <= l.last_a && v + l.ib >= 0 &&
-                            v + l.ib <= l.last_b;
-                }
-                trace->stop(pixel.transparency, stop_below, left);
-            }
-            break;
-        }
-    }
-    return pixel;
-}
-
-// mip_row()'s pixel (u, v) alone, traced as composite_column() traces.
-// Changed in step 36: each slice's shift, a bilinear sample.
-static float mip_column(const Scene& scene, int u, int v, const Ray& ray, Work& work,
-                        Trace* trace) {
-    const Shear& shear = scene.shear;
-    const Volume& volume = scene.volume;
-    float highest = -std::numeric_limits<float>::infinity();
-    for (const SliceShift& s : scene.shifts) {
-        const int a = u + s.ia, b = v + s.ib;
-        if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) continue;
-        const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
-        const float value = slice_value(&volume.data[index], s);
-        highest = std::max(highest, value);
-        ++work.samples;
-        if (trace) {
-            const Vec3d point =
-                slice_point(volume, shear, a + double(s.fa), b + double(s.fb), s.slice);
-            trace->sample(TraceSample(dot(point - ray.origin, ray.direction), point, value)
-                              .max(highest));
-        }
-    }
-    return highest;
-}
 
 // An intermediate pixel's colour, from the pixel's composite or maximum (as the image's rows
 // give it): over the background, or the maximum's grey (no sample: the background).
@@ -829,8 +670,9 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 }
 
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
-// composited alone, and the warp's blend of them, the image's pixel to the bit. The trace
-// follows each of the four sample by sample, with its weight in the blend.
+// composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
+// image's pixel to the bit. The trace follows each of the four sample by sample.
+// Changed in step 36: each slice's shift, a bilinear sample and its cell's light.
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;
@@ -840,10 +682,31 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
     trace_ray(trace, ray, intersect_box(ray, Vec3d{}, high), high, shear.spacing);
     const WarpPoint p = warp_at(make_warp(volume, shear, camera), x, y);
     trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
-    const bool mip = scene.params.mode == "mip";
+    const double stop_below = std::max(scene.params.ert, min_transparency);
     auto column = [&](int u, int v) {  // intermediate pixel (u, v) alone, traced
-        return mip ? mip_colour(volume, mip_column(scene, u, v, ray, work, trace))
-                   : composite_colour(composite_column(scene, u, v, ray, work, trace));
+        auto at = [&](int m) {  // its cell in slice m, if the slice holds it
+            const SliceShift& s = scene.shifts[m];
+            const int a = u + s.ia, b = v + s.ib;
+            if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) return ColumnSample{};
+            const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
+            return ColumnSample{true,
+                                slice_point(volume, shear, a + double(s.fa), b + double(s.fb),
+                                            s.slice),
+                                slice_value(&volume.data[index], s)};
+        };
+        auto light = [&](int m) {
+            const SliceShift& s = scene.shifts[m];
+            const int a = u + s.ia, b = v + s.ib;
+            return scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
+        };
+        if (scene.params.mode == "mip") {
+            return mip_colour(volume, maximum_column(shear.nc, ray, work, trace, at));
+        }
+        auto add = [](Accumulated& pixel, const Rgba& sample, double light_of_sample) {
+            add_sample(pixel, sample, light_of_sample);
+        };
+        return composite_colour(composite_column<Accumulated>(
+            shear.nc, scene.lut.entries.data(), stop_below, ray, work, trace, at, light, add));
     };
     auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
         return warp_pixel(q, width, height, pixel);
@@ -904,20 +767,11 @@ int main(int argc, char** argv) {
             }
             if (params.mode == "mip") return;
             if (runs[shear.c].axis >= 0) return;
-            const Timer timer;
-            const std::clock_t cpu_start = std::clock();
-            runs[shear.c] = find_runs(volume, shear, seen, options.threads);
-            const double ms = timer.ms();
-            precompute_ms += ms;
-            const Runs& made = runs[shear.c];
-            // Its cost, once per table and axis (the summary lines are the renders'): memory
-            // and time, in wall clock and CPU (the machine may be shared).
-            std::printf("precompute axis=%c run_cells=%zu of %zu runs=%zu runs_mb=%.2f "
-                        "ms=%.1f cpu_ms=%.1f\n",
-                        "ijk"[shear.c], made.cells, volume.voxel_count(), made.bounds.size() / 2,
-                        (made.bounds.size() * sizeof(int32_t) +
-                         made.first.size() * sizeof(uint32_t)) / 1048576.0,
-                        ms, 1000.0 * double(std::clock() - cpu_start) / CLOCKS_PER_SEC);
+            Runs& made = runs[shear.c];  // and its "precompute" line (common/object_order.h)
+            auto make = [&] { made = find_runs(volume, shear, seen, options.threads); };
+            precompute_ms += timed_precompute(shear.c, make, [&] {
+                return runs_held(made, volume.voxel_count());
+            });
         };
 
         // --- View: the camera's image (its camera is made for each render: the window turns
@@ -961,10 +815,13 @@ int main(int argc, char** argv) {
                                          mip_row, [&](float h) { return mip_colour(volume, h); })
                     : intermediate_image(scene, shear.width, shear.height, options.threads,
                                          work, Accumulated{}, composite_row, composite_colour);
-            // warp_pixel() with the inside pixels read directly: 10M instructions less per
-            // 256x256 render than through a pixel(u, v) (callgrind, step 39, 1 thread).
-            return warp_image(view, options.threads, work, make_warp(volume, shear, frame.camera),
-                              [&](const WarpPoint& p) { return warp_inside(p, intermediate); });
+            auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
+                return warp_pixel(q, width, height, pixel);
+            };
+            auto mix = [](const Rgb& p, const Rgb& q, float f) { return mix_rgb(p, q, f); };
+            return warp_intermediate(view, options.threads, work,  // common/object_order.h
+                                     make_warp(volume, shear, frame.camera), intermediate, blend,
+                                     mix);
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
             const Frame frame = frame_for(view);

@@ -144,7 +144,7 @@ for source in steps/[0-9][0-9]_*.cpp; do
 
     # A good run: one PNG and one summary line per view, nothing on stderr. It traces a pixel
     # too (checked below): one render of the phantom serves both.
-    # Part 1 (00..11) renders the three axis views; part 2 (12 on) one camera picture, of its
+    # Part 1 and step 12 (00..12) render the three axis views; 13 on one camera picture, of its
     # default size (512x512) in the first camera step and in a step with a --size flag of its
     # own (35 on; step 35's default is 256x256); the other camera steps take that flag from common/camera_flags.h, as the first
     # does, and render 64x48 here, traced at its centre (a 512x512 render of the phantom is up
@@ -152,7 +152,7 @@ for source in steps/[0-9][0-9]_*.cpp; do
     views="top:256x256 front:256x113 side:256x113" trace_view=front size_flags=
     px=128 py=60
     case "$step" in
-        0[0-9]_*|1[01]_*) ;;
+        0[0-9]_*|1[0-2]_*) ;;
         *) views="camera:512x512" trace_view=camera
            # A step with a --size of its own says its default (default_size) in its source.
            own_size=$(sed -n 's/^constexpr const char\* default_size = "\([0-9]*x[0-9]*\)".*/\1/p' \
@@ -202,7 +202,7 @@ done
 check $? "found only $steps steps in steps/"
 
 # A generic raw file: --dims, --endian big; the loader's line and the side view's size.
-step=$(basename "$(ls steps/0[0-9]_*.cpp steps/1[01]_*.cpp | tail -n 1)" .cpp)  # part 1's last: it has a side view
+step=$(basename "$(ls steps/0[0-9]_*.cpp steps/1[0-2]_*.cpp | tail -n 1)" .cpp)  # part 1's last: it has a side view
 "$build/$step" --volume "$raw" --dims 4,3,2 --endian big --view side --no-window \
     --out "$work/raw_out" > "$work/stdout" 2> "$work/stderr"
 status=$?

@@ -316,17 +316,17 @@ for stem in 08_compositing_order 10_opacity_correction; do
         "data/reference/${stem}_side.png" "$bref/"
     grep "^$stem: " data/reference/manifest.txt >> "$bref/manifest.txt"
 done
-cp data/reference/24_free_leaping_camera.png "$bref/"
-echo "24_free_leaping: tol=3" >> "$bref/manifest.txt"
+cp data/reference/25_free_leaping_camera.png "$bref/"
+echo "25_free_leaping: tol=3" >> "$bref/manifest.txt"
 # The phantom written once to a raw file that every run reads (the same voxels as --volume
 # phantom, without painting the head again in each of the ~20 runs, 0.1 s of CPU each), and
-# step 24's picture, the same in both submissions, rendered once.
+# step 25's picture, the same in both submissions, rendered once.
 phantom=$work/phantom.raw
 "$build/make_phantom" "$phantom" > /dev/null
-"$build/24_free_leaping" --volume "$phantom" --no-window --out "$work/both_24" > /dev/null 2>&1
+"$build/25_free_leaping" --volume "$phantom" --no-window --out "$work/both_24" > /dev/null 2>&1
 for ert in 0 0.3; do
     "$build/check" --bin "$build" --reference "$bref" --out "$work/both_$ert" --step 08 \
-        --step 10 --step 24 --args "--ert $ert" --volume "$phantom" > "$work/both_$ert.log" 2>&1
+        --step 10 --step 25 --args "--ert $ert" --volume "$phantom" > "$work/both_$ert.log" 2>&1
     mkdir -p "$work/both_sub_$ert"
     cp "$work/both_$ert"/08_compositing_order/*.png "$work/both_$ert"/10_opacity_correction/*.png \
         "$work/both_24"/*.png "$work/both_sub_$ert/"
@@ -334,7 +334,7 @@ for ert in 0 0.3; do
 done
 grep -q '^08_compositing_order: [a-z]*, pictures 3/3,' "$work/both_0/report.txt" &&
     grep -q '^10_opacity_correction: [a-z]*, pictures 3/3,' "$work/both_0/report.txt" &&
-    grep -q '^24_free_leaping: [a-z]*, pictures 1/1,' "$work/both_0/report.txt" &&
+    grep -q '^25_free_leaping: [a-z]*, pictures 1/1,' "$work/both_0/report.txt" &&
     grep -q '^7 expected: 7 pass, 0 fail, 0 damaged, 0 error, 0 missing; 0 extra; result=pass$' \
         "$work/both_check_0.log"
 check $? "--ert 0 passes both modes: $(cat "$work/both_0/report.txt" "$work/both_check_0.log")"

@@ -40,7 +40,7 @@ const std::vector<std::string>& step_names() {
     return names;
 }
 
-bool is_camera_step(const std::string& name) { return name >= "12"; }
+bool is_camera_step(const std::string& name) { return name >= "13"; }
 
 const std::vector<std::string>& phantom_flags() {
     static const ctlab::TempFolder folder("phantom");

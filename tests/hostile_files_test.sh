@@ -194,7 +194,7 @@ for pair in TERM:15 INT:2 HUP:1 QUIT:3 USR1:10 ALRM:14; do
     fi
     for delay in 0.05 0.2 0.4; do
         rm -rf "$work/sig"
-        $default_signals "$build/23_ambient_occlusion" --volume phantom --no-window --view all \
+        $default_signals "$build/24_ambient_occlusion" --volume phantom --no-window --view all \
             --out "$work/sig" > /dev/null 2>&1 &
         pid=$!
         sleep "$delay"

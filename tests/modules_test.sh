@@ -77,7 +77,7 @@ for source in steps/[0-9][0-9]_*.cpp; do
     stem=$(basename "$source" .cpp)
     [ -x "$build/$stem" ] || { fail "$build/$stem is not built"; continue; }
     size=
-    case $stem in 0[0-9]_*|1[01]_*) ;; *) size="--size 8x8" ;; esac
+    case $stem in 0[0-9]_*|1[0-2]_*) ;; *) size="--size 8x8" ;; esac
     mapped "help_$stem" "$build/$stem" --help
     # shellcheck disable=SC2086
     mapped "raw_$stem" "$build/$stem" --volume "$raw" --no-window --out "$work/out" $size

@@ -81,7 +81,9 @@ mutant() {
     mutant_stem=$(basename "$mutant_source" .cpp)
     rm -f "$tree"/steps/*.cpp
     mutant_write "$tree" || return 1
-    if ! mutant_make "$tree" "$build/$mutant_stem" > "$work/make.log" 2>&1; then
+    # STEP_PCH=: no precompiled header for these few, built one by one (printed_commands:
+    # three). Made at -O1 -g0, it took 2.9 s of compiler CPU and saved each mutant ~0.4 s.
+    if ! mutant_make "$tree" STEP_PCH= "$build/$mutant_stem" > "$work/make.log" 2>&1; then
         bad "$mutant_name: the patched $mutant_stem does not compile"; tail -n 20 "$work/make.log"
         return 1
     fi

@@ -246,7 +246,7 @@ fi
 
 # --- The ray panel stays on a 1024x768 screen ------------------------------------------------
 for case in "05_interpolated_hits --view front --window-script click:128:30,shot,quit" \
-            "24_free_leaping --window-script click:256:256,shot,quit"; do
+            "25_free_leaping --window-script click:256:256,shot,quit"; do
     set -- $case
     step=$build/$1
     shift
@@ -285,8 +285,8 @@ if command -v xdotool > /dev/null 2>&1; then
         tries=$((tries + 1))
         sleep 0.2
     done
-    step12=$build/24_free_leaping
-    xvfb sh "$0" --xdotool "$step12" "$work/type/type.log" type --size 128x128 \
+    step13=$build/25_free_leaping
+    xvfb sh "$0" --xdotool "$step13" "$work/type/type.log" type --size 128x128 \
         > "$work/type.out" 2>&1
     typed=$?
     wait $drag
@@ -321,7 +321,7 @@ if command -v xdotool > /dev/null 2>&1; then
     check "real input: the text field run completes (status $typed; $(cat "$work/type.out"))" \
         [ "$typed" -eq 0 ]
     check "real input: typing 96x80 into --size renders 96x80" \
-        grep -q '^step=24_free_leaping view=camera size=96x80 ' "$work/type/type.log"
+        grep -q '^step=25_free_leaping view=camera size=96x80 ' "$work/type/type.log"
     check "real input: q quits" grep -qx 'window: key=q' "$work/type/type.log"
 else
     echo "panel test: real X input SKIPPED (package xdotool not installed)"

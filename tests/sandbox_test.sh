@@ -110,7 +110,9 @@ except OSError:
     pass
 EOF
 server=$!
-for _ in 1 2 3 4 5 6 7 8 9 10; do [ -s "$port_file" ] && break; sleep 0.2; done
+# Up to 20 s for the port (python3's start-up alone took more than 2 s at load ~25).
+tries=0
+while [ ! -s "$port_file" ] && [ $tries -lt 100 ]; do sleep 0.2; tries=$((tries + 1)); done
 port=$(cat "$port_file" 2>/dev/null)
 [ -n "$port" ] || { bad "the 127.0.0.1 server did not start"; port=9; }
 

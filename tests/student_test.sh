@@ -191,16 +191,16 @@ done
 expect "the lab's README.md is $student/LAB.md" cmp -s README.md "$student/LAB.md"
 expect "$student/.ctlab/carry.txt carries first_hit from 02 into 03" \
     grep -q "^03_[a-z_]* first_hit 02_[a-z_]* [0-9a-f]*\$" "$student/.ctlab/carry.txt"
-# The same code under other comments is carried too: step 12's "step 10's, unchanged", from
-# step 10, which it builds on (not from 11, numbered before it).
-if [ -f steps/12_free_camera.cpp ]; then
+# A step carries from the step it builds on: step 12's corrected_opacity() from step 10 (not
+# from 11, numbered before it).
+if [ -f steps/12_physical_rays.cpp ]; then
     expect "$student/.ctlab/carry.txt carries corrected_opacity from 10 into 12" \
         grep -q "^12_[a-z_]* corrected_opacity 10_[a-z_]* [0-9a-f]*\$" "$student/.ctlab/carry.txt"
 fi
-# Part 2 branches: step 18 builds on 14, and takes step 14's compositing, not 16's jittered one.
-if [ -f steps/18_isosurface.cpp ]; then
-    expect "$student/.ctlab/carry.txt carries composite_front_to_back from 14 into 18" \
-        grep -q "^18_[a-z_]* composite_front_to_back 14_[a-z_]* [0-9a-f]*\$" \
+# Part 2 branches: step 19 builds on 15, and takes step 15's compositing, not 17's jittered one.
+if [ -f steps/19_isosurface.cpp ]; then
+    expect "$student/.ctlab/carry.txt carries composite_front_to_back from 15 into 19" \
+        grep -q "^19_[a-z_]* composite_front_to_back 15_[a-z_]* [0-9a-f]*\$" \
         "$student/.ctlab/carry.txt"
 fi
 

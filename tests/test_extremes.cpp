@@ -81,7 +81,7 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--threshold", "32767"});
     }
     if (step >= "04" && step < "06") all.push_back({"--light-angle", "180"});
-    const bool projection_modes = step.rfind("17", 0) == 0;  // grey: no transfer function
+    const bool projection_modes = step.rfind("18", 0) == 0;  // grey: no transfer function
     if (step >= "06" && !projection_modes) {
         all.push_back({"--skin-opacity", "1"});
         all.push_back({"--tf", "data/tf/transparent.tf"});
@@ -109,11 +109,11 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     const bool axes_only = step.rfind("35", 0) == 0;
     if (ctlab_test::is_camera_step(step) && !shear_warp) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
-        // Steps 12 and 13 read the nearest voxel only (12 on: --interpolation); step 24 leaps (part 3
+        // Steps 13 and 14 read the nearest voxel only (15 on: --interpolation); step 25 leaps (part 3
         // has no --no-leaping).
         std::vector<std::string> nearest = {"--azimuth", "-360"};
-        if (step >= "14") nearest.insert(nearest.begin(), {"--interpolation", "nearest"});
-        if (step.rfind("24", 0) == 0) nearest.push_back("--no-leaping");
+        if (step >= "15") nearest.insert(nearest.begin(), {"--interpolation", "nearest"});
+        if (step.rfind("25", 0) == 0) nearest.push_back("--no-leaping");
         all.push_back(nearest);
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
     }
@@ -125,16 +125,16 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--ert", "0", "--unlit", "--azimuth", "100", "--elevation", "-30"});
     }
     if (step >= "30") all.push_back({"--mode", "mip", "--elevation", "-90"});  // part 3's MIP
-    if (step.rfind("15", 0) == 0) {
+    if (step.rfind("16", 0) == 0) {
         all.push_back({"--jitter", "hash", "--zoom", "0.01"});
         all.push_back({"--jitter", "hash", "--show-jitter"});  // a trace with no ray
     }
-    if (step.rfind("16", 0) == 0) {
+    if (step.rfind("17", 0) == 0) {
         // The paths above with the hash's offsets: the default, blue noise, makes its 64x64
         // tile at start-up (0.11 s of CPU a run, measured: more than all the other steps' runs
         // of this test together). The default run on every fill and --jitter blue keep it.
         for (size_t v = 1; v < all.size(); ++v) all[v].insert(all[v].begin(), {"--jitter", "hash"});
-        // The hash's own --zoom and --show-jitter runs are step 15's (its --jitter hash is step
+        // The hash's own --zoom and --show-jitter runs are step 16's (its --jitter hash is step
         // 13 bit for bit, test_jitter); the tile's --show-jitter is this step's.
         all.push_back({"--jitter", "blue"});
         all.push_back({"--jitter", "blue", "--show-jitter"});  // a trace with no ray
@@ -143,20 +143,20 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back({"--mode", "minip", "--slab", "2"});
         all.push_back({"--mode", "average", "--zoom", "100"});
     }
-    // Steps 18-20: the iso value at both ends of int16 (no crossing; every ray starts inside);
-    // 17 on with the largest --shininess, 18 with clipping planes in both modes.
-    if (step >= "18" && step < "21") {
+    // Steps 19-21: the iso value at both ends of int16 (no crossing; every ray starts inside);
+    // 20 on with the largest --shininess, 21 with clipping planes in both modes.
+    if (step >= "19" && step < "22") {
         std::vector<std::string> highest = {"--iso", "32767"}, lowest = {"--iso", "-32768"};
-        if (step >= "19") highest.insert(highest.end(), {"--shininess", "1000"});
-        if (step >= "20") lowest.insert(lowest.end(), {"--clip", "0,0,1,0"});
+        if (step >= "20") highest.insert(highest.end(), {"--shininess", "1000"});
+        if (step >= "21") lowest.insert(lowest.end(), {"--clip", "0,0,1,0"});
         all.push_back(highest);
         all.push_back(lowest);
-        if (step >= "20") all.push_back({"--mode", "composite", "--clip", "1,1,1,-1"});
+        if (step >= "21") all.push_back({"--mode", "composite", "--clip", "1,1,1,-1"});
     }
-    // Blocked light: each step's own way (the light behind the head), and in step 23, which
+    // Blocked light: each step's own way (the light behind the head), and in step 24, which
     // has them all, occlusion alone and with the light volume.
-    if (step >= "21" && step < "23") all.push_back({"--light-angle", "180"});
-    if (step.rfind("23", 0) == 0) {
+    if (step >= "22" && step < "24") all.push_back({"--light-angle", "180"});
+    if (step.rfind("24", 0) == 0) {
         all.push_back({"--shadows", "none", "--ao", "on"});
         all.push_back({"--shadows", "volume", "--ao", "on", "--light-angle", "180"});
     }
@@ -242,7 +242,7 @@ void check_extreme_shape(const Shape& shape) {
                 CAPTURE(text);
                 // The default run on noise traces the last pixel of each view too (each view
                 // the pixels that lie inside it): part 2's in that run (one view: its one more
-                // ray picture costs about what a process does, and step 16 makes its
+                // ray picture costs about what a process does, and step 17 makes its
                 // blue-noise tile, 0.2 s of CPU, once, not twice), part 1's in a run of its
                 // own without ray pictures (three views: more pictures than a process costs).
                 std::vector<std::pair<int, int>> last_pixels;

@@ -391,7 +391,7 @@ TEST_CASE("formats: every format and raw type loads in every step; same head, sa
         {"head_5x4x3_float32.raw", "raw", false},
     };
     const std::vector<std::string> steps = step_names();
-    REQUIRE(steps.size() >= 11);  // 00 .. 24_free_leaping at least
+    REQUIRE(steps.size() >= 11);  // 00 .. 25_free_leaping at least
     int runs = 0, compared = 0;
     for (const std::string& step : steps) {
         CAPTURE(step);
@@ -404,7 +404,7 @@ TEST_CASE("formats: every format and raw type loads in every step; same head, sa
         const size_t own = usage.find("this step:");
         const bool has_threshold =
             own != std::string::npos && usage.find("  --threshold ", own) != std::string::npos;
-        // A step whose jitter can be a blue-noise tile (step 16's default) runs with the hash's
+        // A step whose jitter can be a blue-noise tile (step 17's default) runs with the hash's
         // offsets here: the tile is made at start-up (~0.2 s of CPU a run, a third of this
         // test's time with it) and has nothing to do with loading; test_jitter and
         // test_extremes run it.
@@ -478,14 +478,14 @@ TEST_CASE("formats: each preset runs on a volume of its kind in a threshold, a t
     for (const std::string& preset : presets) {
         CAPTURE(preset);
         REQUIRE_MESSAGE(volume_for.count(preset), "a preset without a test volume: add one here");
-        for (const std::string step : {"02_threshold", "07_back_to_front", "24_free_leaping"}) {
+        for (const std::string step : {"02_threshold", "07_back_to_front", "25_free_leaping"}) {
             CAPTURE(step);
             const std::string log = files.path("preset.log");
             std::string command = "'" + build_folder() + "/" + step + "' --preset " + preset +
                                   " --volume '" + volume_for.at(preset) +
                                   "' --no-window --threads 1 --out '" + files.path("preset_out") +
                                   "'";
-            if (step == "24_free_leaping") command += " --size 64x64";
+            if (step == "25_free_leaping") command += " --size 64x64";
             const int status = std::system((command + " > '" + log + "' 2>&1").c_str());
             const std::string printed = file_text(log);
             CHECK_MESSAGE(WIFEXITED(status), printed);

@@ -1,5 +1,5 @@
-// test_free_camera.cpp: steps 12, 13, 14 and 20 (the orbit camera, the slab method, trilinear
-// samples, leaping along a free ray; most cases on step 24, which has them all) run as programs
+// test_free_camera.cpp: steps 13, 14, 15 and 21 (the orbit camera, the slab method, trilinear
+// samples, leaping along a free ray; most cases on step 25, which has them all) run as programs
 // (tools/run_step.h): its pictures along the three axes against part 1's (step 10), the slab
 // method's stiff cases seen in its traces and float images, trilinear samples on a linear ramp
 // against the closed form, and a sphere whose silhouette has the same radius from every
@@ -22,7 +22,7 @@ using namespace ctlab;
 
 namespace {
 
-const std::string free_camera = "24_free_leaping";
+const std::string free_camera = "25_free_leaping";
 const std::string part1 = "10_opacity_correction";
 
 // Runs a step with --pfm into `folder` and returns its result; the image is read separately.
@@ -399,7 +399,7 @@ TEST_CASE("free camera: the default run matches its reference image, no NaN") {
     CHECK(non_finite_pixels(image) == 0);
     CHECK(summary_count(run.summary("camera"), "samples") > 0);
     CHECK(run.summary("camera").at("size") == "512x512");
-    const std::string path = "data/reference/24_free_leaping_camera.png";
+    const std::string path = "data/reference/25_free_leaping_camera.png";
     REQUIRE_MESSAGE(access(path.c_str(), R_OK) == 0, "missing " << path << ": make reference");
     const Image reference = read_image(path);
     const Comparison c = compare_images(image, reference, 1, "the float render", path);
@@ -469,11 +469,11 @@ TEST_CASE("free camera: leaping over empty bricks never changes the picture") {
     }
 }
 
-// The re-cut of part 2: step 13 (the slab method, nearest samples) is step 14 with
+// The re-cut of part 2: step 14 (the slab method, nearest samples) is step 15 with
 // --interpolation nearest, and
-// step 14 is step 24 with --no-leaping, bit for bit, with the same work where they read the
+// step 15 is step 25 with --no-leaping, bit for bit, with the same work where they read the
 // same samples: each step adds its one idea without touching the picture of the one before.
-TEST_CASE("free camera: step 13 is step 14's nearest picture, step 14 is step 24's unleapt") {
+TEST_CASE("free camera: step 14 is step 15's nearest picture, step 15 is step 25's unleapt") {
     const std::vector<std::string>& phantom = ctlab_test::phantom_flags();
     const std::vector<std::string> small = {"--size", "160x128", "--azimuth", "40"};
     auto with = [&](std::vector<std::string> flags) {
@@ -481,14 +481,14 @@ TEST_CASE("free camera: step 13 is step 14's nearest picture, step 14 is step 24
         return flags;
     };
     TempFolder ten("recut10"), eleven_nearest("recut11n"), eleven("recut11"), twelve("recut12");
-    const RunResult a = render("13_slab_method", phantom, with({}), ten);
-    const RunResult b = render("14_trilinear", phantom, with({"--interpolation", "nearest"}),
+    const RunResult a = render("14_slab_method", phantom, with({}), ten);
+    const RunResult b = render("15_trilinear", phantom, with({"--interpolation", "nearest"}),
                                eleven_nearest);
-    const RunResult c = render("14_trilinear", phantom, with({}), eleven);
+    const RunResult c = render("15_trilinear", phantom, with({}), eleven);
     const RunResult d = render(free_camera, phantom, with({"--no-leaping"}), twelve);
-    CHECK(differing_pixels(pfm_of(ten, "13_slab_method", "camera"),
-                           pfm_of(eleven_nearest, "14_trilinear", "camera"), false) == 0);
-    CHECK(differing_pixels(pfm_of(eleven, "14_trilinear", "camera"),
+    CHECK(differing_pixels(pfm_of(ten, "14_slab_method", "camera"),
+                           pfm_of(eleven_nearest, "15_trilinear", "camera"), false) == 0);
+    CHECK(differing_pixels(pfm_of(eleven, "15_trilinear", "camera"),
                            pfm_of(twelve, free_camera, "camera"), false) == 0);
     for (const char* counter : {"samples", "skipped", "gradients", "terminated"}) {
         CAPTURE(counter);
@@ -501,24 +501,52 @@ TEST_CASE("free camera: step 13 is step 14's nearest picture, step 14 is step 24
     CHECK(summary_count(a.summary("camera"), "samples") > 0);
 }
 
-// Step 12 tests every sample for being in the box, at whole steps from the box's centre; step
-// 11 walks from the box's entry to its exit. Looking straight down with part 1's top-view
+// Step 13 tests every sample for being in the box, at whole steps from the box's centre; step
+// 14 walks from the box's entry to its exit. Looking straight down with part 1's top-view
 // settings both sample the voxel centres, so the pictures and the work are the same, bit for
 // bit; from the default camera the samples lie elsewhere along the rays, and the pictures
 // differ by a few nearest-voxel staircases only.
-TEST_CASE("free camera: step 12's test per sample is step 13's slab method along an axis") {
+TEST_CASE("free camera: step 13's test per sample is step 14's slab method along an axis") {
     const std::vector<std::string>& phantom = ctlab_test::phantom_flags();
     const std::vector<std::string> above = {"--azimuth", "180", "--elevation", "90", "--size",
                                             "128x128", "--step", "2", "--zoom", "0.5"};
     TempFolder ten("camera10"), eleven("camera11");
-    const RunResult a = render("12_free_camera", phantom, above, ten);
-    const RunResult b = render("13_slab_method", phantom, above, eleven);
-    CHECK(differing_pixels(pfm_of(ten, "12_free_camera", "camera"),
-                           pfm_of(eleven, "13_slab_method", "camera"), false) == 0);
+    const RunResult a = render("13_free_camera", phantom, above, ten);
+    const RunResult b = render("14_slab_method", phantom, above, eleven);
+    CHECK(differing_pixels(pfm_of(ten, "13_free_camera", "camera"),
+                           pfm_of(eleven, "14_slab_method", "camera"), false) == 0);
     for (const char* counter : {"samples", "skipped", "gradients", "terminated"}) {
         CAPTURE(counter);
         CHECK(summary_count(a.summary("camera"), counter) ==
               summary_count(b.summary("camera"), counter));
     }
     CHECK(summary_count(a.summary("camera"), "samples") > 0);
+}
+
+// Step 12 samples part 1's rays at whole steps from the box's centre. Along k on the phantom
+// (spacing 2, 113 slices: the centre is slice 56), --step 2 puts every sample on a slice, where
+// step 10's linear samples read that slice too: the same picture and the same work, bit for
+// bit. At --step 1 every other sample lies between two slices: step 12 reads the nearer one (a
+// half rounds up), step 10 interpolates, and the pictures differ.
+TEST_CASE("physical rays: step 12's top view at step 2 is step 10's, bit for bit") {
+    const std::string step12 = "12_physical_rays";
+    const std::vector<std::string>& phantom = ctlab_test::phantom_flags();
+    for (const char* step : {"2", "1"}) {
+        CAPTURE(step);
+        TempFolder ten("rays10"), twelve("rays12");
+        const RunResult a = render(part1, phantom, {"--view", "top", "--step", step}, ten);
+        const RunResult b = render(step12, phantom, {"--view", "top", "--step", step}, twelve);
+        const int differing = differing_pixels(pfm_of(ten, part1, "top"),
+                                               pfm_of(twelve, step12, "top"), false);
+        if (std::string(step) == "2") {
+            CHECK(differing == 0);
+            for (const char* counter : {"samples", "skipped", "gradients", "terminated"}) {
+                CAPTURE(counter);
+                CHECK(summary_count(a.summary("top"), counter) ==
+                      summary_count(b.summary("top"), counter));
+            }
+        } else {
+            CHECK(differing > 0);
+        }
+    }
 }

@@ -1,4 +1,4 @@
-// test_isosurface.cpp: steps 18 (the isosurface), 17 (Phong) and 18 (the clipping plane) run
+// test_isosurface.cpp: steps 19 (the isosurface), 17 (Phong) and 18 (the clipping plane) run
 // as programs (tools/run_step.h), against analytic volumes written here as raw int16 files: a
 // sphere so large that its surface is nearly flat across the volume (the bisected hit on it), a
 // sphere seen from many directions (its silhouette) and grazed, a linear ramp whose diffuse and
@@ -22,9 +22,9 @@ using namespace ctlab;
 
 namespace {
 
-const std::string iso_step = "18_isosurface";       // the first crossing, bisected
-const std::string phong_step = "19_phong";           // Phong's terms
-const std::string clip_step = "20_clipping_plane";   // the clipping plane
+const std::string iso_step = "19_isosurface";       // the first crossing, bisected
+const std::string phong_step = "20_phong";           // Phong's terms
+const std::string clip_step = "21_clipping_plane";   // the clipping plane
 const std::vector<std::string> surface_steps = {iso_step, phong_step, clip_step};
 
 // Runs `step` on `volume_flags` with `flags`, --pfm into `folder`, two threads.
@@ -121,7 +121,7 @@ bool traced_phong(const PixelTrace& trace, TracedPhong* phong) {
                        &phong->ambient, &phong->diffuse, &phong->specular) == 9;
 }
 
-// Step 18's traced light at the hit, step 14's shade(): "gradient=(GI, GJ, GK) shade=S".
+// Step 19's traced light at the hit, step 15's shade(): "gradient=(GI, GJ, GK) shade=S".
 bool traced_shade(const PixelTrace& trace, double* shade) {
     const std::string line = line_starting(trace, "gradient=(");
     double gi = 0, gj = 0, gk = 0;
@@ -208,7 +208,7 @@ TEST_CASE("isosurface: a sphere's silhouette has the same radius from every dire
     const std::vector<std::string> raw = write_raw_volume(volume, folder.path("sphere.raw"));
     const char* directions[][2] = {{"0", "0"},     {"30", "20"},  {"90", "0"},   {"180", "90"},
                                    {"-45", "-60"}, {"123", "37"}, {"200", "-5"}, {"17", "89"}};
-    // Step 18 finds the surface; step 20, with all of it, still does (17 lights it only).
+    // Step 19 finds the surface; step 21, with all of it, still does (17 lights it only).
     for (const std::string& step : {iso_step, clip_step}) {
         CAPTURE(step);
         double smallest = 1e9, largest = 0;
@@ -302,7 +302,7 @@ TEST_CASE("isosurface: rays grazing a sphere hit it on its surface or miss it, n
     }
 }
 
-TEST_CASE("clipping plane (step 20): it removes exactly its half-space, iso and composite") {
+TEST_CASE("clipping plane (step 21): it removes exactly its half-space, iso and composite") {
     // A slab of bone (1000) for 8 <= k < 24 in air (-1000), 32^3 voxels at spacing 1. Seen
     // along +i (azimuth 90, elevation 0) at zoom 1, pixel (x, y) is the ray along the row of
     // voxels j = x, k = y.
@@ -415,8 +415,8 @@ void check_ramp_hit(const PixelTrace& trace) {
 
 }  // namespace
 
-TEST_CASE("isosurface (step 18): the surface is lit as step 14 lights a sample, by hand") {
-    // Step 14's shade(): ambient 0.1 + (1 - 0.1) max(0, N.L) on a white surface:
+TEST_CASE("isosurface (step 19): the surface is lit as step 15 lights a sample, by hand") {
+    // Step 15's shade(): ambient 0.1 + (1 - 0.1) max(0, N.L) on a white surface:
     //   light angle 0: 0.1 + 0.9 * 0.840487 = 0.856438; light angle 180: ambient only, 0.1.
     const TempFolder folder("isosurface_diffuse");
     const std::vector<std::string> raw =
@@ -439,7 +439,7 @@ TEST_CASE("isosurface (step 18): the surface is lit as step 14 lights a sample, 
     }
 }
 
-TEST_CASE("Phong (steps 19, 20): the terms equal the hand-computed ones for a known normal, "
+TEST_CASE("Phong (steps 20, 21): the terms equal the hand-computed ones for a known normal, "
           "light and view") {
     // With L and N as above (light angle 0):
     //   R = 2 (N.L) N - L = (-0.751755, 0.342020, -0.563817), R.V = 0.563817
@@ -481,7 +481,7 @@ TEST_CASE("Phong (steps 19, 20): the terms equal the hand-computed ones for a kn
 }
 
 TEST_CASE("isosurface: the picture and the work do not depend on the thread count") {
-    // Step 18's surface, and step 20's with a clipping plane.
+    // Step 19's surface, and step 21's with a clipping plane.
     for (const std::string& step : {iso_step, clip_step}) {
         CAPTURE(step);
         const TempFolder one("isosurface_threads1"), three("isosurface_threads3");

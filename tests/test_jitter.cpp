@@ -1,5 +1,5 @@
-// test_jitter.cpp: steps 15 (jitter by a hash) and 14 (blue noise) run as programs
-// (tools/run_step.h). Without jitter each is step 14 bit for bit; the hash's offsets are
+// test_jitter.cpp: steps 16 (jitter by a hash) and 14 (blue noise) run as programs
+// (tools/run_step.h). Without jitter each is step 15 bit for bit; the hash's offsets are
 // uniform on [0, 1) and the same in every run; the blue-noise tile holds every rank once and
 // has far less low-frequency power than white noise (the analytic flat spectrum); the trace
 // shows the offset; and on a ball, jitter removes the rings a fixed sample grid draws
@@ -19,10 +19,10 @@ using namespace ctlab;
 
 namespace {
 
-const std::string jitter_step = "16_blue_noise";  // every mode: none, hash, blue
-const std::string hash_step = "15_jitter";        // none and hash
-const std::string free_camera = "14_trilinear";
-constexpr int tile = 64;  // the blue-noise tile's side, as handouts/16_blue_noise.md says
+const std::string jitter_step = "17_blue_noise";  // every mode: none, hash, blue
+const std::string hash_step = "16_jitter";        // none and hash
+const std::string free_camera = "15_trilinear";
+constexpr int tile = 64;  // the blue-noise tile's side, as handouts/17_blue_noise.md says
 constexpr double pi = 3.14159265358979323846;
 
 // Runs a step with --pfm into `folder`; --volume phantom loads the phantom painted once in
@@ -161,7 +161,7 @@ int differing_pixels(const Image& a, const Image& b) {
 
 }  // namespace
 
-TEST_CASE("jitter: --jitter none draws step 14's picture bit for bit, with the same work") {
+TEST_CASE("jitter: --jitter none draws step 15's picture bit for bit, with the same work") {
     const TempFolder folder("jitter_none");
     for (const std::vector<std::string>& camera :
          std::vector<std::vector<std::string>>{{"--size", "96x80", "--zoom", "0.35"},
@@ -186,8 +186,8 @@ TEST_CASE("jitter: --jitter none draws step 14's picture bit for bit, with the s
     }
 }
 
-// Step 16 adds the blue-noise tile only: its --jitter hash is step 15's default, bit for bit.
-TEST_CASE("jitter: step 16's --jitter hash is step 15's picture, bit for bit, with the same work") {
+// Step 17 adds the blue-noise tile only: its --jitter hash is step 16's default, bit for bit.
+TEST_CASE("jitter: step 17's --jitter hash is step 16's picture, bit for bit, with the same work") {
     const TempFolder folder("jitter_hash_steps");
     const std::vector<std::string> flags = {"--volume", "phantom", "--size", "96x80", "--zoom",
                                             "0.35", "--step", "4"};

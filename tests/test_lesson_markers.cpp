@@ -408,9 +408,9 @@ TEST_CASE("unlinked copies: the same code off the chain asks the header to name 
     CHECK(lesson::find_unlinked_copies(steps).empty());
 }
 
-// The lab's own part 2: step 17's compositing is step 14's (byte for byte, and so compared and
-// carried), while 15's is jittered: comparing 17 with the step numbered before it would fail.
-TEST_CASE("the lab's branches: 17, 18 and 24 take their functions from step 14") {
+// The lab's own part 2: step 18's compositing is step 15's (byte for byte, and so compared and
+// carried), while 16's is jittered: comparing 18 with the step numbered before it would fail.
+TEST_CASE("the lab's branches: 18, 19 and 25 take their functions from step 15") {
     const Steps steps = lesson::read_steps(".");
     const auto index = [&](const std::string& prefix) {
         for (size_t n = 0; n < steps.size(); ++n) {
@@ -428,11 +428,11 @@ TEST_CASE("the lab's branches: 17, 18 and 24 take their functions from step 14")
         return lesson::StepFunction{};
     };
     const auto parents = lesson::step_parents(steps);
-    const size_t twelve = index("14_"), thirteen = index("15_"), fourteen = index("16_");
+    const size_t twelve = index("15_"), thirteen = index("16_"), fourteen = index("17_");
     const std::string composite = "composite_front_to_back";
     CHECK(function(thirteen, composite).code != function(twelve, composite).code);
     CHECK(function(fourteen, composite).code == function(thirteen, composite).code);
-    for (const char* step : {"17_", "18_", "19_"}) {
+    for (const char* step : {"18_", "19_", "20_"}) {
         const size_t n = index(step);
         const auto defines = [&](size_t m) {
             for (const auto& found : lesson::step_functions(steps[m].second, steps[m].first,
@@ -443,14 +443,14 @@ TEST_CASE("the lab's branches: 17, 18 and 24 take their functions from step 14")
         };
         const int from = lesson::compared_step(parents, n, defines);
         REQUIRE(from >= 0);
-        CHECK(steps[size_t(from)].first == (step == std::string("19_") ? steps[index("18_")].first
+        CHECK(steps[size_t(from)].first == (step == std::string("20_") ? steps[index("19_")].first
                                                                       : steps[twelve].first));
-        // Step 12's, comments and all: nothing says "changed" where nothing changed.
+        // Step 15's, comments and all: nothing says "changed" where nothing changed.
         CHECK(function(n, composite).text == function(twelve, composite).text);
         CHECK_FALSE(function(n, composite).changed);
     }
-    CHECK(parents[index("17_")] == std::vector<size_t>{twelve});
-    CHECK(parents[index("24_")] == std::vector<size_t>{twelve, index("11_")});
+    CHECK(parents[index("18_")] == std::vector<size_t>{twelve});
+    CHECK(parents[index("25_")] == std::vector<size_t>{twelve, index("11_")});
 }
 
 // The rule on the lab itself: every function a later step holds is the earlier step's code,

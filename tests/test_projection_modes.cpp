@@ -1,9 +1,9 @@
-// test_projection_modes.cpp: step 17 (MIP, MinIP, average along the free ray) run as a
+// test_projection_modes.cpp: step 18 (MIP, MinIP, average along the free ray) run as a
 // program (tools/run_step.h), against known answers: a linear ramp seen along each axis (the
 // largest, smallest and mean value of a column are closed forms), an oblique ray through it
 // (linear along the ray: the extremes are its end samples, the mean their midpoint), a slab of
 // it, and rays that miss the box or meet only part of it (only samples inside the box count);
-// --mode composite is step 14 pixel for pixel.
+// --mode composite is step 15 pixel for pixel.
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <cmath>
@@ -19,7 +19,7 @@ using namespace ctlab;
 
 namespace {
 
-const std::string projection_step = "17_projection_modes";
+const std::string projection_step = "18_projection_modes";
 
 RunResult render(std::vector<std::string> flags, const TempFolder& folder) {
     flags.insert(flags.end(), {"--out", folder.path(), "--pfm", "--threads", "2"});
@@ -289,7 +289,7 @@ TEST_CASE("projection modes: bad --mode and --slab are refused with status 2") {
     }
 }
 
-TEST_CASE("projection modes: --mode composite is step 14's compositing, pixel for pixel") {
+TEST_CASE("projection modes: --mode composite is step 15's compositing, pixel for pixel") {
     const TempFolder folder("projection_composite");
     const std::vector<std::string> scene = {"--volume", "phantom", "--size", "48x40",
                                             "--azimuth", "33", "--elevation", "-21"};
@@ -299,9 +299,9 @@ TEST_CASE("projection modes: --mode composite is step 14's compositing, pixel fo
     const Image composite = picture(folder);
     flags = scene;
     flags.insert(flags.end(), {"--out", folder.path(), "--pfm", "--threads", "2"});
-    const RunResult run = run_step("14_trilinear", flags);
+    const RunResult run = run_step("15_trilinear", flags);
     REQUIRE(run.status == 0);
-    const Image trilinear = read_pfm(step_output(folder.path(), "14_trilinear", "camera", "pfm"));
+    const Image trilinear = read_pfm(step_output(folder.path(), "15_trilinear", "camera", "pfm"));
     REQUIRE(composite.pixels.size() == trilinear.pixels.size());
     int differing = 0;
     for (size_t n = 0; n < composite.pixels.size(); ++n) {

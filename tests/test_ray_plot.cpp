@@ -207,7 +207,7 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
         {"11_empty_space",
          {"--view", "front", "--debug-pixel", "128,30"},
          "11_empty_space_front_ray_128_30"},
-        {"24_free_leaping", {"--debug-pixel", "280,300"}, "24_free_leaping_camera_ray_280_300"},
+        {"25_free_leaping", {"--debug-pixel", "280,300"}, "25_free_leaping_camera_ray_280_300"},
     };
     for (const Case& c : cases) {
         CAPTURE(c.step);
@@ -275,7 +275,7 @@ TEST_CASE("the ray picture's numbers are the text trace's, for every kind of ste
     }
 }
 
-TEST_CASE("step 05 marks the interpolated crossing, step 11 its leaps, step 24 the box") {
+TEST_CASE("step 05 marks the interpolated crossing, step 11 its leaps, step 25 the box") {
     ctlab::TempFolder out("ray_plot_marks");
     const auto flags = [&](std::vector<std::string> more) {
         std::vector<std::string> all = ctlab_test::phantom_flags();
@@ -297,8 +297,8 @@ TEST_CASE("step 05 marks the interpolated crossing, step 11 its leaps, step 24 t
         0);
     CHECK(!lines_starting(read_text(out.path("11_empty_space_front_ray_128_30.txt")), "mark leapt ")
                .empty());
-    REQUIRE(run_step("24_free_leaping", flags({"--debug-pixel", "280,300"})).status == 0);
-    CHECK(lines_starting(read_text(out.path("24_free_leaping_camera_ray_280_300.txt")), "mark box ")
+    REQUIRE(run_step("25_free_leaping", flags({"--debug-pixel", "280,300"})).status == 0);
+    CHECK(lines_starting(read_text(out.path("25_free_leaping_camera_ray_280_300.txt")), "mark box ")
               .size() == 1);
 }
 
@@ -307,7 +307,7 @@ TEST_CASE("--trace-only: a whole run's traces, records and ray pictures, without
     // volume's axis views): every file but the views' PNGs, byte for byte.
     const std::vector<std::vector<std::string>> cases = {
         {"11_empty_space", "--view", "front", "--debug-pixel", "128,30", "--debug-pixel", "40,20"},
-        {"24_free_leaping", "--debug-pixel", "280,300"},
+        {"25_free_leaping", "--debug-pixel", "280,300"},
     };
     for (const std::vector<std::string>& c : cases) {
         CAPTURE(c[0]);

@@ -1,9 +1,9 @@
 // test_shadows.cpp: blocked light, each idea in the step that brings it, run as a program
-// (tools/run_step.h) on volumes and transfer functions written here. Step 21, shadow rays: a
+// (tools/run_step.h) on volumes and transfer functions written here. Step 22, shadow rays: a
 // homogeneous slab between the light and a surface (Beer-Lambert), a lone voxel in empty space
-// (nothing blocks its light), --shadows none is step 14's picture bit for bit. Step 22, the
+// (nothing blocks its light), --shadows none is step 15's picture bit for bit. Step 23, the
 // light-transmittance volume: the same slab (Beer-Lambert again, close to the shadow ray), and
-// on the phantom close to the shadow rays' picture for far fewer reads. Step 23, ambient
+// on the phantom close to the shadow rays' picture for far fewer reads. Step 24, ambient
 // occlusion: the lone voxel (nothing around it), a uniform block (a known medium). Each later
 // step with its new idea off renders the step before's picture, bit for bit.
 #include <doctest/doctest.h>
@@ -23,9 +23,9 @@ using namespace ctlab;
 
 namespace {
 
-const std::string shadow_rays_step = "21_shadow_rays";
-const std::string light_volume_step = "22_light_volume";
-const std::string ambient_occlusion_step = "23_ambient_occlusion";
+const std::string shadow_rays_step = "22_shadow_rays";
+const std::string light_volume_step = "23_light_volume";
+const std::string ambient_occlusion_step = "24_ambient_occlusion";
 
 RunResult run_shadows(const std::string& step, const std::vector<std::string>& volume_flags,
                       std::vector<std::string> flags, const TempFolder& folder) {
@@ -57,7 +57,7 @@ std::vector<std::string> tf_flags(const TempFolder& folder, const std::string& r
 }
 
 // A composited sample of the trace, from its records (full precision): where it is, its value,
-// the light reaching it, its ambient occlusion (-1 before step 23) and how many samples its
+// the light reaching it, its ambient occlusion (-1 before step 24) and how many samples its
 // shadow ray (and occlusion probes) read.
 struct LitSample {
     double t = 0, i = 0, j = 0, k = 0, value = 0, light_t = -1, occlusion = -1;
@@ -148,14 +148,14 @@ size_t first_surface_sample(const std::vector<LitSample>& samples) {
 
 }  // namespace
 
-TEST_CASE("shadow rays (step 21): a homogeneous slab between the light and a surface lets "
+TEST_CASE("shadow rays (step 22): a homogeneous slab between the light and a surface lets "
           "exp(-sigma d) through (Beer-Lambert)") {
     const Slab slab;
     const std::vector<LitSample> samples = slab.samples(shadow_rays_step, {});
     // The first surface sample, k = 35.5: its shadow ray goes up through the slab.
     const LitSample& surface = samples[first_surface_sample(samples)];
     CHECK(surface.k == doctest::Approx(35.5));
-    CHECK(surface.occlusion == -1);  // no ambient occlusion before step 23
+    CHECK(surface.occlusion == -1);  // no ambient occlusion before step 24
     CAPTURE(surface.light_t);
     // Samples 0.25 apart count the slab to within one sample: |ln T + sigma d| <= sigma h.
     // The surface's own 1e-4 adds at most 1e-4 * 0.5 / cos 20 to -ln T.
@@ -190,7 +190,7 @@ TEST_CASE("shadow rays (step 21): a homogeneous slab between the light and a sur
     }
 }
 
-TEST_CASE("light volume (step 22): on the slab it gives Beer-Lambert too, within one segment "
+TEST_CASE("light volume (step 23): on the slab it gives Beer-Lambert too, within one segment "
           "of the shadow ray, for one read per voxel") {
     // The light-transmittance volume, swept slice by slice along k (the axis the light
     // crosses fastest) in segments d = 1 / cos 20 long: the slab's 11 slices of 3000 each
@@ -218,7 +218,7 @@ TEST_CASE("light volume (step 22): on the slab it gives Beer-Lambert too, within
     }
 }
 
-TEST_CASE("shadow rays and ambient occlusion (steps 21, 23): a lone voxel in empty space gets "
+TEST_CASE("shadow rays and ambient occlusion (steps 22, 24): a lone voxel in empty space gets "
           "all the light, T_light = 1 and AO = 1") {
     // One voxel of 1000 (opacity 0.5) at (12, 16, 20) in air (2000, transparent), and under
     // it one of 3000 (transparent too), so that the values rise downwards through the voxel
@@ -258,7 +258,7 @@ TEST_CASE("shadow rays and ambient occlusion (steps 21, 23): a lone voxel in emp
     }
 }
 
-TEST_CASE("ambient occlusion (step 23): inside a uniform medium it is (1 - alpha)^(radius / "
+TEST_CASE("ambient occlusion (step 24): inside a uniform medium it is (1 - alpha)^(radius / "
           "unit) in every direction") {
     // A uniform block, 24 x 32 x 40, of opacity 0.1 per unit (one range of the table covers
     // all its values, 1000 + 10 k: rising downwards, so every normal faces up, to the light,
@@ -309,12 +309,12 @@ Image small_picture(const std::string& step, const std::vector<std::string>& ext
 TEST_CASE("shadows: each step with its new idea off is the step it builds on, bit for bit; "
           "with it on the picture only darkens") {
     const TempFolder folder("shadows_off");
-    const Image step_12 = small_picture("14_trilinear", {}, folder);
+    const Image step_12 = small_picture("15_trilinear", {}, folder);
     const Image rays = small_picture(shadow_rays_step, {}, folder);
     const Image swept = small_picture(light_volume_step, {}, folder);
-    // Step 21 without shadow rays is step 14; step 22 with them is step 21; step 23 without
-    // ambient occlusion is step 22, either way of finding T_light; all three with no shadows
-    // at all are step 14.
+    // Step 22 without shadow rays is step 15; step 23 with them is step 22; step 24 without
+    // ambient occlusion is step 23, either way of finding T_light; all three with no shadows
+    // at all are step 15.
     CHECK(largest_difference(small_picture(shadow_rays_step, {"--shadows", "none"}, folder),
                              step_12) == 0);
     CHECK(largest_difference(small_picture(light_volume_step, {"--shadows", "ray"}, folder),
@@ -346,8 +346,8 @@ TEST_CASE("shadows: each step with its new idea off is the step it builds on, bi
 TEST_CASE("shadows: bad flags are refused with status 2, naming the flag") {
     const std::vector<std::pair<std::string, std::vector<std::string>>> refused = {
         {shadow_rays_step, {"--shadows", "map"}},
-        {shadow_rays_step, {"--shadows", "volume"}},  // step 22's
-        {shadow_rays_step, {"--ao", "on"}},           // step 23's
+        {shadow_rays_step, {"--shadows", "volume"}},  // step 23's
+        {shadow_rays_step, {"--ao", "on"}},           // step 24's
         {light_volume_step, {"--shadows", "map"}},
         {light_volume_step, {"--ao", "on"}},
         {ambient_occlusion_step, {"--ao", "yes"}}};
@@ -364,7 +364,7 @@ TEST_CASE("shadows: bad flags are refused with status 2, naming the flag") {
     }
 }
 
-// The phantom's picture of step 22 with these flags, at `size` pixels covering the default
+// The phantom's picture of step 23 with these flags, at `size` pixels covering the default
 // picture's field (and the run, for its counters).
 struct Picture {
     RunResult run;
@@ -388,7 +388,7 @@ Picture phantom_picture(const std::vector<std::string>& extra, const TempFolder&
     return picture;
 }
 
-TEST_CASE("light volume (step 22): it gives the shadow rays' picture for one read per voxel, "
+TEST_CASE("light volume (step 23): it gives the shadow rays' picture for one read per voxel, "
           "where the shadow rays read per lit sample") {
     const TempFolder folder("shadows_volume");
     const Picture rays = phantom_picture({"--shadows", "ray"}, folder);

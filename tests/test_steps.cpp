@@ -880,10 +880,10 @@ TEST_CASE("debug trace: the traced ray gives the image's pixel, and prints it") 
                 CHECK(trace.png[1] == to_byte(drawn.g));
                 CHECK(trace.png[2] == to_byte(drawn.b));
                 // A line per sample read; a ray that only leapt over empty bricks still says so.
-                // (Steps 21-23's samples= count their shadow rays', sweep's and occlusion
+                // (Steps 22-24's samples= count their shadow rays', sweep's and occlusion
                 // probes' samples too, and a trace gives a lit sample one line: there the
                 // count bounds nothing.)
-                const bool blocked_light = step >= "21" && step < "24";
+                const bool blocked_light = step >= "22" && step < "25";
                 if (!blocked_light) CHECK(trace.lines.size() >= trace.samples);
                 CHECK_FALSE(trace.lines.empty());
                 ++traced;

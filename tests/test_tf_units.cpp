@@ -158,5 +158,5 @@ TEST_CASE("tf units: a float volume with its threshold and TF in file units look
     const double lit_tolerance = 0.03;
     check_same_picture("10_opacity_correction", pair, folder, {}, {"--tf", tf}, lit_tolerance);
     check_same_picture("11_empty_space", pair, folder, {}, {"--tf", tf}, lit_tolerance);
-    check_same_picture("24_free_leaping", pair, folder, {}, {"--tf", tf}, lit_tolerance);
+    check_same_picture("25_free_leaping", pair, folder, {}, {"--tf", tf}, lit_tolerance);
 }

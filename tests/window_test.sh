@@ -250,7 +250,7 @@ fi
 # --- The orbit (part 2): drag to turn, wheel to zoom, coarse previews, full size after -------
 # Each "window: orbit azimuth=A elevation=E zoom=Z (N previews at WxH)" line is followed by the
 # full-size render's summary line, which must show the same camera.
-camera_step=$build/24_free_leaping
+camera_step=$build/25_free_leaping
 if [ -x "$camera_step" ]; then
     xvfb "$camera_step" $phantom --size 128x128 --zoom 0.5 --out "$work/orbit_out" \
         --window-script "press:64:64,move:70:64,move:80:64,release:80:64,wheel:2,wait:500,\

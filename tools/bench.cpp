@@ -88,17 +88,17 @@ constexpr double parallel_target = 1.7;  // target: speed-up of the parallel loo
 constexpr int thread_counts[2] = {1, 2};
 // Part 2: each camera step's default run is the oblique view (azimuth 30, elevation 20,
 // orthographic, 512x512, the classic table); VTK's CPU ray caster needs about 30 ms for it.
-constexpr double camera_budget_ms = 10;     // target: step 24 (composite, leaping), 2 threads
-constexpr double isosurface_budget_ms = 15;  // target: step 18 (the isosurface), 2 threads
-const char* const first_camera_step = "12_";  // part 2 begins: camera views only from here
-const char* const camera_step = "24_";       // the composite camera step's number (leaping)
-const char* const isosurface_step = "18_";   // checked once a step 18_* exists
+constexpr double camera_budget_ms = 10;     // target: step 25 (composite, leaping), 2 threads
+constexpr double isosurface_budget_ms = 15;  // target: step 19 (the isosurface), 2 threads
+const char* const first_camera_step = "13_";  // camera views only from here (12: axis views)
+const char* const camera_step = "25_";       // the composite camera step's number (leaping)
+const char* const isosurface_step = "19_";   // checked once a step 19_* exists
 // Blocked light: a default picture usable in the window (shadow rays are allowed longer).
-constexpr double shadow_rays_budget_ms = 1000;  // target: steps 21 and 23, 2 threads
-constexpr double light_volume_budget_ms = 200;  // target: step 22 (the light volume), 2 threads
-const char* const shadow_rays_step = "21_";
-const char* const light_volume_step = "22_";
-const char* const occlusion_step = "23_";  // shadow rays and ambient occlusion
+constexpr double shadow_rays_budget_ms = 1000;  // target: steps 22 and 24, 2 threads
+constexpr double light_volume_budget_ms = 200;  // target: step 23 (the light volume), 2 threads
+const char* const shadow_rays_step = "22_";
+const char* const light_volume_step = "23_";
+const char* const occlusion_step = "24_";  // shadow rays and ambient occlusion
 
 // The steps: every steps/NN_name.cpp (make bench runs from the repository). Part 2's steps
 // take --view all too and render one view, "camera": their default run (see camera_budget_ms)
@@ -196,7 +196,7 @@ std::vector<Row> bench_volume_rows(const std::vector<std::string>& volume, int r
     const TempFolder folder("bench");
     for (const std::string& step : step_names()) {
         if (!selected(step, only)) continue;
-        // One axis view (the large volume's rows) exists in part 1 only: from step 12 on a
+        // One axis view (the large volume's rows) exists in part 1 only: from step 13 on a
         // step renders its camera view and refuses --view top.
         if (view != "all" && step.compare(0, 2, first_camera_step, 2) >= 0) continue;
         std::vector<Row> step_rows;
@@ -512,7 +512,7 @@ std::string step_section(const std::vector<Row>& rows, const std::string& step, 
 }
 
 // Part 2's targets: a camera step's default (oblique, 512x512) run on 2 threads, warm and
-// cold. The isosurface row waits, "no step yet", until a step 18_* is benched.
+// cold. The isosurface row waits, "no step yet", until a step 19_* is benched.
 std::string camera_targets(const std::vector<Row>& rows) {
     std::ostringstream out;
     auto row = [&](const char* number, const char* what, double budget) {

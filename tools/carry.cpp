@@ -5,8 +5,8 @@
 //
 // make_student writes DIR/.ctlab/carry.txt: one line "TO_STEP FUNCTION FROM_STEP STUB_HASH"
 // per lesson function that TO_STEP takes unchanged from FROM_STEP in the solution: the nearest
-// step it builds on, by its header's "Builds on:" chain, that has the function (step 18 takes
-// step 14's composite_front_to_back(), not the jittered one of step 16, numbered before it).
+// step it builds on, by its header's "Builds on:" chain, that has the function (step 19 takes
+// step 15's composite_front_to_back(), not the jittered one of step 17, numbered before it).
 // For each line (in step order, and FROM_STEP is always an earlier step, so 02 -> 03 -> 04 and
 // 12 -> 16 -> 17 carry in one run):
 //   - FROM_STEP's function still a stub (it calls not_done): nothing to carry yet;

@@ -66,7 +66,7 @@ const char* const graded_mark = "graded.txt";    // students/NAME/graded.txt: fi
 
 // Only NN_name_top|front|side.png count: variants (..._front_skin030.png), manifests and
 // anything else in the reference folder are not expected from the student.
-// Part 2's steps (12 on) write one picture, NN_name_camera.png.
+// Part 2's steps (13 on) write one picture, NN_name_camera.png.
 const std::regex expected_name("^([0-9]{2}_[a-z0-9_]+)_(top|front|side|camera)\\.png$");
 
 const char* const usage_text =

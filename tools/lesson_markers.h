@@ -791,27 +791,27 @@ inline std::vector<Answer> solution_answers(const std::filesystem::path& solutio
 
 // --- Copies across steps: a function that a later step takes unchanged ----------------------
 // A step is the step it builds on plus its lesson, so a function defined in several steps is
-// one function kept in several files. Part 2 branches: its header's "// Builds on:  14_trilinear"
-// line names the step it builds on (`make diff` shows the difference), and steps 17, 18, 21 and
-// 22 build on step 14, not on the jittered steps 15-16 numbered just before them. The rule
+// one function kept in several files. Part 2 branches: its header's "// Builds on:  15_trilinear"
+// line names the step it builds on (`make diff` shows the difference), and steps 18, 19, 22 and
+// 22 build on step 15, not on the jittered steps 16-17 numbered just before them. The rule
 // (tests/test_lesson_markers.cpp checks it, and `make carry-lab` and `make carry` follow it):
 //   - every top-level function of a step except main() is compared with the function of the
 //     same name in the nearest of its ancestors that defines one: the steps its "Builds on:"
 //     line names (a step without one builds on the step numbered before it), theirs, and so
-//     on (step 18's composite_front_to_back() with step 14's, never with step 16's jittered
+//     on (step 19's composite_front_to_back() with step 15's, never with step 17's jittered
 //     one); a function that no ancestor defines is new in the step;
 //   - their code must be the same (comments and layout aside: lesson::code_only),
 //   - unless the later step declares that it changes the function: a line of the comment block
 //     above it says "changed in step NN" (NN: that step's own number), with the reason, e.g.
-//         // Changed in step 15: the samples move by the pixel's jitter.
+//         // Changed in step 16: the samples move by the pixel's jitter.
 //     A copy carried further keeps that line, and names another step there: no change.
 // A function that a step changes starts a new chain: the steps built on it are compared with it.
 namespace lesson {
 
-// The steps a source's header says it builds on: every step name ("14_trilinear") in its
+// The steps a source's header says it builds on: every step name ("15_trilinear") in its
 // "// Builds on:" line and the indented comment lines that continue it, in order. The first is
-// the step `make diff` compares with; step 30 names two ("24_free_leaping (...) and
-// 17_projection_modes (MIP)"). None for "Builds on:  nothing" or a header without the line.
+// the step `make diff` compares with; step 30 names two ("25_free_leaping (...) and
+// 18_projection_modes (MIP)"). None for "Builds on:  nothing" or a header without the line.
 inline std::vector<std::string> builds_on(const std::string& source) {
     const std::string label = "// Builds on:";
     const auto word_char = [](char c) {
@@ -903,7 +903,7 @@ struct StepFunction {
     Function where;
 };
 
-// "changed in step 13" (any case) in the comment lines of a function's text, for step "11".
+// "changed in step 14" (any case) in the comment lines of a function's text, for step "11".
 inline bool declares_change(const std::string& comments, const std::string& number) {
     std::string lower;
     for (char c : comments) lower += char(std::tolower(static_cast<unsigned char>(c)));
@@ -981,7 +981,7 @@ struct StepIndex {
 };
 
 struct Drift {
-    std::string function, earlier, later;  // "intersect_box", "12_free_camera", "11_jitter"
+    std::string function, earlier, later;  // "intersect_box", "13_free_camera", "11_jitter"
 };
 
 // Every function whose code differs from its copy in the step it is compared with (the
@@ -1032,7 +1032,7 @@ inline std::vector<Drift> find_unlinked_copies(
 // signature and body) copied into every later step compared with it by the rule above, and on
 // into the steps compared with those, as long as they take it unchanged: a step that declares
 // a change of its own keeps its version, and the steps compared with it follow that. A step
-// whose ancestors reach the function by another step (step 17's from step 14, when step 15's
+// whose ancestors reach the function by another step (step 18's from step 15, when step 16's
 // is carried) is left alone. What happened to each step the function reached:
 struct Carried {
     std::string step;     // the later step's stem

@@ -211,8 +211,8 @@ StepFunctions step_functions(const std::string& step, const std::string& solutio
 }
 
 // The step that step `n`'s function `name` is compared with (tools/lesson_markers.h, "Copies
-// across steps": the nearest of its Builds-on ancestors defining it, so step 18 takes step
-// 12's composite_front_to_back(), not step 16's jittered one), when its code there is the same
+// across steps": the nearest of its Builds-on ancestors defining it, so step 19 takes step
+// 12's composite_front_to_back(), not step 17's jittered one), when its code there is the same
 // as in step `n` (comments aside: a later step may say "step 10's, unchanged" instead); else
 // -1. Step n takes that function unchanged: `make carry` brings the student's version.
 int carried_from(const std::vector<StepFunctions>& steps, size_t n, const std::string& name) {

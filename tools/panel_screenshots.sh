@@ -1,7 +1,7 @@
 #!/bin/sh
 # panel_screenshots.sh: the README's pictures of the window's control panel, taken on a virtual
 # X display (xvfb-run) by --window-script's shot: step 07 with the transfer-function editor,
-# step 24 with the camera's widgets. `make screenshots` runs it.
+# step 25 with the camera's widgets. `make screenshots` runs it.
 #
 #   sh tools/panel_screenshots.sh BUILD FOLDER    (writes FOLDER/panel_NN_name.png)
 set -u
@@ -35,6 +35,6 @@ shoot() {
 # more opaque) and a ray traced, so the editor, the image and the ray panel all show.
 shoot 07_back_to_front --view front --window-script \
     "tf:1:from=1200,tf:add,tf:1:colour=4080ff,tf:1:opacity=0.04,tf:0:opacity=0.2,click:128:40,shot,quit"
-# Step 24: the camera turned by its widgets (set: goes through the panel's own code).
-shoot 24_free_leaping --size 384x384 --window-script \
+# Step 25: the camera turned by its widgets (set: goes through the panel's own code).
+shoot 25_free_leaping --size 384x384 --window-script \
     "set:azimuth=-35,set:elevation=25,set:projection=perspective,shot,quit"

@@ -9,14 +9,14 @@
 //              8-bit units (RMSE and max over every channel of every pixel)
 //   ert        early ray termination thresholds 0 .. 0.1 (steps 08 and 10, top view):
 //              time saved against error added
-//   jitter     step 16 (the free camera) at step 4 .. 1/2 with jitter none, hash and blue
+//   jitter     step 17 (the free camera) at step 4 .. 1/2 with jitter none, hash and blue
 //              noise, each with trilinear and nearest samples, against step 1/4 without
 //              jitter (trilinear): RMSE, and RMSE after a 5x5 blur
 //              (the rings and bands that survive it; noise does not)
-//   shadows    steps 21-23: shadow rays, the light-transmittance volume and ambient
-//              occlusion, each against step 14's light (what it adds) with its time and
-//              samples read (step 23, which has them all); rays and volume at step 4 .. 1/2
-//              against shadow rays at step 1/4 (step 22)
+//   shadows    steps 22-24: shadow rays, the light-transmittance volume and ambient
+//              occlusion, each against step 15's light (what it adds) with its time and
+//              samples read (step 24, which has them all); rays and volume at step 4 .. 1/2
+//              against shadow rays at step 1/4 (step 23)
 //   shear-warp step 36 against step 30 (and step 34's time): along an axis and at angles,
 //              error in 8-bit units against the ray caster's picture, time per render
 //   precision  the cost of subnormal arithmetic on this machine, and of a float ray
@@ -560,7 +560,7 @@ void ert_study() {
             "8-bit (against front to back, T* = 0)", b2f.count("samples")});
 }
 
-// --- Jitter: step size x jitter x interpolation on the free camera (step 16) -------------
+// --- Jitter: step size x jitter x interpolation on the free camera (step 17) -------------
 
 // The difference image - reference (every channel), blurred by a box of (2 * radius + 1)^2
 // pixels: what is left is the low-frequency error the eye sees as bands and rings; fine noise
@@ -592,11 +592,11 @@ ImageError low_pass_error(const Image& image, const Image& reference, int radius
     return {std::sqrt(sum / count) * byte_units, largest * byte_units};
 }
 
-constexpr const char* jitter_step = "16_blue_noise";
+constexpr const char* jitter_step = "17_blue_noise";
 constexpr int jitter_blur_radius = 2;  // pixels: the low-pass box is 5 x 5
 
 void jitter_study() {
-    std::printf("jitter: step 16 on the phantom, the default camera at 256x256, no early "
+    std::printf("jitter: step 17 on the phantom, the default camera at 256x256, no early "
                 "termination, steps 4 .. 1/2 x jitter none/hash/blue x interpolation "
                 "trilinear/nearest, against step 1/4 without jitter, trilinear\n");
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
@@ -626,30 +626,30 @@ void jitter_study() {
     }
 }
 
-// --- Shadows: what blocked light costs and what it adds (steps 21-23) ----------------------
+// --- Shadows: what blocked light costs and what it adds (steps 22-24) ----------------------
 
-// Step 23 has every kind of blocked light (--shadows ray|volume|none, --ao on|off); step 22
+// Step 24 has every kind of blocked light (--shadows ray|volume|none, --ao on|off); step 23
 // has shadow rays and the light volume, without ambient occlusion.
-constexpr const char* shadows_step = "23_ambient_occlusion";
-constexpr const char* light_volume_step = "22_light_volume";
+constexpr const char* shadows_step = "24_ambient_occlusion";
+constexpr const char* light_volume_step = "23_light_volume";
 
 void shadows_study() {
-    std::printf("shadows: steps 22 and 23 on the phantom, the default camera at 256x256: "
-                "each kind of blocked light against step 14's light; T_light by shadow rays "
-                "and by the light-transmittance volume at steps 4 .. 1/2 (step 22) against "
+    std::printf("shadows: steps 23 and 24 on the phantom, the default camera at 256x256: "
+                "each kind of blocked light against step 15's light; T_light by shadow rays "
+                "and by the light-transmittance volume at steps 4 .. 1/2 (step 23) against "
                 "shadow rays at step 1/4\n");
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     const std::vector<std::string> camera =
         phantom_volume().flags +
         std::vector<std::string>{"--size", quick ? "64x64" : "256x256", "--zoom",
                                  quick ? "1" : "0.5"};
-    // What each adds: the difference from --shadows none --ao off (step 14's light, the same
-    // picture as step 14's), at the default step; the cost in time and samples read (the
+    // What each adds: the difference from --shadows none --ao off (step 15's light, the same
+    // picture as step 15's), at the default step; the cost in time and samples read (the
     // shadow rays', the occlusion probes' and the sweep's reads count as samples).
-    const std::string added = "8-bit (RMSE, max) vs step 14's light";
+    const std::string added = "8-bit (RMSE, max) vs step 15's light";
     const Run open = run(shadows_step, camera + std::vector<std::string>{
                              "--shadows", "none", "--ao", "off"}, true);
-    record({"shadows", "none, ao off (step 14's light)", "1", open.ms(), 0, 0, added,
+    record({"shadows", "none, ao off (step 15's light)", "1", open.ms(), 0, 0, added,
             open.count("samples")});
     for (const char* ao : {"off", "on"}) {
         for (const char* shadows : {"ray", "volume", "none"}) {
@@ -665,7 +665,7 @@ void shadows_study() {
     // off), the camera's step and the shadow rays' the same, against shadow rays at step 1/4.
     // Both carry the camera's step error; "shadows-volume" is the light volume's own error,
     // against the shadow rays at the same step.
-    const std::vector<std::string>& no_ao = camera;  // step 22 has no ambient occlusion
+    const std::vector<std::string>& no_ao = camera;  // step 23 has no ambient occlusion
     const Run reference = run(light_volume_step, no_ao + std::vector<std::string>{
                                   "--step", "0.25", "--shadows", "ray", "--threads",
                                   std::to_string(cores)});
@@ -1465,7 +1465,7 @@ int run(int argc, char** argv) {
        << "\n";
     md << "## Early ray termination (top view; error added against T* = 0, 8-bit units)\n\n"
        << section("study:ert", written_by + "\n" + markdown_table("ert", "T*")) << "\n";
-    md << "## Jitter (step 16, the default camera at 256x256, T* = 0; error in 8-bit units "
+    md << "## Jitter (step 17, the default camera at 256x256, T* = 0; error in 8-bit units "
        << "against step 1/4 without jitter, trilinear; method: jitter, interpolation)\n\n"
        << section("study:jitter",
                   written_by + "\nRMSE and max of the difference:\n\n" +
@@ -1474,11 +1474,11 @@ int run(int argc, char** argv) {
                       "the eye sees; fine noise averages away):\n\n" +
                       markdown_table("jitter-lowpass", "step"))
        << "\n";
-    md << "## Shadows (steps 21-23, the default camera at 256x256; error in 8-bit units)\n\n"
+    md << "## Shadows (steps 22-24, the default camera at 256x256; error in 8-bit units)\n\n"
        << section("study:shadows",
-                  written_by + "\nWhat each adds: step 23 with each kind of blocked light "
-                               "(`ray, ao off` is step 21's default picture, `volume, ao off` "
-                               "step 22's, `ray, ao on` step 23's), against step 14's light "
+                  written_by + "\nWhat each adds: step 24 with each kind of blocked light "
+                               "(`ray, ao off` is step 22's default picture, `volume, ao off` "
+                               "step 23's, `ray, ao on` step 24's), against step 15's light "
                                "(`--shadows none --ao off`), at step 1; samples count every "
                                "read (the camera's rays, the shadow rays, the occlusion probes, "
                                "the light volume's sweep):\n\n" +
