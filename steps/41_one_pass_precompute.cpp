@@ -342,9 +342,6 @@ struct SliceShift {
     int last_a = 0, last_b = 0;  // the last cell: n - 1 when the fraction is 0, else n - 2
 };
 
-// The cells of each slice row that the table may see (see find_runs), as runs of cells
-// [begin, end) along a. Made once per transfer function and principal axis.
-
 // A run's voxels, packed (pack_slice()). A run of cells [begin, end) along a in slice row b
 // keeps one record per voxel column a = begin .. end (one more than its cells: a cell's high
 // corner), the runs one after another in slice order: a sample of cell a reads record a and
@@ -356,6 +353,8 @@ struct Record {
 };
 using Records = std::unique_ptr<Record[]>;  // one slice's, left unset until packed
 
+// The cells of each slice row that the table may see (see find_runs), as runs of cells
+// [begin, end) along a. Made once per transfer function and principal axis.
 struct Runs {
     int axis = -1;                // the principal axis they are for; -1: not made
     int nb = 0;                   // cell rows per slice
