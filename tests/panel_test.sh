@@ -113,7 +113,11 @@ if [ "${1:-}" = "--xdotool" ]; then
         sleep 0.2
     done
     wait "$pid"
-    exit $?
+    status=$?
+    # The step's own last lines: its log is not this script's output.
+    [ "$status" -eq 0 ] ||
+        echo "xdotool: $name exited with status $status: $(tail -n 3 "$log" | tr '\n' ' ')"
+    exit "$status"
 fi
 
 # --- The test --------------------------------------------------------------------------------
@@ -285,15 +289,36 @@ if command -v xdotool > /dev/null 2>&1; then
         tries=$((tries + 1))
         sleep 0.2
     done
+    # A real-input run that fails is run once more, its first failure printed: in a make test
+    # at load 10-25 about 1 run in 10 lost its virtual display or found none (the step's
+    # window then ends with status 1, or the typing waits for a window that never shows). A
+    # fault of the panel fails both runs.
+    again() {  # again NAME STATUS OUT COMMAND...: COMMAND once more if STATUS is not 0
+        again_name=$1 again_status=$2 again_out=$3
+        shift 3
+        [ "$again_status" -eq 0 ] && return 0
+        echo "panel test: the $again_name run failed once (status $again_status:" \
+             "$(cat "$again_out")); once more"
+        "$@" > "$again_out" 2>&1
+    }
     step13=$build/25_free_leaping
     xvfb sh "$0" --xdotool "$step13" "$work/type/type.log" type --size 128x128 \
         > "$work/type.out" 2>&1
     typed=$?
     wait $drag
     dragged=$?
+    again text-field "$typed" "$work/type.out" \
+        xvfb sh "$0" --xdotool "$step13" "$work/type/type.log" type --size 128x128
+    typed=$?
+    again slider "$dragged" "$work/drag.out" \
+        xvfb sh "$0" --xdotool "$step" "$work/drag/drag.log" drag --view top
+    dragged=$?
     step07=$build/07_back_to_front
     xvfb sh "$0" --xdotool "$step07" "$work/tfdrag/tfdrag.log" tfdrag --view front \
         > "$work/tfdrag.out" 2>&1
+    tf_dragged=$?
+    again histogram "$tf_dragged" "$work/tfdrag.out" \
+        xvfb sh "$0" --xdotool "$step07" "$work/tfdrag/tfdrag.log" tfdrag --view front
     tf_dragged=$?
     check "real input: the histogram run completes (status $tf_dragged; $(cat "$work/tfdrag.out"))" \
         [ "$tf_dragged" -eq 0 ]
