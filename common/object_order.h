@@ -260,7 +260,7 @@ struct CellStretch {
     int16_t lowest = 0, highest = 0;                // the whole stretch's
 
     // Inlined always: a call per stretch cost 12 M instructions more per find_runs() of the
-    // phantom (callgrind, step 37 along k), the folds' arrays kept in registers no longer.
+    // phantom (callgrind, step 39 along k), the folds' arrays kept in registers no longer.
     [[gnu::always_inline]] void read(const int16_t* low_row, const int16_t* high_row, size_t sa,
                                      int na, int from) {
         count = std::min(from + cell_stretch, na) - from;

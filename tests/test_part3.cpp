@@ -2,11 +2,11 @@
 // caster after the first renders the bench's four cases (handouts/30_speed_baseline.md) on
 // the phantom at a small size, and each picture is compared with step 30's, pixel by pixel,
 // within the tolerance data/reference/manifest.txt states for part 3. Every sample a trick
-// does not read it counts as leapt: samples + leapt is step 30's samples. Steps 35 on (object
+// does not read it counts as leapt: samples + leapt is step 30's samples. Steps 36 on (object
 // order, then shear-warp and its tricks) sample on the slices instead of along the rays: along
 // an axis at one pixel per voxel each renders step 30's pictures within the same tolerance
-// (lit, from step 39 on, within the quantised normals' own), step 36 step 35's bit for bit and
-// step 40 on step 39's; at an angle (step 36 on: step 35 refuses one) within the mean and RMS
+// (lit, from step 42 on, within the quantised normals' own), step 38 step 36's bit for bit and
+// step 43 on step 42's; at an angle (step 38 on: step 36 refuses one) within the mean and RMS
 // error the manifest states. And each trick's handout quotes its measured gain in a block
 // that make gain fills.
 #include <doctest/doctest.h>
@@ -26,17 +26,17 @@ constexpr const char* first_part3_step = "30_speed_baseline";
 // The first step that composites slices: it and every part-3 step after it are not ray
 // casters (see the top). The first shear-warp step, the first to turn freely; from the
 // quantised normals' step on, a lit picture rounds its normals.
-constexpr const char* object_order_step = "35_object_order";
-constexpr const char* shear_warp_step = "36_shear_warp";
-constexpr const char* quantised_normals_step = "39_quantised_normals";
-// From the run records' step on, the samples are step 39's read from packed records instead
-// of the volume: step 39's pictures, bit for bit.
-constexpr const char* run_records_step = "40_run_records";
+constexpr const char* object_order_step = "36_object_order";
+constexpr const char* shear_warp_step = "38_shear_warp";
+constexpr const char* quantised_normals_step = "42_quantised_normals";
+// From the run records' step on, the samples are step 42's read from packed records instead
+// of the volume: step 42's pictures, bit for bit.
+constexpr const char* run_records_step = "43_run_records";
 // The manifest's tol=2 for part 3, in 8-bit units, as a float channel difference.
 constexpr double tolerance = 2.0 / 255;
 // The manifest's bounds for shear-warp at an angle: the mean and the RMS channel error, 8-bit.
 constexpr double shear_warp_mean = 3.0 / 255, shear_warp_rms = 12.0 / 255;
-// The manifest's tol=5 for the lit pictures along an axis from step 39 on: its normals are
+// The manifest's tol=5 for the lit pictures along an axis from step 42 on: its normals are
 // rounded to a fixed set of directions (quantised normals, shaded through a table).
 constexpr double shear_warp_lit_tolerance = 5.0 / 255;
 
@@ -186,8 +186,8 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
     for (const std::vector<std::string>& flags :
          {with(top, {"--unlit"}), top, with(top, {"--mode", "mip"})}) {
         const StepRender plain = render(first_part3_step, flags);
-        ctlab::Image object_order;  // step 35's: shear-warp's along an axis, bit for bit
-        ctlab::Image quantised;     // step 39's: the run records' steps', bit for bit
+        ctlab::Image object_order;  // step 36's: shear-warp's along an axis, bit for bit
+        ctlab::Image quantised;     // step 42's: the run records' steps', bit for bit
         for (const std::string& step : steps) {
             const StepRender fast = render(step, flags);
             INFO(step << " " << flags.back());
@@ -223,8 +223,8 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
             with(with(phantom, angle), {"--size", "96x96", "--zoom",
                                         std::to_string(1.356 * 96 / 512)});
         const ctlab::Image expected = render(first_part3_step, flags).image("camera");
-        ctlab::Image first;  // step 36's: the steps before the quantised normals render it
-        ctlab::Image quantised;  // step 39's: the run records' steps render it
+        ctlab::Image first;  // step 38's: the steps before the quantised normals render it
+        ctlab::Image quantised;  // step 42's: the run records' steps render it
         for (const std::string& step : steps) {
             if (ctlab::looks_along_axes_only(step)) {
                 // Its own --help says so; it refuses the angle in one line, exit status 2.
@@ -242,12 +242,12 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
             if (step == shear_warp_step) first = image;
             if (step == quantised_normals_step) quantised = image;
             if (step >= run_records_step) {
-                INFO(step << ": step 39's picture, bit for bit (the same samples, from records)");
+                INFO(step << ": step 42's picture, bit for bit (the same samples, from records)");
                 REQUIRE(!quantised.pixels.empty());
                 CHECK(largest_difference(image, quantised) == 0);
             }
             if (step > shear_warp_step && step < quantised_normals_step) {
-                INFO(step << ": step 36's picture, bit for bit (the same samples composited)");
+                INFO(step << ": step 38's picture, bit for bit (the same samples composited)");
                 CHECK(largest_difference(image, first) == 0);
             }
             REQUIRE(image.width == expected.width);
@@ -282,7 +282,7 @@ TEST_CASE("part 3: the slice steps refuse --work-map, whose per-ray counts they 
 }
 
 TEST_CASE("part 3: a camera with a turn_step takes the nearest multiple as the drag adds up") {
-    // Step 35's window (common/camera_flags.h): the drag's angles add up freely; the camera
+    // Step 36's window (common/camera_flags.h): the drag's angles add up freely; the camera
     // takes the nearest multiple of 90 degrees, so it always looks along an axis.
     ctlab::CameraFlags camera;
     camera.azimuth = 180;

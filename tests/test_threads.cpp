@@ -38,7 +38,7 @@ bool identical(const Image& a, const Image& b) {
 // The summary line's counters: every key but the timing and the thread count.
 Summary counters(Summary summary) {
     for (const char* key : {"time_ms", "warm_ms", "warmup_ms", "precompute_ms", "threads"}) {
-        summary.erase(key);  // precompute_ms: step 36's one-off tables, a time too
+        summary.erase(key);  // precompute_ms: step 38's one-off tables, a time too
     }
     return summary;
 }

@@ -17,7 +17,7 @@
 //              occlusion, each against step 15's light (what it adds) with its time and
 //              samples read (step 24, which has them all); rays and volume at step 4 .. 1/2
 //              against shadow rays at step 1/4 (step 23)
-//   shear-warp step 36 against step 30 (and step 34's time): along an axis and at angles,
+//   shear-warp step 38 against step 30 (and step 34's time): along an axis and at angles,
 //              error in 8-bit units against the ray caster's picture, time per render
 //   precision  the cost of subnormal arithmetic on this machine, and of a float ray
 //   numerics   the stiff and extreme cases the tests check, with the analytic answer and the
@@ -689,19 +689,19 @@ void shadows_study() {
     }
 }
 
-// --- Shear-warp: what step 36's factorisation costs in quality, and what it saves; and step
+// --- Shear-warp: what step 38's factorisation costs in quality, and what it saves; and step
 // 39's quantised normals, the one later shear-warp trick that changes the picture ----------
 
 constexpr const char* ray_caster_step = "30_speed_baseline";  // the reference: rays, step 1
 constexpr const char* fastest_ray_caster = "34_fine_bricks";  // the same pictures, faster
-constexpr const char* shear_warp_step = "36_shear_warp";
-constexpr const char* quantised_normals_step = "39_quantised_normals";  // lit: rounded normals
+constexpr const char* shear_warp_step = "38_shear_warp";
+constexpr const char* quantised_normals_step = "42_quantised_normals";  // lit: rounded normals
 
 void shear_warp_study() {
-    std::printf("shear-warp: step 36 against step 30 (and step 34's time) on the phantom at "
+    std::printf("shear-warp: step 38 against step 30 (and step 34's time) on the phantom at "
                 "spacing 1,1,1, unlit composite: along k at one pixel per voxel, and at "
                 "angles (case c's view at 512x512, 45 degrees along two axes); then lit, "
-                "along k and at case c's angle (and step 39's quantised normals)\n");
+                "along k and at case c's angle (and step 42's quantised normals)\n");
     const std::vector<std::string> lit_phantom =
         phantom_volume().flags + std::vector<std::string>{"--spacing", "1,1,1"};
     const std::vector<std::string> phantom = lit_phantom + std::vector<std::string>{"--unlit"};
@@ -720,7 +720,7 @@ void shear_warp_study() {
                        "--size", text_of("%dx%d", oblique, oblique)}},
     };
     const std::string unit = "8-bit (RMSE, max) vs step 30";
-    struct Lit {  // the views again, lit: step 39's light comes from its quantised normals
+    struct Lit {  // the views again, lit: step 42's light comes from its quantised normals
         const View& view;
         bool lit;
     };
@@ -739,12 +739,12 @@ void shear_warp_study() {
         record({"shear-warp", "step 34 (ray casting, fastest)", view.name, fine.ms(), same.rmse,
                 same.max, unit, fine.count("samples")});
         const ImageError error = image_error(sheared.image(), rays.image());
-        record({"shear-warp", "step 36 (shear-warp)", view.name, sheared.ms(), error.rmse,
+        record({"shear-warp", "step 38 (shear-warp)", view.name, sheared.ms(), error.rmse,
                 error.max, unit, sheared.count("samples")});
-        if (!lit.lit) continue;  // unlit, step 39 renders step 36's picture
+        if (!lit.lit) continue;  // unlit, step 42 renders step 38's picture
         const Run rounded = run(quantised_normals_step, flags, true);
         const ImageError rounding = image_error(rounded.image(), rays.image());
-        record({"shear-warp", "step 39 (quantised normals)", view.name, rounded.ms(),
+        record({"shear-warp", "step 42 (quantised normals)", view.name, rounded.ms(),
                 rounding.rmse, rounding.max, unit, rounded.count("samples")});
     }
 }
@@ -1357,10 +1357,10 @@ std::string load_average() {
     return one + " " + five + " " + fifteen;
 }
 
-// The shear-warp study's table: each view's steps 30, 34, 36 (lit, 39), error against 30.
+// The shear-warp study's table: each view's steps 30, 34, 38 (lit, 39), error against 30.
 std::string shear_warp_table() {
     return "Error against step 30's picture, RMSE and max over every channel of every pixel; "
-           "Msamples: samples read (steps 36 and 39: cells read in the slices):\n\n" +
+           "Msamples: samples read (steps 38 and 42: cells read in the slices):\n\n" +
            markdown_table("shear-warp", "view");
 }
 
@@ -1490,7 +1490,7 @@ int run(int argc, char** argv) {
                       "\nThe light volume's own error: against the shadow rays at the same "
                       "step:\n\n" + markdown_table("shadows-volume", "step"))
        << "\n";
-    md << "## Shear-warp (step 36 against step 30, unlit composite, spacing 1,1,1; error in "
+    md << "## Shear-warp (step 38 against step 30, unlit composite, spacing 1,1,1; error in "
        << "8-bit units)\n\n"
        << section("study:shear_warp", written_by + "\n" + shear_warp_table()) << "\n";
     std::ofstream(out + "/error_vs_time.md") << md.str();

@@ -1,23 +1,22 @@
-// 38_opaque_pixels.cpp: shear-warp's third trick, early termination in image space: the
-// opaque pixels of a row are jumped over, not tested one by one.
+// 36_object_order.cpp: a different order of work, the one VolPack uses: object order. Rays
+// are not walked through the volume; the volume's slices are composited into the image.
 //
-// New here:   step 37 tests every pixel of a run against T in every slice, opaque or not.
-//             Here next[u] leads from a pixel to the first one at or after it that is not
-//             opaque (each lookup shortens the path it followed, as a union-find does), so an
-//             opaque stretch of a row costs a jump or two per run however wide it is, and a
-//             row whose pixels are all opaque stops reading slices. The same samples as step
-//             37, in the same order: the same pictures and samples.
+// New here:   a camera along an axis of the volume (multiples of 90 degrees; step 38 turns
+//             freely): each ray runs down one voxel column, so the slices across that axis
+//             are composited front to back into an intermediate image, one pixel per column
+//             and one sample per voxel, read in memory order; warp_pixel() places that image
+//             in the camera's. Step 30's pictures along an axis (to rounding).
 //             Orthographic only; one sample per slice, so no --step. --work-map is refused:
 //             the work is counted per row of the intermediate image.
-// Builds on:  37_slice_runs.
-// Handout:    handouts/38_opaque_pixels.md
-// Run:        make run STEP=38 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/38_opaque_pixels_camera.png: the default run (lit composite,
-//             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// Builds on:  30_speed_baseline (its camera, table, gradients and light; not its rays).
+// Handout:    handouts/36_object_order.md
+// Run:        make run STEP=36 ARGS="--azimuth 90 --elevation 0 --size 256x256"
+// Reference:  data/reference/36_object_order_camera.png: the default run (lit composite,
+//             from above: azimuth 180, elevation 90, orthographic, 256x256), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "38_opaque_pixels";
+constexpr const char* step_name = "36_object_order";
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
@@ -28,6 +27,7 @@ constexpr double default_light_angle = 30;  // degrees to the right of the viewe
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
+constexpr double axis_angle = 90;         // degrees: the only turns this step takes
 
 struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, --fov, --size
     std::string mode = "composite";  // "composite" or "mip"
@@ -39,6 +39,13 @@ struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, 
     bool no_correction = false;  // use the TF opacities as they are, whatever the spacing
     std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
     bool nearest = false;                     // interpolation == "nearest"
+
+    Params() {  // this step's camera: from above, one pixel per voxel column at zoom 1
+        azimuth = 180;
+        elevation = 90;
+        size = "256x256";
+        turn_step = axis_angle;
+    }
 };
 
 // What a ray has gathered so far, front to back (in double, as step 07 explains).
@@ -200,7 +207,7 @@ static float corrected_opacity(float alpha, double ratio) {
     return float(-std::expm1(ratio * std::log1p(-double(alpha))));
 }
 
-// Changed in step 35: the samples are one slice apart, `spacing` physical units along a ray
+// Changed in step 36: the samples are one slice apart, `spacing` physical units along a ray
 // (it depends on the view), not --step apart.
 static double opacity_ratio(const Params& params, double spacing) {
     return params.no_correction ? 1.0 : spacing / unit_length;
@@ -236,10 +243,6 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 
 // Given: a value fraction f of the way from a to b: a itself when f = 0.
 static float lerp(float a, float b, float f) { return a + f * (b - a); }
-
-
-// Given: lerp() for gradients.
-static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
 //> lesson: gradient
 // Step 10's derivative and gradient at a voxel, unchanged.
@@ -315,229 +318,63 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
-// --- Step 36: shear-warp ---
+// --- Step 36: object order, along an axis ---
 
-// The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
-// of voxels across the principal axis c, the axis the view direction runs most along in
-// voxels; a and b are a slice's two axes, a along its rows (the lower axis, so that a row is
-// contiguous in memory when a is i). The intermediate image has one pixel per voxel column:
-// the ray of its pixel (u, v) meets slice m (counted front to back) at
-// a = u + base_a + m * delta_a, b = v + base_b + m * delta_b. Orthographic: one shear for all.
+// The slices are the planes of voxels across axis c, the axis the camera looks along; a and b
+// are a slice's two axes, a along its rows (the lower axis, so that a row is contiguous in
+// memory when a is i). Along an axis every ray runs down one voxel column: the intermediate
+// image has one pixel per column, and pixel (u, v) meets slice c at voxel (a, b) = (u, v).
+// (At an angle the slices would have to shift against each other: the shear of step 38.)
 struct Shear {
     int a = 0, b = 1, c = 2;     // the axes: 0 i, 1 j, 2 k
     int na = 1, nb = 1, nc = 1;  // voxels along a, b, c
     size_t stride_a = 1, stride_b = 1, stride_c = 1;  // volume.index() steps along a, b, c
     int first_slice = 0, slice_step = 1;  // slice m is c = first_slice + m * slice_step
-    double delta_a = 0, delta_b = 0;      // voxels along a and b from one slice to the next
-    double base_a = 0, base_b = 0;        // where the ray of pixel (0, 0) meets slice 0
     int width = 1, height = 1;            // the intermediate image, pixels
     double spacing = 1;  // physical length along a ray from one slice to the next
-};
-
-// Where the intermediate image meets slice m: pixel (u, v) samples the cell whose low corner
-// is voxel (u + ia, v + ib) of the slice, fa and fb of the way past it. The shear only moves a
-// slice, so the fractions (the bilinear weights) are the same for every pixel of the slice.
-struct SliceShift {
-    int slice = 0;          // its c
-    int ia = 0, ib = 0;     // from pixel to cell, voxels
-    float fa = 0, fb = 0;   // the fractions past the low corner, 0..1
-    size_t da = 0, db = 0;  // index steps to the cell's high corner (0 when the fraction is 0)
-    int last_a = 0, last_b = 0;  // the last cell: n - 1 when the fraction is 0, else n - 2
-};
-
-// The cells of each slice row that the table may see (see find_runs), as runs of cells
-// [begin, end) along a. Made once per transfer function and principal axis.
-
-struct Runs {
-    int axis = -1;                // the principal axis they are for; -1: not made
-    int nb = 0;                   // cell rows per slice
-    std::vector<uint32_t> first;  // per slice row c * nb + b: its first run; one past the end
-    std::vector<int32_t> bounds;  // begin, end of every run, in cells along a
-    size_t cells = 0;             // cells in runs, all slices
-
-    // Slice c's row b: its runs, and how many (none for a row it does not hold: runs not
-    // made yet, as in a student's kit before find_runs() is written).
-    const int32_t* row(int c, int b, int* count) const {
-        const size_t r = size_t(c) * nb + b;
-        *count = r + 1 < first.size() ? int(first[r + 1] - first[r]) : 0;
-        return *count > 0 ? &bounds[2 * size_t(first[r])] : nullptr;
-    }
 };
 
 // Everything a render needs that is the same for every pixel.
 struct Scene {
     const Volume& volume;
     const Shear& shear;
-    const std::vector<SliceShift>& shifts;  // slice m's, front to back
-    const Runs& runs;
     const Lut& lut;                  // opacities corrected for shear.spacing
     Vec3 to_light;                   // unit vector towards the light; unused when unlit
     const Params& params;
 };
 
-//> lesson: shear
-// The factorisation for an orthographic camera. The principal axis is the one along which the
-// view direction crosses most voxels per unit of length: then a ray crosses every slice once,
-// and each slice is shifted by at most one voxel against the one before. Front to back is the
-// direction's sign along it. The intermediate image is wide enough for every slice's shift.
-// Changed in step 36: any direction, not only along an axis; the shift per slice and the
-// intermediate image's size.
+//> lesson: slices
+// The slices for a camera along an axis: c is the axis it looks along, front to back is the
+// sign of the view direction along it. The intermediate image is one pixel per voxel column.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
     const size_t strides[3] = {1, size_t(volume.nx), size_t(volume.nx) * size_t(volume.ny)};
-    double per_unit[3];  // voxels crossed along each axis per physical unit along the view
-    for (int axis = 0; axis < 3; ++axis) per_unit[axis] = camera.forward[axis] / spacing[axis];
     Shear shear;
-    shear.c = 2;  // k first: on a tie, the slices are contiguous in memory
-    for (int axis = 1; axis >= 0; --axis) {
-        if (std::fabs(per_unit[axis]) > std::fabs(per_unit[shear.c])) shear.c = axis;
+    for (int axis = 0; axis < 3; ++axis) {
+        if (camera.forward[axis] != 0) shear.c = axis;
     }
     shear.a = shear.c == 0 ? 1 : 0;
     shear.b = shear.c == 2 ? 1 : 2;
     shear.na = counts[shear.a], shear.nb = counts[shear.b], shear.nc = counts[shear.c];
     shear.stride_a = strides[shear.a], shear.stride_b = strides[shear.b];
     shear.stride_c = strides[shear.c];
-    const double along_c = per_unit[shear.c];
-    shear.first_slice = along_c > 0 ? 0 : shear.nc - 1;
-    shear.slice_step = along_c > 0 ? 1 : -1;
-    shear.delta_a = per_unit[shear.a] / std::fabs(along_c);
-    shear.delta_b = per_unit[shear.b] / std::fabs(along_c);
-    const double last = shear.nc - 1;  // slices after the first
-    shear.base_a = -std::max(0.0, last * shear.delta_a);  // pixel 0 meets some slice at a = 0
-    shear.base_b = -std::max(0.0, last * shear.delta_b);
-    shear.width = int(std::floor(shear.na - 1 + last * std::fabs(shear.delta_a))) + 1;
-    shear.height = int(std::floor(shear.nb - 1 + last * std::fabs(shear.delta_b))) + 1;
-    shear.spacing = spacing[shear.c] / std::fabs(camera.forward[shear.c]);
+    const bool forwards = camera.forward[shear.c] > 0;
+    shear.first_slice = forwards ? 0 : shear.nc - 1;
+    shear.slice_step = forwards ? 1 : -1;
+    shear.width = shear.na;
+    shear.height = shear.nb;
+    shear.spacing = spacing[shear.c];
     return shear;
 }
+//< lesson: slices
 
-// Slice m's shift. Nearest samples (--interpolation nearest) round the position to the
-// nearest voxel of the slice (a half rounds up), so both fractions are 0.
-static SliceShift slice_shift(const Shear& shear, int m, bool nearest) {
-    SliceShift s;
-    s.slice = shear.first_slice + m * shear.slice_step;
-    auto split = [&](double position, int count, int* low, float* fraction, int* last) {
-        *low = int(std::floor(position));
-        double past = position - *low;
-        if (nearest) {
-            if (past >= 0.5) ++*low;
-            past = 0;
-        }
-        *fraction = float(past);
-        *last = *fraction == 0.0f ? count - 1 : count - 2;
-    };
-    split(shear.base_a + m * shear.delta_a, shear.na, &s.ia, &s.fa, &s.last_a);
-    split(shear.base_b + m * shear.delta_b, shear.nb, &s.ib, &s.fb, &s.last_b);
-    s.da = s.fa == 0.0f ? 0 : shear.stride_a;
-    s.db = s.fb == 0.0f ? 0 : shear.stride_b;
-    return s;
-}
-
-// A sample in a slice: bilinear in its cell (p: the low corner's value), step 30's trilinear
-// with the fraction along c at 0, in the same order: the same float.
-static inline float slice_value(const int16_t* p, const SliceShift& s) {
-    return lerp(lerp(p[0], p[s.da], s.fa), lerp(p[s.db], p[s.da + s.db], s.fa), s.fb);
-}
-//< lesson: shear
-
-//> lesson: runs
-// Classification, once per transfer function and principal axis: the cells of every slice row
-// that the table may see. A bilinear value lies between its cell's lowest and highest corner
-// (the last voxel counts again at an edge), so a cell whose four corners all lie in one
-// stretch of transparent table entries is transparent wherever a sample falls in it: it is
-// left out. Slices are shared among the threads.
-static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, int threads) {
-    std::vector<int32_t> stretch(lut.entries.size());  // per table entry
-    int32_t seen = 0;                                    // entries seen so far
-    for (size_t n = 0; n < stretch.size(); ++n) {
-        if (lut.entries[n].a > 0.0f) {
-            stretch[n] = -1;
-            ++seen;
-        } else {
-            stretch[n] = seen;  // the same for every entry up to the next one seen
-        }
-    }
-    // A range of values [low, high] is transparent when the table sees none of its entries.
-    auto clear = [&](int low, int high) {
-        const int32_t first = stretch[low - lowest_ct_value];
-        return first >= 0 && first == stretch[high - lowest_ct_value];
-    };
-    const int na = shear.na, nb = shear.nb;
-    const size_t sa = shear.stride_a;
-    std::vector<std::vector<int32_t>> bounds(shear.nc);  // per slice, its runs
-    std::vector<std::vector<uint32_t>> counts(shear.nc);  // per slice, runs per row
-    Work unused;
-    parallel_rows(shear.nc, threads, unused, [&](int c, Work&) {
-        counts[c].assign(nb, 0);
-        for (int b = 0; b < nb; ++b) {
-            const int16_t* low = &volume.data[c * shear.stride_c + b * shear.stride_b];
-            const int16_t* high = &volume.data[c * shear.stride_c +
-                                               std::min(b + 1, nb - 1) * shear.stride_b];
-            int begin = -1;  // the run being read; -1: none
-            auto run_ends = [&](int a) {
-                if (begin < 0) return;
-                bounds[c].insert(bounds[c].end(), {begin, a});
-                ++counts[c][b];
-                begin = -1;
-            };
-            // Given: cell_stretch cells at a time, each cell's lowest and highest corner and
-            // the stretch's (common/object_order.h): a stretch of air is clear as a whole.
-            CellStretch cells;
-            for (int from = 0; from < na; from += cell_stretch) {
-                cells.read(low, high, sa, na, from);
-                if (clear(cells.lowest, cells.highest)) {
-                    run_ends(from);
-                    continue;
-                }
-                for (int n = 0; n < cells.count; ++n) {  // cell by cell
-                    if (clear(cells.low[n], cells.high[n])) {
-                        run_ends(from + n);
-                    } else if (begin < 0) {
-                        begin = from + n;
-                    }
-                }
-            }
-            run_ends(na);
-        }
-    });
-    Runs runs;
-    runs.axis = shear.c;
-    runs.nb = nb;
-    runs.first.reserve(size_t(shear.nc) * nb + 1);
-    uint32_t total = 0;
-    for (int c = 0; c < shear.nc; ++c) {
-        for (uint32_t n : counts[c]) {
-            runs.first.push_back(total);
-            total += n;
-        }
-        runs.bounds.insert(runs.bounds.end(), bounds[c].begin(), bounds[c].end());
-    }
-    runs.first.push_back(total);
-    for (size_t n = 0; n < runs.bounds.size(); n += 2) {
-        runs.cells += size_t(runs.bounds[n + 1] - runs.bounds[n]);
-    }
-    return runs;
-}
-//< lesson: runs
-
-// Given: a sample's light: the gradients of its cell's four corners from the voxels (step
-// 10's gradient_at()), blended as the value is, then step 10's shade: step 30's light, with
-// the fraction along c at 0.
-static inline float slice_light(const Scene& scene, const SliceShift& s, int a, int b,
-                                Work& work) {
-    work.gradients += 4;
-    const Shear& shear = scene.shear;
-    const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
-    Vec3 g[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
-    for (int n = 0; n < 4; ++n) {
-        const Voxel corner = voxel_of(shear, a + (n & 1) * step_a, b + (n >> 1) * step_b,
-                                      s.slice);
-        Work uncounted;
-        g[n] = gradient_at(scene.volume, corner, uncounted);
-    }
-    const Vec3 low = lerp_vector(g[0], g[1], s.fa), high = lerp_vector(g[2], g[3], s.fa);
-    return shade(lerp_vector(low, high, s.fb), scene.to_light);
+// Given: a sample's light: its voxel's gradient (step 10's gradient_at()) and step 10's shade.
+static inline float voxel_light(const Scene& scene, int a, int b, int c, Work& work) {
+    work.gradients += 1;
+    Work uncounted;
+    const Vec3 gradient = gradient_at(scene.volume, voxel_of(scene.shear, a, b, c), uncounted);
+    return shade(gradient, scene.to_light);
 }
 
 //> lesson: composite
@@ -552,98 +389,51 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
     pixel.transparency *= 1 - alpha;
 }
 
-// Row v of the intermediate image, slice by slice front to back. In each slice the row meets
-// one row of cells, and only the cells in its runs are read; the pixels they fall on are
-// composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
-// at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
-// stretch of a row costs a jump or two per run however wide it is.
-// Changed in step 38: the opaque pixels jumped over through next[], not tested one by one.
+// Row v of the intermediate image, slice by slice front to back. In each slice the row is one
+// row of voxels, read in memory order; each pixel composites its voxel's sample, unless the
+// pixel is already opaque (early termination, pixel by pixel).
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
     const double stop_below = std::max(scene.params.ert, min_transparency);
     const Rgba* lut = scene.lut.entries.data();
-    std::vector<int> next(size_t(shear.width) + 1);
-    for (int u = 0; u <= shear.width; ++u) next[u] = u;  // next[width]: the end
-    auto open_from = [&](int u) {  // the first pixel at or after u that is not opaque
-        while (next[u] != u) {
-            next[u] = next[next[u]];
-            u = next[u];
-        }
-        return u;
-    };
-    int open = shear.width;  // pixels not yet opaque
-    // Speed: the counters and the slice's shift are local copies. The loop stores to the row
-    // and to next[]; through a reference the compiler would read them again after each store.
+    // Speed: the counters are a local copy. The loop stores to the row; through a reference
+    // the compiler would read them again after each store.
     Work counted;
-    for (const SliceShift& shift : scene.shifts) {
-        const SliceShift s = shift;
-        const int b = v + s.ib;  // the row of cells this image row meets
-        if (b < 0 || b > s.last_b) continue;
-        const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
-        const int16_t* slice_row = &scene.volume.data[row_index];
-        // The pixels whose cell lies in the slice, and the runs of cells the table may see.
-        const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, s.last_a + 1 - s.ia);
-        if (u_low >= u_high) continue;
-        int count = 0;
-        const int32_t* run = scene.runs.row(s.slice, b, &count);
-        long long in_runs = 0;
-        for (int r = 0; r < count && open > 0; ++r) {
-            const int from = std::max(u_low, run[2 * r] - s.ia);
-            const int to = std::min(u_high, run[2 * r + 1] - s.ia);
-            if (from >= to) continue;
-            in_runs += to - from;
-            for (int u = open_from(from); u < to; u = open_from(u + 1)) {
-                const size_t along = size_t(u + s.ia) * shear.stride_a;
-                const float value = slice_value(slice_row + along, s);
-                const Rgba& sample = lut[int(double(value) - lowest_ct_value)];
-                ++counted.samples;
-                if (sample.a == 0.0f) {
-                    ++counted.skipped;
-                    continue;
-                }
-                double light = 1.0;  // unlit
-                if (!unlit) {
-                    light = slice_light(scene, s, u + s.ia, b, counted);
-                }
-                add_sample(row[u], sample, light);
-                if (row[u].transparency < stop_below) {
-                    ++counted.terminated;
-                    next[u] = u + 1;
-                    --open;
-                }
+    for (int m = 0; m < shear.nc; ++m) {
+        const int c = shear.first_slice + m * shear.slice_step;
+        const int16_t* slice_row = &scene.volume.data[c * shear.stride_c + v * shear.stride_b];
+        for (int u = 0; u < shear.width; ++u) {
+            if (row[u].transparency < stop_below) continue;  // opaque already
+            const float value = slice_row[u * shear.stride_a];
+            const Rgba& sample = lut[int(double(value) - lowest_ct_value)];
+            ++counted.samples;
+            if (sample.a == 0.0f) {
+                ++counted.skipped;
+                continue;
             }
+            double light = 1.0;  // unlit
+            if (!unlit) light = voxel_light(scene, u, v, c, counted);
+            add_sample(row[u], sample, light);
+            if (row[u].transparency < stop_below) ++counted.terminated;
         }
-        counted.leapt += (u_high - u_low) - in_runs;  // transparent cells: never read
-        if (open == 0) break;  // the whole row is opaque
     }
     work.add(counted);
 }
 //< lesson: composite
 
 //> lesson: mip
-// Row v of the maximum intensity: every cell the row meets in every slice (no runs: a maximum
-// has no transparent values), each pixel keeping its highest sample. -infinity: none yet.
-// A row of cells contiguous in memory goes first through max_in_stretches() (given: vector
-// instructions, the same floats as slice_value()).
+// Row v of the maximum intensity: every voxel the row meets in every slice, each pixel keeping
+// its highest sample. -infinity: none yet.
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
     const Shear& shear = scene.shear;
-    for (const SliceShift& s : scene.shifts) {
-        const int b = v + s.ib;
-        if (b < 0 || b > s.last_b) continue;
-        const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
-        const int16_t* slice_row = &scene.volume.data[row_index];
-        const int u_low = std::max(0, -s.ia);
-        const int u_high = std::min(shear.width, s.last_a + 1 - s.ia);
-        int u = u_low;
-        if (shear.stride_a == 1) {  // a row of cells contiguous in memory: stretches at a time
-            u = max_in_stretches(highest, u, u_high, slice_row + s.ia, s.da, s.db, s.fa, s.fb);
+    for (int m = 0; m < shear.nc; ++m) {
+        const int c = shear.first_slice + m * shear.slice_step;
+        const int16_t* slice_row = &scene.volume.data[c * shear.stride_c + v * shear.stride_b];
+        for (int u = 0; u < shear.width; ++u) {
+            highest[u] = std::max(highest[u], float(slice_row[u * shear.stride_a]));
         }
-        for (; u < u_high; ++u) {
-            const float value = slice_value(slice_row + size_t(u + s.ia) * shear.stride_a, s);
-            highest[u] = std::max(highest[u], value);
-        }
-        if (u_high > u_low) work.samples += u_high - u_low;
+        work.samples += shear.width;
     }
 }
 //< lesson: mip
@@ -653,10 +443,9 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
 }
 
 // Given: the warp's affine map (common/object_order.h), from the camera's rays.
-// Changed in step 36: the shear's base offsets (0 along an axis).
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
     auto ray = [&](int x, int y) { return camera_ray(camera, x, y); };
-    return slice_warp(volume, shear, shear.base_a, shear.base_b, ray);
+    return slice_warp(volume, shear, 0, 0, ray);
 }
 
 //> lesson: warp
@@ -689,7 +478,6 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
 // composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
 // image's pixel to the bit. The trace follows each of the four sample by sample.
-// Changed in step 36: each slice's shift, a bilinear sample and its cell's light.
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;
@@ -701,20 +489,14 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
     trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
     const double stop_below = std::max(scene.params.ert, min_transparency);
     auto column = [&](int u, int v) {  // intermediate pixel (u, v) alone, traced
-        auto at = [&](int m) {  // its cell in slice m, if the slice holds it
-            const SliceShift& s = scene.shifts[m];
-            const int a = u + s.ia, b = v + s.ib;
-            if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) return ColumnSample{};
-            const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
-            return ColumnSample{true,
-                                slice_point(volume, shear, a + double(s.fa), b + double(s.fb),
-                                            s.slice),
-                                slice_value(&volume.data[index], s)};
+        auto slice = [&](int m) { return shear.first_slice + m * shear.slice_step; };
+        auto at = [&](int m) {  // its voxel in slice m
+            const Voxel voxel = voxel_of(shear, u, v, slice(m));
+            return ColumnSample{true, slice_point(volume, shear, u, v, slice(m)),
+                                float(volume.at(voxel.i, voxel.j, voxel.k))};
         };
         auto light = [&](int m) {
-            const SliceShift& s = scene.shifts[m];
-            const int a = u + s.ia, b = v + s.ib;
-            return scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
+            return scene.params.unlit ? 1.0 : voxel_light(scene, u, v, slice(m), work);
         };
         if (scene.params.mode == "mip") {
             return mip_colour(volume, maximum_column(shear.nc, ray, work, trace, at));
@@ -735,8 +517,8 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Shear-warp: the slices composited into an intermediate image, "
-                             "then one warp.");
+        Args args(step_name, "Object order: along an axis, the slices composited front to "
+                             "back into the image.");
         args.add_choice("--mode", &params.mode, {"composite", "mip"},
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,
@@ -751,29 +533,23 @@ int main(int argc, char** argv) {
         args.add_switch("--no-correction", &params.no_correction,
                         "use the TF opacities unchanged, whatever the slices' spacing");
         args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
-                        "a sample in its slice: the four voxels around it, or the nearest one");
+                        "along an axis every sample lies on a voxel: both read that voxel");
         add_camera_flags(args, &params);  // common/camera_flags.h
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         const View camera_image = camera_view(options, params);  // --size; no --view
-        refuse_object_order_flags(options, params);  // --work-map, perspective
+        refuse_object_order_flags(options, params);  // --work-map, perspective, angles
 
         // --- Volume ---
         const Volume volume = load_volume(options);
 
-        // --- Transfer function: the file (in the file's units); which values it sees ---
+        // --- Transfer function: the file (in the file's units) ---
         TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
-        const Lut seen = build_lut(tf, 1.0);  // the runs need only which opacities are not 0
 
-        // --- Once per transfer function and principal axis, made by the first render that
-        // needs it (so the first render's time_ms= includes it, and precompute_ms= says how
-        // much): the runs of cells the table may see. Once per view: the table's opacities
-        // for the slices' spacing ---
-        Runs runs[3];  // per principal axis
-        double precompute_ms = 0;  // wall clock, this process
+        // --- Once per view: the table's opacities for the slices' spacing ---
         Lut lut;
         double lut_ratio = -1;  // the ratio lut was made for; -1: none yet
         auto prepare = [&](const Shear& shear) {
@@ -782,13 +558,6 @@ int main(int argc, char** argv) {
                 lut = build_lut(tf, ratio);
                 lut_ratio = ratio;
             }
-            if (params.mode == "mip") return;
-            if (runs[shear.c].axis >= 0) return;
-            Runs& made = runs[shear.c];  // and its "precompute" line (common/object_order.h)
-            auto make = [&] { made = find_runs(volume, shear, seen, options.threads); };
-            precompute_ms += timed_precompute(shear.c, make, [&] {
-                return runs_held(made, volume.voxel_count());
-            });
         };
 
         // --- View: the camera's image (its camera is made for each render: the window turns
@@ -800,27 +569,23 @@ int main(int argc, char** argv) {
         // --- Render: the slices into the intermediate image, rows shared by the threads; then
         // the warp to the camera's image. The light turns with the camera ---
         const bool mip = params.mode == "mip";
-        struct Frame {  // one view's factorisation, and what its pixels share
+        struct Frame {  // one view's slices, and what its pixels share
             Camera camera;
             Shear shear;
-            std::vector<SliceShift> shifts;
-            Vec3 to_light;               // unit vector towards the light; unused when unlit
+            Vec3 to_light;  // unit vector towards the light; unused when unlit
         };
         auto frame_for = [&](const View& view) {
             Frame frame;
             frame.camera = make_camera(volume, params, view);
+            require_along_an_axis(frame.camera.forward, step_name);  // (main refuses others)
             frame.shear = make_shear(volume, frame.camera);
-            for (int m = 0; m < frame.shear.nc; ++m) {
-                frame.shifts.push_back(slice_shift(frame.shear, m, params.nearest));
-            }
             prepare(frame.shear);
             frame.to_light =
                 params.unlit ? Vec3{} : light_direction(frame.camera, params.light_angle);
             return frame;
         };
         auto scene_for = [&](const Frame& frame) {
-            return Scene{volume, frame.shear, frame.shifts, runs[frame.shear.c], lut,
-                         frame.to_light, params};
+            return Scene{volume, frame.shear, lut, frame.to_light, params};
         };
         renderer.image = [&](const View& view, Work& work) {
             const Frame frame = frame_for(view);
@@ -848,7 +613,7 @@ int main(int argc, char** argv) {
             const Shear shear = make_shear(volume, make_camera(volume, params, view));
             return slice_samples(shear.c, shear.spacing);
         };
-        renderer.orbit = camera_orbit(&params);  // the window's drag and wheel
+        renderer.orbit = camera_orbit(&params);  // a quarter turn at a time
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "mode=" + params.mode + " tf=" + tf.source +
@@ -858,8 +623,7 @@ int main(int argc, char** argv) {
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
                    camera_settings(params) + " interpolation=" + params.interpolation +
-                   " opacity_ratio=" + summary_number(lut_ratio) +
-                   " precompute_ms=" + summary_number(precompute_ms);
+                   " opacity_ratio=" + summary_number(lut_ratio);
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

@@ -1,23 +1,23 @@
-// 41_one_pass_precompute.cpp: shear-warp's precomputation made fast: the runs, the records
+// 45_one_pass_precompute.cpp: shear-warp's precomputation made fast: the runs, the records
 // and the normals in one threaded pass over the volume.
 //
-// New here:   step 40's first render makes its tables in passes over the volume: find_runs(),
+// New here:   step 43's first render makes its tables in passes over the volume: find_runs(),
 //             for a lit composite fill_normal_table() (a volume of normal indices), then
 //             pack_slice() per slice. Here find_runs() calls pack_slice() as soon as a slice's
 //             runs are found, while its voxels are in the cache, and pack_slice() computes the
 //             normal indices of the voxels its records hold (slice_normals()): no normal
-//             volume. The pictures are step 40's (and 39's), to the bit.
-// Builds on:  40_run_records.
-// Handout:    handouts/41_one_pass_precompute.md
-// Run:        make run STEP=41 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/41_one_pass_precompute_camera.png: the default run (lit
+//             volume. The pictures are step 43's (and 39's), to the bit.
+// Builds on:  43_run_records.
+// Handout:    handouts/45_one_pass_precompute.md
+// Run:        make run STEP=45 ARGS="--azimuth 180 --elevation 90 --size 256x256"
+// Reference:  data/reference/45_one_pass_precompute_camera.png: the default run (lit
 //             composite, azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 #include <cstring>  // std::memcpy: a float's bits
 #include <memory>  // std::unique_ptr: arrays left unset until written
 using namespace ctlab;
 
-constexpr const char* step_name = "41_one_pass_precompute";
+constexpr const char* step_name = "45_one_pass_precompute";
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
@@ -200,7 +200,7 @@ static float corrected_opacity(float alpha, double ratio) {
     return float(-std::expm1(ratio * std::log1p(-double(alpha))));
 }
 
-// Changed in step 35: the samples are one slice apart, `spacing` physical units along a ray
+// Changed in step 36: the samples are one slice apart, `spacing` physical units along a ray
 // (it depends on the view), not --step apart.
 static double opacity_ratio(const Params& params, double spacing) {
     return params.no_correction ? 1.0 : spacing / unit_length;
@@ -312,7 +312,7 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
-// --- Step 36: shear-warp ---
+// --- Step 38: shear-warp ---
 
 // The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
 // of voxels across the principal axis c, the axis the view direction runs most along in
@@ -405,11 +405,11 @@ static void find_starts(const Shear& shear, Runs& runs) {
 // "no direction" (a gradient of 0: ambient light only, as shade() gives).
 constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
                                   // directions, one within 1.9 degrees of any direction (0.67
-                                  // on average; handout 39, Quality)
+                                  // on average; handout 42, Quality)
 constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
 
 //> lesson: normals
-// The index of the direction nearest g's (0 when g is 0), without a branch (step 42 calls it
+// The index of the direction nearest g's (0 when g is 0), without a branch (step 46 calls it
 // sixteen voxels at a time): the fold's test is k's sign bit, its signs std::copysign.
 static inline uint16_t normal_index(Vec3 g) {
     const float sum = std::fabs(g.i) + std::fabs(g.j) + std::fabs(g.k);
@@ -480,7 +480,7 @@ struct Scene {
 // view direction crosses most voxels per unit of length: then a ray crosses every slice once,
 // and each slice is shifted by at most one voxel against the one before. Front to back is the
 // direction's sign along it. The intermediate image is wide enough for every slice's shift.
-// Changed in step 36: any direction, not only along an axis; the shift per slice and the
+// Changed in step 38: any direction, not only along an axis; the shift per slice and the
 // intermediate image's size.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
@@ -578,7 +578,7 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
 // VolPack's run-length-encoded volume, one slice at a time: the records of slice c's runs
 // (counts: its rows' numbers of runs, bounds: their begin and end), run after run. Column a's
 // record holds the values at (a, b) and (a, b + 1) and, for a lit composite, their normal
-// indices. The last column and row count again at the slice's edges. Changed in step 41:
+// indices. The last column and row count again at the slice's edges. Changed in step 45:
 // the normal indices of the voxels the records hold, computed once (slice_normals()); how
 // many. Not inlined into find_runs() (its cell test would lose its vector instructions).
 [[gnu::noinline]] static size_t pack_slice(const Volume& volume, const Shear& shear, int c,
@@ -630,7 +630,7 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
 // that the table may see. A bilinear value lies between its cell's lowest and highest corner
 // (the last voxel counts again at an edge), so a cell whose four corners all lie in one
 // stretch of transparent table entries is transparent wherever a sample falls in it: it is
-// left out. Slices are shared among the threads. Changed in step 41: each slice's records are
+// left out. Slices are shared among the threads. Changed in step 45: each slice's records are
 // packed (pack_slice()) as soon as its runs are found, while its voxels are in the cache.
 static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, bool lit,
                       int threads) {
@@ -727,7 +727,7 @@ static inline float record_light(const float* light, const Record* p, const Slic
 // the values are (VolPack's way: the light is shaded at the voxels, then interpolated; step
 // 30 interpolates the gradients, then shades: the same along an axis, where the fractions are
 // 0, but for the directions' rounding).
-// Changed in step 41: each corner's normal index computed from the voxels (voxel_normal():
+// Changed in step 45: each corner's normal index computed from the voxels (voxel_normal():
 // there is no normal volume), record_light()'s float.
 static inline float slice_light(const Scene& scene, const SliceShift& s, int a, int b,
                                 Work& work) {
@@ -761,7 +761,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
 // at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
 // stretch of a row costs a jump or two per run however wide it is.
-// Changed in step 40: a sample reads its cell's record and the next one's, not the volume
+// Changed in step 43: a sample reads its cell's record and the next one's, not the volume
 // (on the voxels, its record's value and light alone: the same floats).
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
@@ -867,7 +867,7 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
 }
 
 // Given: the warp's affine map (common/object_order.h), from the camera's rays.
-// Changed in step 36: the shear's base offsets (0 along an axis).
+// Changed in step 38: the shear's base offsets (0 along an axis).
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
     auto ray = [&](int x, int y) { return camera_ray(camera, x, y); };
     return slice_warp(volume, shear, shear.base_a, shear.base_b, ray);
@@ -903,7 +903,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
 // composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
 // image's pixel to the bit. The trace follows each of the four sample by sample.
-// Changed in step 41: slice_light() computes the corners' normal indices (no normal volume).
+// Changed in step 45: slice_light() computes the corners' normal indices (no normal volume).
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;

@@ -1,21 +1,25 @@
-// 36_shear_warp.cpp: object order from any orthographic camera: shear-warp (Lacroute &
-// Levoy 1994), the algorithm VolPack uses.
+// 43_run_records.cpp: shear-warp's fifth trick, VolPack's run-length-encoded volume: the
+// voxels of the runs, copied out in the order the compositing reads them.
 //
-// New here:   the slices are those across the principal axis (the one the rays run most
-//             along), each shifted by the shear so that an intermediate pixel meets it at one
-//             bilinear sample, the same weights for the whole slice; then one warp. Along an
-//             axis step 35's pictures bit for bit; at an angle a stated error against step 30.
-//             Orthographic only; one sample per slice, so no --step. --work-map is refused:
-//             the work is counted per row of the intermediate image.
-// Builds on:  35_object_order (its slices, compositing and placing, along an axis only).
-// Handout:    handouts/36_shear_warp.md
-// Run:        make run STEP=36 ARGS="--azimuth 45 --elevation 30 --size 256x256"
-// Reference:  data/reference/36_shear_warp_camera.png: the default run (lit composite,
+// New here:   step 42 finds the runs of cells the table may see, but its samples still read
+//             the volume (a slice row's voxels, the row below it for the bilinear sample, and
+//             for a lit composite a second volume of normal indices): two or three streams of
+//             memory scattered over 15 MB and more. Here each run keeps a record per voxel
+//             column it covers (its two rows' values and their normal indices, 8 bytes),
+//             packed run after run in slice order once per transfer function and principal
+//             axis (pack_slice()), so a sample reads its record and the next one: one
+//             stream. The pictures are step 42's, to the bit.
+// Builds on:  42_quantised_normals.
+// Handout:    handouts/43_run_records.md
+// Run:        make run STEP=43 ARGS="--azimuth 180 --elevation 90 --size 256x256"
+// Reference:  data/reference/43_run_records_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
+#include <cstring>  // std::memcpy: a float's bits
+#include <memory>  // std::unique_ptr: the normal table and a slice's records, left unset
 using namespace ctlab;
 
-constexpr const char* step_name = "36_shear_warp";
+constexpr const char* step_name = "43_run_records";
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
@@ -26,6 +30,8 @@ constexpr double default_light_angle = 30;  // degrees to the right of the viewe
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
+constexpr double max_table_bytes = 2.0 * (1 << 30);  // bytes: a larger normal table is not
+                                                    // built (gradients from the voxels)
 
 struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, --fov, --size
     std::string mode = "composite";  // "composite" or "mip"
@@ -198,7 +204,7 @@ static float corrected_opacity(float alpha, double ratio) {
     return float(-std::expm1(ratio * std::log1p(-double(alpha))));
 }
 
-// Changed in step 35: the samples are one slice apart, `spacing` physical units along a ray
+// Changed in step 36: the samples are one slice apart, `spacing` physical units along a ray
 // (it depends on the view), not --step apart.
 static double opacity_ratio(const Params& params, double spacing) {
     return params.no_correction ? 1.0 : spacing / unit_length;
@@ -313,7 +319,7 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
-// --- Step 36: shear-warp ---
+// --- Step 38: shear-warp ---
 
 // The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
 // of voxels across the principal axis c, the axis the view direction runs most along in
@@ -343,12 +349,142 @@ struct SliceShift {
     int last_a = 0, last_b = 0;  // the last cell: n - 1 when the fraction is 0, else n - 2
 };
 
+// A run's voxels, packed (pack_slice()). A run of cells [begin, end) along a in slice row b
+// keeps one record per voxel column a = begin .. end (one more than its cells: a cell's high
+// corner), the runs one after another in slice order: a sample of cell a reads record a and
+// the next one, and nothing else (lit or not).
+struct Record {
+    int16_t low, high;  // the voxel values at (a, b) and (a, b + 1) of the slice (the last row
+                        // and column repeated at the slice's edges)
+    uint16_t low_normal, high_normal;  // their normal indices; lit composite only, else 0
+};
+using Records = std::unique_ptr<Record[]>;  // one slice's, left unset until packed
+
+// The cells of each slice row that the table may see (see find_runs), as runs of cells
+// [begin, end) along a. Made once per transfer function and principal axis.
+struct Runs {
+    int axis = -1;                // the principal axis they are for; -1: not made
+    int nb = 0;                   // cell rows per slice
+    std::vector<uint32_t> first;  // per slice row c * nb + b: its first run; one past the end
+    std::vector<int32_t> bounds;  // begin, end of every run, in cells along a
+    size_t cells = 0;             // cells in runs, all slices
+    std::vector<Records> records;      // per slice: its runs', in order
+    std::vector<const Record*> start;  // per run: its first record; empty: not packed
+    size_t record_count = 0;           // records, all slices
+
+    // Slice c's row b: its runs, and how many (none for a row it does not hold: runs not
+    // made yet, as in a student's kit before find_runs() is written).
+    const int32_t* row(int c, int b, int* count) const {
+        const size_t r = size_t(c) * nb + b;
+        *count = r + 1 < first.size() ? int(first[r + 1] - first[r]) : 0;
+        return *count > 0 ? &bounds[2 * size_t(first[r])] : nullptr;
+    }
+    // The records of the run that `run` (a pointer row() gave) starts, from its first column.
+    const Record* records_of(const int32_t* run) const {
+        return start[size_t(run - bounds.data()) / 2];
+    }
+};
+
+// Given: each run's first record, in its slice's records (none when a slice's records were
+// not written, as in a student's kit before pack_slice()), and the records' count.
+static void find_starts(const Shear& shear, Runs& runs) {
+    runs.start.clear();
+    for (int c = 0; c < shear.nc; ++c) {
+        const Record* next = runs.records[c].get();
+        const uint32_t end = runs.first[size_t(c + 1) * shear.nb];  // past its last run
+        for (uint32_t r = runs.first[size_t(c) * shear.nb]; r < end; ++r) {
+            if (!next) return runs.start.clear();  // not packed
+            runs.start.push_back(next);
+            next += runs.bounds[2 * r + 1] - runs.bounds[2 * r] + 1;
+        }
+    }
+    runs.record_count = runs.cells + runs.bounds.size() / 2;  // a run: one column more than cells
+}
+
+// Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
+// direction nearest its gradient's in a fixed set, two bytes at (k*ny + j)*nx + i like the
+// voxels; a table made per render holds the light of every direction. A lit sample is then
+// four indices and four table reads, blended as the values are: no gradient, no shade. The
+// set is the octahedral one: a direction d is put on the octahedron |x| + |y| + |z| = 1 (d
+// over its length in that sum, no square root), its lower half folded over the upper, and
+// its (x, y) rounded to a grid of normal_grid x normal_grid points on [-1, 1]^2. Index 0 is
+// "no direction" (a gradient of 0: ambient light only, as shade() gives).
+constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
+                                  // directions, one within 1.9 degrees of any direction (0.67
+                                  // on average; handout 42, Quality)
+constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
+
+// Only the voxels a sample can read are filled (fill_normal_table); other pages untouched.
+struct NormalTable {
+    std::unique_ptr<uint16_t[]> indices;  // per voxel its direction's index; null: no table
+    bool filled[3] = {false, false, false};  // for the runs of principal axis 0, 1, 2
+    size_t voxels_filled = 0;  // indices computed (a voxel filled for two axes counts twice)
+};
+
+//> lesson: normals
+// The index of the direction nearest g's (0 when g is 0), without a branch (step 46 calls it
+// sixteen voxels at a time): the fold's test is k's sign bit, its signs std::copysign.
+static inline uint16_t normal_index(Vec3 g) {
+    const float sum = std::fabs(g.i) + std::fabs(g.j) + std::fabs(g.k);
+    const float inverse = 1.0f / (sum + std::numeric_limits<float>::min());  // finite at 0
+    const float x = g.i * inverse, y = g.j * inverse;
+    // The lower half (k < 0), folded over the upper one: lower is 1 there, else 0.
+    int32_t k_bits;
+    std::memcpy(&k_bits, &g.k, sizeof k_bits);
+    const float lower = float((k_bits >> 31) & 1);
+    const float folded_x = std::copysign(1.0f - std::fabs(y), x);
+    const float folded_y = std::copysign(1.0f - std::fabs(x), y);
+    const float on_x = x + lower * (folded_x - x), on_y = y + lower * (folded_y - y);
+    constexpr float half_grid = 0.5f * (normal_grid - 1);
+    const int u = std::min(normal_grid - 1, std::max(0, int((on_x + 1.0f) * half_grid + 0.5f)));
+    const int v = std::min(normal_grid - 1, std::max(0, int((on_y + 1.0f) * half_grid + 0.5f)));
+    return uint16_t(sum != 0.0f ? 1 + v * normal_grid + u : 0);
+}
+
+// Every index's direction, a unit vector (index 0: the zero vector).
+static std::vector<Vec3> normal_directions() {
+    std::vector<Vec3> directions(normal_count, Vec3{0, 0, 0});
+    for (int v = 0; v < normal_grid; ++v) {
+        for (int u = 0; u < normal_grid; ++u) {
+            float x = 2.0f * u / (normal_grid - 1) - 1.0f, y = 2.0f * v / (normal_grid - 1) - 1.0f;
+            const float z = 1.0f - std::fabs(x) - std::fabs(y);
+            if (z < 0.0f) {  // unfolded
+                const float unfolded_x = (1.0f - std::fabs(y)) * (x >= 0.0f ? 1.0f : -1.0f);
+                const float unfolded_y = (1.0f - std::fabs(x)) * (y >= 0.0f ? 1.0f : -1.0f);
+                x = unfolded_x;
+                y = unfolded_y;
+            }
+            const Vec3 d = {x, y, z};
+            directions[1 + v * normal_grid + u] = (1.0f / length(d)) * d;
+        }
+    }
+    return directions;
+}
+
+// The shading table for one render: step 10's shade() of every direction, towards this
+// render's light. The rows of directions are shared among the threads.
+static void make_shading_table(const std::vector<Vec3>& directions, Vec3 to_light, int threads,
+                               std::vector<float>& light) {
+    light.resize(directions.size());
+    light[0] = shade(directions[0], to_light);  // no direction: ambient
+    Work unused;
+    parallel_rows(normal_grid, threads, unused, [&](int v, Work&) {
+        for (int n = 1 + v * normal_grid; n < 1 + (v + 1) * normal_grid; ++n) {
+            light[n] = shade(directions[n], to_light);
+        }
+    });
+}
+//< lesson: normals
+
 // Everything a render needs that is the same for every pixel.
 struct Scene {
     const Volume& volume;
     const Shear& shear;
     const std::vector<SliceShift>& shifts;  // slice m's, front to back
+    const Runs& runs;
     const Lut& lut;                  // opacities corrected for shear.spacing
+    const NormalTable& normals;      // lit composite only
+    const float* shading;            // lit with normals: the light of every normal index
     Vec3 to_light;                   // unit vector towards the light; unused when unlit
     const Params& params;
 };
@@ -358,7 +494,7 @@ struct Scene {
 // view direction crosses most voxels per unit of length: then a ray crosses every slice once,
 // and each slice is shifted by at most one voxel against the one before. Front to back is the
 // direction's sign along it. The intermediate image is wide enough for every slice's shift.
-// Changed in step 36: any direction, not only along an axis; the shift per slice and the
+// Changed in step 38: any direction, not only along an axis; the shift per slice and the
 // intermediate image's size.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
@@ -419,12 +555,225 @@ static inline float slice_value(const int16_t* p, const SliceShift& s) {
 }
 //< lesson: shear
 
-// Given: a sample's light: the gradients of its cell's four corners from the voxels (step
-// 10's gradient_at()), blended as the value is, then step 10's shade: step 30's light, with
-// the fraction along c at 0.
-static inline float slice_light(const Scene& scene, const SliceShift& s, int a, int b,
-                                Work& work) {
+// Given: voxel (i, j, k)'s normal index. A voxel with all six neighbours takes its central
+// differences straight from the voxels (step 10's gradient_at() without its edge cases; the
+// direction is all that is kept); one on the volume's faces calls gradient_at().
+static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
+    const int i = voxel.i, j = voxel.j, k = voxel.k;
+    if (i > 0 && j > 0 && k > 0 && i < volume.nx - 1 && j < volume.ny - 1 &&
+        k < volume.nz - 1) {
+        const ptrdiff_t step_j = volume.nx, step_k = ptrdiff_t(volume.nx) * volume.ny;
+        const int16_t* p = &volume.data[volume.index(i, j, k)];
+        return normal_index({float(p[1] - p[-1]) * float(0.5 / volume.sx),
+                             float(p[step_j] - p[-step_j]) * float(0.5 / volume.sy),
+                             float(p[step_k] - p[-step_k]) * float(0.5 / volume.sz)});
+    }
+    Work uncounted;
+    return normal_index(gradient_at(volume, voxel, uncounted));
+}
+
+//> lesson: records
+// VolPack's run-length-encoded volume, one slice at a time: the records of slice c's runs
+// (counts: its rows' numbers of runs, bounds: their begin and end), run after run. Column a's
+// record holds the values at (a, b) and (a, b + 1) and, for a lit composite, their normal
+// indices (from the normal table; computed here when there is none). The last column and row
+// count again at the slice's edges.
+static void pack_slice(const Volume& volume, const Shear& shear, int c, const uint32_t* counts,
+                       const int32_t* bounds, const NormalTable& normals, bool lit,
+                       Records& records) {
+    const int na = shear.na, nb = shear.nb;
+    auto normal_of = [&](int a, int b) {  // voxel (a, b) of the slice's; 0 when unlit
+        if (!lit) return uint16_t(0);
+        const Voxel voxel = voxel_of(shear, a, b, c);
+        return normals.indices ? normals.indices[volume.index(voxel.i, voxel.j, voxel.k)]
+                               : voxel_normal(volume, voxel);
+    };
+    size_t columns = 0;  // the records it writes
+    const int32_t* run = bounds;
+    for (int b = 0; b < nb; ++b) {
+        for (uint32_t r = 0; r < counts[b]; ++r, run += 2) {
+            columns += size_t(run[1] - run[0]) + 1;
+        }
+    }
+    const size_t sa = shear.stride_a;
+    records.reset(new Record[columns]);  // left unset: every record is written below
+    Record* out = records.get();
+    run = bounds;
+    for (int b = 0; b < nb; ++b) {
+        const int below = std::min(b + 1, nb - 1);  // the next row, or the last again
+        const int16_t* low = &volume.data[c * shear.stride_c + b * shear.stride_b];
+        const int16_t* high = &volume.data[c * shear.stride_c + below * shear.stride_b];
+        for (uint32_t r = 0; r < counts[b]; ++r, run += 2) {
+            for (int a = run[0]; a <= run[1]; ++a, ++out) {
+                const int column = std::min(a, na - 1);  // past the end: the last
+                *out = {low[column * sa], high[column * sa], normal_of(column, b),
+                        normal_of(column, below)};
+            }
+        }
+    }
+}
+//< lesson: records
+
+//> lesson: runs
+// Classification, once per transfer function and principal axis: the cells of every slice row
+// that the table may see. A bilinear value lies between its cell's lowest and highest corner
+// (the last voxel counts again at an edge), so a cell whose four corners all lie in one
+// stretch of transparent table entries is transparent wherever a sample falls in it: it is
+// left out. Slices are shared among the threads.
+static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, int threads) {
+    std::vector<int32_t> stretch(lut.entries.size());  // per table entry
+    int32_t seen = 0;                                    // entries seen so far
+    for (size_t n = 0; n < stretch.size(); ++n) {
+        if (lut.entries[n].a > 0.0f) {
+            stretch[n] = -1;
+            ++seen;
+        } else {
+            stretch[n] = seen;  // the same for every entry up to the next one seen
+        }
+    }
+    // A range of values [low, high] is transparent when the table sees none of its entries.
+    auto clear = [&](int low, int high) {
+        const int32_t first = stretch[low - lowest_ct_value];
+        return first >= 0 && first == stretch[high - lowest_ct_value];
+    };
+    const int na = shear.na, nb = shear.nb;
+    const size_t sa = shear.stride_a;
+    std::vector<std::vector<int32_t>> bounds(shear.nc);  // per slice, its runs
+    std::vector<std::vector<uint32_t>> counts(shear.nc);  // per slice, runs per row
+    Work unused;
+    parallel_rows(shear.nc, threads, unused, [&](int c, Work&) {
+        counts[c].assign(nb, 0);
+        for (int b = 0; b < nb; ++b) {
+            const int16_t* low = &volume.data[c * shear.stride_c + b * shear.stride_b];
+            const int16_t* high = &volume.data[c * shear.stride_c +
+                                               std::min(b + 1, nb - 1) * shear.stride_b];
+            int begin = -1;  // the run being read; -1: none
+            auto run_ends = [&](int a) {
+                if (begin < 0) return;
+                bounds[c].insert(bounds[c].end(), {begin, a});
+                ++counts[c][b];
+                begin = -1;
+            };
+            // Given: cell_stretch cells at a time, each cell's lowest and highest corner and
+            // the stretch's (common/object_order.h): a stretch of air is clear as a whole.
+            CellStretch cells;
+            for (int from = 0; from < na; from += cell_stretch) {
+                cells.read(low, high, sa, na, from);
+                if (clear(cells.lowest, cells.highest)) {
+                    run_ends(from);
+                    continue;
+                }
+                for (int n = 0; n < cells.count; ++n) {  // cell by cell
+                    if (clear(cells.low[n], cells.high[n])) {
+                        run_ends(from + n);
+                    } else if (begin < 0) {
+                        begin = from + n;
+                    }
+                }
+            }
+            run_ends(na);
+        }
+    });
+    Runs runs;
+    runs.axis = shear.c;
+    runs.nb = nb;
+    runs.first.reserve(size_t(shear.nc) * nb + 1);
+    uint32_t total = 0;
+    for (int c = 0; c < shear.nc; ++c) {
+        for (uint32_t n : counts[c]) {
+            runs.first.push_back(total);
+            total += n;
+        }
+        runs.bounds.insert(runs.bounds.end(), bounds[c].begin(), bounds[c].end());
+    }
+    runs.first.push_back(total);
+    for (size_t n = 0; n < runs.bounds.size(); n += 2) {
+        runs.cells += size_t(runs.bounds[n + 1] - runs.bounds[n]);
+    }
+    return runs;
+}
+//< lesson: runs
+
+// Given: the normal index of every voxel a lit sample can read (each run's voxels and one
+// more, on its row and the next), marked first so each is computed once; a slice per thread.
+static void fill_normal_table(const Volume& volume, const Shear& shear, const Runs& runs,
+                              int threads, NormalTable& table) {
+    if (!table.indices) table.indices.reset(new uint16_t[volume.voxel_count()]);
+    const int na = shear.na, nb = shear.nb;
+    std::vector<size_t> filled(shear.nc, 0);  // per slice: no two threads count in one
+    Work unused;
+    parallel_rows(shear.nc, threads, unused, [&](int c, Work&) {
+        std::vector<uint8_t> needed(size_t(na) * nb, 0);
+        for (int b = 0; b < nb; ++b) {
+            int count = 0;
+            const int32_t* run = runs.row(c, b, &count);
+            for (int r = 0; r < count; ++r) {  // the run's voxels and one more, on both rows
+                const int end = std::min(run[2 * r + 1] + 1, na);
+                for (const int row : {b, std::min(b + 1, nb - 1)}) {
+                    uint8_t* needed_row = &needed[size_t(row) * na];
+                    std::fill(needed_row + run[2 * r], needed_row + end, uint8_t(1));
+                }
+            }
+        }
+        for (int b = 0; b < nb; ++b) {
+            for (int a = 0; a < na; ++a) {
+                if (!needed[size_t(b) * na + a]) continue;
+                const Voxel voxel = voxel_of(shear, a, b, c);
+                table.indices[volume.index(voxel.i, voxel.j, voxel.k)] =
+                    voxel_normal(volume, voxel);
+                ++filled[c];
+            }
+        }
+    });
+    for (size_t slice : filled) table.voxels_filled += slice;
+    table.filled[shear.c] = true;
+}
+
+// Given: every slice's records (pack_slice()), the slices shared among the threads, each
+// writing its own; then each run's first record.
+static void pack_records(const Volume& volume, const Shear& shear, const NormalTable& normals,
+                         bool lit, int threads, Runs& runs) {
+    runs.records.resize(shear.nc);
+    Work unused;
+    parallel_rows(shear.nc, threads, unused, [&](int c, Work&) {
+        const uint32_t* first = &runs.first[size_t(c) * shear.nb];  // its rows' first runs
+        std::vector<uint32_t> counts(shear.nb);
+        for (int b = 0; b < shear.nb; ++b) counts[b] = first[b + 1] - first[b];
+        pack_slice(volume, shear, c, counts.data(), runs.bounds.data() + 2 * size_t(first[0]),
+                   normals, lit, runs.records[c]);
+    });
+    find_starts(shear, runs);
+}
+
+// Given: a sample's light from its cell's records (p: the low corner's; p[1] the next
+// column's): the four corners' light from the shading table, blended as the values are,
+// slice_light()'s float.
+static inline float record_light(const float* light, const Record* p, const SliceShift& s) {
+    const float low = lerp(light[p[0].low_normal], light[p[1].low_normal], s.fa);
+    const float high = lerp(light[p[0].high_normal], light[p[1].high_normal], s.fa);
+    return lerp(low, high, s.fb);
+}
+
+// Given: a sample's light: its cell's four corners' light from the shading table, blended as
+// the values are (VolPack's way: the light is shaded at the voxels, then interpolated; step
+// 30 interpolates the gradients, then shades: the same along an axis, where the fractions are
+// 0, but for the directions' rounding).
+// Without a table (a volume too large for one), the corners' gradients from the voxels,
+// blended, then step 10's shade, as step 30 does.
+// Changed in step 42: the light from the quantised normals' shading table.
+static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
+                                int b, Work& work) {
     work.gradients += 4;
+    if (scene.normals.indices) {
+        const uint16_t* n = &scene.normals.indices[index];
+        const float* light = scene.shading;
+        // On the voxels (along an axis: both fractions 0, the four corners one voxel): its
+        // light alone, the same float as the blend of four equal values.
+        if ((s.da | s.db) == 0) return light[n[0]];
+        const float low = lerp(light[n[0]], light[n[s.da]], s.fa);
+        const float high = lerp(light[n[s.db]], light[n[s.da + s.db]], s.fa);
+        return lerp(low, high, s.fb);
+    }
     const Shear& shear = scene.shear;
     const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
     Vec3 g[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
@@ -451,51 +800,89 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 }
 
 // Row v of the intermediate image, slice by slice front to back. In each slice the row meets
-// one row of cells; each pixel reads its cell's sample and composites it, unless the pixel is
-// already opaque (early termination, pixel by pixel).
-// Changed in step 36: each slice shifted, a sample bilinear in its cell (slice_value()).
+// one row of cells, and only the cells in its runs are read; the pixels they fall on are
+// composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
+// at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
+// stretch of a row costs a jump or two per run however wide it is.
+// Changed in step 43: a sample reads its cell's record and the next one's, not the volume
+// (on the voxels, its record's value and light alone: the same floats).
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
     const double stop_below = std::max(scene.params.ert, min_transparency);
     const Rgba* lut = scene.lut.entries.data();
-    // Speed: the counters and the slice's shift are local copies. The loop stores to the row;
-    // through a reference the compiler would read them again after each store.
+    std::vector<int> next(size_t(shear.width) + 1);
+    for (int u = 0; u <= shear.width; ++u) next[u] = u;  // next[width]: the end
+    auto open_from = [&](int u) {  // the first pixel at or after u that is not opaque
+        while (next[u] != u) {
+            next[u] = next[next[u]];
+            u = next[u];
+        }
+        return u;
+    };
+    int open = shear.width;  // pixels not yet opaque
+    // Speed: the counters and the slice's shift are local copies. The loop stores to the row
+    // and to next[]; through a reference the compiler would read them again after each store.
     Work counted;
     for (const SliceShift& shift : scene.shifts) {
         const SliceShift s = shift;
         const int b = v + s.ib;  // the row of cells this image row meets
         if (b < 0 || b > s.last_b) continue;
-        const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
-        const int16_t* slice_row = &scene.volume.data[row_index];
-        // The pixels whose cell lies in the slice.
+        const bool on_voxels = s.fa == 0.0f && s.fb == 0.0f;  // every sample one voxel's value
+        // The pixels whose cell lies in the slice, and the runs of cells the table may see.
         const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, s.last_a + 1 - s.ia);
-        for (int u = u_low; u < u_high; ++u) {
-            if (row[u].transparency < stop_below) continue;  // opaque already
-            const size_t along = size_t(u + s.ia) * shear.stride_a;
-            const float value = slice_value(slice_row + along, s);
-            const Rgba& sample = lut[int(double(value) - lowest_ct_value)];
-            ++counted.samples;
-            if (sample.a == 0.0f) {
-                ++counted.skipped;
-                continue;
+        if (u_low >= u_high) continue;
+        int count = 0;
+        const int32_t* run = scene.runs.row(s.slice, b, &count);
+        if (scene.runs.start.empty()) count = 0;  // no records (a kit before pack_slice())
+        long long in_runs = 0;
+        for (int r = 0; r < count && open > 0; ++r) {
+            const int from = std::max(u_low, run[2 * r] - s.ia);
+            const int to = std::min(u_high, run[2 * r + 1] - s.ia);
+            if (from >= to) continue;
+            in_runs += to - from;
+            const Record* records = scene.runs.records_of(run + 2 * r);  // column run[2r]'s
+            for (int u = open_from(from); u < to; u = open_from(u + 1)) {
+                const Record* p = records + (u + s.ia - run[2 * r]);  // the cell's low corner
+                // On the voxels (along an axis) the value is the record's, a whole number: its
+                // table entry without the blend and the conversions (the same entry).
+                const int entry =
+                    on_voxels ? p->low - lowest_ct_value
+                              : int(double(lerp(lerp(p[0].low, p[1].low, s.fa),
+                                                lerp(p[0].high, p[1].high, s.fa), s.fb)) -
+                                    lowest_ct_value);
+                const Rgba& sample = lut[entry];
+                ++counted.samples;
+                if (sample.a == 0.0f) {
+                    ++counted.skipped;
+                    continue;
+                }
+                double light = 1.0;  // unlit
+                if (!unlit) {
+                    counted.gradients += 4;
+                    light = on_voxels ? scene.shading[p->low_normal]
+                                      : record_light(scene.shading, p, s);
+                }
+                add_sample(row[u], sample, light);
+                if (row[u].transparency < stop_below) {
+                    ++counted.terminated;
+                    next[u] = u + 1;
+                    --open;
+                }
             }
-            double light = 1.0;  // unlit
-            if (!unlit) light = slice_light(scene, s, u + s.ia, b, counted);
-            add_sample(row[u], sample, light);
-            if (row[u].transparency < stop_below) ++counted.terminated;
         }
+        counted.leapt += (u_high - u_low) - in_runs;  // transparent cells: never read
+        if (open == 0) break;  // the whole row is opaque
     }
     work.add(counted);
 }
 //< lesson: composite
 
 //> lesson: mip
-// Row v of the maximum intensity: every cell the row meets in every slice, each pixel keeping
-// its highest sample. -infinity: none yet.
+// Row v of the maximum intensity: every cell the row meets in every slice (no runs: a maximum
+// has no transparent values), each pixel keeping its highest sample. -infinity: none yet.
 // A row of cells contiguous in memory goes first through max_in_stretches() (given: vector
 // instructions, the same floats as slice_value()).
-// Changed in step 36: each slice shifted, a sample bilinear in its cell.
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
     const Shear& shear = scene.shear;
     for (const SliceShift& s : scene.shifts) {
@@ -523,7 +910,7 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
 }
 
 // Given: the warp's affine map (common/object_order.h), from the camera's rays.
-// Changed in step 36: the shear's base offsets (0 along an axis).
+// Changed in step 38: the shear's base offsets (0 along an axis).
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
     auto ray = [&](int x, int y) { return camera_ray(camera, x, y); };
     return slice_warp(volume, shear, shear.base_a, shear.base_b, ray);
@@ -559,7 +946,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
 // composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
 // image's pixel to the bit. The trace follows each of the four sample by sample.
-// Changed in step 36: each slice's shift, a bilinear sample and its cell's light.
+// Changed in step 42: slice_light() takes the sample's voxel index (its normal indices).
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;
@@ -584,7 +971,8 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
         auto light = [&](int m) {
             const SliceShift& s = scene.shifts[m];
             const int a = u + s.ia, b = v + s.ib;
-            return scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
+            const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
+            return scene.params.unlit ? 1.0 : slice_light(scene, s, index, a, b, work);
         };
         if (scene.params.mode == "mip") {
             return mip_colour(volume, maximum_column(shear.nc, ray, work, trace, at));
@@ -631,13 +1019,25 @@ int main(int argc, char** argv) {
         // --- Volume ---
         const Volume volume = load_volume(options);
 
-        // --- Transfer function: the file (in the file's units) ---
+        // --- Transfer function: the file (in the file's units); which values it sees ---
         TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
+        const Lut seen = build_lut(tf, 1.0);  // the runs need only which opacities are not 0
 
-        // --- Once per view: the table's opacities for the slices' spacing ---
+        // --- Once per transfer function and principal axis, made by the first render that
+        // needs it (so the first render's time_ms= includes it, and precompute_ms= says how
+        // much): the runs of cells the table may see, and for a lit composite the normal
+        // indices of their corners (the directions' set once per process). Once per view: the
+        // table's opacities for the slices' spacing; for a lit composite, the shading table ---
+        Runs runs[3];  // per principal axis
+        NormalTable normals;
+        std::vector<Vec3> directions;  // per normal index, made with the first table
+        const double table_bytes = double(sizeof(uint16_t)) * volume.voxel_count();
+        const bool lit = params.mode == "composite" && !params.unlit;
+        const bool normal_table = lit && table_bytes <= max_table_bytes;
+        double precompute_ms = 0;  // wall clock, this process
         Lut lut;
         double lut_ratio = -1;  // the ratio lut was made for; -1: none yet
         auto prepare = [&](const Shear& shear) {
@@ -646,6 +1046,28 @@ int main(int argc, char** argv) {
                 lut = build_lut(tf, ratio);
                 lut_ratio = ratio;
             }
+            if (params.mode == "mip") return;
+            const bool new_runs = runs[shear.c].axis < 0;
+            const bool new_normals = normal_table && !normals.filled[shear.c];
+            if (!new_runs && !new_normals) return;
+            Runs& made = runs[shear.c];  // and its "precompute" line (common/object_order.h)
+            auto make = [&] {
+                if (new_runs) runs[shear.c] = find_runs(volume, shear, seen, options.threads);
+                if (lit && directions.empty()) directions = normal_directions();
+                if (new_normals) {
+                    fill_normal_table(volume, shear, runs[shear.c], options.threads, normals);
+                }
+                pack_records(volume, shear, normals, lit, options.threads, runs[shear.c]);
+            };
+            precompute_ms += timed_precompute(shear.c, make, [&] {
+                char normals_held[160];
+                std::snprintf(normals_held, sizeof normals_held,
+                              " normal_voxels=%zu normals_mb=%.2f records=%zu records_mb=%.2f",
+                              normals.voxels_filled,
+                              normals.voxels_filled * sizeof(uint16_t) / 1048576.0,
+                              made.record_count, made.record_count * sizeof(Record) / 1048576.0);
+                return runs_held(made, volume.voxel_count()) + normals_held;
+            });
         };
 
         // --- View: the camera's image (its camera is made for each render: the window turns
@@ -662,6 +1084,7 @@ int main(int argc, char** argv) {
             Shear shear;
             std::vector<SliceShift> shifts;
             Vec3 to_light;               // unit vector towards the light; unused when unlit
+            std::vector<float> shading;  // lit with normals: the light per normal index
         };
         auto frame_for = [&](const View& view) {
             Frame frame;
@@ -673,11 +1096,14 @@ int main(int argc, char** argv) {
             prepare(frame.shear);
             frame.to_light =
                 params.unlit ? Vec3{} : light_direction(frame.camera, params.light_angle);
+            if (lit) {
+                make_shading_table(directions, frame.to_light, options.threads, frame.shading);
+            }
             return frame;
         };
         auto scene_for = [&](const Frame& frame) {
-            return Scene{volume, frame.shear, frame.shifts, lut,
-                         frame.to_light, params};
+            return Scene{volume, frame.shear, frame.shifts, runs[frame.shear.c], lut,
+                         normals, frame.shading.data(), frame.to_light, params};
         };
         renderer.image = [&](const View& view, Work& work) {
             const Frame frame = frame_for(view);
@@ -715,7 +1141,8 @@ int main(int argc, char** argv) {
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
                    camera_settings(params) + " interpolation=" + params.interpolation +
-                   " opacity_ratio=" + summary_number(lut_ratio);
+                   " opacity_ratio=" + summary_number(lut_ratio) +
+                   " precompute_ms=" + summary_number(precompute_ms);
         };
 
         // --- Output: a PNG and a summary line, then the preview window ---

@@ -1,22 +1,23 @@
-// 37_slice_runs.cpp: shear-warp's second trick, VolPack's: each slice row keeps the runs of
-// cells the transfer function may see, and the rest of the volume is never read.
+// 40_opaque_pixels.cpp: shear-warp's third trick, early termination in image space: the
+// opaque pixels of a row are jumped over, not tested one by one.
 //
-// New here:   once per transfer function and principal axis, find_runs() keeps each slice
-//             row's runs of cells the table may see (a cell whose four corners all lie in one
-//             stretch of transparent entries is left out); composite_row() reads only those,
-//             and counts the rest as leapt. Step 36's pictures; the runs' cost is printed on a
-//             "precompute" line, and precompute_ms= in the summary.
+// New here:   step 39 tests every pixel of a run against T in every slice, opaque or not.
+//             Here next[u] leads from a pixel to the first one at or after it that is not
+//             opaque (each lookup shortens the path it followed, as a union-find does), so an
+//             opaque stretch of a row costs a jump or two per run however wide it is, and a
+//             row whose pixels are all opaque stops reading slices. The same samples as step
+//             37, in the same order: the same pictures and samples.
 //             Orthographic only; one sample per slice, so no --step. --work-map is refused:
 //             the work is counted per row of the intermediate image.
-// Builds on:  36_shear_warp.
-// Handout:    handouts/37_slice_runs.md
-// Run:        make run STEP=37 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/37_slice_runs_camera.png: the default run (lit composite,
+// Builds on:  39_slice_runs.
+// Handout:    handouts/40_opaque_pixels.md
+// Run:        make run STEP=40 ARGS="--azimuth 180 --elevation 90 --size 256x256"
+// Reference:  data/reference/40_opaque_pixels_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
-constexpr const char* step_name = "37_slice_runs";
+constexpr const char* step_name = "40_opaque_pixels";
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
@@ -199,7 +200,7 @@ static float corrected_opacity(float alpha, double ratio) {
     return float(-std::expm1(ratio * std::log1p(-double(alpha))));
 }
 
-// Changed in step 35: the samples are one slice apart, `spacing` physical units along a ray
+// Changed in step 36: the samples are one slice apart, `spacing` physical units along a ray
 // (it depends on the view), not --step apart.
 static double opacity_ratio(const Params& params, double spacing) {
     return params.no_correction ? 1.0 : spacing / unit_length;
@@ -314,7 +315,7 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
-// --- Step 36: shear-warp ---
+// --- Step 38: shear-warp ---
 
 // The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
 // of voxels across the principal axis c, the axis the view direction runs most along in
@@ -379,7 +380,7 @@ struct Scene {
 // view direction crosses most voxels per unit of length: then a ray crosses every slice once,
 // and each slice is shifted by at most one voxel against the one before. Front to back is the
 // direction's sign along it. The intermediate image is wide enough for every slice's shift.
-// Changed in step 36: any direction, not only along an axis; the shift per slice and the
+// Changed in step 38: any direction, not only along an axis; the shift per slice and the
 // intermediate image's size.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
@@ -553,15 +554,27 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 
 // Row v of the intermediate image, slice by slice front to back. In each slice the row meets
 // one row of cells, and only the cells in its runs are read; the pixels they fall on are
-// composited unless already opaque (tested pixel by pixel, as step 36 does).
-// Changed in step 37: only the cells in the row's runs are read, the others counted as leapt.
+// composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
+// at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
+// stretch of a row costs a jump or two per run however wide it is.
+// Changed in step 40: the opaque pixels jumped over through next[], not tested one by one.
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
     const double stop_below = std::max(scene.params.ert, min_transparency);
     const Rgba* lut = scene.lut.entries.data();
-    // Speed: the counters and the slice's shift are local copies. The loop stores to the row;
-    // through a reference the compiler would read them again after each store.
+    std::vector<int> next(size_t(shear.width) + 1);
+    for (int u = 0; u <= shear.width; ++u) next[u] = u;  // next[width]: the end
+    auto open_from = [&](int u) {  // the first pixel at or after u that is not opaque
+        while (next[u] != u) {
+            next[u] = next[next[u]];
+            u = next[u];
+        }
+        return u;
+    };
+    int open = shear.width;  // pixels not yet opaque
+    // Speed: the counters and the slice's shift are local copies. The loop stores to the row
+    // and to next[]; through a reference the compiler would read them again after each store.
     Work counted;
     for (const SliceShift& shift : scene.shifts) {
         const SliceShift s = shift;
@@ -575,13 +588,12 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
         int count = 0;
         const int32_t* run = scene.runs.row(s.slice, b, &count);
         long long in_runs = 0;
-        for (int r = 0; r < count; ++r) {
+        for (int r = 0; r < count && open > 0; ++r) {
             const int from = std::max(u_low, run[2 * r] - s.ia);
             const int to = std::min(u_high, run[2 * r + 1] - s.ia);
             if (from >= to) continue;
             in_runs += to - from;
-            for (int u = from; u < to; ++u) {
-                if (row[u].transparency < stop_below) continue;  // opaque already
+            for (int u = open_from(from); u < to; u = open_from(u + 1)) {
                 const size_t along = size_t(u + s.ia) * shear.stride_a;
                 const float value = slice_value(slice_row + along, s);
                 const Rgba& sample = lut[int(double(value) - lowest_ct_value)];
@@ -595,10 +607,15 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
                     light = slice_light(scene, s, u + s.ia, b, counted);
                 }
                 add_sample(row[u], sample, light);
-                if (row[u].transparency < stop_below) ++counted.terminated;
+                if (row[u].transparency < stop_below) {
+                    ++counted.terminated;
+                    next[u] = u + 1;
+                    --open;
+                }
             }
         }
         counted.leapt += (u_high - u_low) - in_runs;  // transparent cells: never read
+        if (open == 0) break;  // the whole row is opaque
     }
     work.add(counted);
 }
@@ -636,7 +653,7 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
 }
 
 // Given: the warp's affine map (common/object_order.h), from the camera's rays.
-// Changed in step 36: the shear's base offsets (0 along an axis).
+// Changed in step 38: the shear's base offsets (0 along an axis).
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
     auto ray = [&](int x, int y) { return camera_ray(camera, x, y); };
     return slice_warp(volume, shear, shear.base_a, shear.base_b, ray);
@@ -672,7 +689,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
 // composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
 // image's pixel to the bit. The trace follows each of the four sample by sample.
-// Changed in step 36: each slice's shift, a bilinear sample and its cell's light.
+// Changed in step 38: each slice's shift, a bilinear sample and its cell's light.
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;

@@ -1,28 +1,28 @@
-// 39_quantised_normals.cpp: shear-warp's fourth trick, VolPack's quantised normals with a
+// 42_quantised_normals.cpp: shear-warp's fourth trick, VolPack's quantised normals with a
 // shading table made per render.
 //
 // New here:   a lit sample no longer computes the four gradients of its cell's corners from
-//             the voxels (step 36's slice_light(), 24 voxel reads and a shade()). Each voxel a
+//             the voxels (step 38's slice_light(), 24 voxel reads and a shade()). Each voxel a
 //             sample can read (the corners of the runs' cells) keeps the index of the nearest
 //             of 16,641 directions, in two bytes, made once per principal axis
 //             (fill_normal_table()); a table made per render holds each direction's light
 //             (make_shading_table()), so a lit sample is four table reads blended as the
 //             values are. It shades at the voxels and interpolates the light, as VolPack
-//             does: along an axis the pictures are step 38's but for the rounding of the
-//             directions (a stated error: tol=5 there, handout 39). Unlit and the maximum are
-//             step 38's floats. Orthographic only; one sample per slice, so no --step.
+//             does: along an axis the pictures are step 40's but for the rounding of the
+//             directions (a stated error: tol=5 there, handout 42). Unlit and the maximum are
+//             step 40's floats. Orthographic only; one sample per slice, so no --step.
 //             --work-map is refused: the work is counted per row of the intermediate image.
-// Builds on:  38_opaque_pixels.
-// Handout:    handouts/39_quantised_normals.md
-// Run:        make run STEP=39 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/39_quantised_normals_camera.png: the default run (lit composite,
+// Builds on:  40_opaque_pixels.
+// Handout:    handouts/42_quantised_normals.md
+// Run:        make run STEP=42 ARGS="--azimuth 180 --elevation 90 --size 256x256"
+// Reference:  data/reference/42_quantised_normals_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 #include <cstring>  // std::memcpy: a float's bits
 #include <memory>  // std::unique_ptr: the normal table, left unwritten where not needed
 using namespace ctlab;
 
-constexpr const char* step_name = "39_quantised_normals";
+constexpr const char* step_name = "42_quantised_normals";
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
@@ -207,7 +207,7 @@ static float corrected_opacity(float alpha, double ratio) {
     return float(-std::expm1(ratio * std::log1p(-double(alpha))));
 }
 
-// Changed in step 35: the samples are one slice apart, `spacing` physical units along a ray
+// Changed in step 36: the samples are one slice apart, `spacing` physical units along a ray
 // (it depends on the view), not --step apart.
 static double opacity_ratio(const Params& params, double spacing) {
     return params.no_correction ? 1.0 : spacing / unit_length;
@@ -322,7 +322,7 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
-// --- Step 36: shear-warp ---
+// --- Step 38: shear-warp ---
 
 // The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
 // of voxels across the principal axis c, the axis the view direction runs most along in
@@ -381,7 +381,7 @@ struct Runs {
 // "no direction" (a gradient of 0: ambient light only, as shade() gives).
 constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
                                   // directions, one within 1.9 degrees of any direction (0.67
-                                  // on average; handout 39, Quality)
+                                  // on average; handout 42, Quality)
 constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
 
 // Only the voxels a sample can read are filled (fill_normal_table); other pages untouched.
@@ -392,7 +392,7 @@ struct NormalTable {
 };
 
 //> lesson: normals
-// The index of the direction nearest g's (0 when g is 0), without a branch (step 42 calls it
+// The index of the direction nearest g's (0 when g is 0), without a branch (step 46 calls it
 // sixteen voxels at a time): the fold's test is k's sign bit, its signs std::copysign.
 static inline uint16_t normal_index(Vec3 g) {
     const float sum = std::fabs(g.i) + std::fabs(g.j) + std::fabs(g.k);
@@ -464,7 +464,7 @@ struct Scene {
 // view direction crosses most voxels per unit of length: then a ray crosses every slice once,
 // and each slice is shifted by at most one voxel against the one before. Front to back is the
 // direction's sign along it. The intermediate image is wide enough for every slice's shift.
-// Changed in step 36: any direction, not only along an axis; the shift per slice and the
+// Changed in step 38: any direction, not only along an axis; the shift per slice and the
 // intermediate image's size.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
@@ -663,7 +663,7 @@ static void fill_normal_table(const Volume& volume, const Shear& shear, const Ru
 // 0, but for the directions' rounding).
 // Without a table (a volume too large for one), the corners' gradients from the voxels,
 // blended, then step 10's shade, as step 30 does.
-// Changed in step 39: the light from the quantised normals' shading table.
+// Changed in step 42: the light from the quantised normals' shading table.
 static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
                                 int b, Work& work) {
     work.gradients += 4;
@@ -707,7 +707,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
 // at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
 // stretch of a row costs a jump or two per run however wide it is.
-// Changed in step 39: slice_light() takes the sample's voxel index (its normal indices).
+// Changed in step 42: slice_light() takes the sample's voxel index (its normal indices).
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
@@ -803,7 +803,7 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
 }
 
 // Given: the warp's affine map (common/object_order.h), from the camera's rays.
-// Changed in step 36: the shear's base offsets (0 along an axis).
+// Changed in step 38: the shear's base offsets (0 along an axis).
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
     auto ray = [&](int x, int y) { return camera_ray(camera, x, y); };
     return slice_warp(volume, shear, shear.base_a, shear.base_b, ray);
@@ -839,7 +839,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
 // composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
 // image's pixel to the bit. The trace follows each of the four sample by sample.
-// Changed in step 39: slice_light() takes the sample's voxel index (its normal indices).
+// Changed in step 42: slice_light() takes the sample's voxel index (its normal indices).
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;
