@@ -302,6 +302,64 @@ struct CellStretch {
     }
 };
 
+// The cells of each slice row that the transfer function may see (a step's find_runs()), as
+// runs of cells [begin, end) along a, slice after slice. Made once per transfer function and
+// principal axis; a step names it Runs (and from step 43 on adds the runs' records to it).
+struct SliceRuns {
+    int axis = -1;                // the principal axis they are for; -1: not made
+    int nb = 0;                   // cell rows per slice
+    std::vector<uint32_t> first;  // per slice row c * nb + b: its first run; one past the end
+    std::vector<int32_t> bounds;  // begin, end of every run, in cells along a
+    size_t cells = 0;             // cells in runs, all slices
+
+    // Slice c's row b: its runs, and how many (none for a row it does not hold: runs not
+    // made yet, as in a student's kit before find_runs() is written).
+    const int32_t* row(int c, int b, int* count) const {
+        const size_t r = size_t(c) * nb + b;
+        *count = r + 1 < first.size() ? int(first[r + 1] - first[r]) : 0;
+        return *count > 0 ? &bounds[2 * size_t(first[r])] : nullptr;
+    }
+
+    // The next slice's runs, after those of the slices before it (c = 0 first): counts[b],
+    // how many its row b has; runs, their begin and end, row after row.
+    void add_slice(const std::vector<uint32_t>& counts, const std::vector<int32_t>& runs) {
+        if (first.empty()) first.push_back(0);
+        for (uint32_t n : counts) first.push_back(first.back() + n);
+        bounds.insert(bounds.end(), runs.begin(), runs.end());
+        for (size_t n = 0; n + 1 < runs.size(); n += 2) cells += size_t(runs[n + 1] - runs[n]);
+    }
+};
+
+// From step 43 on, a step's Runs (a SliceRuns) also holds each slice's records (its runs'
+// voxels, packed by the step's pack_slice()): records[c], slice c's; start[r], run r's first
+// record; record_count, all slices'. Each run's first record, then (none when a slice's
+// records were not written, as in a student's kit before pack_slice()), and the count.
+template <class Shear, class Runs>
+void find_starts(const Shear& shear, Runs& runs) {
+    runs.start.clear();
+    for (int c = 0; c < shear.nc; ++c) {
+        const auto* next = runs.records[c].get();
+        const uint32_t end = runs.first[size_t(c + 1) * shear.nb];  // past its last run
+        for (uint32_t r = runs.first[size_t(c) * shear.nb]; r < end; ++r) {
+            if (!next) return runs.start.clear();  // not packed
+            runs.start.push_back(next);
+            next += runs.bounds[2 * r + 1] - runs.bounds[2 * r] + 1;
+        }
+    }
+    runs.record_count = runs.cells + runs.bounds.size() / 2;  // a run: one column more than cells
+}
+
+// A sample's light from its cell's records (p: the low corner's; p[1] the next column's): the
+// four corners' light from the shading table (by their normal indices), blended as the values
+// are (the fractions s.fa, s.fb; the steps' lerp()): the step's slice_light()'s float.
+template <class Record, class Shift>
+inline float record_light(const float* light, const Record* p, const Shift& s) {
+    auto lerp = [](float a, float b, float f) { return a + f * (b - a); };  // the step's
+    const float low = lerp(light[p[0].low_normal], light[p[1].low_normal], s.fa);
+    const float high = lerp(light[p[0].high_normal], light[p[1].high_normal], s.fa);
+    return lerp(low, high, s.fb);
+}
+
 // A table made once per transfer function and principal axis, and its cost, on a line of its
 // own (the summary lines are the renders'): make() makes it, what() says what it holds, and
 // the line adds the time it took, wall clock and CPU (the machine may be shared):
