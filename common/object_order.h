@@ -1,9 +1,10 @@
 // object_order.h: the wiring of the object-order steps (35 on), as cast_camera_rays() is ray
 // order's: the intermediate image's rows handed to the threads, the warp's map and its loop
 // over the output image, one output pixel alone with the records of its trace through the
-// warp, and the "precompute" line. Wiring, and two given loops of part 3's speed (vector
-// stretches for the maximum and for the runs): compositing a slice row, the shear, the runs
-// and the warp's bilinear read are the steps' lessons.
+// warp, the runs' storage (and from step 43 their records' starts and light), and the
+// "precompute" line. Wiring, and two given loops of part 3's speed (vector stretches for the
+// maximum and for the runs): compositing a slice row, the shear, finding the runs, packing
+// their records and the warp's bilinear read are the steps' lessons.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -319,16 +320,32 @@ struct SliceRuns {
         *count = r + 1 < first.size() ? int(first[r + 1] - first[r]) : 0;
         return *count > 0 ? &bounds[2 * size_t(first[r])] : nullptr;
     }
-
-    // The next slice's runs, after those of the slices before it (c = 0 first): counts[b],
-    // how many its row b has; runs, their begin and end, row after row.
-    void add_slice(const std::vector<uint32_t>& counts, const std::vector<int32_t>& runs) {
-        if (first.empty()) first.push_back(0);
-        for (uint32_t n : counts) first.push_back(first.back() + n);
-        bounds.insert(bounds.end(), runs.begin(), runs.end());
-        for (size_t n = 0; n + 1 < runs.size(); n += 2) cells += size_t(runs[n + 1] - runs[n]);
-    }
 };
+
+// The runs a step's find_runs() found slice by slice, joined into its Runs (a SliceRuns) for
+// principal axis `axis`: counts[c][b], how many runs slice c's row b has (nb rows a slice);
+// bounds[c], their begin and end, row after row.
+template <class Runs>
+Runs join_runs(int axis, int nb, const std::vector<std::vector<uint32_t>>& counts,
+               const std::vector<std::vector<int32_t>>& bounds) {
+    Runs runs;
+    runs.axis = axis;
+    runs.nb = nb;
+    runs.first.reserve(counts.size() * nb + 1);
+    uint32_t total = 0;
+    for (size_t c = 0; c < counts.size(); ++c) {
+        for (uint32_t n : counts[c]) {
+            runs.first.push_back(total);
+            total += n;
+        }
+        runs.bounds.insert(runs.bounds.end(), bounds[c].begin(), bounds[c].end());
+    }
+    runs.first.push_back(total);
+    for (size_t n = 0; n < runs.bounds.size(); n += 2) {
+        runs.cells += size_t(runs.bounds[n + 1] - runs.bounds[n]);
+    }
+    return runs;
+}
 
 // From step 43 on, a step's Runs (a SliceRuns) also holds each slice's records (its runs'
 // voxels, packed by the step's pack_slice()): records[c], slice c's; start[r], run r's first

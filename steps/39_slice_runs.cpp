@@ -1,8 +1,7 @@
 // 39_slice_runs.cpp: shear-warp's second trick, VolPack's: only the cells the table may see.
 //
-// New here:   find_runs(): each slice row's runs of cells the table may see, once per transfer
-//             function and principal axis; composite_row() reads only those (the rest counted
-//             as leapt). Step 38's pictures; the runs' cost is printed on a "precompute" line.
+// New here:   find_runs(), per transfer function and principal axis: each slice row's runs of
+//             cells the table may see; composite_row() reads only those. Step 38's pictures.
 //             Orthographic only; one sample per slice, so no --step. --work-map is refused:
 //             the work is counted per row of the intermediate image.
 // Builds on:  38_shear_warp.
@@ -480,10 +479,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
             run_ends(na);
         }
     });
-    Runs runs;  // the slices' runs joined, slice after slice (given: common/object_order.h)
-    runs.axis = shear.c;
-    runs.nb = nb;
-    for (int c = 0; c < shear.nc; ++c) runs.add_slice(counts[c], bounds[c]);
+    Runs runs = join_runs<Runs>(shear.c, nb, counts, bounds);  // given: common/object_order.h
     return runs;
 }
 //< lesson: runs

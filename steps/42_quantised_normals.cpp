@@ -585,10 +585,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
             run_ends(na);
         }
     });
-    Runs runs;  // the slices' runs joined, slice after slice (given: common/object_order.h)
-    runs.axis = shear.c;
-    runs.nb = nb;
-    for (int c = 0; c < shear.nc; ++c) runs.add_slice(counts[c], bounds[c]);
+    Runs runs = join_runs<Runs>(shear.c, nb, counts, bounds);  // given: common/object_order.h
     return runs;
 }
 //< lesson: runs

@@ -643,10 +643,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
             run_ends(na);
         }
     });
-    Runs runs;  // the slices' runs joined, slice after slice (given: common/object_order.h)
-    runs.axis = shear.c;
-    runs.nb = nb;
-    for (int c = 0; c < shear.nc; ++c) runs.add_slice(counts[c], bounds[c]);
+    Runs runs = join_runs<Runs>(shear.c, nb, counts, bounds);  // given: common/object_order.h
     return runs;
 }
 //< lesson: runs
@@ -752,8 +749,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
 // at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
 // stretch of a row costs a jump or two per run however wide it is.
-// Changed in step 43: a sample reads its cell's record and the next one's, not the volume
-// (on the voxels, its record's value and light alone: the same floats).
+// Changed in step 43: a sample reads its cell's record and the next one's, not the volume.
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
@@ -1009,13 +1005,14 @@ int main(int argc, char** argv) {
                 pack_records(volume, shear, normals, lit, options.threads, runs[shear.c]);
             };
             precompute_ms += timed_precompute(shear.c, make, [&] {
-                char normals_held[160];
+                char normals_held[80];
                 std::snprintf(normals_held, sizeof normals_held,
-                              " normal_voxels=%zu normals_mb=%.2f records=%zu records_mb=%.2f",
-                              normals.voxels_filled,
-                              normals.voxels_filled * sizeof(uint16_t) / 1048576.0,
+                              " normal_voxels=%zu normals_mb=%.2f", normals.voxels_filled,
+                              normals.voxels_filled * sizeof(uint16_t) / 1048576.0);
+                char records_held[80];
+                std::snprintf(records_held, sizeof records_held, " records=%zu records_mb=%.2f",
                               made.record_count, made.record_count * sizeof(Record) / 1048576.0);
-                return runs_held(made, volume.voxel_count()) + normals_held;
+                return runs_held(made, volume.voxel_count()) + normals_held + records_held;
             });
         };
 

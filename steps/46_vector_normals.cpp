@@ -700,10 +700,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
         normals[c] = pack_slice(volume, shear, c, counts[c].data(), bounds[c].data(), lit,
                                 records[c]);
     });
-    Runs runs;  // the slices' runs joined, slice after slice (given: common/object_order.h)
-    runs.axis = shear.c;
-    runs.nb = nb;
-    for (int c = 0; c < shear.nc; ++c) runs.add_slice(counts[c], bounds[c]);
+    Runs runs = join_runs<Runs>(shear.c, nb, counts, bounds);  // given: common/object_order.h
     runs.records = std::move(records);
     find_starts(shear, runs);
     for (size_t n : normals) runs.normals += n;
@@ -749,8 +746,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
 // at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
 // stretch of a row costs a jump or two per run however wide it is.
-// Changed in step 43: a sample reads its cell's record and the next one's, not the volume
-// (on the voxels, its record's value and light alone: the same floats).
+// Changed in step 43: a sample reads its cell's record and the next one's, not the volume.
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
