@@ -345,7 +345,7 @@ struct SliceShift {
 // A run's voxels, packed (pack_slice()). A run of cells [begin, end) along a in slice row b
 // keeps one record per voxel column a = begin .. end (one more than its cells: a cell's high
 // corner), the runs one after another in slice order: a sample of cell a reads record a and
-// the next one, and nothing else (lit or not).
+// the next one, and nothing else (lit or not: record_light(), common/object_order.h).
 struct Record {
     int16_t low, high;  // the voxel values at (a, b) and (a, b + 1) of the slice (the last row
                         // and column repeated at the slice's edges)
