@@ -1140,7 +1140,7 @@ int main(int argc, char** argv) {
         // --- Options: the shared flags plus this step's own ---
         Params params;
         Args args(step_name, "Shear-warp: the slices composited into an intermediate image, "
-                             "then one warp.");
+                             "then one warp; a perspective camera by step 30's rays.");
         args.add_choice("--mode", &params.mode, {"composite", "mip"},
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,
