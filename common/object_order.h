@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <ctime>
 #include <limits>
 #include <string>
@@ -301,6 +302,33 @@ struct CellStretch {
         highest = std::max(h[0], h[1]);
     }
 };
+
+// Given (step 46): the voxels of a stretch's two slice rows (low_row and high_row from
+// `from`, one more than its cells) at p and q, contiguous: the rows themselves where they
+// are, else copied into `copies` (strided rows, or at a row's end with the last voxel
+// repeated, as CellStretch::read() does).
+inline void stretch_rows(const int16_t* low_row, const int16_t* high_row, size_t sa, int na,
+                         int from, int16_t (&copies)[2][cell_stretch + 1], const int16_t** p,
+                         const int16_t** q) {
+    *p = low_row + from;
+    *q = high_row + from;
+    if (sa == 1 && from + cell_stretch <= na - 1) return;
+    for (int n = 0; n <= cell_stretch; ++n) {
+        copies[0][n] = low_row[size_t(std::min(from + n, na - 1)) * sa];
+        copies[1][n] = high_row[size_t(std::min(from + n, na - 1)) * sa];
+    }
+    *p = copies[0];
+    *q = copies[1];
+}
+
+// Given (step 46): whether all cell_stretch masks (each 0 or -1) are `value`, read as 64-bit
+// words at once.
+inline bool all_masks(const int16_t (&mask)[cell_stretch], int16_t value) {
+    static_assert(cell_stretch == 16, "four words");
+    uint64_t w[4];
+    std::memcpy(w, mask, sizeof w);
+    return value ? (w[0] & w[1] & w[2] & w[3]) == ~uint64_t(0) : (w[0] | w[1] | w[2] | w[3]) == 0;
+}
 
 // A table made once per transfer function and principal axis, and its cost, on a line of its
 // own (the summary lines are the renders'): make() makes it, what() says what it holds, and

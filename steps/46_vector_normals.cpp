@@ -573,11 +573,6 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
     const float per_i = float(0.5 / volume.sx), per_j = float(0.5 / volume.sy),
                 per_k = float(0.5 / volume.sz);
     const bool slice_inside = c > 0 && c < shear.nc - 1;
-    auto none_needed = [](const uint8_t* mask) {  // sixteen bytes at once
-        uint64_t eight[2];
-        std::memcpy(eight, mask, sizeof eight);
-        return (eight[0] | eight[1]) == 0;
-    };
     size_t count = 0;
     for (int b = 0; b < nb; ++b) {
         const uint8_t* needed_row = &needed[size_t(b) * na];
@@ -586,7 +581,10 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
         if (shear.stride_a == 1 && slice_inside && b > 0 && b < nb - 1) {
             const int16_t* row = &volume.data[c * shear.stride_c + b * shear.stride_b];
             for (a = 1; a + 16 <= na - 1; a += 16) {  // a = 0 and the row's end: below
-                if (none_needed(needed_row + a)) continue;
+                uint64_t mask[2];  // the sixteen bytes of needed[] at once
+                std::memcpy(mask, needed_row + a, sizeof mask);
+                if ((mask[0] | mask[1]) == 0) continue;
+                count += size_t(((mask[0] + mask[1]) * 0x0101010101010101) >> 56);  // bytes summed
                 const int16_t* p = row + a;
                 uint16_t indices[16];  // a local: a store to out[] could change the voxels
                 for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
@@ -595,9 +593,7 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
                                                float(p[n + step_k] - p[n - step_k]) * per_k});
                 }
                 for (int n = 0; n < 16; ++n) {
-                    if (!needed_row[a + n]) continue;
-                    out[a + n] = indices[n];
-                    ++count;
+                    if (needed_row[a + n]) out[a + n] = indices[n];
                 }
             }
             if (needed_row[0]) {
@@ -653,7 +649,16 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
         const uint16_t* low_normals = lit ? &normals[size_t(b) * na] : none.data();
         const uint16_t* high_normals = lit ? &normals[size_t(below) * na] : none.data();
         for (uint32_t r = 0; r < counts[b]; ++r, run += 2) {
-            for (int a = run[0]; a <= run[1]; ++a, ++out) {
+            int a = run[0];
+            for (; sa == 1 && a + 15 <= std::min(run[1], na - 1); a += 16, out += 16) {
+                Record sixteen[16];  // a local: stores to it cannot change the voxels
+                for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
+                    sixteen[n] = {low[a + n], high[a + n], low_normals[a + n],
+                                  high_normals[a + n]};
+                }
+                std::memcpy(out, sixteen, sizeof sixteen);
+            }
+            for (; a <= run[1]; ++a, ++out) {
                 const int column = std::min(a, na - 1);  // past the end: the last
                 *out = {low[column * sa], high[column * sa], low_normals[column],
                         high_normals[column]};
@@ -688,6 +693,24 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
         const int32_t first = stretch[low - lowest_ct_value];
         return first >= 0 && first == stretch[high - lowest_ct_value];
     };
+    // Changed in step 46: the table's stretches of transparent entries as ranges of values
+    // [first[r], last[r]] (the slots left over hold no value): a cell is clear when a range
+    // holds its lowest and its highest corner, a test sixteen cells take at once in vector
+    // instructions. A table with more ranges than slots: clear(), cell by cell.
+    constexpr int slots = 2;
+    alignas(16) int16_t first[slots][16], last[slots][16];  // each sixteen times
+    std::fill(&first[0][0], &first[0][0] + slots * 16, int16_t(32767));
+    std::fill(&last[0][0], &last[0][0] + slots * 16, int16_t(-32768));
+    int ranges = 0;
+    for (size_t n = 0; n < stretch.size(); ++n) {
+        if (stretch[n] < 0) continue;
+        const int16_t value = int16_t(int(n) + lowest_ct_value);
+        if (n == 0 || stretch[n - 1] != stretch[n]) {
+            if (++ranges > slots) break;
+            std::fill(first[ranges - 1], first[ranges - 1] + 16, value);
+        }
+        std::fill(last[ranges - 1], last[ranges - 1] + 16, value);
+    }
     const int na = shear.na, nb = shear.nb;
     const size_t sa = shear.stride_a;
     std::vector<std::vector<int32_t>> bounds(shear.nc);  // per slice, its runs
@@ -708,17 +731,31 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
                 ++counts[c][b];
                 begin = -1;
             };
-            // Given: cell_stretch cells at a time, each cell's lowest and highest corner and
-            // the stretch's (common/object_order.h): a stretch of air is clear as a whole.
-            CellStretch cells;
+            // Sixteen cells at a time: their lowest and highest corners, then the ranges.
             for (int from = 0; from < na; from += cell_stretch) {
-                cells.read(low, high, sa, na, from);
-                if (clear(cells.lowest, cells.highest)) {
+                const int16_t *p, *q;  // given: the rows, or copies at the end or strided
+                int16_t copies[2][cell_stretch + 1];
+                stretch_rows(low, high, sa, na, from, copies, &p, &q);
+                int16_t lowest[16], highest[16], cleared[16];  // cleared: -1 clear, else 0
+                for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
+                    lowest[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
+                    highest[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
+                    int16_t outside = -1;  // -1 while no range holds the cell
+                    _Pragma("GCC unroll 2") for (int r = 0; r < slots; ++r) {
+                        outside &= int16_t(-((first[r][n] > lowest[n]) | (highest[n] > last[r][n])));
+                    }
+                    cleared[n] = int16_t(~outside);
+                }
+                for (int n = 0; ranges > slots && n < 16; ++n) {
+                    cleared[n] = int16_t(-clear(lowest[n], highest[n]));
+                }
+                if (all_masks(cleared, -1)) {  // given: the sixteen at once
                     run_ends(from);
                     continue;
                 }
-                for (int n = 0; n < cells.count; ++n) {  // cell by cell
-                    if (clear(cells.low[n], cells.high[n])) {
+                if (all_masks(cleared, 0) && begin >= 0) continue;  // the run goes on
+                for (int n = 0; n < std::min(cell_stretch, na - from); ++n) {  // cell by cell
+                    if (cleared[n]) {
                         run_ends(from + n);
                     } else if (begin < 0) {
                         begin = from + n;
