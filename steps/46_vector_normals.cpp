@@ -567,7 +567,7 @@ static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
 // the compiler makes vector instructions (normal_index() has no branch for that reason), the
 // rest voxel by voxel as in step 45: voxel_normal()'s numbers.
 static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
-                            const uint8_t* needed, uint16_t* normals) {
+                            const uint8_t* needed, uint16_t* __restrict normals) {
     const int na = shear.na, nb = shear.nb;
     const ptrdiff_t step_j = volume.nx, step_k = ptrdiff_t(volume.nx) * volume.ny;
     const float per_i = float(0.5 / volume.sx), per_j = float(0.5 / volume.sy),
@@ -580,20 +580,16 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
         int a = 0;
         if (shear.stride_a == 1 && slice_inside && b > 0 && b < nb - 1) {
             const int16_t* row = &volume.data[c * shear.stride_c + b * shear.stride_b];
-            for (a = 1; a + 16 <= na - 1; a += 16) {  // a = 0 and the row's end: below
-                uint64_t mask[2];  // the sixteen bytes of needed[] at once
-                std::memcpy(mask, needed_row + a, sizeof mask);
-                if ((mask[0] | mask[1]) == 0) continue;
-                count += size_t(((mask[0] + mask[1]) * 0x0101010101010101) >> 56);  // bytes summed
+            for (a = 1; a + 8 <= na - 1; a += 8) {  // a = 0 and the row's end: below
+                uint64_t mask;  // the eight bytes of needed[] at once
+                std::memcpy(&mask, needed_row + a, sizeof mask);
+                if (mask == 0) continue;
+                count += size_t((mask * 0x0101010101010101) >> 56);  // bytes summed
                 const int16_t* p = row + a;
-                uint16_t indices[16];  // a local: a store to out[] could change the voxels
-                for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
-                    indices[n] = normal_index({float(p[n + 1] - p[n - 1]) * per_i,
+                for (int n = 0; n < 8; ++n) {  // a fixed length: vector instructions
+                    out[a + n] = normal_index({float(p[n + 1] - p[n - 1]) * per_i,
                                                float(p[n + step_j] - p[n - step_j]) * per_j,
                                                float(p[n + step_k] - p[n - step_k]) * per_k});
-                }
-                for (int n = 0; n < 16; ++n) {
-                    if (needed_row[a + n]) out[a + n] = indices[n];
                 }
             }
             if (needed_row[0]) {
