@@ -313,9 +313,14 @@ inline void stretch_rows(const int16_t* low_row, const int16_t* high_row, size_t
     *p = low_row + from;
     *q = high_row + from;
     if (sa == 1 && from + cell_stretch <= na - 1) return;
-    for (int n = 0; n <= cell_stretch; ++n) {
-        copies[0][n] = low_row[size_t(std::min(from + n, na - 1)) * sa];
-        copies[1][n] = high_row[size_t(std::min(from + n, na - 1)) * sa];
+    const int inside = std::min(cell_stretch + 1, na - from);  // voxels in the row
+    if (sa == 1) {  // the row's end: copied at once (most rows' last stretch)
+        std::memcpy(copies[0], *p, size_t(inside) * sizeof(int16_t));
+        std::memcpy(copies[1], *q, size_t(inside) * sizeof(int16_t));
+    }
+    for (int n = sa == 1 ? inside : 0; n <= cell_stretch; ++n) {
+        copies[0][n] = low_row[size_t(from + std::min(n, inside - 1)) * sa];
+        copies[1][n] = high_row[size_t(from + std::min(n, inside - 1)) * sa];
     }
     *p = copies[0];
     *q = copies[1];

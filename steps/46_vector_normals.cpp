@@ -1,14 +1,14 @@
-// 46_vector_normals.cpp: the normal indices of a slice sixteen voxels at a time, in vector
-// instructions.
+// 46_vector_normals.cpp: shear-warp's precomputation in vector instructions: the cell test,
+// the records and the normal indices, several voxels at a time.
 //
-// New here:   step 45 computes the normal index of each voxel a record holds one at a time
-//             (voxel_normal(): six voxel reads, three differences, the rounding to a
-//             direction). Where a slice row is contiguous (its a is i), slice_normals() now
-//             takes its inside voxels sixteen at a time in a loop of fixed length: the same
-//             arithmetic without a branch (normal_index() is written for it), which the
-//             compiler makes vector instructions; a stretch of sixteen voxels no record needs
-//             is skipped at once. The same numbers as voxel_normal(): step 45's pictures, to
-//             the bit.
+// New here:   step 45's pass over the volume takes one cell, one record, one normal at a
+//             time. Here its inner loops are loops of fixed length over neighbouring voxels,
+//             which the compiler makes vector instructions (SSE2, in every x86-64 processor):
+//             find_runs() tests sixteen cells at once against the table's transparent
+//             ranges (two compares per range, no table read), pack_slice() copies a run's
+//             records sixteen at a time, and slice_normals() computes a contiguous row's
+//             normal indices eight at a time (normal_index() has no branch for that
+//             reason). The same runs, records and numbers: step 45's pictures, to the bit.
 // Builds on:  45_one_pass_precompute.
 // Handout:    handouts/46_vector_normals.md
 // Run:        make run STEP=46 ARGS="--azimuth 180 --elevation 90 --size 256x256"
@@ -561,11 +561,12 @@ static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
 }
 
 //> lesson: records
-// Slice c's normal indices, at normals[b * na + a], for the voxels needed[] marks (the
-// others are left as they were); how many it wrote. Changed in step 46: where a row is
-// contiguous (a is i), its inside voxels sixteen at a time in a loop of fixed length, which
-// the compiler makes vector instructions (normal_index() has no branch for that reason), the
-// rest voxel by voxel as in step 45: voxel_normal()'s numbers.
+// Slice c's normal indices, at normals[b * na + a], for the voxels needed[] marks (others
+// may be written too: only the needed are read); how many it needed. Changed in step 46:
+// where a row is contiguous (a is i), its inside voxels eight at a time in a loop of fixed
+// length, which the compiler makes vector instructions (normal_index() has no branch for
+// that reason; __restrict: normals[] is not the volume), the rest voxel by voxel as in step
+// 45: voxel_normal()'s numbers.
 static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
                             const uint8_t* needed, uint16_t* __restrict normals) {
     const int na = shear.na, nb = shear.nb;
@@ -611,7 +612,8 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
 // record holds the values at (a, b) and (a, b + 1) and, for a lit composite, their normal
 // indices. The last column and row count again at the slice's edges. Changed in step 45:
 // the normal indices of the voxels the records hold, computed once (slice_normals()); how
-// many. Not inlined into find_runs() (its cell test would lose its vector instructions).
+// many. Changed in step 46: a run's records sixteen at a time where its row is contiguous.
+// Not inlined into find_runs() (its cell test would lose its vector instructions).
 [[gnu::noinline]] static size_t pack_slice(const Volume& volume, const Shear& shear, int c,
                                            const uint32_t* counts, const int32_t* bounds,
                                            bool lit, Records& records) {
@@ -690,11 +692,12 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
         return first >= 0 && first == stretch[high - lowest_ct_value];
     };
     // Changed in step 46: the table's stretches of transparent entries as ranges of values
-    // [first[r], last[r]] (the slots left over hold no value): a cell is clear when a range
-    // holds its lowest and its highest corner, a test sixteen cells take at once in vector
-    // instructions. A table with more ranges than slots: clear(), cell by cell.
+    // [first[r], last[r]] (the classic table's two: below -300, and 50 to 299; a slot left
+    // over holds no value): a cell is clear when a range holds its lowest and its highest
+    // corner, a test sixteen cells take at once in vector instructions. A table with more
+    // ranges than slots: clear(), cell by cell.
     constexpr int slots = 2;
-    alignas(16) int16_t first[slots][16], last[slots][16];  // each sixteen times
+    alignas(16) int16_t first[slots][16], last[slots][16];  // each 16 times: a vector's worth
     std::fill(&first[0][0], &first[0][0] + slots * 16, int16_t(32767));
     std::fill(&last[0][0], &last[0][0] + slots * 16, int16_t(-32768));
     int ranges = 0;
@@ -737,8 +740,9 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
                     lowest[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
                     highest[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
                     int16_t outside = -1;  // -1 while no range holds the cell
-                    _Pragma("GCC unroll 2") for (int r = 0; r < slots; ++r) {
-                        outside &= int16_t(-((first[r][n] > lowest[n]) | (highest[n] > last[r][n])));
+                    _Pragma("GCC unroll 2") for (int r = 0; r < slots; ++r) {  // unrolled
+                        outside &= int16_t(-((first[r][n] > lowest[n]) |
+                                             (highest[n] > last[r][n])));
                     }
                     cleared[n] = int16_t(~outside);
                 }
