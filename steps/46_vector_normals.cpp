@@ -739,7 +739,8 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
                 const int16_t *p, *q;  // given: the rows, or copies at the end or strided
                 int16_t copies[2][cell_stretch + 1];
                 stretch_rows(low, high, sa, na, from, copies, &p, &q);
-                int16_t lowest[16], highest[16], cleared[16];  // cleared: -1 clear, else 0
+                int16_t lowest[16], highest[16];
+                int8_t cleared[16];  // -1: clear, 0: the table may see the cell
                 for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
                     lowest[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
                     highest[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
@@ -748,17 +749,17 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
                         outside &= int16_t(-((first[r][n] > lowest[n]) |
                                              (highest[n] > last[r][n])));
                     }
-                    cleared[n] = int16_t(~outside);
+                    cleared[n] = int8_t(~outside);
                 }
                 for (int n = 0; ranges > slots && n < 16; ++n) {
-                    cleared[n] = int16_t(-clear(lowest[n], highest[n]));
+                    cleared[n] = int8_t(-clear(lowest[n], highest[n]));
                 }
                 if (all_masks(cleared, -1)) {  // given: the sixteen at once
                     run_ends(from);
                     continue;
                 }
                 if (all_masks(cleared, 0) && begin >= 0) continue;  // the run goes on
-                for (int n = 0; n < std::min(cell_stretch, na - from); ++n) {  // cell by cell
+                for (int n = 0, count = std::min(16, na - from); n < count; ++n) {  // one by one
                     if (cleared[n]) {
                         run_ends(from + n);
                     } else if (begin < 0) {
