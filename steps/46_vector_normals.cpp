@@ -637,8 +637,8 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
         lit ? slice_normals(volume, shear, c, needed.data(), normals.get()) : 0;
     const std::vector<uint16_t> none(lit ? 0 : na, 0);  // unlit: every normal index 0
     const size_t sa = shear.stride_a;
-    constexpr bool little = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;  // a field's place:
-    constexpr int field[4] = {little ? 0 : 48, little ? 16 : 32, little ? 32 : 16, little ? 48 : 0};
+    constexpr bool little = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;  // the fields' shifts:
+    constexpr int field[4] = {little ? 0 : 16, little ? 16 : 0, little ? 0 : 32, little ? 32 : 0};
     records.reset(new Record[columns]);  // left unset: every record is written below
     Record* out = records.get();
     run = bounds;
@@ -653,10 +653,11 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
             for (; sa == 1 && a + 15 <= std::min(run[1], na - 1); a += 16, out += 16) {
                 uint64_t sixteen[16];  // a local (stored to out[], it could be the voxels)
                 for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
-                    sixteen[n] = uint64_t(uint16_t(low[a + n])) << field[0] |
-                                 uint64_t(uint16_t(high[a + n])) << field[1] |
-                                 uint64_t(low_normals[a + n]) << field[2] |
-                                 uint64_t(high_normals[a + n]) << field[3];
+                    const uint32_t values = uint32_t(uint16_t(low[a + n])) << field[0] |
+                                            uint32_t(uint16_t(high[a + n])) << field[1];
+                    const uint32_t normals_of = uint32_t(low_normals[a + n]) << field[0] |
+                                                uint32_t(high_normals[a + n]) << field[1];
+                    sixteen[n] = uint64_t(values) << field[2] | uint64_t(normals_of) << field[3];
                 }
                 std::memcpy(out, sixteen, sizeof sixteen);  // a record's 8 bytes a word
             }
