@@ -581,90 +581,9 @@ struct Scene {
     const Params& params;
 };
 
-//> lesson: composite
-// Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
-// each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 08.
-// The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
-static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
-    const Volume& volume = scene.volume;
-    const Params& params = scene.params;
-    const double stop_below = std::max(params.ert, min_transparency);
-    const Vec3d high = box_high(volume);
-    const Ray ray = camera_ray(scene.camera, x, y);
-    const Span span = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, span, high, params.step);
-    Accumulated pixel;
-    if (!span.hit) return pixel;
-    const Walk walk = walk_through(volume, ray, span, params.step);
-    for (long long n = 0; n < walk.count; ++n) {
-        const Vec3d q = walk.at(n);  // voxel units
-        const Cell cell = cell_at(volume, q, params.nearest);
-        const double t = span.t_entry + n * params.step;  // physical units along the ray
-        const float value = sample_value(volume, cell, params.nearest);
-        // The entry of the whole value at or below it (the range [from, to) it falls into):
-        // value - lowest_ct_value >= 0, so int() rounds down.
-        const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
-        ++work.samples;
-        const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
-        if (sample.a == 0.0f) {
-            ++work.skipped;
-            if (trace) trace->sample(TraceSample(t, point, value).skipped());
-            continue;
-        }
-        double light = 1.0;  // unlit
-        if (!params.unlit) {
-            light = shade(sample_gradient(volume, cell, params.nearest, work), scene.to_light);
-        }
-        const double alpha = sample.a;  // the opacity, after the TF
-        const double weight = pixel.transparency * alpha * light;
-        pixel.r += weight * sample.r;
-        pixel.g += weight * sample.g;
-        pixel.b += weight * sample.b;
-        pixel.transparency *= 1 - alpha;
-        if (trace) {
-            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
-                              .colour(pixel.r, pixel.g, pixel.b)
-                              .transparency(pixel.transparency));
-        }
-        if (pixel.transparency < stop_below && n + 1 < walk.count) {
-            ++work.terminated;
-            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
-            break;
-        }
-    }
-    return pixel;
-}
-//< lesson: composite
-
-//> lesson: mip
-// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
-// values go below 0), shown as grey; a ray that misses the box shows the background.
-// Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
-static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
-    const Volume& volume = scene.volume;
-    const Params& params = scene.params;
-    const Vec3d high = box_high(volume);
-    const Ray ray = camera_ray(scene.camera, x, y);
-    const Span span = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, span, high, params.step);
-    if (!span.hit) return background;
-    const Walk walk = walk_through(volume, ray, span, params.step);
-    float highest = 0;
-    for (long long n = 0; n < walk.count; ++n) {
-        const Vec3d q = walk.at(n);  // voxel units
-        const float value = sample_value(volume, cell_at(volume, q, params.nearest),
-                                         params.nearest);
-        ++work.samples;
-        highest = n == 0 ? value : std::max(highest, value);
-        if (trace) {
-            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
-            trace->sample(TraceSample(span.t_entry + n * params.step, p, value).max(highest));
-        }
-    }
-    return grey(display_grey(volume, highest));
-}
-//< lesson: mip
+// Given: the cameras the slices do not take, rendered by step 30's rays (composite_ray()
+// and mip_ray(), unchanged): a perspective one (the shear-warp here is orthographic).
+static bool by_rays(const Camera& camera) { return camera.perspective; }
 
 //> lesson: shear
 // The factorisation for an orthographic camera. The principal axis is the one along which the
@@ -935,7 +854,61 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, int a, 
     return lerp(low, high, s.fb);
 }
 
-//> lesson: composite_rows
+//> lesson: composite
+// Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
+// each read by trilinear interpolation, classified by the table, lit where it is not
+// transparent, composited front to back; early ray termination as in step 08.
+// The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
+static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
+    const Volume& volume = scene.volume;
+    const Params& params = scene.params;
+    const double stop_below = std::max(params.ert, min_transparency);
+    const Vec3d high = box_high(volume);
+    const Ray ray = camera_ray(scene.camera, x, y);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
+    Accumulated pixel;
+    if (!span.hit) return pixel;
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const Cell cell = cell_at(volume, q, params.nearest);
+        const double t = span.t_entry + n * params.step;  // physical units along the ray
+        const float value = sample_value(volume, cell, params.nearest);
+        // The entry of the whole value at or below it (the range [from, to) it falls into):
+        // value - lowest_ct_value >= 0, so int() rounds down.
+        const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
+        ++work.samples;
+        const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+        if (sample.a == 0.0f) {
+            ++work.skipped;
+            if (trace) trace->sample(TraceSample(t, point, value).skipped());
+            continue;
+        }
+        double light = 1.0;  // unlit
+        if (!params.unlit) {
+            light = shade(sample_gradient(volume, cell, params.nearest, work), scene.to_light);
+        }
+        const double alpha = sample.a;  // the opacity, after the TF
+        const double weight = pixel.transparency * alpha * light;
+        pixel.r += weight * sample.r;
+        pixel.g += weight * sample.g;
+        pixel.b += weight * sample.b;
+        pixel.transparency *= 1 - alpha;
+        if (trace) {
+            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
+                              .colour(pixel.r, pixel.g, pixel.b)
+                              .transparency(pixel.transparency));
+        }
+        if (pixel.transparency < stop_below && n + 1 < walk.count) {
+            ++work.terminated;
+            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
+            break;
+        }
+    }
+    return pixel;
+}
+
 // Step 30's compositing of one sample, in double (step 07): colour weighted by opacity, light
 // and T; T multiplied by what the sample lets through.
 static inline void add_sample(Accumulated& pixel, const Rgba& sample, double light) {
@@ -1024,9 +997,36 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
     }
     work.add(counted);
 }
-//< lesson: composite_rows
+//< lesson: composite
 
-//> lesson: mip_rows
+//> lesson: mip
+// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
+// values go below 0), shown as grey; a ray that misses the box shows the background.
+// Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
+static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
+    const Volume& volume = scene.volume;
+    const Params& params = scene.params;
+    const Vec3d high = box_high(volume);
+    const Ray ray = camera_ray(scene.camera, x, y);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
+    if (!span.hit) return background;
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    float highest = 0;
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const float value = sample_value(volume, cell_at(volume, q, params.nearest),
+                                         params.nearest);
+        ++work.samples;
+        highest = n == 0 ? value : std::max(highest, value);
+        if (trace) {
+            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+            trace->sample(TraceSample(span.t_entry + n * params.step, p, value).max(highest));
+        }
+    }
+    return grey(display_grey(volume, highest));
+}
+
 // Row v of the maximum intensity: every cell the row meets in every slice (no runs: a maximum
 // has no transparent values), each pixel keeping its highest sample. -infinity: none yet.
 // A row of cells contiguous in memory goes first through max_in_stretches() (given: vector
@@ -1051,7 +1051,7 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
         if (u_high > u_low) work.samples += u_high - u_low;
     }
 }
-//< lesson: mip_rows
+//< lesson: mip
 
 static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
@@ -1133,12 +1133,6 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
         return warp_pixel(q, width, height, pixel);
     };
     return warp_traced(p, shear.width, shear.height, trace, column, blend);  // with notes
-}
-
-// Given: the views the slices do not take (perspective: the shear here is orthographic) are
-// step 30's rays.
-static bool by_rays(const Camera& camera) {
-    return camera.perspective;
 }
 
 int main(int argc, char** argv) {
