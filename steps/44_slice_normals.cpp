@@ -558,7 +558,7 @@ static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
 // VolPack's run-length-encoded volume, one slice at a time: the records of slice c's runs
 // (counts: its rows' numbers of runs, bounds: their begin and end), run after run. Column a's
 // record holds the values at (a, b) and (a, b + 1) and, for a lit composite, their normal
-// indices (step 44: from the slice's normals[b * na + a]). The last column and row
+// indices (changed in step 44: from the slice's normals[b * na + a]). The last column and row
 // count again at the slice's edges.
 static void pack_slice(const Volume& volume, const Shear& shear, int c, const uint32_t* counts,
                        const int32_t* bounds, const uint16_t* normals, bool lit,
@@ -673,9 +673,9 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
 }
 //< lesson: runs
 
-// Given: every slice's records (pack_slice()), a slice per thread; lit, first the normal index
-// of every voxel they hold (each run's voxels and one more, on its row and the next), marked
-// first so each is computed once, into an array of the slice's; then each run's first record.
+// Given: every slice's records (pack_slice()), a slice per thread; then each run's first record.
+// Changed in step 44: lit, first the normal index of every voxel they hold (each run's voxels
+// and one more, on its row and the next) into an array of the slice's, each computed once.
 static void pack_records(const Volume& volume, const Shear& shear, bool lit, int threads,
                          Runs& runs) {
     runs.records.resize(shear.nc);
