@@ -103,9 +103,10 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     // Part 2: the camera from straight above in perspective (rays along k), nearest samples
     // without leaping, the longest step unlit, and each step's own paths.
     // Steps 35 on (object order, shear-warp and its tricks) are orthographic, one sample per
-    // slice: no --projection perspective, no --step; its MIP from below and nearest samples
-    // below take their paths. Steps 35 and 36 composite slices along an axis only and hand
-    // any other view to step 30's rays: one run along an axis, one at an angle.
+    // slice: no --projection perspective (38 on render it by step 30's rays, test_part3), no
+    // --step; its MIP from below and nearest samples below take their paths. Steps 35 and 36
+    // composite slices along an axis only and hand any other view to step 30's rays: one run
+    // along an axis, one at an angle.
     const bool shear_warp = step >= "35";
     const bool axes_and_rays = shear_warp && step < "37";
     if (ctlab_test::is_camera_step(step) && !shear_warp) {
