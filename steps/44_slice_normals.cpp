@@ -1,10 +1,10 @@
 // 44_slice_normals.cpp: the records' normal indices made a slice at a time: no normal volume.
 //
 // New here:   step 43 fills a volume of normal indices (2 bytes a voxel) that pack_slice()
-//             reads back through voxel_of(). Here a slice's indices go into an array of the
-//             slice's, made as it is packed: no normal volume. Step 43's pictures, to the bit.
-//             A perspective camera: step 30's rays (--step their spacing). --work-map is
-//             refused: the work is counted per row of the intermediate image.
+//             reads back; here each slice's go into an array of the slice's as it is packed:
+//             no normal volume. Step 43's pictures, to the bit. A perspective camera:
+//             step 30's rays (--step their spacing). --work-map is refused: the work is
+//             counted per row of the intermediate image.
 // Builds on:  43_run_records.
 // Handout:    handouts/44_slice_normals.md
 // Run:        make run STEP=44 ARGS="--azimuth 180 --elevation 90 --size 256x256"
@@ -1257,7 +1257,9 @@ int main(int argc, char** argv) {
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
                    camera_settings(params) + " interpolation=" + params.interpolation +
-                   " opacity_ratio=" + summary_number(lut_ratio) +
+                   " opacity_ratio=" + summary_number(by_rays(camera_for(camera_image))
+                                                          ? opacity_ratio(params, params.step)
+                                                          : lut_ratio) +
                    " precompute_ms=" + summary_number(precompute_ms);
         };
 
