@@ -9,7 +9,7 @@
 //             packed run after run in slice order once per transfer function and principal
 //             axis (pack_slice()), so a sample reads its record and the next one: one
 //             stream. The pictures are step 42's, to the bit.
-// Builds on:  42_quantised_normals.
+// Builds on:  42_normal_volume.
 // Handout:    handouts/43_run_records.md
 // Run:        make run STEP=43 ARGS="--azimuth 180 --elevation 90 --size 256x256"
 // Reference:  data/reference/43_run_records_camera.png: the default run (lit composite,
@@ -31,7 +31,7 @@ constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
 constexpr double max_table_bytes = 2.0 * (1 << 30);  // bytes: a larger normal table is not
-                                                    // built (gradients from the voxels)
+                                                    // built (indices from the voxels)
 
 struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, --fov, --size
     std::string mode = "composite";  // "composite" or "mip"
@@ -241,10 +241,6 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 // Given: a value fraction f of the way from a to b: a itself when f = 0.
 static float lerp(float a, float b, float f) { return a + f * (b - a); }
 
-
-// Given: lerp() for gradients.
-static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
-
 //> lesson: gradient
 // Step 10's derivative and gradient at a voxel, unchanged.
 template <class Sample>
@@ -401,20 +397,21 @@ static void find_starts(const Shear& shear, Runs& runs) {
     runs.record_count = runs.cells + runs.bounds.size() / 2;  // a run: one column more than cells
 }
 
-// Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
-// direction nearest its gradient's in a fixed set, two bytes at (k*ny + j)*nx + i like the
-// voxels; a table made per render holds the light of every direction. A lit sample is then
-// four indices and four table reads, blended as the values are: no gradient, no shade. The
-// set is the octahedral one: a direction d is put on the octahedron |x| + |y| + |z| = 1 (d
-// over its length in that sum, no square root), its lower half folded over the upper, and
-// its (x, y) rounded to a grid of normal_grid x normal_grid points on [-1, 1]^2. Index 0 is
-// "no direction" (a gradient of 0: ambient light only, as shade() gives).
+// Quantised normals (VolPack's way): a voxel's gradient is rounded to the index of the
+// nearest direction in a fixed set, two bytes; a table made per render holds the light of
+// every direction. A lit sample is then four indices and four table reads, blended as the
+// values are: no shade per sample. The set is the octahedral one: a direction d is put on
+// the octahedron |x| + |y| + |z| = 1 (d over its length in that sum, no square root), its
+// lower half folded over the upper, and its (x, y) rounded to a grid of normal_grid x
+// normal_grid points on [-1, 1]^2. Index 0 is "no direction" (a gradient of 0: ambient light
+// only, as shade() gives).
 constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
                                   // directions, one within 1.9 degrees of any direction (0.67
-                                  // on average; handout 42, Quality)
+                                  // on average; handout 41, Quality)
 constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
 
-// Only the voxels a sample can read are filled (fill_normal_table); other pages untouched.
+// The normal volume: each voxel's index, two bytes at (k*ny + j)*nx + i like the voxels. Only
+// the voxels a sample can read are filled (fill_normal_table); other pages untouched.
 struct NormalTable {
     std::unique_ptr<uint16_t[]> indices;  // per voxel its direction's index; null: no table
     bool filled[3] = {false, false, false};  // for the runs of principal axis 0, 1, 2
@@ -484,7 +481,7 @@ struct Scene {
     const Runs& runs;
     const Lut& lut;                  // opacities corrected for shear.spacing
     const NormalTable& normals;      // lit composite only
-    const float* shading;            // lit with normals: the light of every normal index
+    const float* shading;            // lit composite: the light of every normal index
     Vec3 to_light;                   // unit vector towards the light; unused when unlit
     const Params& params;
 };
@@ -755,12 +752,9 @@ static inline float record_light(const float* light, const Record* p, const Slic
 }
 
 // Given: a sample's light: its cell's four corners' light from the shading table, blended as
-// the values are (VolPack's way: the light is shaded at the voxels, then interpolated; step
-// 30 interpolates the gradients, then shades: the same along an axis, where the fractions are
-// 0, but for the directions' rounding).
-// Without a table (a volume too large for one), the corners' gradients from the voxels,
-// blended, then step 10's shade, as step 30 does.
-// Changed in step 42: the light from the quantised normals' shading table.
+// the values are (step 41's), their normal indices read from the normal volume. Without one
+// (a volume too large for it), the indices computed from the voxels, as step 41 does.
+// Changed in step 42: the corners' normal indices read from the normal volume.
 static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
                                 int b, Work& work) {
     work.gradients += 4;
@@ -775,16 +769,19 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, size_t 
         return lerp(low, high, s.fb);
     }
     const Shear& shear = scene.shear;
+    // On the voxels (along an axis: both fractions 0, the four corners one voxel): its light
+    // alone, the same float as the blend of four equal values.
+    const Voxel at = voxel_of(shear, a, b, s.slice);
+    if ((s.da | s.db) == 0) return scene.shading[voxel_normal(scene.volume, at)];
     const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
-    Vec3 g[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
+    float corner[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
     for (int n = 0; n < 4; ++n) {
-        const Voxel corner = voxel_of(shear, a + (n & 1) * step_a, b + (n >> 1) * step_b,
-                                      s.slice);
-        Work uncounted;
-        g[n] = gradient_at(scene.volume, corner, uncounted);
+        const Voxel voxel =
+            voxel_of(shear, a + (n & 1) * step_a, b + (n >> 1) * step_b, s.slice);
+        corner[n] = scene.shading[voxel_normal(scene.volume, voxel)];
     }
-    const Vec3 low = lerp_vector(g[0], g[1], s.fa), high = lerp_vector(g[2], g[3], s.fa);
-    return shade(lerp_vector(low, high, s.fb), scene.to_light);
+    const float low = lerp(corner[0], corner[1], s.fa), high = lerp(corner[2], corner[3], s.fa);
+    return lerp(low, high, s.fb);
 }
 
 //> lesson: composite
@@ -1084,7 +1081,7 @@ int main(int argc, char** argv) {
             Shear shear;
             std::vector<SliceShift> shifts;
             Vec3 to_light;               // unit vector towards the light; unused when unlit
-            std::vector<float> shading;  // lit with normals: the light per normal index
+            std::vector<float> shading;  // lit composite: the light per normal index
         };
         auto frame_for = [&](const View& view) {
             Frame frame;

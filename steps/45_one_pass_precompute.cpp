@@ -405,7 +405,7 @@ static void find_starts(const Shear& shear, Runs& runs) {
 // "no direction" (a gradient of 0: ambient light only, as shade() gives).
 constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
                                   // directions, one within 1.9 degrees of any direction (0.67
-                                  // on average; handout 42, Quality)
+                                  // on average; handout 41, Quality)
 constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
 
 //> lesson: normals
@@ -1034,7 +1034,7 @@ int main(int argc, char** argv) {
             Shear shear;
             std::vector<SliceShift> shifts;
             Vec3 to_light;               // unit vector towards the light; unused when unlit
-            std::vector<float> shading;  // lit with normals: the light per normal index
+            std::vector<float> shading;  // lit composite: the light per normal index
         };
         auto frame_for = [&](const View& view) {
             Frame frame;
