@@ -103,10 +103,11 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     // Part 2: the camera from straight above in perspective (rays along k), nearest samples
     // without leaping, the longest step unlit, and each step's own paths.
     // Steps 36 on (object order, shear-warp and its tricks) are orthographic, one sample per
-    // slice: no --projection perspective, no --step; its MIP from below and nearest samples
-    // below take their paths. Step 36 looks along an axis only: its angles are axes.
+    // slice: no --projection perspective (38 on render it by step 30's rays, test_part3), no
+    // --step; its MIP from below and nearest samples below take their paths. Step 36 looks
+    // along an axis only: its angles are axes.
     const bool shear_warp = step >= "35";
-    const bool axes_only = step.rfind("35", 0) == 0;
+    const bool axes_only = step.rfind("36", 0) == 0;
     if (ctlab_test::is_camera_step(step) && !shear_warp) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
         // Steps 13 and 14 read the nearest voxel only (15 on: --interpolation); step 25 leaps (part 3
