@@ -482,7 +482,7 @@ struct Runs : SliceRuns {  // the runs (common/object_order.h), and their record
 // "no direction" (a gradient of 0: ambient light only, as shade() gives).
 constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
                                   // directions, one within 1.9 degrees of any direction (0.67
-                                  // on average; handout 42, Quality)
+                                  // on average; handout 41, Quality)
 constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
 
 //> lesson: normals
@@ -555,6 +555,7 @@ struct Scene {
 
 // Given: the cameras the slices do not take, rendered by step 30's rays (composite_ray()
 // and mip_ray(), unchanged): a perspective one (the shear-warp here is orthographic).
+// Changed in step 38: any orthographic view is sheared; only a perspective one is left.
 static bool by_rays(const Camera& camera) { return camera.perspective; }
 
 //> lesson: shear
@@ -1279,7 +1280,7 @@ int main(int argc, char** argv) {
             Shear shear;
             std::vector<SliceShift> shifts;
             Vec3 to_light;               // unit vector towards the light; unused when unlit
-            std::vector<float> shading;  // lit with normals: the light per normal index
+            std::vector<float> shading;  // lit composite: the light per normal index
         };
         auto frame_for = [&](const View& view) {
             Frame frame;

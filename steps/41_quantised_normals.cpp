@@ -1,28 +1,25 @@
-// 42_quantised_normals.cpp: shear-warp's fourth trick, VolPack's quantised normals with a
+// 41_quantised_normals.cpp: shear-warp's fourth trick, VolPack's quantised normals with a
 // shading table made per render.
 //
-// New here:   a lit sample no longer computes the four gradients of its cell's corners from
-//             the voxels (step 38's slice_light(), 24 voxel reads and a shade()). Each voxel a
-//             sample can read (the corners of the runs' cells) keeps the index of the nearest
-//             of 16,641 directions, in two bytes, made once per principal axis
-//             (fill_normal_table()); a table made per render holds each direction's light
-//             (make_shading_table()), so a lit sample is four table reads blended as the
-//             values are. It shades at the voxels and interpolates the light, as VolPack
-//             does: along an axis the pictures are step 40's but for the rounding of the
-//             directions (a stated error: tol=5 there, handout 42). Unlit and the maximum are
-//             step 40's floats. A perspective camera: step 30's rays (--step their spacing).
-//             --work-map is refused: the work is counted per row of the intermediate image.
+// New here:   step 40's lit sample blends its cell's four corner gradients and shades the
+//             blend. Here a corner's gradient is rounded to the nearest of 16,641 directions,
+//             an index of two bytes (normal_index()), and a table made per render holds each
+//             direction's light (make_shading_table()): a lit sample is four table reads,
+//             blended as the values are (VolPack's way: shaded at the voxels, the light
+//             interpolated). Along an axis the pictures are step 40's but for the rounding of
+//             the directions (tol=5 there, handout 41); unlit and the maximum are its floats.
+//             A perspective camera: step 30's rays (--step their spacing). --work-map is
+//             refused: the work is counted per row of the intermediate image.
 // Builds on:  40_opaque_pixels.
-// Handout:    handouts/42_quantised_normals.md
-// Run:        make run STEP=42 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/42_quantised_normals_camera.png: the default run (lit composite,
+// Handout:    handouts/41_quantised_normals.md
+// Run:        make run STEP=41 ARGS="--azimuth 180 --elevation 90 --size 256x256"
+// Reference:  data/reference/41_quantised_normals_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 #include <cstring>  // std::memcpy: a float's bits
-#include <memory>  // std::unique_ptr: the normal table, left unwritten where not needed
 using namespace ctlab;
 
-constexpr const char* step_name = "42_quantised_normals";
+constexpr const char* step_name = "41_quantised_normals";
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
@@ -38,8 +35,6 @@ constexpr double degrees = 3.14159265358979323846 / 180;
 // Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
-constexpr double max_table_bytes = 2.0 * (1 << 30);  // bytes: a larger normal table is not
-                                                    // built (gradients from the voxels)
 
 struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, --fov, --size
     std::string mode = "composite";  // "composite" or "mip"
@@ -456,25 +451,18 @@ struct SliceShift {
 
 using Runs = SliceRuns;  // the runs of cells the table may see (common/object_order.h)
 
-// Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
-// direction nearest its gradient's in a fixed set, two bytes at (k*ny + j)*nx + i like the
-// voxels; a table made per render holds the light of every direction. A lit sample is then
-// four indices and four table reads, blended as the values are: no gradient, no shade. The
-// set is the octahedral one: a direction d is put on the octahedron |x| + |y| + |z| = 1 (d
-// over its length in that sum, no square root), its lower half folded over the upper, and
-// its (x, y) rounded to a grid of normal_grid x normal_grid points on [-1, 1]^2. Index 0 is
-// "no direction" (a gradient of 0: ambient light only, as shade() gives).
+// Quantised normals (VolPack's way): a voxel's gradient is rounded to the index of the
+// nearest direction in a fixed set, two bytes; a table made per render holds the light of
+// every direction. A lit sample is then four indices and four table reads, blended as the
+// values are: no shade per sample. The set is the octahedral one: a direction d is put on
+// the octahedron |x| + |y| + |z| = 1 (d over its length in that sum, no square root), its
+// lower half folded over the upper, and its (x, y) rounded to a grid of normal_grid x
+// normal_grid points on [-1, 1]^2. Index 0 is "no direction" (a gradient of 0: ambient light
+// only, as shade() gives).
 constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
                                   // directions, one within 1.9 degrees of any direction (0.67
-                                  // on average; handout 42, Quality)
+                                  // on average; handout 41, Quality)
 constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
-
-// Only the voxels a sample can read are filled (fill_normal_table); other pages untouched.
-struct NormalTable {
-    std::unique_ptr<uint16_t[]> indices;  // per voxel its direction's index; null: no table
-    bool filled[3] = {false, false, false};  // for the runs of principal axis 0, 1, 2
-    size_t voxels_filled = 0;  // indices computed (a voxel filled for two axes counts twice)
-};
 
 //> lesson: normals
 // The index of the direction nearest g's (0 when g is 0), without a branch (step 46 calls it
@@ -539,14 +527,14 @@ struct Scene {
     const std::vector<SliceShift>& shifts;  // slice m's, front to back
     const Runs& runs;
     const Lut& lut;                  // opacities corrected for shear.spacing
-    const NormalTable& normals;      // lit composite only
-    const float* shading;            // lit with normals: the light of every normal index
+    const float* shading;            // lit composite: the light of every normal index
     Vec3 to_light;                   // unit vector towards the light; unused when unlit
     const Params& params;
 };
 
 // Given: the cameras the slices do not take, rendered by step 30's rays (composite_ray()
 // and mip_ray(), unchanged): a perspective one (the shear-warp here is orthographic).
+// Changed in step 38: any orthographic view is sheared; only a perspective one is left.
 static bool by_rays(const Camera& camera) { return camera.perspective; }
 
 //> lesson: shear
@@ -697,85 +685,27 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
 }
 //< lesson: runs
 
-// Given: the normal index of every voxel a lit sample can read (each run's voxels and one
-// more, on its row and the next), marked first so each is computed once; a slice per thread.
-static void fill_normal_table(const Volume& volume, const Shear& shear, const Runs& runs,
-                              int threads, NormalTable& table) {
-    if (!table.indices) table.indices.reset(new uint16_t[volume.voxel_count()]);
-    const int na = shear.na, nb = shear.nb;
-    std::vector<size_t> filled(shear.nc, 0);  // per slice: no two threads count in one
-    Work unused;
-    parallel_rows(shear.nc, threads, unused, [&](int c, Work&) {
-        std::vector<uint8_t> needed(size_t(na) * nb, 0);
-        for (int b = 0; b < nb; ++b) {
-            int count = 0;
-            const int32_t* run = runs.row(c, b, &count);
-            for (int r = 0; r < count; ++r) {  // the run's voxels and one more, on both rows
-                const int end = std::min(run[2 * r + 1] + 1, na);
-                for (const int row : {b, std::min(b + 1, nb - 1)}) {
-                    uint8_t* needed_row = &needed[size_t(row) * na];
-                    std::fill(needed_row + run[2 * r], needed_row + end, uint8_t(1));
-                }
-            }
-        }
-        for (int b = 0; b < nb; ++b) {
-            for (int a = 0; a < na; ++a) {
-                if (!needed[size_t(b) * na + a]) continue;
-                const Voxel voxel = voxel_of(shear, a, b, c);
-                table.indices[volume.index(voxel.i, voxel.j, voxel.k)] =
-                    voxel_normal(volume, voxel);
-                ++filled[c];
-            }
-        }
-    });
-    for (size_t slice : filled) table.voxels_filled += slice;
-    table.filled[shear.c] = true;
-}
-
-// Given: a sample's light: the gradients of its cell's four corners from the voxels (step
-// 10's gradient_at()), blended as the value is, then step 10's shade: step 30's light, with
-// the fraction along c at 0.
-// Speed: a call of its own, gradient_at() and shade() inlined into it (gnu::flatten), as
-// before step 30's rays called them too: the compiler then inlined this into composite_row()
-// instead, and step 38's warm render took 2-4% more instructions (callgrind, cases a, b).
-[[gnu::noinline, gnu::flatten]]
+// Given: a sample's light: its four corners' normal indices from the voxels (voxel_normal()),
+// their light from the shading table, blended as the values are (shaded at the voxels, then
+// interpolated, as VolPack does; step 30 interpolates the gradients, then shades).
+// Changed in step 41: the light from the quantised normals' shading table.
 static inline float slice_light(const Scene& scene, const SliceShift& s, int a, int b,
                                 Work& work) {
     work.gradients += 4;
     const Shear& shear = scene.shear;
+    // On the voxels (along an axis: both fractions 0, the four corners one voxel): its light
+    // alone, the same float as the blend of four equal values.
+    const Voxel at = voxel_of(shear, a, b, s.slice);
+    if ((s.da | s.db) == 0) return scene.shading[voxel_normal(scene.volume, at)];
     const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
-    Vec3 g[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
+    float corner[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
     for (int n = 0; n < 4; ++n) {
-        const Voxel corner = voxel_of(shear, a + (n & 1) * step_a, b + (n >> 1) * step_b,
-                                      s.slice);
-        Work uncounted;
-        g[n] = gradient_at(scene.volume, corner, uncounted);
+        const Voxel voxel =
+            voxel_of(shear, a + (n & 1) * step_a, b + (n >> 1) * step_b, s.slice);
+        corner[n] = scene.shading[voxel_normal(scene.volume, voxel)];
     }
-    const Vec3 low = lerp_vector(g[0], g[1], s.fa), high = lerp_vector(g[2], g[3], s.fa);
-    return shade(lerp_vector(low, high, s.fb), scene.to_light);
-}
-
-// Given: a sample's light: its cell's four corners' light from the shading table, blended as
-// the values are (VolPack's way: the light is shaded at the voxels, then interpolated; step
-// 30 interpolates the gradients, then shades: the same along an axis, where the fractions are
-// 0, but for the directions' rounding).
-// Without a table (a volume too large for one), step 40's above: the corners' gradients from
-// the voxels, blended, then step 10's shade, as step 30 does.
-// Changed in step 42: the light from the quantised normals' shading table.
-static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
-                                int b, Work& work) {
-    if (scene.normals.indices) {
-        work.gradients += 4;
-        const uint16_t* n = &scene.normals.indices[index];
-        const float* light = scene.shading;
-        // On the voxels (along an axis: both fractions 0, the four corners one voxel): its
-        // light alone, the same float as the blend of four equal values.
-        if ((s.da | s.db) == 0) return light[n[0]];
-        const float low = lerp(light[n[0]], light[n[s.da]], s.fa);
-        const float high = lerp(light[n[s.db]], light[n[s.da + s.db]], s.fa);
-        return lerp(low, high, s.fb);
-    }
-    return slice_light(scene, s, a, b, work);  // no table: step 40's, above
+    const float low = lerp(corner[0], corner[1], s.fa), high = lerp(corner[2], corner[3], s.fa);
+    return lerp(low, high, s.fb);
 }
 
 //> lesson: composite
@@ -849,7 +779,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
 // at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
 // stretch of a row costs a jump or two per run however wide it is.
-// Changed in step 42: slice_light() takes the sample's voxel index (its normal indices).
+// Changed in step 40: the opaque pixels jumped over through next[], not tested one by one.
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
@@ -896,7 +826,7 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
                 }
                 double light = 1.0;  // unlit
                 if (!unlit) {
-                    light = slice_light(scene, s, row_index + along, u + s.ia, b, counted);
+                    light = slice_light(scene, s, u + s.ia, b, counted);
                 }
                 add_sample(row[u], sample, light);
                 if (row[u].transparency < stop_below) {
@@ -1009,7 +939,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
 // composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
 // image's pixel to the bit. The trace follows each of the four sample by sample.
-// Changed in step 42: slice_light() takes the sample's voxel index (its normal indices).
+// Changed in step 38: each slice's shift, a bilinear sample and its cell's light.
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;
@@ -1034,8 +964,7 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
         auto light = [&](int m) {
             const SliceShift& s = scene.shifts[m];
             const int a = u + s.ia, b = v + s.ib;
-            const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
-            return scene.params.unlit ? 1.0 : slice_light(scene, s, index, a, b, work);
+            return scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
         };
         if (scene.params.mode == "mip") {
             return mip_colour(volume, maximum_column(shear.nc, ray, work, trace, at));
@@ -1098,15 +1027,10 @@ int main(int argc, char** argv) {
 
         // --- Once per transfer function and principal axis, made by the first render that
         // needs it (so the first render's time_ms= includes it, and precompute_ms= says how
-        // much): the runs of cells the table may see, and for a lit composite the normal
-        // indices of their corners (the directions' set once per process). Once per view: the
-        // table's opacities for the slices' spacing; for a lit composite, the shading table ---
+        // much): the runs. Once per view: the table's opacities for the slices' spacing; for a
+        // lit composite, the shading table (the directions' set once per process) ---
         Runs runs[3];  // per principal axis
-        NormalTable normals;
-        std::vector<Vec3> directions;  // per normal index, made with the first table
-        const double table_bytes = double(sizeof(uint16_t)) * volume.voxel_count();
-        const bool normal_table = params.mode == "composite" && !params.unlit &&
-                                  table_bytes <= max_table_bytes;
+        std::vector<Vec3> directions;  // per normal index, made with the first shading table
         double precompute_ms = 0;  // wall clock, this process
         Lut lut;
         double lut_ratio = -1;  // the ratio lut was made for; -1: none yet
@@ -1117,23 +1041,11 @@ int main(int argc, char** argv) {
                 lut_ratio = ratio;
             }
             if (params.mode == "mip") return;  // no runs: a maximum has no transparent values
-            const bool new_runs = runs[shear.c].axis < 0;
-            const bool new_normals = normal_table && !normals.filled[shear.c];
-            if (!new_runs && !new_normals) return;
+            if (runs[shear.c].axis >= 0) return;
             Runs& made = runs[shear.c];  // and its "precompute" line (common/object_order.h)
-            auto make = [&] {
-                if (new_runs) runs[shear.c] = find_runs(volume, shear, seen, options.threads);
-                if (new_normals) {
-                    if (directions.empty()) directions = normal_directions();
-                    fill_normal_table(volume, shear, runs[shear.c], options.threads, normals);
-                }
-            };
+            auto make = [&] { made = find_runs(volume, shear, seen, options.threads); };
             precompute_ms += timed_precompute(shear.c, make, [&] {
-                char normals_held[80];
-                std::snprintf(normals_held, sizeof normals_held,
-                              " normal_voxels=%zu normals_mb=%.2f", normals.voxels_filled,
-                              normals.voxels_filled * sizeof(uint16_t) / 1048576.0);
-                return runs_held(made, volume.voxel_count()) + normals_held;
+                return runs_held(made, volume.voxel_count());
             });
         };
 
@@ -1153,7 +1065,7 @@ int main(int argc, char** argv) {
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
             // Step 30's scene: the slices' members empty.
-            const Scene scene{volume, camera, {}, {}, {}, ray_lut, {}, {}, to_light, params};
+            const Scene scene{volume, camera, {}, {}, {}, ray_lut, {}, to_light, params};
             if (params.mode == "mip") return mip_ray(scene, x, y, work, trace);
             return over_background(composite_ray(scene, x, y, work, trace));
         };
@@ -1170,7 +1082,7 @@ int main(int argc, char** argv) {
             Shear shear;
             std::vector<SliceShift> shifts;
             Vec3 to_light;               // unit vector towards the light; unused when unlit
-            std::vector<float> shading;  // lit with normals: the light per normal index
+            std::vector<float> shading;  // lit composite: the light per normal index
         };
         auto frame_for = [&](const View& view) {
             Frame frame;
@@ -1182,14 +1094,15 @@ int main(int argc, char** argv) {
             prepare(frame.shear);
             frame.to_light =
                 params.unlit ? Vec3{} : light_direction(frame.camera, params.light_angle);
-            if (normals.indices && !mip) {
+            if (!params.unlit && !mip) {
+                if (directions.empty()) directions = normal_directions();
                 make_shading_table(directions, frame.to_light, options.threads, frame.shading);
             }
             return frame;
         };
         auto scene_for = [&](const Frame& frame) {
             return Scene{volume, frame.camera, frame.shear, frame.shifts, runs[frame.shear.c], lut,
-                         normals, frame.shading.data(), frame.to_light, params};
+                         frame.shading.data(), frame.to_light, params};
         };
         renderer.image = [&](const View& view, Work& work) {
             if (rays_take(view)) return rays.image(view, work);
@@ -1230,9 +1143,7 @@ int main(int argc, char** argv) {
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
                    camera_settings(params) + " interpolation=" + params.interpolation +
-                   " opacity_ratio=" + summary_number(by_rays(camera_for(camera_image))
-                                                          ? opacity_ratio(params, params.step)
-                                                          : lut_ratio) +
+                   " opacity_ratio=" + summary_number(lut_ratio) +
                    " precompute_ms=" + summary_number(precompute_ms);
         };
 
