@@ -472,14 +472,14 @@ struct Runs : SliceRuns {  // the runs (common/object_order.h), and their record
     }
 };
 
-// Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
-// direction nearest its gradient's in a fixed set, two bytes kept in the records like the
-// voxels; a table made per render holds the light of every direction. A lit sample is then
-// four indices and four table reads, blended as the values are: no gradient, no shade. The
-// set is the octahedral one: a direction d is put on the octahedron |x| + |y| + |z| = 1 (d
-// over its length in that sum, no square root), its lower half folded over the upper, and
-// its (x, y) rounded to a grid of normal_grid x normal_grid points on [-1, 1]^2. Index 0 is
-// "no direction" (a gradient of 0: ambient light only, as shade() gives).
+// Quantised normals (VolPack's way): a voxel's gradient is rounded to the index of the
+// nearest direction in a fixed set, two bytes; a table made per render holds the light of
+// every direction. A lit sample is then four indices and four table reads, blended as the
+// values are: no shade per sample. The set is the octahedral one: a direction d is put on
+// the octahedron |x| + |y| + |z| = 1 (d over its length in that sum, no square root), its
+// lower half folded over the upper, and its (x, y) rounded to a grid of normal_grid x
+// normal_grid points on [-1, 1]^2. Index 0 is "no direction" (a gradient of 0: ambient light
+// only, as shade() gives).
 constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
                                   // directions, one within 1.9 degrees of any direction (0.67
                                   // on average; handout 41, Quality)
