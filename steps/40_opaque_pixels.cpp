@@ -449,15 +449,15 @@ struct SliceShift {
 
 using Runs = SliceRuns;  // the runs of cells the table may see (common/object_order.h)
 
-// Everything a render needs that is the same for every pixel.
+// Everything a ray needs that is the same for every ray of a render.
 struct Scene {
     const Volume& volume;
     const Camera& camera;
-    const Shear& shear;
+    const Shear& shear;  // the slices (object order); empty for step 30's rays
     const std::vector<SliceShift>& shifts;  // slice m's, front to back
     const Runs& runs;
-    const Lut& lut;                  // opacities corrected for shear.spacing
-    Vec3 to_light;                   // unit vector towards the light; unused when unlit
+    const Lut& lut;
+    Vec3 to_light;  // unit vector towards the light; unused when unlit
     const Params& params;
 };
 
@@ -930,24 +930,25 @@ int main(int argc, char** argv) {
             throw InputError(refused);
         }
 
-        // --- Transfer function: the file (in the file's units) ---
+        // --- Transfer function: the file (in the file's units), its table for this step size ---
         TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
         const Lut seen = build_lut(tf, 1.0);  // the runs need only which opacities are not 0
+        Lut lut = build_lut(tf, opacity_ratio(params, params.step));
+        Lut slice_lut;          // the slices': opacities for their spacing, made once per view
+        double lut_ratio = -1;  // the ratio slice_lut was made for; -1: none yet
 
         // --- Once per transfer function and principal axis, made by the first render that
         // needs it (so the first render's time_ms= includes it, and precompute_ms= says how
         // much): the runs. Once per view: the table's opacities for the slices' spacing ---
         Runs runs[3];  // per principal axis
         double precompute_ms = 0;  // wall clock, this process
-        Lut lut;
-        double lut_ratio = -1;  // the ratio lut was made for; -1: none yet
         auto prepare = [&](const Shear& shear) {
             const double ratio = opacity_ratio(params, shear.spacing);
             if (ratio != lut_ratio) {
-                lut = build_lut(tf, ratio);
+                slice_lut = build_lut(tf, ratio);
                 lut_ratio = ratio;
             }
             if (params.mode == "mip") return;  // no runs: a maximum has no transparent values
@@ -965,80 +966,24 @@ int main(int argc, char** argv) {
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {camera_image};
 
-        // --- Perspective: step 30's rays, as step 30 renders them, with its table for --step;
-        // the light towards it from every ray of a render, worked out once per render ---
-        const Lut ray_lut = build_lut(tf, opacity_ratio(params, params.step));
-        Renderer rays;
+        // --- Light: towards it from every ray of a render (it turns with the camera), so
+        // worked out once per render, as step 10 does once per view; none with --unlit ---
         auto light_towards = [&](const Camera& camera) {
             return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
         };
+
+        // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
-            // Step 30's scene: the slices' members empty.
-            const Scene scene{volume, camera, {}, {}, {}, ray_lut, to_light, params};
+            const Scene scene{volume, camera, {}, {}, {}, lut, to_light, params};  // no slices
             if (params.mode == "mip") return mip_ray(scene, x, y, work, trace);
             return over_background(composite_ray(scene, x, y, work, trace));
         };
         auto camera_for = [&](const View& view) { return make_camera(volume, params, view); };
-        cast_camera_rays(rays, options.threads, params.step, camera_for, light_towards,
-                         pixel);  // common/camera_flags.h: rays.image, .ray, .ray_samples
-        auto rays_take = [&](const View& view) { return by_rays(camera_for(view)); };
-
-        // --- Render: the slices into the intermediate image, rows shared by the threads; then
-        // the warp to the camera's image. The light turns with the camera ---
-        const bool mip = params.mode == "mip";
-        struct Frame {  // one view's factorisation, and what its pixels share
-            Camera camera;
-            Shear shear;
-            std::vector<SliceShift> shifts;
-            Vec3 to_light;               // unit vector towards the light; unused when unlit
-        };
-        auto frame_for = [&](const View& view) {
-            Frame frame;
-            frame.camera = make_camera(volume, params, view);
-            frame.shear = make_shear(volume, frame.camera);
-            for (int m = 0; m < frame.shear.nc; ++m) {
-                frame.shifts.push_back(slice_shift(frame.shear, m, params.nearest));
-            }
-            prepare(frame.shear);
-            frame.to_light =
-                params.unlit ? Vec3{} : light_direction(frame.camera, params.light_angle);
-            return frame;
-        };
-        auto scene_for = [&](const Frame& frame) {
-            return Scene{volume, frame.camera, frame.shear, frame.shifts, runs[frame.shear.c], lut,
-                         frame.to_light, params};
-        };
-        renderer.image = [&](const View& view, Work& work) {
-            if (rays_take(view)) return rays.image(view, work);
-            const Frame frame = frame_for(view);
-            const Scene scene = scene_for(frame);
-            const Shear& shear = frame.shear;
-            const Image intermediate =  // common/object_order.h: rows to the threads
-                mip ? intermediate_image(scene, shear.width, shear.height, options.threads,
-                                         work, -std::numeric_limits<float>::infinity(),
-                                         mip_row, [&](float h) { return mip_colour(volume, h); })
-                    : intermediate_image(scene, shear.width, shear.height, options.threads,
-                                         work, Accumulated{}, composite_row, composite_colour);
-            auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
-                return warp_pixel(q, width, height, pixel);
-            };
-            auto mix = [](const Rgb& p, const Rgb& q, float f) { return mix_rgb(p, q, f); };
-            return warp_intermediate(view, options.threads, work,  // common/object_order.h
-                                     make_warp(volume, shear, frame.camera), intermediate, blend,
-                                     mix);
-        };
-        renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            if (rays_take(view)) return rays.ray(view, x, y, work, trace);
-            const Frame frame = frame_for(view);
-            return shear_warp_pixel(scene_for(frame), frame.camera, x, y, work, trace);
-        };
-        renderer.ray_samples = [&](const View& view) {
-            if (rays_take(view)) return rays.ray_samples(view);
-            const Shear shear = make_shear(volume, make_camera(volume, params, view));
-            return slice_samples(shear.c, shear.spacing);
-        };
+        cast_camera_rays(renderer, options.threads, params.step, camera_for, light_towards,
+                         pixel);  // common/camera_flags.h: renderer.image, .ray, .ray_samples
         renderer.orbit = camera_orbit(&params);  // the window's drag and wheel
+
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "mode=" + params.mode + " tf=" + tf.source +
@@ -1053,6 +998,59 @@ int main(int argc, char** argv) {
                                                           : lut_ratio) +
                    " precompute_ms=" + summary_number(precompute_ms);
         };
+
+        // --- Object order: the slices into the intermediate image, rows shared
+        // by the threads, then the warp; every other view is step 30's rays ---
+        Renderer rays = renderer;  // step 30's, for the views by_rays() gives it
+        auto rays_take = [&](const Camera& c) { return by_rays(c); };
+        const bool mip = params.mode == "mip";
+        struct Frame {  // one view's factorisation, and what its pixels share
+            Camera camera;
+            Shear shear;
+            std::vector<SliceShift> shifts;
+            Vec3 to_light;               // unit vector towards the light; unused when unlit
+        };
+        auto frame_for = [&](const Camera& camera) {
+            Frame frame;
+            frame.camera = camera;
+            frame.shear = make_shear(volume, frame.camera);
+            for (int m = 0; m < frame.shear.nc; ++m) {
+                frame.shifts.push_back(slice_shift(frame.shear, m, params.nearest));
+            }
+            prepare(frame.shear);
+            frame.to_light =
+                params.unlit ? Vec3{} : light_direction(frame.camera, params.light_angle);
+            return frame;
+        };
+        auto scene_for = [&](const Camera&, const Frame& frame) {
+            return Scene{volume, frame.camera, frame.shear, frame.shifts, runs[frame.shear.c], slice_lut,
+                         frame.to_light, params};
+        };
+        auto slices = [&](const View& view, const Scene& scene, Work& work) {
+            const Shear& shear = scene.shear;
+            const Image intermediate =  // common/object_order.h: rows to the threads
+                mip ? intermediate_image(scene, shear.width, shear.height, options.threads,
+                                         work, -std::numeric_limits<float>::infinity(),
+                                         mip_row, [&](float h) { return mip_colour(volume, h); })
+                    : intermediate_image(scene, shear.width, shear.height, options.threads,
+                                         work, Accumulated{}, composite_row, composite_colour);
+            auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
+                return warp_pixel(q, width, height, pixel);
+            };
+            auto mix = [](const Rgb& p, const Rgb& q, float f) { return mix_rgb(p, q, f); };
+            return warp_intermediate(view, options.threads, work,  // common/object_order.h
+                                     make_warp(volume, shear, scene.camera), intermediate, blend,
+                                     mix);
+        };
+        auto pixel_alone = [&](const Scene& scene, int x, int y, Work& work, Trace* trace) {
+            return shear_warp_pixel(scene, scene.camera, x, y, work, trace);
+        };
+        auto samples_for = [&](const Camera& camera) {
+            const Shear shear = make_shear(volume, camera);
+            return slice_samples(shear.c, shear.spacing);
+        };
+        slices_or_rays(renderer, rays, camera_for, rays_take, frame_for, scene_for, slices,
+                       pixel_alone, samples_for);  // common/object_order.h
 
         // --- Output: a PNG and a summary line, then the preview window ---
         return run_views(options, volume, renderer);
