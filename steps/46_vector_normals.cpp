@@ -760,6 +760,7 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
 // stretch of transparent table entries is transparent wherever a sample falls in it: it is
 // left out. Slices are shared among the threads. Changed in step 45: each slice's records are
 // packed (pack_slice()) as soon as its runs are found, while its voxels are in the cache.
+// Changed in step 46: the cell test sixteen cells at a time, in vector instructions.
 static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, bool lit,
                       int threads) {
     std::vector<int32_t> stretch(lut.entries.size());  // per table entry
