@@ -1,13 +1,13 @@
 // 38_shear_warp.cpp: object order from any orthographic camera: shear-warp (Lacroute &
 // Levoy 1994), the algorithm VolPack uses.
 //
-// New here:   the slices are those across the principal axis (the one the rays run most
-//             along), each shifted by the shear so that an intermediate pixel meets it at one
-//             bilinear sample, the same weights for the whole slice; then one warp. Along an
-//             axis step 36's pictures bit for bit; at an angle a stated error against step 30.
+// New here:   each slice shifted by the shear's exact amount, not rounded: an intermediate
+//             pixel meets it at one bilinear sample, the same weights for the whole slice, lit
+//             from its cell's four corners. Along an axis step 36's pictures bit for bit; at
+//             an angle a stated error against step 30, below step 37's.
 //             Orthographic only; one sample per slice, so no --step. --work-map is refused:
 //             the work is counted per row of the intermediate image.
-// Builds on:  36_object_order (its slices, compositing and placing, along an axis only).
+// Builds on:  37_shear (its shear and warp, each slice shifted by whole voxels).
 // Handout:    handouts/38_shear_warp.md
 // Run:        make run STEP=38 ARGS="--azimuth 45 --elevation 30 --size 256x256"
 // Reference:  data/reference/38_shear_warp_camera.png: the default run (lit composite,
@@ -358,7 +358,7 @@ struct Scene {
 // view direction crosses most voxels per unit of length: then a ray crosses every slice once,
 // and each slice is shifted by at most one voxel against the one before. Front to back is the
 // direction's sign along it. The intermediate image is wide enough for every slice's shift.
-// Changed in step 38: any direction, not only along an axis; the shift per slice and the
+// Changed in step 37: any direction, not only along an axis; the shift per slice and the
 // intermediate image's size.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
@@ -392,6 +392,7 @@ static Shear make_shear(const Volume& volume, const Camera& camera) {
 
 // Slice m's shift. Nearest samples (--interpolation nearest) round the position to the
 // nearest voxel of the slice (a half rounds up), so both fractions are 0.
+// Changed in step 38: the fractions kept, for bilinear samples; rounded only when nearest.
 static SliceShift slice_shift(const Shear& shear, int m, bool nearest) {
     SliceShift s;
     s.slice = shear.first_slice + m * shear.slice_step;
@@ -523,7 +524,7 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
 }
 
 // Given: the warp's affine map (common/object_order.h), from the camera's rays.
-// Changed in step 38: the shear's base offsets (0 along an axis).
+// Changed in step 37: the shear's base offsets (0 along an axis).
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
     auto ray = [&](int x, int y) { return camera_ray(camera, x, y); };
     return slice_warp(volume, shear, shear.base_a, shear.base_b, ray);

@@ -482,7 +482,7 @@ struct Scene {
 // view direction crosses most voxels per unit of length: then a ray crosses every slice once,
 // and each slice is shifted by at most one voxel against the one before. Front to back is the
 // direction's sign along it. The intermediate image is wide enough for every slice's shift.
-// Changed in step 38: any direction, not only along an axis; the shift per slice and the
+// Changed in step 37: any direction, not only along an axis; the shift per slice and the
 // intermediate image's size.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
@@ -516,6 +516,7 @@ static Shear make_shear(const Volume& volume, const Camera& camera) {
 
 // Slice m's shift. Nearest samples (--interpolation nearest) round the position to the
 // nearest voxel of the slice (a half rounds up), so both fractions are 0.
+// Changed in step 38: the fractions kept, for bilinear samples; rounded only when nearest.
 static SliceShift slice_shift(const Shear& shear, int m, bool nearest) {
     SliceShift s;
     s.slice = shear.first_slice + m * shear.slice_step;
@@ -906,7 +907,7 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
 }
 
 // Given: the warp's affine map (common/object_order.h), from the camera's rays.
-// Changed in step 38: the shear's base offsets (0 along an axis).
+// Changed in step 37: the shear's base offsets (0 along an axis).
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
     auto ray = [&](int x, int y) { return camera_ray(camera, x, y); };
     return slice_warp(volume, shear, shear.base_a, shear.base_b, ray);

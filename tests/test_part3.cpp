@@ -5,9 +5,10 @@
 // does not read it counts as leapt: samples + leapt is step 30's samples. Steps 36 on (object
 // order, then shear-warp and its tricks) sample on the slices instead of along the rays: along
 // an axis at one pixel per voxel each renders step 30's pictures within the same tolerance
-// (lit, from step 42 on, within the quantised normals' own), step 38 step 36's bit for bit and
-// step 43 on step 42's; at an angle (step 38 on: step 36 refuses one) within the mean and RMS
-// error the manifest states. And each trick's handout quotes its measured gain in a block
+// (lit, from step 42 on, within the quantised normals' own), steps 37 and 38 step 36's bit for
+// bit and step 43 on step 42's; at an angle (step 37 on: step 36 refuses one) within the mean
+// and RMS error the manifest states, step 37's (nearest samples) step 38's with
+// --interpolation nearest bit for bit. And each trick's handout quotes its measured gain in a block
 // that make gain fills.
 #include <doctest/doctest.h>
 #include <algorithm>
@@ -24,9 +25,11 @@ namespace {
 
 constexpr const char* first_part3_step = "30_speed_baseline";
 // The first step that composites slices: it and every part-3 step after it are not ray
-// casters (see the top). The first shear-warp step, the first to turn freely; from the
-// quantised normals' step on, a lit picture rounds its normals.
+// casters (see the top). The shear, the first to turn freely (nearest samples: each slice
+// shifted by whole voxels); shear-warp (bilinear samples); from the quantised normals' step
+// on, a lit picture rounds its normals.
 constexpr const char* object_order_step = "36_object_order";
+constexpr const char* shear_step = "37_shear";
 constexpr const char* shear_warp_step = "38_shear_warp";
 constexpr const char* quantised_normals_step = "42_quantised_normals";
 // From the run records' step on, the samples are step 42's read from packed records instead
@@ -192,7 +195,7 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
             const StepRender fast = render(step, flags);
             INFO(step << " " << flags.back());
             if (step == object_order_step) object_order = fast.image("camera");
-            if (step == shear_warp_step) {
+            if (step == shear_step || step == shear_warp_step) {
                 CHECK(largest_difference(fast.image("camera"), object_order) == 0);
             }
             if (step == quantised_normals_step) quantised = fast.image("camera");
@@ -239,6 +242,13 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
                 continue;
             }
             const ctlab::Image image = render(step, flags).image("camera");
+            if (step == shear_step) {
+                INFO("step 38 with --interpolation nearest renders step 37's picture bit for bit");
+                const ctlab::Image nearest =
+                    render(shear_warp_step, with(flags, {"--interpolation", "nearest"}))
+                        .image("camera");
+                CHECK(largest_difference(image, nearest) == 0);
+            }
             if (step == shear_warp_step) first = image;
             if (step == quantised_normals_step) quantised = image;
             if (step >= run_records_step) {
