@@ -1,10 +1,9 @@
 // 37_shear.cpp: the shear, object order from any orthographic camera: shear-warp (Lacroute &
 // Levoy 1994), the algorithm VolPack uses.
 //
-// New here:   the slices are those across the principal axis (the one the rays run most
-//             along), each shifted by the shear, rounded to whole voxels: an intermediate
-//             pixel reads the voxel nearest its ray, then one warp. Along an axis step 36's
-//             pictures bit for bit; at an angle a stated error against step 30.
+// New here:   any angle: the slices across the principal axis, each shifted by the shear
+//             rounded to whole voxels (a pixel reads the voxel nearest its ray), then one warp.
+//             Along an axis step 36's pictures bit for bit; at an angle within a stated error.
 //             Orthographic only; one sample per slice, so no --step. --work-map is refused:
 //             the work is counted per row of the intermediate image.
 // Builds on:  36_object_order (its slices, compositing and placing, along an axis only).
@@ -310,12 +309,12 @@ static Rgb over_background(const Accumulated& ray) {
 
 // --- Step 37: the shear ---
 
-// The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
-// of voxels across the principal axis c, the axis the view direction runs most along in
-// voxels; a and b are a slice's two axes, a along its rows (the lower axis, so that a row is
-// contiguous in memory when a is i). The intermediate image has one pixel per voxel column:
-// the ray of its pixel (u, v) meets slice m (counted front to back) at
-// a = u + base_a + m * delta_a, b = v + base_b + m * delta_b. Orthographic: one shear for all.
+// The slices are the planes of voxels across axis c, the principal axis; a and b
+// are a slice's two axes, a along its rows (the lower axis, so that a row is contiguous in
+// memory when a is i). Along an axis every ray runs down one voxel column: the intermediate
+// image has one pixel per column, and pixel (u, v) meets slice c at voxel (a, b) = (u, v).
+// At an angle the slices shift against each other (the shear): the ray of pixel (u, v)
+// meets slice m (front to back) at a = u + base_a + m * delta_a, b = v + base_b + m * delta_b.
 struct Shear {
     int a = 0, b = 1, c = 2;     // the axes: 0 i, 1 j, 2 k
     int na = 1, nb = 1, nc = 1;  // voxels along a, b, c
@@ -330,8 +329,9 @@ struct Shear {
 // Where the intermediate image meets slice m, rounded to whole voxels: pixel (u, v) reads
 // voxel (u + ia, v + ib) of the slice. The shear only moves a slice, the same for every pixel.
 struct SliceShift {
-    int slice = 0;       // its c
-    int ia = 0, ib = 0;  // from pixel to voxel, voxels
+    int slice = 0;          // its c
+    int ia = 0, ib = 0;     // from pixel to voxel, voxels
+    int last_a = 0, last_b = 0;  // the last voxel along a and b: n - 1
 };
 
 // Everything a render needs that is the same for every pixel.
@@ -345,12 +345,12 @@ struct Scene {
 };
 
 //> lesson: shear
-// The factorisation for an orthographic camera. The principal axis is the one along which the
-// view direction crosses most voxels per unit of length: then a ray crosses every slice once,
-// and each slice is shifted by at most one voxel against the one before. Front to back is the
-// direction's sign along it. The intermediate image is wide enough for every slice's shift.
+// The slices for any orthographic camera: c is the principal axis, the one along which the
+// view direction crosses most voxels per unit of length (then each slice is shifted by at most
+// one voxel against the one before, and a ray crosses every slice once); front to back is the
+// sign of the view direction along it. The intermediate image is one pixel per voxel column.
 // Changed in step 37: any direction, not only along an axis; the shift per slice and the
-// intermediate image's size.
+// intermediate image's size (wide enough for every slice's shift).
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -386,12 +386,13 @@ static Shear make_shear(const Volume& volume, const Camera& camera) {
 static SliceShift slice_shift(const Shear& shear, int m) {
     SliceShift s;
     s.slice = shear.first_slice + m * shear.slice_step;
-    auto nearest = [](double position) {
-        const int low = int(std::floor(position));
-        return position - low >= 0.5 ? low + 1 : low;
+    auto split = [&](double position, int* low) {
+        *low = int(std::floor(position));
+        if (position - *low >= 0.5) ++*low;
     };
-    s.ia = nearest(shear.base_a + m * shear.delta_a);
-    s.ib = nearest(shear.base_b + m * shear.delta_b);
+    split(shear.base_a + m * shear.delta_a, &s.ia);
+    split(shear.base_b + m * shear.delta_b, &s.ib);
+    s.last_a = shear.na - 1, s.last_b = shear.nb - 1;
     return s;
 }
 //< lesson: shear
@@ -431,11 +432,10 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
     for (const SliceShift& shift : scene.shifts) {
         const SliceShift s = shift;
         const int b = v + s.ib;  // the row of voxels this image row meets
-        if (b < 0 || b >= shear.nb) continue;
+        if (b < 0 || b > s.last_b) continue;
         const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
         const int16_t* slice_row = &scene.volume.data[row_index];
-        // The pixels whose voxel lies in the slice.
-        const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, shear.na - s.ia);
+        const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, s.last_a + 1 - s.ia);
         for (int u = u_low; u < u_high; ++u) {
             if (row[u].transparency < stop_below) continue;  // opaque already
             const float value = slice_row[size_t(u + s.ia) * shear.stride_a];
@@ -463,11 +463,11 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
     const Shear& shear = scene.shear;
     for (const SliceShift& s : scene.shifts) {
         const int b = v + s.ib;
-        if (b < 0 || b >= shear.nb) continue;
+        if (b < 0 || b > s.last_b) continue;
         const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
         const int16_t* slice_row = &scene.volume.data[row_index];
         const int u_low = std::max(0, -s.ia);
-        const int u_high = std::min(shear.width, shear.na - s.ia);
+        const int u_high = std::min(shear.width, s.last_a + 1 - s.ia);
         for (int u = u_low; u < u_high; ++u) {
             const float value = slice_row[size_t(u + s.ia) * shear.stride_a];
             highest[u] = std::max(highest[u], value);
@@ -533,7 +533,7 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
         auto at = [&](int m) {  // its voxel in slice m, if the slice holds it
             const SliceShift& s = scene.shifts[m];
             const int a = u + s.ia, b = v + s.ib;
-            if (a < 0 || a >= shear.na || b < 0 || b >= shear.nb) return ColumnSample{};
+            if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) return ColumnSample{};
             const Voxel voxel = voxel_of(shear, a, b, s.slice);
             return ColumnSample{true, slice_point(volume, shear, a, b, s.slice),
                                 float(volume.at(voxel.i, voxel.j, voxel.k))};
@@ -562,8 +562,8 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "The shear: the slices, shifted by whole voxels, composited into "
-                             "an intermediate image, then one warp.");
+        Args args(step_name, "Shear-warp: the slices composited into an intermediate image, "
+                             "then one warp.");
         args.add_choice("--mode", &params.mode, {"composite", "mip"},
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,

@@ -321,12 +321,12 @@ static Rgb over_background(const Accumulated& ray) {
 
 // --- Step 38: shear-warp ---
 
-// The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
-// of voxels across the principal axis c, the axis the view direction runs most along in
-// voxels; a and b are a slice's two axes, a along its rows (the lower axis, so that a row is
-// contiguous in memory when a is i). The intermediate image has one pixel per voxel column:
-// the ray of its pixel (u, v) meets slice m (counted front to back) at
-// a = u + base_a + m * delta_a, b = v + base_b + m * delta_b. Orthographic: one shear for all.
+// The slices are the planes of voxels across axis c, the principal axis; a and b
+// are a slice's two axes, a along its rows (the lower axis, so that a row is contiguous in
+// memory when a is i). Along an axis every ray runs down one voxel column: the intermediate
+// image has one pixel per column, and pixel (u, v) meets slice c at voxel (a, b) = (u, v).
+// At an angle the slices shift against each other (the shear): the ray of pixel (u, v)
+// meets slice m (front to back) at a = u + base_a + m * delta_a, b = v + base_b + m * delta_b.
 struct Shear {
     int a = 0, b = 1, c = 2;     // the axes: 0 i, 1 j, 2 k
     int na = 1, nb = 1, nc = 1;  // voxels along a, b, c
@@ -490,12 +490,12 @@ struct Scene {
 };
 
 //> lesson: shear
-// The factorisation for an orthographic camera. The principal axis is the one along which the
-// view direction crosses most voxels per unit of length: then a ray crosses every slice once,
-// and each slice is shifted by at most one voxel against the one before. Front to back is the
-// direction's sign along it. The intermediate image is wide enough for every slice's shift.
+// The slices for any orthographic camera: c is the principal axis, the one along which the
+// view direction crosses most voxels per unit of length (then each slice is shifted by at most
+// one voxel against the one before, and a ray crosses every slice once); front to back is the
+// sign of the view direction along it. The intermediate image is one pixel per voxel column.
 // Changed in step 37: any direction, not only along an axis; the shift per slice and the
-// intermediate image's size.
+// intermediate image's size (wide enough for every slice's shift).
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
