@@ -1,9 +1,10 @@
 // object_order.h: the wiring of the object-order steps (35 on), as cast_camera_rays() is ray
 // order's: the intermediate image's rows handed to the threads, the warp's map and its loop
 // over the output image, one output pixel alone with the records of its trace through the
-// warp, and the "precompute" line. Wiring, and two given loops of part 3's speed (vector
-// stretches for the maximum and for the runs): compositing a slice row, the shear, the runs
-// and the warp's bilinear read are the steps' lessons.
+// warp, the runs' storage (and from step 43 their records' starts and light), and the
+// "precompute" line. Wiring, and two given loops of part 3's speed (vector stretches for the
+// maximum and for the runs): compositing a slice row, the shear, finding the runs, packing
+// their records and the warp's bilinear read are the steps' lessons.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -301,6 +302,80 @@ struct CellStretch {
         highest = std::max(h[0], h[1]);
     }
 };
+
+// The cells of each slice row that the transfer function may see (a step's find_runs()), as
+// runs of cells [begin, end) along a, slice after slice. Made once per transfer function and
+// principal axis; a step names it Runs (and from step 43 on adds the runs' records to it).
+struct SliceRuns {
+    int axis = -1;                // the principal axis they are for; -1: not made
+    int nb = 0;                   // cell rows per slice
+    std::vector<uint32_t> first;  // per slice row c * nb + b: its first run; one past the end
+    std::vector<int32_t> bounds;  // begin, end of every run, in cells along a
+    size_t cells = 0;             // cells in runs, all slices
+
+    // Slice c's row b: its runs, and how many (none for a row it does not hold: runs not
+    // made yet, as in a student's kit before find_runs() is written).
+    const int32_t* row(int c, int b, int* count) const {
+        const size_t r = size_t(c) * nb + b;
+        *count = r + 1 < first.size() ? int(first[r + 1] - first[r]) : 0;
+        return *count > 0 ? &bounds[2 * size_t(first[r])] : nullptr;
+    }
+};
+
+// The runs a step's find_runs() found slice by slice, joined into its Runs (a SliceRuns) for
+// principal axis `axis`: counts[c][b], how many runs slice c's row b has (nb rows a slice);
+// bounds[c], their begin and end, row after row.
+template <class Runs>
+Runs join_runs(int axis, int nb, const std::vector<std::vector<uint32_t>>& counts,
+               const std::vector<std::vector<int32_t>>& bounds) {
+    Runs runs;
+    runs.axis = axis;
+    runs.nb = nb;
+    runs.first.reserve(counts.size() * nb + 1);
+    uint32_t total = 0;
+    for (size_t c = 0; c < counts.size(); ++c) {
+        for (uint32_t n : counts[c]) {
+            runs.first.push_back(total);
+            total += n;
+        }
+        runs.bounds.insert(runs.bounds.end(), bounds[c].begin(), bounds[c].end());
+    }
+    runs.first.push_back(total);
+    for (size_t n = 0; n < runs.bounds.size(); n += 2) {
+        runs.cells += size_t(runs.bounds[n + 1] - runs.bounds[n]);
+    }
+    return runs;
+}
+
+// From step 43 on, a step's Runs (a SliceRuns) also holds each slice's records (its runs'
+// voxels, packed by the step's pack_slice()): records[c], slice c's; start[r], run r's first
+// record; record_count, all slices'. Each run's first record, then (none when a slice's
+// records were not written, as in a student's kit before pack_slice()), and the count.
+template <class Shear, class Runs>
+void find_starts(const Shear& shear, Runs& runs) {
+    runs.start.clear();
+    for (int c = 0; c < shear.nc; ++c) {
+        const auto* next = runs.records[c].get();
+        const uint32_t end = runs.first[size_t(c + 1) * shear.nb];  // past its last run
+        for (uint32_t r = runs.first[size_t(c) * shear.nb]; r < end; ++r) {
+            if (!next) return runs.start.clear();  // not packed
+            runs.start.push_back(next);
+            next += runs.bounds[2 * r + 1] - runs.bounds[2 * r] + 1;
+        }
+    }
+    runs.record_count = runs.cells + runs.bounds.size() / 2;  // a run: one column more than cells
+}
+
+// A sample's light from its cell's records (p: the low corner's; p[1] the next column's): the
+// four corners' light from the shading table (by their normal indices), blended as the values
+// are (the fractions s.fa, s.fb; the steps' lerp()): the step's slice_light()'s float.
+template <class Record, class Shift>
+inline float record_light(const float* light, const Record* p, const Shift& s) {
+    auto lerp = [](float a, float b, float f) { return a + f * (b - a); };  // the step's
+    const float low = lerp(light[p[0].low_normal], light[p[1].low_normal], s.fa);
+    const float high = lerp(light[p[0].high_normal], light[p[1].high_normal], s.fa);
+    return lerp(low, high, s.fb);
+}
 
 // A table made once per transfer function and principal axis, and its cost, on a line of its
 // own (the summary lines are the renders'): make() makes it, what() says what it holds, and

@@ -352,24 +352,7 @@ struct SliceShift {
     int last_a = 0, last_b = 0;  // the last cell: n - 1 when the fraction is 0, else n - 2
 };
 
-// The cells of each slice row that the table may see (see find_runs), as runs of cells
-// [begin, end) along a. Made once per transfer function and principal axis.
-
-struct Runs {
-    int axis = -1;                // the principal axis they are for; -1: not made
-    int nb = 0;                   // cell rows per slice
-    std::vector<uint32_t> first;  // per slice row c * nb + b: its first run; one past the end
-    std::vector<int32_t> bounds;  // begin, end of every run, in cells along a
-    size_t cells = 0;             // cells in runs, all slices
-
-    // Slice c's row b: its runs, and how many (none for a row it does not hold: runs not
-    // made yet, as in a student's kit before find_runs() is written).
-    const int32_t* row(int c, int b, int* count) const {
-        const size_t r = size_t(c) * nb + b;
-        *count = r + 1 < first.size() ? int(first[r + 1] - first[r]) : 0;
-        return *count > 0 ? &bounds[2 * size_t(first[r])] : nullptr;
-    }
-};
+using Runs = SliceRuns;  // the runs of cells the table may see (common/object_order.h)
 
 // Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
 // direction nearest its gradient's in a fixed set, two bytes at (k*ny + j)*nx + i like the
@@ -603,22 +586,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
             run_ends(na);
         }
     });
-    Runs runs;
-    runs.axis = shear.c;
-    runs.nb = nb;
-    runs.first.reserve(size_t(shear.nc) * nb + 1);
-    uint32_t total = 0;
-    for (int c = 0; c < shear.nc; ++c) {
-        for (uint32_t n : counts[c]) {
-            runs.first.push_back(total);
-            total += n;
-        }
-        runs.bounds.insert(runs.bounds.end(), bounds[c].begin(), bounds[c].end());
-    }
-    runs.first.push_back(total);
-    for (size_t n = 0; n < runs.bounds.size(); n += 2) {
-        runs.cells += size_t(runs.bounds[n + 1] - runs.bounds[n]);
-    }
+    Runs runs = join_runs<Runs>(shear.c, nb, counts, bounds);  // given: common/object_order.h
     return runs;
 }
 //< lesson: runs
@@ -733,10 +701,10 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
         if (b < 0 || b > s.last_b) continue;
         const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
         const int16_t* slice_row = &scene.volume.data[row_index];
-        // The pixels whose cell lies in the slice, and the runs of cells the table may see.
+        // The pixels whose cell lies in the slice.
         const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, s.last_a + 1 - s.ia);
         if (u_low >= u_high) continue;
-        int count = 0;
+        int count = 0;  // the row's runs of cells the table may see, and how many
         const int32_t* run = scene.runs.row(s.slice, b, &count);
         long long in_runs = 0;
         for (int r = 0; r < count && open > 0; ++r) {
@@ -773,10 +741,11 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
 //< lesson: composite
 
 //> lesson: mip
-// Row v of the maximum intensity: every cell the row meets in every slice (no runs: a maximum
-// has no transparent values), each pixel keeping its highest sample. -infinity: none yet.
+// Row v of the maximum intensity: every cell the row meets in every slice, each pixel keeping
+// its highest sample. -infinity: none yet.
 // A row of cells contiguous in memory goes first through max_in_stretches() (given: vector
 // instructions, the same floats as slice_value()).
+// Changed in step 38: each slice shifted, a sample bilinear in its cell.
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
     const Shear& shear = scene.shear;
     for (const SliceShift& s : scene.shifts) {
@@ -913,7 +882,7 @@ int main(int argc, char** argv) {
         // --- Volume ---
         const Volume volume = load_volume(options);
 
-        // --- Transfer function: the file (in the file's units); which values it sees ---
+        // --- Transfer function: the file (in the file's units) ---
         TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
@@ -940,7 +909,7 @@ int main(int argc, char** argv) {
                 lut = build_lut(tf, ratio);
                 lut_ratio = ratio;
             }
-            if (params.mode == "mip") return;
+            if (params.mode == "mip") return;  // no runs: a maximum has no transparent values
             const bool new_runs = runs[shear.c].axis < 0;
             const bool new_normals = normal_table && !normals.filled[shear.c];
             if (!new_runs && !new_normals) return;

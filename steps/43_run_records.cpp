@@ -1,14 +1,13 @@
-// 43_run_records.cpp: shear-warp's fifth trick, VolPack's run-length-encoded volume: the
-// voxels of the runs, copied out in the order the compositing reads them.
+// 43_run_records.cpp: shear-warp's fifth trick, VolPack's run-length-encoded volume.
 //
-// New here:   step 42 finds the runs of cells the table may see, but its samples still read
-//             the volume (a slice row's voxels, the row below it for the bilinear sample, and
-//             for a lit composite a second volume of normal indices): two or three streams of
-//             memory scattered over 15 MB and more. Here each run keeps a record per voxel
-//             column it covers (its two rows' values and their normal indices, 8 bytes),
-//             packed run after run in slice order once per transfer function and principal
-//             axis (pack_slice()), so a sample reads its record and the next one: one
-//             stream. The pictures are step 42's, to the bit.
+// New here:   step 42's samples read a slice row's voxels, the row below it and, lit, their
+//             normal indices: two or three streams scattered over 15 MB and more. Here each
+//             run keeps a record per voxel column it covers (two rows' values and normal
+//             indices, 8 bytes), packed run after run in slice order once per transfer
+//             function and principal axis (pack_slice()): a sample reads its record and the
+//             next one, one stream. Step 42's pictures, to the bit. Orthographic only; one
+//             sample per slice, so no --step.
+//             --work-map is refused: the work is counted per row of the intermediate image.
 // Builds on:  42_quantised_normals.
 // Handout:    handouts/43_run_records.md
 // Run:        make run STEP=43 ARGS="--azimuth 180 --elevation 90 --size 256x256"
@@ -16,7 +15,7 @@
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 #include <cstring>  // std::memcpy: a float's bits
-#include <memory>  // std::unique_ptr: the normal table and a slice's records, left unset
+#include <memory>  // std::unique_ptr: the normal table, left unwritten where not needed
 using namespace ctlab;
 
 constexpr const char* step_name = "43_run_records";
@@ -352,7 +351,7 @@ struct SliceShift {
 // A run's voxels, packed (pack_slice()). A run of cells [begin, end) along a in slice row b
 // keeps one record per voxel column a = begin .. end (one more than its cells: a cell's high
 // corner), the runs one after another in slice order: a sample of cell a reads record a and
-// the next one, and nothing else (lit or not).
+// the next one, and nothing else (lit or not: record_light(), common/object_order.h).
 struct Record {
     int16_t low, high;  // the voxel values at (a, b) and (a, b + 1) of the slice (the last row
                         // and column repeated at the slice's edges)
@@ -360,46 +359,16 @@ struct Record {
 };
 using Records = std::unique_ptr<Record[]>;  // one slice's, left unset until packed
 
-// The cells of each slice row that the table may see (see find_runs), as runs of cells
-// [begin, end) along a. Made once per transfer function and principal axis.
-struct Runs {
-    int axis = -1;                // the principal axis they are for; -1: not made
-    int nb = 0;                   // cell rows per slice
-    std::vector<uint32_t> first;  // per slice row c * nb + b: its first run; one past the end
-    std::vector<int32_t> bounds;  // begin, end of every run, in cells along a
-    size_t cells = 0;             // cells in runs, all slices
+struct Runs : SliceRuns {  // the runs (common/object_order.h), and their records
     std::vector<Records> records;      // per slice: its runs', in order
     std::vector<const Record*> start;  // per run: its first record; empty: not packed
     size_t record_count = 0;           // records, all slices
 
-    // Slice c's row b: its runs, and how many (none for a row it does not hold: runs not
-    // made yet, as in a student's kit before find_runs() is written).
-    const int32_t* row(int c, int b, int* count) const {
-        const size_t r = size_t(c) * nb + b;
-        *count = r + 1 < first.size() ? int(first[r + 1] - first[r]) : 0;
-        return *count > 0 ? &bounds[2 * size_t(first[r])] : nullptr;
-    }
     // The records of the run that `run` (a pointer row() gave) starts, from its first column.
     const Record* records_of(const int32_t* run) const {
         return start[size_t(run - bounds.data()) / 2];
     }
 };
-
-// Given: each run's first record, in its slice's records (none when a slice's records were
-// not written, as in a student's kit before pack_slice()), and the records' count.
-static void find_starts(const Shear& shear, Runs& runs) {
-    runs.start.clear();
-    for (int c = 0; c < shear.nc; ++c) {
-        const Record* next = runs.records[c].get();
-        const uint32_t end = runs.first[size_t(c + 1) * shear.nb];  // past its last run
-        for (uint32_t r = runs.first[size_t(c) * shear.nb]; r < end; ++r) {
-            if (!next) return runs.start.clear();  // not packed
-            runs.start.push_back(next);
-            next += runs.bounds[2 * r + 1] - runs.bounds[2 * r] + 1;
-        }
-    }
-    runs.record_count = runs.cells + runs.bounds.size() / 2;  // a run: one column more than cells
-}
 
 // Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
 // direction nearest its gradient's in a fixed set, two bytes at (k*ny + j)*nx + i like the
@@ -675,22 +644,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
             run_ends(na);
         }
     });
-    Runs runs;
-    runs.axis = shear.c;
-    runs.nb = nb;
-    runs.first.reserve(size_t(shear.nc) * nb + 1);
-    uint32_t total = 0;
-    for (int c = 0; c < shear.nc; ++c) {
-        for (uint32_t n : counts[c]) {
-            runs.first.push_back(total);
-            total += n;
-        }
-        runs.bounds.insert(runs.bounds.end(), bounds[c].begin(), bounds[c].end());
-    }
-    runs.first.push_back(total);
-    for (size_t n = 0; n < runs.bounds.size(); n += 2) {
-        runs.cells += size_t(runs.bounds[n + 1] - runs.bounds[n]);
-    }
+    Runs runs = join_runs<Runs>(shear.c, nb, counts, bounds);  // given: common/object_order.h
     return runs;
 }
 //< lesson: runs
@@ -731,7 +685,7 @@ static void fill_normal_table(const Volume& volume, const Shear& shear, const Ru
 }
 
 // Given: every slice's records (pack_slice()), the slices shared among the threads, each
-// writing its own; then each run's first record.
+// writing its own; then each run's first record (find_starts(), common/object_order.h).
 static void pack_records(const Volume& volume, const Shear& shear, const NormalTable& normals,
                          bool lit, int threads, Runs& runs) {
     runs.records.resize(shear.nc);
@@ -744,15 +698,6 @@ static void pack_records(const Volume& volume, const Shear& shear, const NormalT
                    normals, lit, runs.records[c]);
     });
     find_starts(shear, runs);
-}
-
-// Given: a sample's light from its cell's records (p: the low corner's; p[1] the next
-// column's): the four corners' light from the shading table, blended as the values are,
-// slice_light()'s float.
-static inline float record_light(const float* light, const Record* p, const SliceShift& s) {
-    const float low = lerp(light[p[0].low_normal], light[p[1].low_normal], s.fa);
-    const float high = lerp(light[p[0].high_normal], light[p[1].high_normal], s.fa);
-    return lerp(low, high, s.fb);
 }
 
 // Given: a sample's light: its cell's four corners' light from the shading table, blended as
@@ -805,8 +750,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
 // at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
 // stretch of a row costs a jump or two per run however wide it is.
-// Changed in step 43: a sample reads its cell's record and the next one's, not the volume
-// (on the voxels, its record's value and light alone: the same floats).
+// Changed in step 43: a sample reads its cell's record and the next one's, not the volume.
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
@@ -830,10 +774,10 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
         const int b = v + s.ib;  // the row of cells this image row meets
         if (b < 0 || b > s.last_b) continue;
         const bool on_voxels = s.fa == 0.0f && s.fb == 0.0f;  // every sample one voxel's value
-        // The pixels whose cell lies in the slice, and the runs of cells the table may see.
+        // The pixels whose cell lies in the slice.
         const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, s.last_a + 1 - s.ia);
         if (u_low >= u_high) continue;
-        int count = 0;
+        int count = 0;  // the row's runs of cells the table may see, and how many
         const int32_t* run = scene.runs.row(s.slice, b, &count);
         if (scene.runs.start.empty()) count = 0;  // no records (a kit before pack_slice())
         long long in_runs = 0;
@@ -880,10 +824,11 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
 //< lesson: composite
 
 //> lesson: mip
-// Row v of the maximum intensity: every cell the row meets in every slice (no runs: a maximum
-// has no transparent values), each pixel keeping its highest sample. -infinity: none yet.
+// Row v of the maximum intensity: every cell the row meets in every slice, each pixel keeping
+// its highest sample. -infinity: none yet.
 // A row of cells contiguous in memory goes first through max_in_stretches() (given: vector
 // instructions, the same floats as slice_value()).
+// Changed in step 38: each slice shifted, a sample bilinear in its cell.
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
     const Shear& shear = scene.shear;
     for (const SliceShift& s : scene.shifts) {
@@ -1020,7 +965,7 @@ int main(int argc, char** argv) {
         // --- Volume ---
         const Volume volume = load_volume(options);
 
-        // --- Transfer function: the file (in the file's units); which values it sees ---
+        // --- Transfer function: the file (in the file's units) ---
         TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
@@ -1047,7 +992,7 @@ int main(int argc, char** argv) {
                 lut = build_lut(tf, ratio);
                 lut_ratio = ratio;
             }
-            if (params.mode == "mip") return;
+            if (params.mode == "mip") return;  // no runs: a maximum has no transparent values
             const bool new_runs = runs[shear.c].axis < 0;
             const bool new_normals = normal_table && !normals.filled[shear.c];
             if (!new_runs && !new_normals) return;
@@ -1061,13 +1006,14 @@ int main(int argc, char** argv) {
                 pack_records(volume, shear, normals, lit, options.threads, runs[shear.c]);
             };
             precompute_ms += timed_precompute(shear.c, make, [&] {
-                char normals_held[160];
+                char normals_held[80];
                 std::snprintf(normals_held, sizeof normals_held,
-                              " normal_voxels=%zu normals_mb=%.2f records=%zu records_mb=%.2f",
-                              normals.voxels_filled,
-                              normals.voxels_filled * sizeof(uint16_t) / 1048576.0,
+                              " normal_voxels=%zu normals_mb=%.2f", normals.voxels_filled,
+                              normals.voxels_filled * sizeof(uint16_t) / 1048576.0);
+                char records_held[80];
+                std::snprintf(records_held, sizeof records_held, " records=%zu records_mb=%.2f",
                               made.record_count, made.record_count * sizeof(Record) / 1048576.0);
-                return runs_held(made, volume.voxel_count()) + normals_held;
+                return runs_held(made, volume.voxel_count()) + normals_held + records_held;
             });
         };
 

@@ -347,7 +347,7 @@ struct SliceShift {
 // A run's voxels, packed (pack_slice()). A run of cells [begin, end) along a in slice row b
 // keeps one record per voxel column a = begin .. end (one more than its cells: a cell's high
 // corner), the runs one after another in slice order: a sample of cell a reads record a and
-// the next one, and nothing else (lit or not).
+// the next one, and nothing else (lit or not: record_light(), common/object_order.h).
 struct Record {
     int16_t low, high;  // the voxel values at (a, b) and (a, b + 1) of the slice (the last row
                         // and column repeated at the slice's edges)
@@ -355,47 +355,17 @@ struct Record {
 };
 using Records = std::unique_ptr<Record[]>;  // one slice's, left unset until packed
 
-// The cells of each slice row that the table may see (see find_runs), as runs of cells
-// [begin, end) along a. Made once per transfer function and principal axis.
-struct Runs {
-    int axis = -1;                // the principal axis they are for; -1: not made
-    int nb = 0;                   // cell rows per slice
-    std::vector<uint32_t> first;  // per slice row c * nb + b: its first run; one past the end
-    std::vector<int32_t> bounds;  // begin, end of every run, in cells along a
-    size_t cells = 0;             // cells in runs, all slices
+struct Runs : SliceRuns {  // the runs (common/object_order.h), and their records
     std::vector<Records> records;      // per slice: its runs', in order
     std::vector<const Record*> start;  // per run: its first record; empty: not packed
     size_t record_count = 0;           // records, all slices
     size_t normals = 0;                // normal indices computed while packing (0: unlit)
 
-    // Slice c's row b: its runs, and how many (none for a row it does not hold: runs not
-    // made yet, as in a student's kit before find_runs() is written).
-    const int32_t* row(int c, int b, int* count) const {
-        const size_t r = size_t(c) * nb + b;
-        *count = r + 1 < first.size() ? int(first[r + 1] - first[r]) : 0;
-        return *count > 0 ? &bounds[2 * size_t(first[r])] : nullptr;
-    }
     // The records of the run that `run` (a pointer row() gave) starts, from its first column.
     const Record* records_of(const int32_t* run) const {
         return start[size_t(run - bounds.data()) / 2];
     }
 };
-
-// Given: each run's first record, in its slice's records (none when a slice's records were
-// not written, as in a student's kit before pack_slice()), and the records' count.
-static void find_starts(const Shear& shear, Runs& runs) {
-    runs.start.clear();
-    for (int c = 0; c < shear.nc; ++c) {
-        const Record* next = runs.records[c].get();
-        const uint32_t end = runs.first[size_t(c + 1) * shear.nb];  // past its last run
-        for (uint32_t r = runs.first[size_t(c) * shear.nb]; r < end; ++r) {
-            if (!next) return runs.start.clear();  // not packed
-            runs.start.push_back(next);
-            next += runs.bounds[2 * r + 1] - runs.bounds[2 * r] + 1;
-        }
-    }
-    runs.record_count = runs.cells + runs.bounds.size() / 2;  // a run: one column more than cells
-}
 
 // Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
 // direction nearest its gradient's in a fixed set, two bytes beside the voxel's value in the
@@ -731,37 +701,13 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
         normals[c] = pack_slice(volume, shear, c, counts[c].data(), bounds[c].data(), lit,
                                 records[c]);
     });
-    Runs runs;
-    runs.axis = shear.c;
-    runs.nb = nb;
-    runs.first.reserve(size_t(shear.nc) * nb + 1);
-    uint32_t total = 0;
-    for (int c = 0; c < shear.nc; ++c) {
-        for (uint32_t n : counts[c]) {
-            runs.first.push_back(total);
-            total += n;
-        }
-        runs.bounds.insert(runs.bounds.end(), bounds[c].begin(), bounds[c].end());
-    }
-    runs.first.push_back(total);
-    for (size_t n = 0; n < runs.bounds.size(); n += 2) {
-        runs.cells += size_t(runs.bounds[n + 1] - runs.bounds[n]);
-    }
+    Runs runs = join_runs<Runs>(shear.c, nb, counts, bounds);  // given: common/object_order.h
     runs.records = std::move(records);
     find_starts(shear, runs);
     for (size_t n : normals) runs.normals += n;
     return runs;
 }
 //< lesson: runs
-
-// Given: a sample's light from its cell's records (p: the low corner's; p[1] the next
-// column's): the four corners' light from the shading table, blended as the values are,
-// slice_light()'s float.
-static inline float record_light(const float* light, const Record* p, const SliceShift& s) {
-    const float low = lerp(light[p[0].low_normal], light[p[1].low_normal], s.fa);
-    const float high = lerp(light[p[0].high_normal], light[p[1].high_normal], s.fa);
-    return lerp(low, high, s.fb);
-}
 
 // Given: a sample's light: its cell's four corners' light from the shading table, blended as
 // the values are (VolPack's way: the light is shaded at the voxels, then interpolated; step
@@ -801,8 +747,7 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // composited unless already opaque. An opaque pixel is jumped over: next[u] leads to a pixel
 // at or after u that is not opaque (each lookup shortens the path it followed), so the opaque
 // stretch of a row costs a jump or two per run however wide it is.
-// Changed in step 43: a sample reads its cell's record and the next one's, not the volume
-// (on the voxels, its record's value and light alone: the same floats).
+// Changed in step 43: a sample reads its cell's record and the next one's, not the volume.
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
     const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
@@ -826,10 +771,10 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
         const int b = v + s.ib;  // the row of cells this image row meets
         if (b < 0 || b > s.last_b) continue;
         const bool on_voxels = s.fa == 0.0f && s.fb == 0.0f;  // every sample one voxel's value
-        // The pixels whose cell lies in the slice, and the runs of cells the table may see.
+        // The pixels whose cell lies in the slice.
         const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, s.last_a + 1 - s.ia);
         if (u_low >= u_high) continue;
-        int count = 0;
+        int count = 0;  // the row's runs of cells the table may see, and how many
         const int32_t* run = scene.runs.row(s.slice, b, &count);
         if (scene.runs.start.empty()) count = 0;  // no records (a kit before pack_slice())
         long long in_runs = 0;
@@ -876,10 +821,11 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
 //< lesson: composite
 
 //> lesson: mip
-// Row v of the maximum intensity: every cell the row meets in every slice (no runs: a maximum
-// has no transparent values), each pixel keeping its highest sample. -infinity: none yet.
+// Row v of the maximum intensity: every cell the row meets in every slice, each pixel keeping
+// its highest sample. -infinity: none yet.
 // A row of cells contiguous in memory goes first through max_in_stretches() (given: vector
 // instructions, the same floats as slice_value()).
+// Changed in step 38: each slice shifted, a sample bilinear in its cell.
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
     const Shear& shear = scene.shear;
     for (const SliceShift& s : scene.shifts) {
@@ -1014,7 +960,7 @@ int main(int argc, char** argv) {
         // --- Volume ---
         const Volume volume = load_volume(options);
 
-        // --- Transfer function: the file (in the file's units); which values it sees ---
+        // --- Transfer function: the file (in the file's units) ---
         TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
@@ -1038,7 +984,7 @@ int main(int argc, char** argv) {
                 lut = build_lut(tf, ratio);
                 lut_ratio = ratio;
             }
-            if (params.mode == "mip") return;
+            if (params.mode == "mip") return;  // no runs: a maximum has no transparent values
             if (runs[shear.c].axis >= 0) return;
             Runs& made = runs[shear.c];  // and its "precompute" line (common/object_order.h)
             auto make = [&] {
