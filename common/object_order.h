@@ -441,4 +441,65 @@ inline std::string slice_samples(int axis, double spacing) {
            summary_number(spacing) + " physical units apart along the ray";
 }
 
+// Whether a camera looks along an axis (two of forward's components exactly 0): the views an
+// object-order step takes (steps 35 and 36 hand the others to step 30's rays).
+inline bool along_an_axis(const Vec3d& forward) {
+    int zeros = 0;
+    for (int axis = 0; axis < 3; ++axis) zeros += forward[axis] == 0;
+    return zeros == 2;
+}
+
+// One output pixel alone for a camera along an axis (steps 35 and 36: intermediate pixel
+// (u, v) meets slice c at voxel (a, b) = (u, v)), as warp_traced() makes it: the note of its
+// warp point, then each of the (up to) four intermediate pixels around it, column(u, v, at),
+// at(m) that pixel's ColumnSample in slice m (front to back); warp_pixel blends them.
+template <class Shear, class Column, class WarpPixel>
+Rgb axis_pixel_traced(const Volume& volume, const Shear& shear, const WarpMap& warp, int x,
+                      int y, Trace* trace, Column column, WarpPixel warp_pixel) {
+    const WarpPoint p = warp_at(warp, x, y);
+    trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
+    auto pixel = [&](int u, int v) {
+        auto at = [&](int m) {  // its voxel in slice m
+            const int c = shear.first_slice + m * shear.slice_step;
+            const Voxel voxel = voxel_of(shear, u, v, c);
+            return ColumnSample{true, slice_point(volume, shear, u, v, c),
+                                float(volume.at(voxel.i, voxel.j, voxel.k))};
+        };
+        return column(u, v, at);
+    };
+    return warp_traced(p, shear.width, shear.height, trace, pixel, warp_pixel);
+}
+
+// The renderer of an object-order step that hands the views it does not take to step 30's
+// rays (steps 35 on), as cast_camera_rays() wires ray order's. For a view whose camera,
+// camera_for(view), by_rays(camera) names, renderer.image, .ray and .ray_samples are those of
+// `rays` (a Renderer that cast_camera_rays() filled; kept by reference: it must outlive
+// renderer). For the others, with shear_for(camera) the view's slices and scene_for(camera,
+// shear) what its pixels share: slices(view, scene, work) is its image, pixel(scene, x, y,
+// work, trace) one output pixel alone, and the trace header says slice_samples().
+template <class CameraFor, class ByRays, class ShearFor, class SceneFor, class Slices,
+          class Pixel>
+void slices_or_rays(Renderer& renderer, const Renderer& rays, CameraFor camera_for,
+                    ByRays by_rays, ShearFor shear_for, SceneFor scene_for, Slices slices,
+                    Pixel pixel) {
+    renderer.image = [=, &rays](const View& view, Work& work) {
+        const auto camera = camera_for(view);
+        if (by_rays(camera)) return rays.image(view, work);
+        const auto shear = shear_for(camera);
+        return slices(view, scene_for(camera, shear), work);
+    };
+    renderer.ray = [=, &rays](const View& view, int x, int y, Work& work, Trace* trace) {
+        const auto camera = camera_for(view);
+        if (by_rays(camera)) return rays.ray(view, x, y, work, trace);
+        const auto shear = shear_for(camera);
+        return pixel(scene_for(camera, shear), x, y, work, trace);
+    };
+    renderer.ray_samples = [=, &rays](const View& view) {
+        const auto camera = camera_for(view);
+        if (by_rays(camera)) return rays.ray_samples(view);
+        const auto shear = shear_for(camera);
+        return slice_samples(shear.c, shear.spacing);
+    };
+}
+
 }  // namespace ctlab

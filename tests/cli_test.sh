@@ -146,8 +146,8 @@ for source in steps/[0-9][0-9]_*.cpp; do
     # too (checked below): one render of the phantom serves both.
     # Part 1 and step 12 (00..12) render the three axis views; 13 on one camera picture, of its
     # default size (512x512) in the first camera step and in a step with a --size flag of its
-    # own (35 on; step 36's default is 256x256); the other camera steps take that flag from common/camera_flags.h, as the first
-    # does, and render 64x48 here, traced at its centre (a 512x512 render of the phantom is up
+    # own (none today); the other camera steps (35 and 36 default to 256x256) take that flag
+    # from common/camera_flags.h, as the first does, and render 64x48 here, traced at its centre (a 512x512 render of the phantom is up
     # to 2.5 s of CPU: 13 of this test's 25 s went there).
     views="top:256x256 front:256x113 side:256x113" trace_view=front size_flags=
     px=128 py=60

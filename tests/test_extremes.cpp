@@ -102,11 +102,12 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     }
     // Part 2: the camera from straight above in perspective (rays along k), nearest samples
     // without leaping, the longest step unlit, and each step's own paths.
-    // Steps 36 on (object order, shear-warp and its tricks) are orthographic, one sample per
+    // Steps 35 on (object order, shear-warp and its tricks) are orthographic, one sample per
     // slice: no --projection perspective, no --step; its MIP from below and nearest samples
-    // below take their paths. Step 36 looks along an axis only: its angles are axes.
+    // below take their paths. Steps 35 and 36 composite slices along an axis only and hand
+    // any other view to step 30's rays: one run along an axis, one at an angle.
     const bool shear_warp = step >= "35";
-    const bool axes_only = step.rfind("35", 0) == 0;
+    const bool axes_and_rays = shear_warp && step < "37";
     if (ctlab_test::is_camera_step(step) && !shear_warp) {
         all.push_back({"--projection", "perspective", "--elevation", "90", "--fov", "170"});
         // Steps 13 and 14 read the nearest voxel only (15 on: --interpolation); step 25 leaps (part 3
@@ -117,9 +118,9 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
         all.push_back(nearest);
         if (!projection_modes) all.push_back({"--step", "4", "--ert", "0", "--unlit"});
     }
-    if (axes_only) {
+    if (axes_and_rays) {
         all.push_back({"--interpolation", "nearest", "--azimuth", "-360", "--elevation", "-90"});
-        all.push_back({"--ert", "0", "--unlit", "--azimuth", "-90", "--elevation", "0"});
+        all.push_back({"--ert", "0", "--unlit", "--azimuth", "100", "--elevation", "-30"});
     } else if (shear_warp) {
         all.push_back({"--interpolation", "nearest", "--azimuth", "-360", "--elevation", "45"});
         all.push_back({"--ert", "0", "--unlit", "--azimuth", "100", "--elevation", "-30"});
