@@ -75,12 +75,11 @@ void refuse_object_order_flags(const Options& options, const CameraFlags& camera
                          "intermediate pixels), so no per-pixel map would sum to the summary "
                          "line's counters");
     }
-    if (camera.projection != "ortho") {
-        throw InputError("--projection " + camera.projection + ": " + step + "'s shear-warp is "
-                         "orthographic (a perspective one scales every slice as well); the ray "
-                         "casters of part 3 render it");
-    }
     const double turn = camera.turn_step;
+    if (turn > 0 && camera.projection != "ortho") {
+        throw InputError("--projection " + camera.projection + ": " + step + " looks along an "
+                         "axis only, orthographic; the ray casters of part 3 render perspective");
+    }
     if (turn > 0 && (std::fmod(camera.azimuth, turn) != 0 ||
                      std::fmod(camera.elevation, turn) != 0)) {
         throw InputError("--azimuth " + summary_number(camera.azimuth) + " --elevation " +

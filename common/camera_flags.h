@@ -43,8 +43,9 @@ Orbit camera_orbit(CameraFlags* camera);
 // The flags an object-order step (one that composites slices into an intermediate image and
 // warps it) cannot honour, each refused with a one-line error: --work-map (its work is
 // counted per row of the intermediate image, not per ray of the output image, so no
-// per-pixel map would sum to the summary line's counters), --projection perspective (its
-// shear-warp is orthographic), and with a turn_step, an angle not a multiple of it.
+// per-pixel map would sum to the summary line's counters), and with a turn_step (a step that
+// looks along an axis only, with no rays of its own) --projection perspective and an angle
+// not a multiple of it. A step with step 30's rays renders a perspective camera by them.
 void refuse_object_order_flags(const Options& options, const CameraFlags& camera);
 
 // " projection=ortho azimuth=30 elevation=20 zoom=1 fov=30": the summary line's camera part.

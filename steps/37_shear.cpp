@@ -1,16 +1,13 @@
-// 37_shear.cpp: the shear, object order from any orthographic camera: shear-warp (Lacroute &
-// Levoy 1994), the algorithm VolPack uses.
+// 37_shear.cpp: the shear of shear-warp (Lacroute & Levoy 1994), as VolPack renders.
 //
-// New here:   any angle: the slices across the principal axis, each shifted by the shear
-//             rounded to whole voxels (a pixel reads the voxel nearest its ray), then one warp.
-//             Along an axis step 36's pictures bit for bit; at an angle within a stated error.
-//             Orthographic only; one sample per slice, so no --step. --work-map is refused:
-//             the work is counted per row of the intermediate image.
-// Builds on:  36_object_order (its slices, compositing and placing, along an axis only).
+// New here:   any orthographic view: the slices across the principal axis, each shifted by
+//             the shear rounded to whole voxels (a pixel reads the voxel nearest its ray): step
+//             36's pictures along an axis, within a stated error at an angle. A perspective
+//             camera is step 30's rays: by_rays(). --work-map is refused (work per row).
+// Builds on:  36_object_order (its slices, compositing, warp and rays).
 // Handout:    handouts/37_shear.md
 // Run:        make run STEP=37 ARGS="--azimuth 45 --elevation 30 --size 256x256"
-// Reference:  data/reference/37_shear_camera.png: the default run (lit composite,
-//             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// Reference:  data/reference/37_shear_camera.png: the default run (lit composite), phantom.
 #include "common/ctlab.h"
 using namespace ctlab;
 
@@ -20,21 +17,29 @@ constexpr double default_ert = 0.01;        // stop a ray once T is below this; 
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
 constexpr double unit_length = 1;     // physical length the TF opacities hold for: one voxel
                                       // at spacing 1
+constexpr double default_step = 1;    // physical units between two samples along a ray
+constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
+constexpr double step_key_factor = 2;            // Up doubles the step, Down halves it
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr double default_light_angle = 30;  // degrees to the right of the viewer
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
+// Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
+// rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
+constexpr double sample_count_slack = 1e-9;
 
 struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, --fov, --size
     std::string mode = "composite";  // "composite" or "mip"
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
     double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
     double ert = default_ert;  // early ray termination threshold for T
+    double step = default_step;  // physical units between samples
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 08)
-    bool no_correction = false;  // use the TF opacities as they are, whatever the spacing
-    std::string interpolation = "nearest";  // how a sample is read: step 38 adds "trilinear"
+    bool no_correction = false;  // use the TF opacities as they are, whatever the step
+    std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
+    bool nearest = false;                     // interpolation == "nearest"
 };
 
 // What a ray has gathered so far, front to back (in double, as step 07 explains).
@@ -203,7 +208,6 @@ static double opacity_ratio(const Params& params, double spacing) {
 }
 //< lesson: opacity_correction
 
-
 // Step 10's lookup table, unchanged: one RGBA per CT value, opacities corrected for the step.
 struct Lut {
     std::vector<Rgba> entries = std::vector<Rgba>(ct_value_end - lowest_ct_value);
@@ -230,8 +234,87 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 }
 //< lesson: lookup_table
 
+// A ray's samples in voxel units, worked out once per ray: sample n is at first + n * per_step
+// (voxel coordinates: physical / spacing), for n = 0 .. count - 1.
+struct Walk {
+    Vec3d first, per_step;
+    long long count = 0;
+
+    Vec3d at(long long n) const {
+        const double s = double(n);
+        return {first.i + s * per_step.i, first.j + s * per_step.j, first.k + s * per_step.k};
+    }
+};
+
+// The eight voxels around a point: the voxel at or below it (the low corner), how far the
+// point is past it along each axis (0..1), and the high corner, the next voxel along each
+// axis (at the last voxel of an axis: that voxel again).
+struct Cell {
+    int i = 0, j = 0, k = 0;           // the low corner
+    float fi = 0, fj = 0, fk = 0;      // the point's fractions past it
+    int i1 = 0, j1 = 0, k1 = 0;        // the high corner
+};
+
 // Given: a value fraction f of the way from a to b: a itself when f = 0.
 static float lerp(float a, float b, float f) { return a + f * (b - a); }
+
+//> lesson: trilinear
+// The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
+// the divisions by the spacing are done here, once per ray, not at every sample.
+static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span, double step) {
+    const Vec3d entry = entry_point(ray, span, box_high(volume));
+    Walk walk;
+    walk.first = {entry.i / volume.sx, entry.j / volume.sy, entry.k / volume.sz};
+    walk.per_step = {step * ray.direction.i / volume.sx, step * ray.direction.j / volume.sy,
+                     step * ray.direction.k / volume.sz};
+    walk.count = (long long)(std::floor((span.t_exit - span.t_entry) / step +
+                                        sample_count_slack)) + 1;
+    return walk;
+}
+
+// Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
+// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
+static void low_corner(double u, int count, int* low, float* fraction) {
+    u = std::clamp(u, 0.0, double(count - 1));
+    *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
+    *fraction = float(u - *low);
+}
+
+static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
+    Cell cell;
+    // nearest: the point first moves to the nearest voxel centre (a half rounds up), so
+    // every fraction is 0 and the low corner is that voxel.
+    const Vec3d p = nearest ? Vec3d{std::floor(point.i + 0.5), std::floor(point.j + 0.5),
+                                    std::floor(point.k + 0.5)}
+                            : point;
+    low_corner(p.i, volume.nx, &cell.i, &cell.fi);
+    low_corner(p.j, volume.ny, &cell.j, &cell.fj);
+    low_corner(p.k, volume.nz, &cell.k, &cell.fk);
+    cell.i1 = std::min(cell.i + 1, volume.nx - 1);
+    cell.j1 = std::min(cell.j + 1, volume.ny - 1);
+    cell.k1 = std::min(cell.k + 1, volume.nz - 1);
+    return cell;
+}
+
+// Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
+// Exact for any field linear in i, j and k (and so in physical space).
+static float trilinear(const Volume& volume, const Cell& c) {
+    const float low_low = lerp(volume.at(c.i, c.j, c.k), volume.at(c.i1, c.j, c.k), c.fi);
+    const float high_low = lerp(volume.at(c.i, c.j1, c.k), volume.at(c.i1, c.j1, c.k), c.fi);
+    const float low_high = lerp(volume.at(c.i, c.j, c.k1), volume.at(c.i1, c.j, c.k1), c.fi);
+    const float high_high = lerp(volume.at(c.i, c.j1, c.k1), volume.at(c.i1, c.j1, c.k1), c.fi);
+    return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
+}
+
+// A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
+// low corner on it), or trilinear, eight.
+static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
+    return nearest ? float(volume.at(c.i, c.j, c.k)) : trilinear(volume, c);
+}
+//< lesson: trilinear
+
+// Given: lerp() for gradients.
+static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
 //> lesson: gradient
 // Step 10's derivative and gradient at a voxel, unchanged.
@@ -255,6 +338,26 @@ static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
             derivative(along_k, k, volume.nz, volume.sz)};
 }
 
+// The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
+// values are. At a voxel centre it is that voxel's gradient exactly (step 10's at its samples).
+static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
+    auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
+        return gradient_at(volume, Voxel{a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k}, work);
+    };
+    const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
+    const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
+    const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
+    const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
+    return lerp_vector(lerp_vector(low_low, high_low, c.fj), lerp_vector(low_high, high_high, c.fj),
+                       c.fk);
+}
+
+// A sample's gradient: with nearest samples the nearest voxel's own (step 10's, one voxel's
+// differences), else trilinear.
+static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
+    if (!nearest) return gradient_trilinear(volume, c, work);
+    return gradient_at(volume, Voxel{c.i, c.j, c.k}, work);
+}
 //< lesson: gradient
 
 //> lesson: shade
@@ -307,14 +410,11 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
-// --- Step 37: the shear ---
-
-// The slices are the planes of voxels across axis c, the principal axis; a and b
-// are a slice's two axes, a along its rows (the lower axis, so that a row is contiguous in
-// memory when a is i). Along an axis every ray runs down one voxel column: the intermediate
-// image has one pixel per column, and pixel (u, v) meets slice c at voxel (a, b) = (u, v).
-// At an angle the slices shift against each other (the shear): the ray of pixel (u, v)
-// meets slice m (front to back) at a = u + base_a + m * delta_a, b = v + base_b + m * delta_b.
+// The slices: the planes of voxels across axis c, the axis the camera looks along; a, b a
+// slice's axes (a the lower: a row is contiguous in memory when a is i). Along an axis each
+// ray runs down one voxel column: intermediate pixel (u, v) meets slice c at voxel (u, v).
+// At an angle c is the principal axis and the slices shift (the shear): the ray of pixel
+// (u, v) meets slice m (front to back) at a = u + base_a + m * delta_a, b = v + base_b + ....
 struct Shear {
     int a = 0, b = 1, c = 2;     // the axes: 0 i, 1 j, 2 k
     int na = 1, nb = 1, nc = 1;  // voxels along a, b, c
@@ -326,31 +426,116 @@ struct Shear {
     double spacing = 1;  // physical length along a ray from one slice to the next
 };
 
-// Where the intermediate image meets slice m, rounded to whole voxels: pixel (u, v) reads
-// voxel (u + ia, v + ib) of the slice. The shear only moves a slice, the same for every pixel.
+// Slice m's shift, in whole voxels: pixel (u, v) reads voxel (u + ia, v + ib) of the slice.
 struct SliceShift {
     int slice = 0;          // its c
     int ia = 0, ib = 0;     // from pixel to voxel, voxels
     int last_a = 0, last_b = 0;  // the last voxel along a and b: n - 1
 };
 
-// Everything a render needs that is the same for every pixel.
+// Everything a ray needs that is the same for every ray of a render.
 struct Scene {
     const Volume& volume;
-    const Shear& shear;
-    const std::vector<SliceShift>& shifts;  // slice m's, front to back
-    const Lut& lut;                  // opacities corrected for shear.spacing
-    Vec3 to_light;                   // unit vector towards the light; unused when unlit
+    const Camera& camera;
+    const Lut& lut;
+    Vec3 to_light;  // unit vector towards the light; unused when unlit
     const Params& params;
+    const Shear* shear = nullptr;  // the slices (object order); none for step 30's rays
+    const std::vector<SliceShift>* shifts = nullptr;  // slice m's, front to back
 };
 
-//> lesson: shear
-// The slices for any orthographic camera: c is the principal axis, the one along which the
-// view direction crosses most voxels per unit of length (then each slice is shifted by at most
-// one voxel against the one before, and a ray crosses every slice once); front to back is the
+//> lesson: composite
+// Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
+// each read by trilinear interpolation, classified by the table, lit where it is not
+// transparent, composited front to back; early ray termination as in step 08.
+// The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
+static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
+    const Volume& volume = scene.volume;
+    const Params& params = scene.params;
+    const double stop_below = std::max(params.ert, min_transparency);
+    const Vec3d high = box_high(volume);
+    const Ray ray = camera_ray(scene.camera, x, y);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
+    Accumulated pixel;
+    if (!span.hit) return pixel;
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const Cell cell = cell_at(volume, q, params.nearest);
+        const double t = span.t_entry + n * params.step;  // physical units along the ray
+        const float value = sample_value(volume, cell, params.nearest);
+        // The entry of the whole value at or below it (the range [from, to) it falls into):
+        // value - lowest_ct_value >= 0, so int() rounds down.
+        const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
+        ++work.samples;
+        const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+        if (sample.a == 0.0f) {
+            ++work.skipped;
+            if (trace) trace->sample(TraceSample(t, point, value).skipped());
+            continue;
+        }
+        double light = 1.0;  // unlit
+        if (!params.unlit) {
+            light = shade(sample_gradient(volume, cell, params.nearest, work), scene.to_light);
+        }
+        const double alpha = sample.a;  // the opacity, after the TF
+        const double weight = pixel.transparency * alpha * light;
+        pixel.r += weight * sample.r;
+        pixel.g += weight * sample.g;
+        pixel.b += weight * sample.b;
+        pixel.transparency *= 1 - alpha;
+        if (trace) {
+            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
+                              .colour(pixel.r, pixel.g, pixel.b)
+                              .transparency(pixel.transparency));
+        }
+        if (pixel.transparency < stop_below && n + 1 < walk.count) {
+            ++work.terminated;
+            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
+            break;
+        }
+    }
+    return pixel;
+}
+//< lesson: composite
+
+//> lesson: mip
+// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
+// values go below 0), shown as grey; a ray that misses the box shows the background.
+// Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
+static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
+    const Volume& volume = scene.volume;
+    const Params& params = scene.params;
+    const Vec3d high = box_high(volume);
+    const Ray ray = camera_ray(scene.camera, x, y);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
+    if (!span.hit) return background;
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    float highest = 0;
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const float value = sample_value(volume, cell_at(volume, q, params.nearest),
+                                         params.nearest);
+        ++work.samples;
+        highest = n == 0 ? value : std::max(highest, value);
+        if (trace) {
+            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+            trace->sample(TraceSample(span.t_entry + n * params.step, p, value).max(highest));
+        }
+    }
+    return grey(display_grey(volume, highest));
+}
+//< lesson: mip
+
+// --- Object order from any orthographic camera: the shear (step 37) ---
+
+//> lesson: slices
+// The slices for any orthographic camera: c is the principal axis (along it the view crosses
+// most voxels per unit length: a slice shifts by at most a voxel); front to back is the
 // sign of the view direction along it. The intermediate image is one pixel per voxel column.
-// Changed in step 37: any direction, not only along an axis; the shift per slice and the
-// intermediate image's size (wide enough for every slice's shift).
+// Changed in step 37: any direction; the shift per slice, the image wide enough for each.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -395,17 +580,17 @@ static SliceShift slice_shift(const Shear& shear, int m) {
     s.last_a = shear.na - 1, s.last_b = shear.nb - 1;
     return s;
 }
-//< lesson: shear
+//< lesson: slices
 
 // Given: a sample's light: its voxel's gradient (step 10's gradient_at()) and step 10's shade.
 static inline float voxel_light(const Scene& scene, int a, int b, int c, Work& work) {
     work.gradients += 1;
     Work uncounted;
-    const Vec3 gradient = gradient_at(scene.volume, voxel_of(scene.shear, a, b, c), uncounted);
+    const Vec3 gradient = gradient_at(scene.volume, voxel_of(*scene.shear, a, b, c), uncounted);
     return shade(gradient, scene.to_light);
 }
 
-//> lesson: composite
+//> lesson: composite_rows
 // Step 30's compositing of one sample, in double (step 07): colour weighted by opacity, light
 // and T; T multiplied by what the sample lets through.
 static inline void add_sample(Accumulated& pixel, const Rgba& sample, double light) {
@@ -422,15 +607,14 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // pixel is already opaque (early termination, pixel by pixel).
 // Changed in step 37: each slice shifted by whole voxels.
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
-    const Shear& shear = scene.shear;
+    const Shear& shear = *scene.shear;
     const bool unlit = scene.params.unlit;
     const double stop_below = std::max(scene.params.ert, min_transparency);
     const Rgba* lut = scene.lut.entries.data();
-    // Speed: the counters and the slice's shift are local copies. The loop stores to the row;
-    // through a reference the compiler would read them again after each store.
+    // Speed: the counters are a local copy. The loop stores to the row; through a reference
+    // the compiler would read them again after each store.
     Work counted;
-    for (const SliceShift& shift : scene.shifts) {
-        const SliceShift s = shift;
+    for (const SliceShift& s : *scene.shifts) {
         const int b = v + s.ib;  // the row of voxels this image row meets
         if (b < 0 || b > s.last_b) continue;
         const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
@@ -453,21 +637,20 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
     }
     work.add(counted);
 }
-//< lesson: composite
+//< lesson: composite_rows
 
-//> lesson: mip
+//> lesson: mip_rows
 // Row v of the maximum intensity: every voxel the row meets in every slice, each pixel keeping
 // its highest sample. -infinity: none yet.
 // Changed in step 37: each slice shifted by whole voxels.
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
-    const Shear& shear = scene.shear;
-    for (const SliceShift& s : scene.shifts) {
+    const Shear& shear = *scene.shear;
+    for (const SliceShift& s : *scene.shifts) {
         const int b = v + s.ib;
         if (b < 0 || b > s.last_b) continue;
         const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
         const int16_t* slice_row = &scene.volume.data[row_index];
-        const int u_low = std::max(0, -s.ia);
-        const int u_high = std::min(shear.width, s.last_a + 1 - s.ia);
+        const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, s.last_a + 1 - s.ia);
         for (int u = u_low; u < u_high; ++u) {
             const float value = slice_row[size_t(u + s.ia) * shear.stride_a];
             highest[u] = std::max(highest[u], value);
@@ -475,7 +658,7 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
         if (u_high > u_low) work.samples += u_high - u_low;
     }
 }
-//< lesson: mip
+//< lesson: mip_rows
 
 static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
@@ -505,65 +688,58 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
 }
 //< lesson: warp
 
-// --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
+// Given: warp_pixel() as a value, for the loops of common/object_order.h.
+constexpr auto blend = [](const WarpPoint& p, int width, int height, auto pixel) {
+    return warp_pixel(p, width, height, pixel);
+};
 
-// An intermediate pixel's colour, from the pixel's composite or maximum (as the image's rows
-// give it): over the background, or the maximum's grey (no sample: the background).
+// An intermediate pixel's colour: its composite over the background, or its maximum's grey
+// (no sample: the background).
 static Rgb composite_colour(const Accumulated& pixel) { return over_background(pixel); }
 static Rgb mip_colour(const Volume& volume, float highest) {
     if (highest == -std::numeric_limits<float>::infinity()) return background;
     return grey(display_grey(volume, highest));
 }
 
-// Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
-// composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
-// image's pixel to the bit. The trace follows each of the four sample by sample.
-// Changed in step 37: each slice's shift.
-static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
-                            Trace* trace) {
+// Output pixel (x, y) alone (the trace, the ray panel): the four intermediate pixels around its
+// warp point, each alone as the rows take it, blended by the warp: the image's pixel exactly.
+// Changed in step 37: each slice's shift (common/object_order.h).
+static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
-    const Shear& shear = scene.shear;
-    const Ray ray = camera_ray(camera, x, y);
+    const Shear& shear = *scene.shear;
+    const Ray ray = camera_ray(scene.camera, x, y);
     const Vec3d high = box_high(volume);
     trace_ray(trace, ray, intersect_box(ray, Vec3d{}, high), high, shear.spacing);
-    const WarpPoint p = warp_at(make_warp(volume, shear, camera), x, y);
-    trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
     const double stop_below = std::max(scene.params.ert, min_transparency);
-    auto column = [&](int u, int v) {  // intermediate pixel (u, v) alone, traced
-        auto at = [&](int m) {  // its voxel in slice m, if the slice holds it
-            const SliceShift& s = scene.shifts[m];
-            const int a = u + s.ia, b = v + s.ib;
-            if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) return ColumnSample{};
-            const Voxel voxel = voxel_of(shear, a, b, s.slice);
-            return ColumnSample{true, slice_point(volume, shear, a, b, s.slice),
-                                float(volume.at(voxel.i, voxel.j, voxel.k))};
-        };
-        auto light = [&](int m) {
-            const SliceShift& s = scene.shifts[m];
-            const int a = u + s.ia, b = v + s.ib;
-            return scene.params.unlit ? 1.0 : voxel_light(scene, a, b, s.slice, work);
-        };
+    auto column = [&](int u, int v, auto at) {  // intermediate pixel (u, v) alone, traced
         if (scene.params.mode == "mip") {
             return mip_colour(volume, maximum_column(shear.nc, ray, work, trace, at));
         }
+        auto light = [&](int m) {
+            const SliceShift& s = (*scene.shifts)[m];
+            const int a = u + s.ia, b = v + s.ib;
+            return scene.params.unlit ? 1.0 : voxel_light(scene, a, b, s.slice, work);
+        };
         auto add = [](Accumulated& pixel, const Rgba& sample, double light_of_sample) {
             add_sample(pixel, sample, light_of_sample);
         };
         return composite_colour(composite_column<Accumulated>(
             shear.nc, scene.lut.entries.data(), stop_below, ray, work, trace, at, light, add));
     };
-    auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
-        return warp_pixel(q, width, height, pixel);
-    };
-    return warp_traced(p, shear.width, shear.height, trace, column, blend);  // with notes
+    const WarpMap warp = make_warp(volume, shear, scene.camera);
+    return shifted_pixel_traced(volume, shear, *scene.shifts, warp, x, y, trace, column, blend);
+}
+
+// Given: the views the slices do not take (changed in step 37: perspective) are step 30's rays.
+static bool by_rays(const Camera& camera) {
+    return camera.perspective;
 }
 
 int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Shear-warp: the slices composited into an intermediate image, "
-                             "then one warp.");
+        Args args(step_name, "The shear: the slices, shifted, composited into the image.");
         args.add_choice("--mode", &params.mode, {"composite", "mip"},
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,
@@ -571,38 +747,36 @@ int main(int argc, char** argv) {
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
                         "opacity of the range labelled skin (default: as the file says)");
         args.add_double("--ert", &params.ert, 0, 1,
-                        "stop a pixel once its transparency T is below this (0: never)");
+                        "stop a ray once its transparency T is below this (0: never)");
+        args.add_double("--step", &params.step, min_step, max_step,
+                        "physical units between two samples along a ray (slices: one each)");
         args.add_double("--light-angle", &params.light_angle, -180, 180,
                         "light direction, degrees to the right of the camera");
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 08");
         args.add_switch("--no-correction", &params.no_correction,
-                        "use the TF opacities unchanged, whatever the slices' spacing");
-        args.add_choice("--interpolation", &params.interpolation, {"nearest"},
-                        "a sample is the voxel of its slice nearest its ray (step 38: bilinear)");
+                        "use the TF opacities unchanged, whatever the step");
+        args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
+                        "rays: the eight voxels around a sample, or the nearest; slices: nearest");
         add_camera_flags(args, &params);  // common/camera_flags.h
         const Options options = args.parse(argc, argv);
+        params.nearest = params.interpolation == "nearest";
         const View camera_image = camera_view(options, params);  // --size; no --view
         refuse_object_order_flags(options, params);  // --work-map, perspective
 
         // --- Volume ---
         const Volume volume = load_volume(options);
+        const std::string refused = too_many_samples_along_box(volume, params.step);
+        if (!refused.empty()) throw InputError(refused);
 
-        // --- Transfer function: the file (in the file's units) ---
+        // --- Transfer function: the file (in the file's units), its table for this step size ---
         TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
         if (params.skin_opacity >= 0) {
             set_opacity(tf, skin_label, params.skin_opacity, "--skin-opacity");
         }
-
-        // --- Once per view: the table's opacities for the slices' spacing ---
-        Lut lut;
-        double lut_ratio = -1;  // the ratio lut was made for; -1: none yet
-        auto prepare = [&](const Shear& shear) {
-            const double ratio = opacity_ratio(params, shear.spacing);
-            if (ratio != lut_ratio) {
-                lut = build_lut(tf, ratio);
-                lut_ratio = ratio;
-            }
-        };
+        Lut lut = build_lut(tf, opacity_ratio(params, params.step));
+        Lut slice_lut;          // the slices': opacities for their spacing, made once per view
+        std::vector<SliceShift> shifts;  // the slices' shifts, made for each render
+        double lut_ratio = -1;  // the ratio slice_lut was made for; -1: none yet
 
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does) ---
@@ -610,58 +784,34 @@ int main(int argc, char** argv) {
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {camera_image};
 
-        // --- Render: the slices into the intermediate image, rows shared by the threads; then
-        // the warp to the camera's image. The light turns with the camera ---
-        const bool mip = params.mode == "mip";
-        struct Frame {  // one view's factorisation, and what its pixels share
-            Camera camera;
-            Shear shear;
-            std::vector<SliceShift> shifts;
-            Vec3 to_light;               // unit vector towards the light; unused when unlit
+        // --- Light: towards it from every ray of a render (it turns with the camera), so
+        // worked out once per render, as step 10 does once per view; none with --unlit ---
+        auto light_towards = [&](const Camera& camera) {
+            return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
         };
-        auto frame_for = [&](const View& view) {
-            Frame frame;
-            frame.camera = make_camera(volume, params, view);
-            frame.shear = make_shear(volume, frame.camera);
-            for (int m = 0; m < frame.shear.nc; ++m) {
-                frame.shifts.push_back(slice_shift(frame.shear, m));
-            }
-            prepare(frame.shear);
-            frame.to_light =
-                params.unlit ? Vec3{} : light_direction(frame.camera, params.light_angle);
-            return frame;
+
+        // --- Render: one ray per pixel ---
+        auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
+                         Trace* trace) {
+            const Scene scene{volume, camera, lut, to_light, params};
+            if (params.mode == "mip") return mip_ray(scene, x, y, work, trace);
+            return over_background(composite_ray(scene, x, y, work, trace));
         };
-        auto scene_for = [&](const Frame& frame) {
-            return Scene{volume, frame.shear, frame.shifts, lut,
-                         frame.to_light, params};
-        };
-        renderer.image = [&](const View& view, Work& work) {
-            const Frame frame = frame_for(view);
-            const Scene scene = scene_for(frame);
-            const Shear& shear = frame.shear;
-            const Image intermediate =  // common/object_order.h: rows to the threads
-                mip ? intermediate_image(scene, shear.width, shear.height, options.threads,
-                                         work, -std::numeric_limits<float>::infinity(),
-                                         mip_row, [&](float h) { return mip_colour(volume, h); })
-                    : intermediate_image(scene, shear.width, shear.height, options.threads,
-                                         work, Accumulated{}, composite_row, composite_colour);
-            auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
-                return warp_pixel(q, width, height, pixel);
-            };
-            auto mix = [](const Rgb& p, const Rgb& q, float f) { return mix_rgb(p, q, f); };
-            return warp_intermediate(view, options.threads, work,  // common/object_order.h
-                                     make_warp(volume, shear, frame.camera), intermediate, blend,
-                                     mix);
-        };
-        renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
-            const Frame frame = frame_for(view);
-            return shear_warp_pixel(scene_for(frame), frame.camera, x, y, work, trace);
-        };
-        renderer.ray_samples = [&](const View& view) {
-            const Shear shear = make_shear(volume, make_camera(volume, params, view));
-            return slice_samples(shear.c, shear.spacing);
-        };
+        auto camera_for = [&](const View& view) { return make_camera(volume, params, view); };
+        cast_camera_rays(renderer, options.threads, params.step, camera_for, light_towards,
+                         pixel);  // common/camera_flags.h: renderer.image, .ray, .ray_samples
+        renderer.knob = {"step",
+                         [&](const View&, int steps) {
+                             const double step = std::clamp(
+                                 params.step * std::pow(step_key_factor, steps), min_step,
+                                 max_step);
+                             if (!too_many_samples_along_box(volume, step).empty()) return;
+                             params.step = step;
+                             lut = build_lut(tf, opacity_ratio(params, params.step));
+                         },
+                         [&] { return summary_number(params.step); }};
         renderer.orbit = camera_orbit(&params);  // the window's drag and wheel
+
         renderer.settings = [&] {
             const TfRange* skin = find_range(tf, skin_label);
             return "mode=" + params.mode + " tf=" + tf.source +
@@ -670,9 +820,46 @@ int main(int argc, char** argv) {
                    " light_angle=" + std::to_string(int(std::lround(params.light_angle))) +
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
-                   camera_settings(params) + " interpolation=" + params.interpolation +
-                   " opacity_ratio=" + summary_number(lut_ratio);
+                   camera_settings(params) + " interpolation=" +
+                   (by_rays(camera_for(camera_image)) ? params.interpolation
+                                                      : std::string("nearest")) +
+                   " opacity_ratio=" + summary_number(by_rays(camera_for(camera_image))
+                                                          ? opacity_ratio(params, params.step)
+                                                          : lut_ratio);
         };
+
+        // --- Object order, any angle: the slices into the intermediate image, rows shared
+        // by the threads, then the warp; every other view is step 30's rays ---
+        Renderer rays = renderer;  // step 30's, for the views by_rays() gives it
+        auto rays_take = [&](const Camera& c) { return by_rays(c); };
+        auto shear_for = [&](const Camera& camera) { return make_shear(volume, camera); };
+        auto scene_for = [&](const Camera& camera, const Shear& shear) {
+            const double ratio = opacity_ratio(params, shear.spacing);
+            if (ratio != lut_ratio) {
+                slice_lut = build_lut(tf, ratio);
+                lut_ratio = ratio;
+            }
+            shifts.clear();  // the view's slices' shifts, made with its scene
+            for (int m = 0; m < shear.nc; ++m) shifts.push_back(slice_shift(shear, m));
+            return Scene{volume, camera, slice_lut, light_towards(camera), params, &shear,
+                         &shifts};
+        };
+        auto slices = [&](const View& view, const Scene& scene, Work& work) {
+            const Shear& shear = *scene.shear;
+            const Image intermediate =  // rows to the threads
+                params.mode == "mip"
+                    ? intermediate_image(scene, shear.width, shear.height, options.threads, work,
+                                         -std::numeric_limits<float>::infinity(), mip_row,
+                                         [&](float h) { return mip_colour(volume, h); })
+                    : intermediate_image(scene, shear.width, shear.height, options.threads, work,
+                                         Accumulated{}, composite_row, composite_colour);
+            auto mix = [](const Rgb& p, const Rgb& q, float f) { return mix_rgb(p, q, f); };
+            return warp_intermediate(view, options.threads, work,
+                                     make_warp(volume, shear, scene.camera), intermediate, blend,
+                                     mix);
+        };
+        slices_or_rays(renderer, rays, camera_for, rays_take, shear_for, scene_for, slices,
+                       shear_warp_pixel);  // common/object_order.h: .image, .ray, .ray_samples
 
         // --- Output: a PNG and a summary line, then the preview window ---
         return run_views(options, volume, renderer);

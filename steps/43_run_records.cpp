@@ -24,11 +24,16 @@ constexpr double default_ert = 0.01;        // stop a ray once T is below this; 
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
 constexpr double unit_length = 1;     // physical length the TF opacities hold for: one voxel
                                       // at spacing 1
+constexpr double default_step = 1;    // physical units between two samples along a ray
+constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr double default_light_angle = 30;  // degrees to the right of the viewer
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
 constexpr float ambient = 0.1f;             // light that reaches every surface, 0..1
 constexpr double degrees = 3.14159265358979323846 / 180;
+// Samples at t_entry + n*step up to t_exit; the last may be this many steps past the exit in
+// rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
+constexpr double sample_count_slack = 1e-9;
 constexpr double max_table_bytes = 2.0 * (1 << 30);  // bytes: a larger normal table is not
                                                     // built (gradients from the voxels)
 
@@ -37,6 +42,7 @@ struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, 
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
     double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
     double ert = default_ert;  // early ray termination threshold for T
+    double step = default_step;  // physical units between samples (step 30's rays)
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 08)
     bool no_correction = false;  // use the TF opacities as they are, whatever the spacing
@@ -237,12 +243,88 @@ static Lut build_lut(const TransferFunction& tf, double ratio) {
 }
 //< lesson: lookup_table
 
+// A ray's samples in voxel units, worked out once per ray: sample n is at first + n * per_step
+// (voxel coordinates: physical / spacing), for n = 0 .. count - 1.
+struct Walk {
+    Vec3d first, per_step;
+    long long count = 0;
+
+    Vec3d at(long long n) const {
+        const double s = double(n);
+        return {first.i + s * per_step.i, first.j + s * per_step.j, first.k + s * per_step.k};
+    }
+};
+
+// The eight voxels around a point: the voxel at or below it (the low corner), how far the
+// point is past it along each axis (0..1), and the high corner, the next voxel along each
+// axis (at the last voxel of an axis: that voxel again).
+struct Cell {
+    int i = 0, j = 0, k = 0;           // the low corner
+    float fi = 0, fj = 0, fk = 0;      // the point's fractions past it
+    int i1 = 0, j1 = 0, k1 = 0;        // the high corner
+};
+
 // Given: a value fraction f of the way from a to b: a itself when f = 0.
 static float lerp(float a, float b, float f) { return a + f * (b - a); }
 
+//> lesson: trilinear
+// The ray's samples from its entry to its exit, `step` physical units apart, in voxel units:
+// the divisions by the spacing are done here, once per ray, not at every sample.
+static Walk walk_through(const Volume& volume, const Ray& ray, const Span& span, double step) {
+    const Vec3d entry = entry_point(ray, span, box_high(volume));
+    Walk walk;
+    walk.first = {entry.i / volume.sx, entry.j / volume.sy, entry.k / volume.sz};
+    walk.per_step = {step * ray.direction.i / volume.sx, step * ray.direction.j / volume.sy,
+                     step * ray.direction.k / volume.sz};
+    walk.count = (long long)(std::floor((span.t_exit - span.t_entry) / step +
+                                        sample_count_slack)) + 1;
+    return walk;
+}
+
+// Along one axis: u is the point's coordinate in voxels, kept within 0 .. count - 1. At a
+// voxel centre the fraction is exactly 0, so that voxel comes back as it is.
+static void low_corner(double u, int count, int* low, float* fraction) {
+    u = std::clamp(u, 0.0, double(count - 1));
+    *low = std::min(int(u), count - 1);  // u >= 0: int() rounds down
+    *fraction = float(u - *low);
+}
+
+static Cell cell_at(const Volume& volume, const Vec3d& point, bool nearest) {
+    Cell cell;
+    // nearest: the point first moves to the nearest voxel centre (a half rounds up), so
+    // every fraction is 0 and the low corner is that voxel.
+    const Vec3d p = nearest ? Vec3d{std::floor(point.i + 0.5), std::floor(point.j + 0.5),
+                                    std::floor(point.k + 0.5)}
+                            : point;
+    low_corner(p.i, volume.nx, &cell.i, &cell.fi);
+    low_corner(p.j, volume.ny, &cell.j, &cell.fj);
+    low_corner(p.k, volume.nz, &cell.k, &cell.fk);
+    cell.i1 = std::min(cell.i + 1, volume.nx - 1);
+    cell.j1 = std::min(cell.j + 1, volume.ny - 1);
+    cell.k1 = std::min(cell.k + 1, volume.nz - 1);
+    return cell;
+}
+
+// Trilinear interpolation: linear along i on the cell's four edges, then along j, then k.
+// Exact for any field linear in i, j and k (and so in physical space).
+static float trilinear(const Volume& volume, const Cell& c) {
+    const float low_low = lerp(volume.at(c.i, c.j, c.k), volume.at(c.i1, c.j, c.k), c.fi);
+    const float high_low = lerp(volume.at(c.i, c.j1, c.k), volume.at(c.i1, c.j1, c.k), c.fi);
+    const float low_high = lerp(volume.at(c.i, c.j, c.k1), volume.at(c.i1, c.j, c.k1), c.fi);
+    const float high_high = lerp(volume.at(c.i, c.j1, c.k1), volume.at(c.i1, c.j1, c.k1), c.fi);
+    return lerp(lerp(low_low, high_low, c.fj), lerp(low_high, high_high, c.fj), c.fk);
+}
+
+// A sample's value (--interpolation): the nearest voxel's, one read (cell_at put the cell's
+// low corner on it), or trilinear, eight.
+static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
+    return nearest ? float(volume.at(c.i, c.j, c.k)) : trilinear(volume, c);
+}
+//< lesson: trilinear
 
 // Given: lerp() for gradients.
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
+
 
 //> lesson: gradient
 // Step 10's derivative and gradient at a voxel, unchanged.
@@ -266,6 +348,26 @@ static Vec3 gradient_at(const Volume& volume, const Voxel& voxel, Work& work) {
             derivative(along_k, k, volume.nz, volume.sz)};
 }
 
+// The gradient at a point: the eight corner voxels' gradients interpolated trilinearly, as the
+// values are. At a voxel centre it is that voxel's gradient exactly (step 10's at its samples).
+static Vec3 gradient_trilinear(const Volume& volume, const Cell& c, Work& work) {
+    auto g = [&](int a, int b, int d) {  // corner a along i, b along j, d along k: 0 or 1
+        return gradient_at(volume, Voxel{a ? c.i1 : c.i, b ? c.j1 : c.j, d ? c.k1 : c.k}, work);
+    };
+    const Vec3 low_low = lerp_vector(g(0, 0, 0), g(1, 0, 0), c.fi);
+    const Vec3 high_low = lerp_vector(g(0, 1, 0), g(1, 1, 0), c.fi);
+    const Vec3 low_high = lerp_vector(g(0, 0, 1), g(1, 0, 1), c.fi);
+    const Vec3 high_high = lerp_vector(g(0, 1, 1), g(1, 1, 1), c.fi);
+    return lerp_vector(lerp_vector(low_low, high_low, c.fj), lerp_vector(low_high, high_high, c.fj),
+                       c.fk);
+}
+
+// A sample's gradient: with nearest samples the nearest voxel's own (step 10's, one voxel's
+// differences), else trilinear.
+static Vec3 sample_gradient(const Volume& volume, const Cell& c, bool nearest, Work& work) {
+    if (!nearest) return gradient_trilinear(volume, c, work);
+    return gradient_at(volume, Voxel{c.i, c.j, c.k}, work);
+}
 //< lesson: gradient
 
 //> lesson: shade
@@ -448,6 +550,7 @@ static void make_shading_table(const std::vector<Vec3>& directions, Vec3 to_ligh
 // Everything a render needs that is the same for every pixel.
 struct Scene {
     const Volume& volume;
+    const Camera& camera;
     const Shear& shear;
     const std::vector<SliceShift>& shifts;  // slice m's, front to back
     const Runs& runs;
@@ -457,6 +560,10 @@ struct Scene {
     Vec3 to_light;                   // unit vector towards the light; unused when unlit
     const Params& params;
 };
+
+// Given: the cameras the slices do not take, rendered by step 30's rays (composite_ray()
+// and mip_ray(), unchanged): a perspective one (the shear-warp here is orthographic).
+static bool by_rays(const Camera& camera) { return camera.perspective; }
 
 //> lesson: shear
 // The slices for any orthographic camera: c is the principal axis, the one along which the
@@ -700,26 +807,16 @@ static void pack_records(const Volume& volume, const Shear& shear, const NormalT
     find_starts(shear, runs);
 }
 
-// Given: a sample's light: its cell's four corners' light from the shading table, blended as
-// the values are (VolPack's way: the light is shaded at the voxels, then interpolated; step
-// 30 interpolates the gradients, then shades: the same along an axis, where the fractions are
-// 0, but for the directions' rounding).
-// Without a table (a volume too large for one), the corners' gradients from the voxels,
-// blended, then step 10's shade, as step 30 does.
-// Changed in step 42: the light from the quantised normals' shading table.
-static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
-                                int b, Work& work) {
+// Given: a sample's light: the gradients of its cell's four corners from the voxels (step
+// 10's gradient_at()), blended as the value is, then step 10's shade: step 30's light, with
+// the fraction along c at 0.
+// Speed: a call of its own, gradient_at() and shade() inlined into it (gnu::flatten), as
+// before step 30's rays called them too: the compiler then inlined this into composite_row()
+// instead, and step 38's warm render took 2-4% more instructions (callgrind, cases a, b).
+[[gnu::noinline, gnu::flatten]]
+static inline float slice_light(const Scene& scene, const SliceShift& s, int a, int b,
+                                Work& work) {
     work.gradients += 4;
-    if (scene.normals.indices) {
-        const uint16_t* n = &scene.normals.indices[index];
-        const float* light = scene.shading;
-        // On the voxels (along an axis: both fractions 0, the four corners one voxel): its
-        // light alone, the same float as the blend of four equal values.
-        if ((s.da | s.db) == 0) return light[n[0]];
-        const float low = lerp(light[n[0]], light[n[s.da]], s.fa);
-        const float high = lerp(light[n[s.db]], light[n[s.da + s.db]], s.fa);
-        return lerp(low, high, s.fb);
-    }
     const Shear& shear = scene.shear;
     const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
     Vec3 g[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
@@ -733,7 +830,84 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, size_t 
     return shade(lerp_vector(low, high, s.fb), scene.to_light);
 }
 
+// Given: a sample's light: its cell's four corners' light from the shading table, blended as
+// the values are (VolPack's way: the light is shaded at the voxels, then interpolated; step
+// 30 interpolates the gradients, then shades: the same along an axis, where the fractions are
+// 0, but for the directions' rounding).
+// Without a table (a volume too large for one), step 40's above: the corners' gradients from
+// the voxels, blended, then step 10's shade, as step 30 does.
+// Changed in step 42: the light from the quantised normals' shading table.
+static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
+                                int b, Work& work) {
+    if (scene.normals.indices) {
+        work.gradients += 4;
+        const uint16_t* n = &scene.normals.indices[index];
+        const float* light = scene.shading;
+        // On the voxels (along an axis: both fractions 0, the four corners one voxel): its
+        // light alone, the same float as the blend of four equal values.
+        if ((s.da | s.db) == 0) return light[n[0]];
+        const float low = lerp(light[n[0]], light[n[s.da]], s.fa);
+        const float high = lerp(light[n[s.db]], light[n[s.da + s.db]], s.fa);
+        return lerp(low, high, s.fb);
+    }
+    return slice_light(scene, s, a, b, work);  // no table: step 40's, above
+}
+
 //> lesson: composite
+// Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
+// each read by trilinear interpolation, classified by the table, lit where it is not
+// transparent, composited front to back; early ray termination as in step 08.
+// The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
+static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
+    const Volume& volume = scene.volume;
+    const Params& params = scene.params;
+    const double stop_below = std::max(params.ert, min_transparency);
+    const Vec3d high = box_high(volume);
+    const Ray ray = camera_ray(scene.camera, x, y);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
+    Accumulated pixel;
+    if (!span.hit) return pixel;
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const Cell cell = cell_at(volume, q, params.nearest);
+        const double t = span.t_entry + n * params.step;  // physical units along the ray
+        const float value = sample_value(volume, cell, params.nearest);
+        // The entry of the whole value at or below it (the range [from, to) it falls into):
+        // value - lowest_ct_value >= 0, so int() rounds down.
+        const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
+        ++work.samples;
+        const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+        if (sample.a == 0.0f) {
+            ++work.skipped;
+            if (trace) trace->sample(TraceSample(t, point, value).skipped());
+            continue;
+        }
+        double light = 1.0;  // unlit
+        if (!params.unlit) {
+            light = shade(sample_gradient(volume, cell, params.nearest, work), scene.to_light);
+        }
+        const double alpha = sample.a;  // the opacity, after the TF
+        const double weight = pixel.transparency * alpha * light;
+        pixel.r += weight * sample.r;
+        pixel.g += weight * sample.g;
+        pixel.b += weight * sample.b;
+        pixel.transparency *= 1 - alpha;
+        if (trace) {
+            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
+                              .colour(pixel.r, pixel.g, pixel.b)
+                              .transparency(pixel.transparency));
+        }
+        if (pixel.transparency < stop_below && n + 1 < walk.count) {
+            ++work.terminated;
+            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
+            break;
+        }
+    }
+    return pixel;
+}
+
 // Step 30's compositing of one sample, in double (step 07): colour weighted by opacity, light
 // and T; T multiplied by what the sample lets through.
 static inline void add_sample(Accumulated& pixel, const Rgba& sample, double light) {
@@ -824,6 +998,33 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
 //< lesson: composite
 
 //> lesson: mip
+// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
+// values go below 0), shown as grey; a ray that misses the box shows the background.
+// Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
+static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
+    const Volume& volume = scene.volume;
+    const Params& params = scene.params;
+    const Vec3d high = box_high(volume);
+    const Ray ray = camera_ray(scene.camera, x, y);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
+    if (!span.hit) return background;
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    float highest = 0;
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const float value = sample_value(volume, cell_at(volume, q, params.nearest),
+                                         params.nearest);
+        ++work.samples;
+        highest = n == 0 ? value : std::max(highest, value);
+        if (trace) {
+            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+            trace->sample(TraceSample(span.t_entry + n * params.step, p, value).max(highest));
+        }
+    }
+    return grey(display_grey(volume, highest));
+}
+
 // Row v of the maximum intensity: every cell the row meets in every slice, each pixel keeping
 // its highest sample. -infinity: none yet.
 // A row of cells contiguous in memory goes first through max_in_stretches() (given: vector
@@ -940,7 +1141,7 @@ int main(int argc, char** argv) {
         // --- Options: the shared flags plus this step's own ---
         Params params;
         Args args(step_name, "Shear-warp: the slices composited into an intermediate image, "
-                             "then one warp.");
+                             "then one warp; a perspective camera by step 30's rays.");
         args.add_choice("--mode", &params.mode, {"composite", "mip"},
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,
@@ -949,6 +1150,9 @@ int main(int argc, char** argv) {
                         "opacity of the range labelled skin (default: as the file says)");
         args.add_double("--ert", &params.ert, 0, 1,
                         "stop a pixel once its transparency T is below this (0: never)");
+        args.add_double("--step", &params.step, min_step, max_step,
+                        "perspective (step 30's rays): physical units between two "
+                        "samples along a ray; the slices ignore it");
         args.add_double("--light-angle", &params.light_angle, -180, 180,
                         "light direction, degrees to the right of the camera");
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 08");
@@ -960,10 +1164,14 @@ int main(int argc, char** argv) {
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         const View camera_image = camera_view(options, params);  // --size; no --view
-        refuse_object_order_flags(options, params);  // --work-map, perspective
+        refuse_object_order_flags(options, params);  // --work-map
 
         // --- Volume ---
         const Volume volume = load_volume(options);
+        const std::string refused = too_many_samples_along_box(volume, params.step);
+        if (!refused.empty() && params.projection == "perspective") {
+            throw InputError(refused);
+        }
 
         // --- Transfer function: the file (in the file's units) ---
         TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
@@ -1023,6 +1231,25 @@ int main(int argc, char** argv) {
         renderer.transfer_function = &tf;  // the ray picture draws its ranges
         renderer.views = {camera_image};
 
+        // --- Perspective: step 30's rays, as step 30 renders them, with its table for --step;
+        // the light towards it from every ray of a render, worked out once per render ---
+        const Lut ray_lut = build_lut(tf, opacity_ratio(params, params.step));
+        Renderer rays;
+        auto light_towards = [&](const Camera& camera) {
+            return params.unlit ? Vec3{} : light_direction(camera, params.light_angle);
+        };
+        auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
+                         Trace* trace) {
+            // Step 30's scene: the slices' members empty.
+            const Scene scene{volume, camera, {}, {}, {}, ray_lut, {}, {}, to_light, params};
+            if (params.mode == "mip") return mip_ray(scene, x, y, work, trace);
+            return over_background(composite_ray(scene, x, y, work, trace));
+        };
+        auto camera_for = [&](const View& view) { return make_camera(volume, params, view); };
+        cast_camera_rays(rays, options.threads, params.step, camera_for, light_towards,
+                         pixel);  // common/camera_flags.h: rays.image, .ray, .ray_samples
+        auto rays_take = [&](const View& view) { return by_rays(camera_for(view)); };
+
         // --- Render: the slices into the intermediate image, rows shared by the threads; then
         // the warp to the camera's image. The light turns with the camera ---
         const bool mip = params.mode == "mip";
@@ -1049,10 +1276,11 @@ int main(int argc, char** argv) {
             return frame;
         };
         auto scene_for = [&](const Frame& frame) {
-            return Scene{volume, frame.shear, frame.shifts, runs[frame.shear.c], lut,
+            return Scene{volume, frame.camera, frame.shear, frame.shifts, runs[frame.shear.c], lut,
                          normals, frame.shading.data(), frame.to_light, params};
         };
         renderer.image = [&](const View& view, Work& work) {
+            if (rays_take(view)) return rays.image(view, work);
             const Frame frame = frame_for(view);
             const Scene scene = scene_for(frame);
             const Shear& shear = frame.shear;
@@ -1071,10 +1299,12 @@ int main(int argc, char** argv) {
                                      mix);
         };
         renderer.ray = [&](const View& view, int x, int y, Work& work, Trace* trace) {
+            if (rays_take(view)) return rays.ray(view, x, y, work, trace);
             const Frame frame = frame_for(view);
             return shear_warp_pixel(scene_for(frame), frame.camera, x, y, work, trace);
         };
         renderer.ray_samples = [&](const View& view) {
+            if (rays_take(view)) return rays.ray_samples(view);
             const Shear shear = make_shear(volume, make_camera(volume, params, view));
             return slice_samples(shear.c, shear.spacing);
         };

@@ -275,6 +275,56 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
     }
 }
 
+// A shear-warp is orthographic: a perspective camera is handed to step 30's rays, kept
+// verbatim. Its picture, counters and trace are step 30's, to the bit (lit composite with a
+// traced pixel, and the maximum), at --step 0.75 (the rays' spacing, which the slices ignore).
+static void perspective_by_rays(const std::string& last) {
+    std::vector<std::string> camera = {"--projection", "perspective", "--azimuth", "200",
+                                       "--elevation", "-25", "--fov", "40", "--zoom", "1.3",
+                                       "--size", "48x40", "--step", "0.75"};
+    const std::vector<std::string> phantom = phantom_flags();
+    camera.insert(camera.begin(), phantom.begin(), phantom.end());
+    auto with = [&](std::vector<std::string> more) {
+        more.insert(more.begin(), camera.begin(), camera.end());
+        return more;
+    };
+    for (const std::vector<std::string>& flags :
+         {with({"--debug-pixel", "24,21"}), with({"--mode", "mip"})}) {
+        INFO(last << " " << flags.back());
+        const StepRender plain = render(first_part3_step, flags);
+        const StepRender slices = render(last, flags);
+        const ctlab::Image& expected = plain.image("camera");
+        double brightest = 0;  // not two empty pictures
+        for (const ctlab::Rgb& p : expected.pixels) brightest = std::max(brightest, double(p.g));
+        CHECK(brightest > 0.2);
+        REQUIRE(slices.image("camera").pixels.size() == expected.pixels.size());
+        CHECK(largest_difference(slices.image("camera"), expected) == 0);
+        for (const char* counter : {"samples", "skipped", "leapt", "gradients", "terminated"}) {
+            INFO(counter);
+            CHECK(ctlab::summary_count(slices.summary("camera"), counter) ==
+                  ctlab::summary_count(plain.summary("camera"), counter));
+        }
+        CHECK(ctlab::summary_count(plain.summary("camera"), "samples") > 0);
+        REQUIRE(plain.run.traces.size() == slices.run.traces.size());
+        for (size_t n = 0; n < plain.run.traces.size(); ++n) {
+            const ctlab::PixelTrace &a = plain.run.traces[n], &b = slices.run.traces[n];
+            CHECK(a.complete);
+            CHECK(a.samples > 0);
+            CHECK(b.lines == a.lines);
+            CHECK(b.samples == a.samples);
+            CHECK(b.png[0] == a.png[0]);
+            CHECK(b.png[1] == a.png[1]);
+            CHECK(b.png[2] == a.png[2]);
+        }
+    }
+}
+
+TEST_CASE("part 3: the shear and the last slice step render a perspective camera by step 30's "
+          "rays") {
+    perspective_by_rays(shear_step);  // the first step that turns freely
+    perspective_by_rays(slice_steps().back());
+}
+
 TEST_CASE("part 3: the slice steps refuse --work-map, whose per-ray counts they do not keep") {
     // Their counters are per slice row of the intermediate image; an output pixel blends four
     // intermediate pixels, so a map of per-pixel counts would not sum to the summary line's.
