@@ -5,9 +5,9 @@
 //             run keeps a record per voxel column it covers (two rows' values and normal
 //             indices, 8 bytes), packed run after run in slice order once per transfer
 //             function and principal axis (pack_slice()): a sample reads its record and the
-//             next one, one stream. Step 42's pictures, to the bit. Orthographic only; one
-//             sample per slice, so no --step.
-//             --work-map is refused: the work is counted per row of the intermediate image.
+//             next one, one stream. Step 42's pictures, to the bit. A perspective camera:
+//             step 30's rays (--step their spacing). --work-map is refused: the work is
+//             counted per row of the intermediate image.
 // Builds on:  42_quantised_normals.
 // Handout:    handouts/43_run_records.md
 // Run:        make run STEP=43 ARGS="--azimuth 180 --elevation 90 --size 256x256"
