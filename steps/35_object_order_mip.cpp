@@ -411,6 +411,8 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
+// --- Object order, along an axis (steps 35 and 36) ---
+
 // The slices: the planes of voxels across axis c, the axis the camera looks along; a, b a
 // slice's axes (a the lower: a row is contiguous in memory when a is i). Along an axis each
 // ray runs down one voxel column: intermediate pixel (u, v) meets slice c at voxel (u, v).
@@ -427,11 +429,41 @@ struct Shear {
 struct Scene {
     const Volume& volume;
     const Camera& camera;
+    const Shear& shear;  // the slices (object order); empty for step 30's rays
     const Lut& lut;
     Vec3 to_light;  // unit vector towards the light; unused when unlit
     const Params& params;
-    const Shear* shear = nullptr;  // the slices (object order); none for step 30's rays
 };
+
+// Given: the views the slices do not take (at an angle, or perspective) are step 30's rays.
+static bool by_rays(const Camera& camera) {
+    return camera.perspective || !along_an_axis(camera.forward);
+}
+
+//> lesson: slices
+// The slices for a camera along an axis: c is the axis it looks along, front to back is the
+// sign of the view direction along it. The intermediate image is one pixel per voxel column.
+static Shear make_shear(const Volume& volume, const Camera& camera) {
+    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
+    const int counts[3] = {volume.nx, volume.ny, volume.nz};
+    const size_t strides[3] = {1, size_t(volume.nx), size_t(volume.nx) * size_t(volume.ny)};
+    Shear shear;
+    for (int axis = 0; axis < 3; ++axis) {
+        if (camera.forward[axis] != 0) shear.c = axis;
+    }
+    shear.a = shear.c == 0 ? 1 : 0;
+    shear.b = shear.c == 2 ? 1 : 2;
+    shear.na = counts[shear.a], shear.nb = counts[shear.b], shear.nc = counts[shear.c];
+    shear.stride_a = strides[shear.a], shear.stride_b = strides[shear.b];
+    shear.stride_c = strides[shear.c];
+    const bool forwards = camera.forward[shear.c] > 0;
+    shear.first_slice = forwards ? 0 : shear.nc - 1;
+    shear.slice_step = forwards ? 1 : -1;
+    shear.width = shear.na, shear.height = shear.nb;
+    shear.spacing = spacing[shear.c];
+    return shear;
+}
+//< lesson: slices
 
 //> lesson: composite
 // Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
@@ -516,40 +548,11 @@ static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     }
     return grey(display_grey(volume, highest));
 }
-//< lesson: mip
 
-// --- Object order, along an axis (steps 35 and 36) ---
-
-//> lesson: slices
-// The slices for a camera along an axis: c is the axis it looks along, front to back is the
-// sign of the view direction along it. The intermediate image is one pixel per voxel column.
-static Shear make_shear(const Volume& volume, const Camera& camera) {
-    const double spacing[3] = {volume.sx, volume.sy, volume.sz};
-    const int counts[3] = {volume.nx, volume.ny, volume.nz};
-    const size_t strides[3] = {1, size_t(volume.nx), size_t(volume.nx) * size_t(volume.ny)};
-    Shear shear;
-    for (int axis = 0; axis < 3; ++axis) {
-        if (camera.forward[axis] != 0) shear.c = axis;
-    }
-    shear.a = shear.c == 0 ? 1 : 0;
-    shear.b = shear.c == 2 ? 1 : 2;
-    shear.na = counts[shear.a], shear.nb = counts[shear.b], shear.nc = counts[shear.c];
-    shear.stride_a = strides[shear.a], shear.stride_b = strides[shear.b];
-    shear.stride_c = strides[shear.c];
-    const bool forwards = camera.forward[shear.c] > 0;
-    shear.first_slice = forwards ? 0 : shear.nc - 1;
-    shear.slice_step = forwards ? 1 : -1;
-    shear.width = shear.na, shear.height = shear.nb;
-    shear.spacing = spacing[shear.c];
-    return shear;
-}
-//< lesson: slices
-
-//> lesson: mip_rows
 // Row v of the maximum intensity: every voxel the row meets in every slice, each pixel keeping
 // its highest sample. -infinity: none yet.
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
-    const Shear& shear = *scene.shear;
+    const Shear& shear = scene.shear;
     for (int m = 0; m < shear.nc; ++m) {
         const int c = shear.first_slice + m * shear.slice_step;
         const int16_t* slice_row = &scene.volume.data[c * shear.stride_c + v * shear.stride_b];
@@ -559,7 +562,7 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
         work.samples += shear.width;
     }
 }
-//< lesson: mip_rows
+//< lesson: mip
 
 static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
@@ -603,7 +606,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 // warp point, each alone as the rows take it, blended by the warp: the image's pixel exactly.
 static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
-    const Shear& shear = *scene.shear;
+    const Shear& shear = scene.shear;
     const Ray ray = camera_ray(scene.camera, x, y);
     const Vec3d high = box_high(volume);
     trace_ray(trace, ray, intersect_box(ray, Vec3d{}, high), high, shear.spacing);
@@ -612,11 +615,6 @@ static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace*
     };
     return axis_pixel_traced(volume, shear, make_warp(volume, shear, scene.camera), x, y, trace,
                              column, blend);
-}
-
-// Given: the views the slices do not take (at an angle, or perspective) are step 30's rays.
-static bool by_rays(const Camera& camera) {
-    return camera.perspective || !along_an_axis(camera.forward);
 }
 
 int main(int argc, char** argv) {
@@ -674,7 +672,7 @@ int main(int argc, char** argv) {
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
-            const Scene scene{volume, camera, lut, to_light, params};
+            const Scene scene{volume, camera, {}, lut, to_light, params};  // no slices
             if (params.mode == "mip") return mip_ray(scene, x, y, work, trace);
             return over_background(composite_ray(scene, x, y, work, trace));
         };
@@ -710,10 +708,10 @@ int main(int argc, char** argv) {
         auto rays_take = [&](const Camera& c) { return params.mode != "mip" || by_rays(c); };
         auto shear_for = [&](const Camera& camera) { return make_shear(volume, camera); };
         auto scene_for = [&](const Camera& camera, const Shear& shear) {
-            return Scene{volume, camera, lut, Vec3{}, params, &shear};
+            return Scene{volume, camera, shear, lut, Vec3{}, params};
         };
         auto slices = [&](const View& view, const Scene& scene, Work& work) {
-            const Shear& shear = *scene.shear;
+            const Shear& shear = scene.shear;
             const Image intermediate = intermediate_image(  // rows to the threads
                 scene, shear.width, shear.height, options.threads, work,
                 -std::numeric_limits<float>::infinity(), mip_row,

@@ -344,8 +344,9 @@ TEST_CASE("part 3: the slice steps refuse --work-map, whose per-ray counts they 
 }
 
 TEST_CASE("part 3: a camera with a turn_step takes the nearest multiple as the drag adds up") {
-    // Step 36's window (common/camera_flags.h): the drag's angles add up freely; the camera
-    // takes the nearest multiple of 90 degrees, so it always looks along an axis.
+    // The window of a step with a turn_step (common/camera_flags.h; no step sets one since
+    // steps 35 and 36 hand other angles to step 30's rays): the drag's angles add up freely;
+    // the camera takes the nearest multiple of 90 degrees, so it always looks along an axis.
     ctlab::CameraFlags camera;
     camera.azimuth = 180;
     camera.elevation = 90;
