@@ -410,6 +410,8 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
+// --- Object order from any orthographic camera: the shear (step 37) ---
+
 // The slices: the planes of voxels across axis c, the axis the camera looks along; a, b a
 // slice's axes (a the lower: a row is contiguous in memory when a is i). Along an axis each
 // ray runs down one voxel column: intermediate pixel (u, v) meets slice c at voxel (u, v).
@@ -437,99 +439,17 @@ struct SliceShift {
 struct Scene {
     const Volume& volume;
     const Camera& camera;
+    const Shear& shear;  // the slices (object order); empty for step 30's rays
+    const std::vector<SliceShift>& shifts;  // slice m's, front to back
     const Lut& lut;
     Vec3 to_light;  // unit vector towards the light; unused when unlit
     const Params& params;
-    const Shear* shear = nullptr;  // the slices (object order); none for step 30's rays
-    const std::vector<SliceShift>* shifts = nullptr;  // slice m's, front to back
 };
 
-//> lesson: composite
-// Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
-// each read by trilinear interpolation, classified by the table, lit where it is not
-// transparent, composited front to back; early ray termination as in step 08.
-// The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
-static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
-    const Volume& volume = scene.volume;
-    const Params& params = scene.params;
-    const double stop_below = std::max(params.ert, min_transparency);
-    const Vec3d high = box_high(volume);
-    const Ray ray = camera_ray(scene.camera, x, y);
-    const Span span = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, span, high, params.step);
-    Accumulated pixel;
-    if (!span.hit) return pixel;
-    const Walk walk = walk_through(volume, ray, span, params.step);
-    for (long long n = 0; n < walk.count; ++n) {
-        const Vec3d q = walk.at(n);  // voxel units
-        const Cell cell = cell_at(volume, q, params.nearest);
-        const double t = span.t_entry + n * params.step;  // physical units along the ray
-        const float value = sample_value(volume, cell, params.nearest);
-        // The entry of the whole value at or below it (the range [from, to) it falls into):
-        // value - lowest_ct_value >= 0, so int() rounds down.
-        const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
-        ++work.samples;
-        const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
-        if (sample.a == 0.0f) {
-            ++work.skipped;
-            if (trace) trace->sample(TraceSample(t, point, value).skipped());
-            continue;
-        }
-        double light = 1.0;  // unlit
-        if (!params.unlit) {
-            light = shade(sample_gradient(volume, cell, params.nearest, work), scene.to_light);
-        }
-        const double alpha = sample.a;  // the opacity, after the TF
-        const double weight = pixel.transparency * alpha * light;
-        pixel.r += weight * sample.r;
-        pixel.g += weight * sample.g;
-        pixel.b += weight * sample.b;
-        pixel.transparency *= 1 - alpha;
-        if (trace) {
-            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
-                              .colour(pixel.r, pixel.g, pixel.b)
-                              .transparency(pixel.transparency));
-        }
-        if (pixel.transparency < stop_below && n + 1 < walk.count) {
-            ++work.terminated;
-            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
-            break;
-        }
-    }
-    return pixel;
+// Given: the views the slices do not take (changed in step 37: perspective) are step 30's rays.
+static bool by_rays(const Camera& camera) {
+    return camera.perspective;
 }
-//< lesson: composite
-
-//> lesson: mip
-// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
-// values go below 0), shown as grey; a ray that misses the box shows the background.
-// Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
-static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
-    const Volume& volume = scene.volume;
-    const Params& params = scene.params;
-    const Vec3d high = box_high(volume);
-    const Ray ray = camera_ray(scene.camera, x, y);
-    const Span span = intersect_box(ray, Vec3d{}, high);
-    trace_ray(trace, ray, span, high, params.step);
-    if (!span.hit) return background;
-    const Walk walk = walk_through(volume, ray, span, params.step);
-    float highest = 0;
-    for (long long n = 0; n < walk.count; ++n) {
-        const Vec3d q = walk.at(n);  // voxel units
-        const float value = sample_value(volume, cell_at(volume, q, params.nearest),
-                                         params.nearest);
-        ++work.samples;
-        highest = n == 0 ? value : std::max(highest, value);
-        if (trace) {
-            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
-            trace->sample(TraceSample(span.t_entry + n * params.step, p, value).max(highest));
-        }
-    }
-    return grey(display_grey(volume, highest));
-}
-//< lesson: mip
-
-// --- Object order from any orthographic camera: the shear (step 37) ---
 
 //> lesson: slices
 // The slices for any orthographic camera: c is the principal axis (along it the view crosses
@@ -586,11 +506,65 @@ static SliceShift slice_shift(const Shear& shear, int m) {
 static inline float voxel_light(const Scene& scene, int a, int b, int c, Work& work) {
     work.gradients += 1;
     Work uncounted;
-    const Vec3 gradient = gradient_at(scene.volume, voxel_of(*scene.shear, a, b, c), uncounted);
+    const Vec3 gradient = gradient_at(scene.volume, voxel_of(scene.shear, a, b, c), uncounted);
     return shade(gradient, scene.to_light);
 }
 
-//> lesson: composite_rows
+//> lesson: composite
+// Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
+// each read by trilinear interpolation, classified by the table, lit where it is not
+// transparent, composited front to back; early ray termination as in step 08.
+// The bench's cases a, b and c (part 2's leaping comes back as step 31's trick).
+static Accumulated composite_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
+    const Volume& volume = scene.volume;
+    const Params& params = scene.params;
+    const double stop_below = std::max(params.ert, min_transparency);
+    const Vec3d high = box_high(volume);
+    const Ray ray = camera_ray(scene.camera, x, y);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
+    Accumulated pixel;
+    if (!span.hit) return pixel;
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const Cell cell = cell_at(volume, q, params.nearest);
+        const double t = span.t_entry + n * params.step;  // physical units along the ray
+        const float value = sample_value(volume, cell, params.nearest);
+        // The entry of the whole value at or below it (the range [from, to) it falls into):
+        // value - lowest_ct_value >= 0, so int() rounds down.
+        const Rgba& sample = scene.lut.entries[int(double(value) - lowest_ct_value)];
+        ++work.samples;
+        const Vec3d point = Vec3d{q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+        if (sample.a == 0.0f) {
+            ++work.skipped;
+            if (trace) trace->sample(TraceSample(t, point, value).skipped());
+            continue;
+        }
+        double light = 1.0;  // unlit
+        if (!params.unlit) {
+            light = shade(sample_gradient(volume, cell, params.nearest, work), scene.to_light);
+        }
+        const double alpha = sample.a;  // the opacity, after the TF
+        const double weight = pixel.transparency * alpha * light;
+        pixel.r += weight * sample.r;
+        pixel.g += weight * sample.g;
+        pixel.b += weight * sample.b;
+        pixel.transparency *= 1 - alpha;
+        if (trace) {
+            trace->sample(TraceSample(t, point, value).rgba(sample).light(light)
+                              .colour(pixel.r, pixel.g, pixel.b)
+                              .transparency(pixel.transparency));
+        }
+        if (pixel.transparency < stop_below && n + 1 < walk.count) {
+            ++work.terminated;
+            if (trace) trace->stop(pixel.transparency, stop_below, walk.count - 1 - n);
+            break;
+        }
+    }
+    return pixel;
+}
+
 // Step 30's compositing of one sample, in double (step 07): colour weighted by opacity, light
 // and T; T multiplied by what the sample lets through.
 static inline void add_sample(Accumulated& pixel, const Rgba& sample, double light) {
@@ -607,14 +581,14 @@ static inline void add_sample(Accumulated& pixel, const Rgba& sample, double lig
 // pixel is already opaque (early termination, pixel by pixel).
 // Changed in step 37: each slice shifted by whole voxels.
 static void composite_row(const Scene& scene, int v, Accumulated* row, Work& work) {
-    const Shear& shear = *scene.shear;
+    const Shear& shear = scene.shear;
     const bool unlit = scene.params.unlit;
     const double stop_below = std::max(scene.params.ert, min_transparency);
     const Rgba* lut = scene.lut.entries.data();
     // Speed: the counters are a local copy. The loop stores to the row; through a reference
     // the compiler would read them again after each store.
     Work counted;
-    for (const SliceShift& s : *scene.shifts) {
+    for (const SliceShift& s : scene.shifts) {
         const int b = v + s.ib;  // the row of voxels this image row meets
         if (b < 0 || b > s.last_b) continue;
         const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
@@ -637,19 +611,45 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
     }
     work.add(counted);
 }
-//< lesson: composite_rows
+//< lesson: composite
 
-//> lesson: mip_rows
+//> lesson: mip
+// Case d: step 18's maximum intensity along the same samples, from the first sample (CT
+// values go below 0), shown as grey; a ray that misses the box shows the background.
+// Changed in step 30: a free ray from the orbit camera, not step 01's ray along an axis.
+static Rgb mip_ray(const Scene& scene, int x, int y, Work& work, Trace* trace) {
+    const Volume& volume = scene.volume;
+    const Params& params = scene.params;
+    const Vec3d high = box_high(volume);
+    const Ray ray = camera_ray(scene.camera, x, y);
+    const Span span = intersect_box(ray, Vec3d{}, high);
+    trace_ray(trace, ray, span, high, params.step);
+    if (!span.hit) return background;
+    const Walk walk = walk_through(volume, ray, span, params.step);
+    float highest = 0;
+    for (long long n = 0; n < walk.count; ++n) {
+        const Vec3d q = walk.at(n);  // voxel units
+        const float value = sample_value(volume, cell_at(volume, q, params.nearest),
+                                         params.nearest);
+        ++work.samples;
+        highest = n == 0 ? value : std::max(highest, value);
+        if (trace) {
+            const Vec3d p = {q.i * volume.sx, q.j * volume.sy, q.k * volume.sz};
+            trace->sample(TraceSample(span.t_entry + n * params.step, p, value).max(highest));
+        }
+    }
+    return grey(display_grey(volume, highest));
+}
+
 // Row v of the maximum intensity: every voxel the row meets in every slice, each pixel keeping
 // its highest sample. -infinity: none yet.
 // Changed in step 37: each slice shifted by whole voxels.
 static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
-    const Shear& shear = *scene.shear;
-    for (const SliceShift& s : *scene.shifts) {
+    const Shear& shear = scene.shear;
+    for (const SliceShift& s : scene.shifts) {
         const int b = v + s.ib;
         if (b < 0 || b > s.last_b) continue;
-        const size_t row_index = s.slice * shear.stride_c + b * shear.stride_b;
-        const int16_t* slice_row = &scene.volume.data[row_index];
+        const int16_t* slice_row = &scene.volume.data[s.slice * shear.stride_c + b * shear.stride_b];
         const int u_low = std::max(0, -s.ia), u_high = std::min(shear.width, s.last_a + 1 - s.ia);
         for (int u = u_low; u < u_high; ++u) {
             const float value = slice_row[size_t(u + s.ia) * shear.stride_a];
@@ -658,7 +658,7 @@ static void mip_row(const Scene& scene, int v, float* highest, Work& work) {
         if (u_high > u_low) work.samples += u_high - u_low;
     }
 }
-//< lesson: mip_rows
+//< lesson: mip
 
 static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
     return {lerp(p.r, q.r, f), lerp(p.g, q.g, f), lerp(p.b, q.b, f)};
@@ -706,7 +706,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 // Changed in step 37: each slice's shift (common/object_order.h).
 static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
-    const Shear& shear = *scene.shear;
+    const Shear& shear = scene.shear;
     const Ray ray = camera_ray(scene.camera, x, y);
     const Vec3d high = box_high(volume);
     trace_ray(trace, ray, intersect_box(ray, Vec3d{}, high), high, shear.spacing);
@@ -716,7 +716,7 @@ static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace*
             return mip_colour(volume, maximum_column(shear.nc, ray, work, trace, at));
         }
         auto light = [&](int m) {
-            const SliceShift& s = (*scene.shifts)[m];
+            const SliceShift& s = scene.shifts[m];
             const int a = u + s.ia, b = v + s.ib;
             return scene.params.unlit ? 1.0 : voxel_light(scene, a, b, s.slice, work);
         };
@@ -727,12 +727,7 @@ static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace*
             shear.nc, scene.lut.entries.data(), stop_below, ray, work, trace, at, light, add));
     };
     const WarpMap warp = make_warp(volume, shear, scene.camera);
-    return shifted_pixel_traced(volume, shear, *scene.shifts, warp, x, y, trace, column, blend);
-}
-
-// Given: the views the slices do not take (changed in step 37: perspective) are step 30's rays.
-static bool by_rays(const Camera& camera) {
-    return camera.perspective;
+    return shifted_pixel_traced(volume, shear, scene.shifts, warp, x, y, trace, column, blend);
 }
 
 int main(int argc, char** argv) {
@@ -793,7 +788,7 @@ int main(int argc, char** argv) {
         // --- Render: one ray per pixel ---
         auto pixel = [&](const Camera& camera, Vec3 to_light, int x, int y, Work& work,
                          Trace* trace) {
-            const Scene scene{volume, camera, lut, to_light, params};
+            const Scene scene{volume, camera, {}, {}, lut, to_light, params};  // no slices
             if (params.mode == "mip") return mip_ray(scene, x, y, work, trace);
             return over_background(composite_ray(scene, x, y, work, trace));
         };
@@ -821,8 +816,7 @@ int main(int argc, char** argv) {
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
                    camera_settings(params) + " interpolation=" +
-                   (by_rays(camera_for(camera_image)) ? params.interpolation
-                                                      : std::string("nearest")) +
+                   (by_rays(camera_for(camera_image)) ? params.interpolation : "nearest") +
                    " opacity_ratio=" + summary_number(by_rays(camera_for(camera_image))
                                                           ? opacity_ratio(params, params.step)
                                                           : lut_ratio);
@@ -841,11 +835,11 @@ int main(int argc, char** argv) {
             }
             shifts.clear();  // the view's slices' shifts, made with its scene
             for (int m = 0; m < shear.nc; ++m) shifts.push_back(slice_shift(shear, m));
-            return Scene{volume, camera, slice_lut, light_towards(camera), params, &shear,
-                         &shifts};
+            return Scene{volume, camera, shear, shifts, slice_lut, light_towards(camera),
+                         params};
         };
         auto slices = [&](const View& view, const Scene& scene, Work& work) {
-            const Shear& shear = *scene.shear;
+            const Shear& shear = scene.shear;
             const Image intermediate =  // rows to the threads
                 params.mode == "mip"
                     ? intermediate_image(scene, shear.width, shear.height, options.threads, work,
