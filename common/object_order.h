@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <ctime>
 #include <limits>
 #include <string>
@@ -375,6 +376,38 @@ inline float record_light(const float* light, const Record* p, const Shift& s) {
     const float low = lerp(light[p[0].low_normal], light[p[1].low_normal], s.fa);
     const float high = lerp(light[p[0].high_normal], light[p[1].high_normal], s.fa);
     return lerp(low, high, s.fb);
+}
+
+// Given (step 46): the voxels of a stretch's two slice rows (low_row and high_row from
+// `from`, one more than its cells) at p and q, contiguous: the rows themselves where they
+// are, else copied into `copies` (strided rows, or at a row's end with the last voxel
+// repeated, as CellStretch::read() does).
+inline void stretch_rows(const int16_t* low_row, const int16_t* high_row, size_t sa, int na,
+                         int from, int16_t (&copies)[2][cell_stretch + 1], const int16_t** p,
+                         const int16_t** q) {
+    *p = low_row + from;
+    *q = high_row + from;
+    if (sa == 1 && from + cell_stretch <= na - 1) return;
+    const int inside = std::min(cell_stretch + 1, na - from);  // voxels in the row
+    if (sa == 1) {  // the row's end: copied at once (most rows' last stretch)
+        std::memcpy(copies[0], *p, size_t(inside) * sizeof(int16_t));
+        std::memcpy(copies[1], *q, size_t(inside) * sizeof(int16_t));
+    }
+    for (int n = sa == 1 ? inside : 0; n <= cell_stretch; ++n) {
+        copies[0][n] = low_row[size_t(from + std::min(n, inside - 1)) * sa];
+        copies[1][n] = high_row[size_t(from + std::min(n, inside - 1)) * sa];
+    }
+    *p = copies[0];
+    *q = copies[1];
+}
+
+// Given (step 46): whether all cell_stretch masks (each 0 or -1) are `value`, read as 64-bit
+// words at once.
+inline bool all_masks(const int8_t (&mask)[cell_stretch], int8_t value) {
+    static_assert(cell_stretch == 16, "two words");
+    uint64_t w[2];
+    std::memcpy(w, mask, sizeof w);
+    return value ? (w[0] & w[1]) == ~uint64_t(0) : (w[0] | w[1]) == 0;
 }
 
 // A table made once per transfer function and principal axis, and its cost, on a line of its

@@ -1,14 +1,14 @@
-// 46_vector_normals.cpp: the normal indices of a slice sixteen voxels at a time, in vector
-// instructions.
+// 46_vector_normals.cpp: shear-warp's precomputation in vector instructions: the cell test,
+// the records and the normal indices, several voxels at a time.
 //
-// New here:   step 45 computes the normal index of each voxel a record holds one at a time
-//             (voxel_normal(): six voxel reads, three differences, the rounding to a
-//             direction). Where a slice row is contiguous (its a is i), slice_normals() now
-//             takes its inside voxels sixteen at a time in a loop of fixed length: the same
-//             arithmetic without a branch (normal_index() is written for it), which the
-//             compiler makes vector instructions; a stretch of sixteen voxels no record needs
-//             is skipped at once. The same numbers as voxel_normal(): step 45's pictures, to
-//             the bit.
+// New here:   step 45's pass over the volume takes one cell, one record, one normal at a
+//             time. Here its inner loops are loops of fixed length over neighbouring voxels,
+//             which the compiler makes vector instructions (SSE2, in every x86-64 processor):
+//             find_runs() tests sixteen cells at once against the table's transparent
+//             ranges (two compares per range, no table read), pack_slice() copies a run's
+//             records sixteen at a time, and slice_normals() computes a contiguous row's
+//             normal indices eight at a time (normal_index() has no branch for that
+//             reason). The same runs, records and numbers: step 45's pictures, to the bit.
 // Builds on:  45_one_pass_precompute.
 // Handout:    handouts/46_vector_normals.md
 // Run:        make run STEP=46 ARGS="--azimuth 180 --elevation 90 --size 256x256"
@@ -642,23 +642,19 @@ static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
 }
 
 //> lesson: records
-// Slice c's normal indices, at normals[b * na + a], for the voxels needed[] marks (the
-// others are left as they were); how many it wrote. Changed in step 46: where a row is
-// contiguous (a is i), its inside voxels sixteen at a time in a loop of fixed length, which
-// the compiler makes vector instructions (normal_index() has no branch for that reason), the
-// rest voxel by voxel as in step 45: voxel_normal()'s numbers.
+// Slice c's normal indices, at normals[b * na + a], for the voxels needed[] marks (others
+// may be written too: only the needed are read); how many it needed. Changed in step 46:
+// where a row is contiguous (a is i), its inside voxels eight at a time in a loop of fixed
+// length, which the compiler makes vector instructions (normal_index() has no branch for
+// that reason; __restrict: normals[] is not the volume), the rest voxel by voxel as in step
+// 45: voxel_normal()'s numbers.
 static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
-                            const uint8_t* needed, uint16_t* normals) {
+                            const uint8_t* needed, uint16_t* __restrict normals) {
     const int na = shear.na, nb = shear.nb;
     const ptrdiff_t step_j = volume.nx, step_k = ptrdiff_t(volume.nx) * volume.ny;
     const float per_i = float(0.5 / volume.sx), per_j = float(0.5 / volume.sy),
                 per_k = float(0.5 / volume.sz);
     const bool slice_inside = c > 0 && c < shear.nc - 1;
-    auto none_needed = [](const uint8_t* mask) {  // sixteen bytes at once
-        uint64_t eight[2];
-        std::memcpy(eight, mask, sizeof eight);
-        return (eight[0] | eight[1]) == 0;
-    };
     size_t count = 0;
     for (int b = 0; b < nb; ++b) {
         const uint8_t* needed_row = &needed[size_t(b) * na];
@@ -666,19 +662,16 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
         int a = 0;
         if (shear.stride_a == 1 && slice_inside && b > 0 && b < nb - 1) {
             const int16_t* row = &volume.data[c * shear.stride_c + b * shear.stride_b];
-            for (a = 1; a + 16 <= na - 1; a += 16) {  // a = 0 and the row's end: below
-                if (none_needed(needed_row + a)) continue;
+            for (a = 1; a + 8 <= na - 1; a += 8) {  // a = 0 and the row's end: below
+                uint64_t mask;  // the eight bytes of needed[] at once
+                std::memcpy(&mask, needed_row + a, sizeof mask);
+                if (mask == 0) continue;
+                count += size_t((mask * 0x0101010101010101) >> 56);  // bytes summed
                 const int16_t* p = row + a;
-                uint16_t indices[16];  // a local: a store to out[] could change the voxels
-                for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
-                    indices[n] = normal_index({float(p[n + 1] - p[n - 1]) * per_i,
+                for (int n = 0; n < 8; ++n) {  // a fixed length: vector instructions
+                    out[a + n] = normal_index({float(p[n + 1] - p[n - 1]) * per_i,
                                                float(p[n + step_j] - p[n - step_j]) * per_j,
                                                float(p[n + step_k] - p[n - step_k]) * per_k});
-                }
-                for (int n = 0; n < 16; ++n) {
-                    if (!needed_row[a + n]) continue;
-                    out[a + n] = indices[n];
-                    ++count;
                 }
             }
             if (needed_row[0]) {
@@ -700,7 +693,8 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
 // record holds the values at (a, b) and (a, b + 1) and, for a lit composite, their normal
 // indices. The last column and row count again at the slice's edges. Changed in step 45:
 // the normal indices of the voxels the records hold, computed once (slice_normals()); how
-// many. Not inlined into find_runs() (its cell test would lose its vector instructions).
+// many. Changed in step 46: a run's records sixteen at a time where its row is contiguous.
+// Not inlined into find_runs() (its cell test would lose its vector instructions).
 [[gnu::noinline]] static size_t pack_slice(const Volume& volume, const Shear& shear, int c,
                                            const uint32_t* counts, const int32_t* bounds,
                                            bool lit, Records& records) {
@@ -724,6 +718,8 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
         lit ? slice_normals(volume, shear, c, needed.data(), normals.get()) : 0;
     const std::vector<uint16_t> none(lit ? 0 : na, 0);  // unlit: every normal index 0
     const size_t sa = shear.stride_a;
+    constexpr bool little = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;  // the fields' shifts:
+    constexpr int field[4] = {little ? 0 : 16, little ? 16 : 0, little ? 0 : 32, little ? 32 : 0};
     records.reset(new Record[columns]);  // left unset: every record is written below
     Record* out = records.get();
     run = bounds;
@@ -734,7 +730,19 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
         const uint16_t* low_normals = lit ? &normals[size_t(b) * na] : none.data();
         const uint16_t* high_normals = lit ? &normals[size_t(below) * na] : none.data();
         for (uint32_t r = 0; r < counts[b]; ++r, run += 2) {
-            for (int a = run[0]; a <= run[1]; ++a, ++out) {
+            int a = run[0];
+            for (; sa == 1 && a + 15 <= std::min(run[1], na - 1); a += 16, out += 16) {
+                uint64_t sixteen[16];  // a local (stored to out[], it could be the voxels)
+                for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
+                    const uint32_t values = uint32_t(uint16_t(low[a + n])) << field[0] |
+                                            uint32_t(uint16_t(high[a + n])) << field[1];
+                    const uint32_t normals_of = uint32_t(low_normals[a + n]) << field[0] |
+                                                uint32_t(high_normals[a + n]) << field[1];
+                    sixteen[n] = uint64_t(values) << field[2] | uint64_t(normals_of) << field[3];
+                }
+                std::memcpy(out, sixteen, sizeof sixteen);  // a record's 8 bytes a word
+            }
+            for (; a <= run[1]; ++a, ++out) {
                 const int column = std::min(a, na - 1);  // past the end: the last
                 *out = {low[column * sa], high[column * sa], low_normals[column],
                         high_normals[column]};
@@ -769,6 +777,25 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
         const int32_t first = stretch[low - lowest_ct_value];
         return first >= 0 && first == stretch[high - lowest_ct_value];
     };
+    // Changed in step 46: the table's stretches of transparent entries as ranges of values
+    // [first[r], last[r]] (the classic table's two: below -300, and 50 to 299; a slot left
+    // over holds no value): a cell is clear when a range holds its lowest and its highest
+    // corner, a test sixteen cells take at once in vector instructions. A table with more
+    // ranges than slots: clear(), cell by cell.
+    constexpr int slots = 2;
+    alignas(16) int16_t first[slots][16], last[slots][16];  // each 16 times: a vector's worth
+    std::fill(&first[0][0], &first[0][0] + slots * 16, int16_t(32767));
+    std::fill(&last[0][0], &last[0][0] + slots * 16, int16_t(-32768));
+    int ranges = 0;
+    for (size_t n = 0; n < stretch.size(); ++n) {
+        if (stretch[n] < 0) continue;
+        const int16_t value = int16_t(int(n) + lowest_ct_value);
+        if (n == 0 || stretch[n - 1] != stretch[n]) {
+            if (++ranges > slots) break;
+            std::fill(first[ranges - 1], first[ranges - 1] + 16, value);
+        }
+        std::fill(last[ranges - 1], last[ranges - 1] + 16, value);
+    }
     const int na = shear.na, nb = shear.nb;
     const size_t sa = shear.stride_a;
     std::vector<std::vector<int32_t>> bounds(shear.nc);  // per slice, its runs
@@ -789,17 +816,33 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
                 ++counts[c][b];
                 begin = -1;
             };
-            // Given: cell_stretch cells at a time, each cell's lowest and highest corner and
-            // the stretch's (common/object_order.h): a stretch of air is clear as a whole.
-            CellStretch cells;
+            // Sixteen cells at a time: their lowest and highest corners, then the ranges.
             for (int from = 0; from < na; from += cell_stretch) {
-                cells.read(low, high, sa, na, from);
-                if (clear(cells.lowest, cells.highest)) {
+                const int16_t *p, *q;  // given: the rows, or copies at the end or strided
+                int16_t copies[2][cell_stretch + 1];
+                stretch_rows(low, high, sa, na, from, copies, &p, &q);
+                int16_t lowest[16], highest[16];
+                int8_t cleared[16];  // -1: clear, 0: the table may see the cell
+                for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
+                    lowest[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
+                    highest[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
+                    int16_t outside = -1;  // -1 while no range holds the cell
+                    _Pragma("GCC unroll 2") for (int r = 0; r < slots; ++r) {  // unrolled
+                        outside &= int16_t(-((first[r][n] > lowest[n]) |
+                                             (highest[n] > last[r][n])));
+                    }
+                    cleared[n] = int8_t(~outside);
+                }
+                for (int n = 0; ranges > slots && n < 16; ++n) {
+                    cleared[n] = int8_t(-clear(lowest[n], highest[n]));
+                }
+                if (all_masks(cleared, -1)) {  // given: the sixteen at once
                     run_ends(from);
                     continue;
                 }
-                for (int n = 0; n < cells.count; ++n) {  // cell by cell
-                    if (clear(cells.low[n], cells.high[n])) {
+                if (all_masks(cleared, 0) && begin >= 0) continue;  // the run goes on
+                for (int n = 0, count = std::min(16, na - from); n < count; ++n) {  // one by one
+                    if (cleared[n]) {
                         run_ends(from + n);
                     } else if (begin < 0) {
                         begin = from + n;

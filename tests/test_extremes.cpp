@@ -102,11 +102,10 @@ std::vector<std::vector<std::string>> variants(const std::string& step) {
     }
     // Part 2: the camera from straight above in perspective (rays along k), nearest samples
     // without leaping, the longest step unlit, and each step's own paths.
-    // Steps 35 on (object order, shear-warp and its tricks) take one sample per slice and hand
-    // a perspective camera to step 30's rays (test_part3): no --projection perspective, no
-    // --step; its MIP from below and nearest samples below take their paths. Steps 35 and 36
-    // composite slices along an axis only and hand any other view to step 30's rays: one run
-    // along an axis, one at an angle.
+    // Steps 35 on (object order, shear-warp and its tricks) take one sample per slice (a
+    // perspective camera goes to step 30's rays, test_part3); their MIP from below and nearest
+    // samples below take their paths. Steps 35 and 36 take slices along an axis only and hand
+    // any other view to step 30's rays: one run along an axis, one at an angle.
     const bool shear_warp = step >= "35";
     const bool axes_and_rays = shear_warp && step < "37";
     if (ctlab_test::is_camera_step(step) && !shear_warp) {
