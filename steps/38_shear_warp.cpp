@@ -458,6 +458,7 @@ struct Scene {
 
 // Given: the cameras the slices do not take, rendered by step 30's rays (composite_ray()
 // and mip_ray(), unchanged): a perspective one (the shear-warp here is orthographic).
+// Changed in step 38: a view at an angle is the slices' too (shear-warp turns freely).
 static bool by_rays(const Camera& camera) { return camera.perspective; }
 
 //> lesson: shear

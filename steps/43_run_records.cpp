@@ -15,7 +15,7 @@
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 #include <cstring>  // std::memcpy: a float's bits
-#include <memory>  // std::unique_ptr: the normal table, left unwritten where not needed
+#include <memory>  // std::unique_ptr: arrays left unset until written
 using namespace ctlab;
 
 constexpr const char* step_name = "43_run_records";
@@ -473,7 +473,7 @@ struct Runs : SliceRuns {  // the runs (common/object_order.h), and their record
 };
 
 // Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
-// direction nearest its gradient's in a fixed set, two bytes at (k*ny + j)*nx + i like the
+// direction nearest its gradient's in a fixed set, two bytes kept in the records like the
 // voxels; a table made per render holds the light of every direction. A lit sample is then
 // four indices and four table reads, blended as the values are: no gradient, no shade. The
 // set is the octahedral one: a direction d is put on the octahedron |x| + |y| + |z| = 1 (d

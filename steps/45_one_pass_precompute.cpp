@@ -1,13 +1,11 @@
 // 45_one_pass_precompute.cpp: shear-warp's precomputation made fast: the runs, the records
 // and the normals in one threaded pass over the volume.
 //
-// New here:   step 43's first render makes its tables in passes over the volume: find_runs(),
-//             for a lit composite fill_normal_table() (a volume of normal indices), then
-//             pack_slice() per slice. Here find_runs() calls pack_slice() as soon as a slice's
-//             runs are found, while its voxels are in the cache, and pack_slice() computes the
-//             normal indices of the voxels its records hold (slice_normals()): no normal
-//             volume. The pictures are step 43's (and 39's), to the bit.
-// Builds on:  43_run_records.
+// New here:   step 44 makes its tables in two passes: find_runs(), then pack_records(). Here
+//             find_runs() calls pack_slice() as soon as a slice's runs are found, while its
+//             voxels are in the cache; pack_slice() marks the voxels its records hold as it
+//             counts them (slice_normals(): their indices). Step 43's pictures, to the bit.
+// Builds on:  44_slice_normals.
 // Handout:    handouts/45_one_pass_precompute.md
 // Run:        make run STEP=45 ARGS="--azimuth 180 --elevation 90 --size 256x256"
 // Reference:  data/reference/45_one_pass_precompute_camera.png: the default run (lit
@@ -784,7 +782,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
 // the values are (VolPack's way: the light is shaded at the voxels, then interpolated; step
 // 30 interpolates the gradients, then shades: the same along an axis, where the fractions are
 // 0, but for the directions' rounding).
-// Changed in step 45: each corner's normal index computed from the voxels (voxel_normal():
+// Changed in step 44: each corner's normal index computed from the voxels (voxel_normal():
 // there is no normal volume), record_light()'s float.
 static inline float slice_light(const Scene& scene, const SliceShift& s, int a, int b,
                                 Work& work) {
@@ -1041,7 +1039,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
 // composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
 // image's pixel to the bit. The trace follows each of the four sample by sample.
-// Changed in step 45: slice_light() computes the corners' normal indices (no normal volume).
+// Changed in step 44: slice_light() computes the corners' normal indices (no normal volume).
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;

@@ -866,7 +866,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
 // the values are (VolPack's way: the light is shaded at the voxels, then interpolated; step
 // 30 interpolates the gradients, then shades: the same along an axis, where the fractions are
 // 0, but for the directions' rounding).
-// Changed in step 45: each corner's normal index computed from the voxels (voxel_normal():
+// Changed in step 44: each corner's normal index computed from the voxels (voxel_normal():
 // there is no normal volume), record_light()'s float.
 static inline float slice_light(const Scene& scene, const SliceShift& s, int a, int b,
                                 Work& work) {
@@ -1123,7 +1123,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 // Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
 // composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
 // image's pixel to the bit. The trace follows each of the four sample by sample.
-// Changed in step 45: slice_light() computes the corners' normal indices (no normal volume).
+// Changed in step 44: slice_light() computes the corners' normal indices (no normal volume).
 static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
                             Trace* trace) {
     const Volume& volume = scene.volume;
