@@ -458,16 +458,14 @@ struct Scene {
 
 // Given: the cameras the slices do not take, rendered by step 30's rays (composite_ray()
 // and mip_ray(), unchanged): a perspective one (the shear-warp here is orthographic).
-// Changed in step 38: a view at an angle is the slices' too (shear-warp turns freely).
+// Changed in step 37: any orthographic view is sheared; only a perspective one is left.
 static bool by_rays(const Camera& camera) { return camera.perspective; }
 
 //> lesson: shear
-// The slices for any orthographic camera: c is the principal axis, the one along which the
-// view direction crosses most voxels per unit of length (then each slice is shifted by at most
-// one voxel against the one before, and a ray crosses every slice once); front to back is the
+// The slices for any orthographic camera: c is the principal axis (along it the view crosses
+// most voxels per unit length: a slice shifts by at most a voxel); front to back is the
 // sign of the view direction along it. The intermediate image is one pixel per voxel column.
-// Changed in step 37: any direction, not only along an axis; the shift per slice and the
-// intermediate image's size (wide enough for every slice's shift).
+// Changed in step 37: any direction; the shift per slice, the image wide enough for each.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};

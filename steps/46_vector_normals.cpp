@@ -472,17 +472,17 @@ struct Runs : SliceRuns {  // the runs (common/object_order.h), and their record
     }
 };
 
-// Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
-// direction nearest its gradient's in a fixed set, two bytes beside the voxel's value in the
-// records; a table made per render holds the light of every direction. A lit sample is then
-// four indices and four table reads, blended as the values are: no gradient, no shade. The
-// set is the octahedral one: a direction d is put on the octahedron |x| + |y| + |z| = 1 (d
-// over its length in that sum, no square root), its lower half folded over the upper, and
-// its (x, y) rounded to a grid of normal_grid x normal_grid points on [-1, 1]^2. Index 0 is
-// "no direction" (a gradient of 0: ambient light only, as shade() gives).
+// Quantised normals (VolPack's way): a voxel's gradient is rounded to the index of the
+// nearest direction in a fixed set, two bytes; a table made per render holds the light of
+// every direction. A lit sample is then four indices and four table reads, blended as the
+// values are: no shade per sample. The set is the octahedral one: a direction d is put on
+// the octahedron |x| + |y| + |z| = 1 (d over its length in that sum, no square root), its
+// lower half folded over the upper, and its (x, y) rounded to a grid of normal_grid x
+// normal_grid points on [-1, 1]^2. Index 0 is "no direction" (a gradient of 0: ambient light
+// only, as shade() gives).
 constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
                                   // directions, one within 1.9 degrees of any direction (0.67
-                                  // on average; handout 42, Quality)
+                                  // on average; handout 41, Quality)
 constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
 
 //> lesson: normals
@@ -555,15 +555,14 @@ struct Scene {
 
 // Given: the cameras the slices do not take, rendered by step 30's rays (composite_ray()
 // and mip_ray(), unchanged): a perspective one (the shear-warp here is orthographic).
+// Changed in step 37: any orthographic view is sheared; only a perspective one is left.
 static bool by_rays(const Camera& camera) { return camera.perspective; }
 
 //> lesson: shear
-// The slices for any orthographic camera: c is the principal axis, the one along which the
-// view direction crosses most voxels per unit of length (then each slice is shifted by at most
-// one voxel against the one before, and a ray crosses every slice once); front to back is the
+// The slices for any orthographic camera: c is the principal axis (along it the view crosses
+// most voxels per unit length: a slice shifts by at most a voxel); front to back is the
 // sign of the view direction along it. The intermediate image is one pixel per voxel column.
-// Changed in step 37: any direction, not only along an axis; the shift per slice and the
-// intermediate image's size (wide enough for every slice's shift).
+// Changed in step 37: any direction; the shift per slice, the image wide enough for each.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -1280,7 +1279,7 @@ int main(int argc, char** argv) {
             Shear shear;
             std::vector<SliceShift> shifts;
             Vec3 to_light;               // unit vector towards the light; unused when unlit
-            std::vector<float> shading;  // lit with normals: the light per normal index
+            std::vector<float> shading;  // lit composite: the light per normal index
         };
         auto frame_for = [&](const View& view) {
             Frame frame;

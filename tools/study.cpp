@@ -690,12 +690,13 @@ void shadows_study() {
 }
 
 // --- Shear-warp: what step 38's factorisation costs in quality, and what it saves; and step
-// 39's quantised normals, the one later shear-warp trick that changes the picture ----------
+// 41's quantised normals, the one later shear-warp trick that changes the picture (timed as
+// step 42 renders them, each voxel's index kept: step 41's pictures bit for bit) -----------
 
 constexpr const char* ray_caster_step = "30_speed_baseline";  // the reference: rays, step 1
 constexpr const char* fastest_ray_caster = "34_fine_bricks";  // the same pictures, faster
 constexpr const char* shear_warp_step = "38_shear_warp";
-constexpr const char* quantised_normals_step = "42_quantised_normals";  // lit: rounded normals
+constexpr const char* quantised_normals_step = "42_normal_volume";  // lit: rounded normals
 
 void shear_warp_study() {
     std::printf("shear-warp: step 38 against step 30 (and step 34's time) on the phantom at "

@@ -1,28 +1,25 @@
-// 42_quantised_normals.cpp: shear-warp's fourth trick, VolPack's quantised normals with a
-// shading table made per render.
+// 42_normal_volume.cpp: the fourth trick's second half, VolPack's normal volume: each
+// voxel a sample can read keeps its normal index.
 //
-// New here:   a lit sample no longer computes the four gradients of its cell's corners from
-//             the voxels (step 38's slice_light(), 24 voxel reads and a shade()). Each voxel a
-//             sample can read (the corners of the runs' cells) keeps the index of the nearest
-//             of 16,641 directions, in two bytes, made once per principal axis
-//             (fill_normal_table()); a table made per render holds each direction's light
-//             (make_shading_table()), so a lit sample is four table reads blended as the
-//             values are. It shades at the voxels and interpolates the light, as VolPack
-//             does: along an axis the pictures are step 40's but for the rounding of the
-//             directions (a stated error: tol=5 there, handout 42). Unlit and the maximum are
-//             step 40's floats. A perspective camera: step 30's rays (--step their spacing).
-//             --work-map is refused: the work is counted per row of the intermediate image.
-// Builds on:  40_opaque_pixels.
-// Handout:    handouts/42_quantised_normals.md
+// New here:   step 41's lit sample rounds its four corners' gradients to normal indices
+//             (voxel_normal(): six voxel reads, three differences, a division) in every
+//             render. Here each voxel a sample can read (the corners of the runs' cells) keeps
+//             its index, two bytes, made once per principal axis (fill_normal_table()), so a
+//             lit sample is four index reads and four shading table reads. Step 41's pictures
+//             and counters, bit for bit.
+//             A perspective camera: step 30's rays (--step their spacing). --work-map is
+//             refused: the work is counted per row of the intermediate image.
+// Builds on:  41_quantised_normals.
+// Handout:    handouts/42_normal_volume.md
 // Run:        make run STEP=42 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/42_quantised_normals_camera.png: the default run (lit composite,
+// Reference:  data/reference/42_normal_volume_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 #include <cstring>  // std::memcpy: a float's bits
 #include <memory>  // std::unique_ptr: the normal table, left unwritten where not needed
 using namespace ctlab;
 
-constexpr const char* step_name = "42_quantised_normals";
+constexpr const char* step_name = "42_normal_volume";
 constexpr Rgb background = {0, 0, 0};       // what a ray sees behind the volume: black
 constexpr double default_ert = 0.01;        // stop a ray once T is below this; 0: never
 constexpr double min_transparency = 1e-300;  // stop below this T even with --ert 0
@@ -39,7 +36,7 @@ constexpr double degrees = 3.14159265358979323846 / 180;
 // rounding (a ray 224 units long at step 2 gets 113 samples even when t_exit is 223.99999...).
 constexpr double sample_count_slack = 1e-9;
 constexpr double max_table_bytes = 2.0 * (1 << 30);  // bytes: a larger normal table is not
-                                                    // built (gradients from the voxels)
+                                                    // built (indices from the voxels)
 
 struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, --fov, --size
     std::string mode = "composite";  // "composite" or "mip"
@@ -456,20 +453,21 @@ struct SliceShift {
 
 using Runs = SliceRuns;  // the runs of cells the table may see (common/object_order.h)
 
-// Quantised normals (VolPack's way): each voxel a lit sample can read holds the index of the
-// direction nearest its gradient's in a fixed set, two bytes at (k*ny + j)*nx + i like the
-// voxels; a table made per render holds the light of every direction. A lit sample is then
-// four indices and four table reads, blended as the values are: no gradient, no shade. The
-// set is the octahedral one: a direction d is put on the octahedron |x| + |y| + |z| = 1 (d
-// over its length in that sum, no square root), its lower half folded over the upper, and
-// its (x, y) rounded to a grid of normal_grid x normal_grid points on [-1, 1]^2. Index 0 is
-// "no direction" (a gradient of 0: ambient light only, as shade() gives).
+// Quantised normals (VolPack's way): a voxel's gradient is rounded to the index of the
+// nearest direction in a fixed set, two bytes; a table made per render holds the light of
+// every direction. A lit sample is then four indices and four table reads, blended as the
+// values are: no shade per sample. The set is the octahedral one: a direction d is put on
+// the octahedron |x| + |y| + |z| = 1 (d over its length in that sum, no square root), its
+// lower half folded over the upper, and its (x, y) rounded to a grid of normal_grid x
+// normal_grid points on [-1, 1]^2. Index 0 is "no direction" (a gradient of 0: ambient light
+// only, as shade() gives).
 constexpr int normal_grid = 129;  // points per side, odd so that the axes are points: 16,641
                                   // directions, one within 1.9 degrees of any direction (0.67
-                                  // on average; handout 42, Quality)
+                                  // on average; handout 41, Quality)
 constexpr int normal_count = normal_grid * normal_grid + 1;  // with index 0
 
-// Only the voxels a sample can read are filled (fill_normal_table); other pages untouched.
+// The normal volume: each voxel's index, two bytes at (k*ny + j)*nx + i like the voxels. Only
+// the voxels a sample can read are filled (fill_normal_table); other pages untouched.
 struct NormalTable {
     std::unique_ptr<uint16_t[]> indices;  // per voxel its direction's index; null: no table
     bool filled[3] = {false, false, false};  // for the runs of principal axis 0, 1, 2
@@ -540,22 +538,21 @@ struct Scene {
     const Runs& runs;
     const Lut& lut;                  // opacities corrected for shear.spacing
     const NormalTable& normals;      // lit composite only
-    const float* shading;            // lit with normals: the light of every normal index
+    const float* shading;            // lit composite: the light of every normal index
     Vec3 to_light;                   // unit vector towards the light; unused when unlit
     const Params& params;
 };
 
 // Given: the cameras the slices do not take, rendered by step 30's rays (composite_ray()
 // and mip_ray(), unchanged): a perspective one (the shear-warp here is orthographic).
+// Changed in step 37: any orthographic view is sheared; only a perspective one is left.
 static bool by_rays(const Camera& camera) { return camera.perspective; }
 
 //> lesson: shear
-// The slices for any orthographic camera: c is the principal axis, the one along which the
-// view direction crosses most voxels per unit of length (then each slice is shifted by at most
-// one voxel against the one before, and a ray crosses every slice once); front to back is the
+// The slices for any orthographic camera: c is the principal axis (along it the view crosses
+// most voxels per unit length: a slice shifts by at most a voxel); front to back is the
 // sign of the view direction along it. The intermediate image is one pixel per voxel column.
-// Changed in step 37: any direction, not only along an axis; the shift per slice and the
-// intermediate image's size (wide enough for every slice's shift).
+// Changed in step 37: any direction; the shift per slice, the image wide enough for each.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -733,40 +730,14 @@ static void fill_normal_table(const Volume& volume, const Shear& shear, const Ru
     table.filled[shear.c] = true;
 }
 
-// Given: a sample's light: the gradients of its cell's four corners from the voxels (step
-// 10's gradient_at()), blended as the value is, then step 10's shade: step 30's light, with
-// the fraction along c at 0.
-// Speed: a call of its own, gradient_at() and shade() inlined into it (gnu::flatten), as
-// before step 30's rays called them too: the compiler then inlined this into composite_row()
-// instead, and step 38's warm render took 2-4% more instructions (callgrind, cases a, b).
-[[gnu::noinline, gnu::flatten]]
-static inline float slice_light(const Scene& scene, const SliceShift& s, int a, int b,
-                                Work& work) {
-    work.gradients += 4;
-    const Shear& shear = scene.shear;
-    const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
-    Vec3 g[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
-    for (int n = 0; n < 4; ++n) {
-        const Voxel corner = voxel_of(shear, a + (n & 1) * step_a, b + (n >> 1) * step_b,
-                                      s.slice);
-        Work uncounted;
-        g[n] = gradient_at(scene.volume, corner, uncounted);
-    }
-    const Vec3 low = lerp_vector(g[0], g[1], s.fa), high = lerp_vector(g[2], g[3], s.fa);
-    return shade(lerp_vector(low, high, s.fb), scene.to_light);
-}
-
 // Given: a sample's light: its cell's four corners' light from the shading table, blended as
-// the values are (VolPack's way: the light is shaded at the voxels, then interpolated; step
-// 30 interpolates the gradients, then shades: the same along an axis, where the fractions are
-// 0, but for the directions' rounding).
-// Without a table (a volume too large for one), step 40's above: the corners' gradients from
-// the voxels, blended, then step 10's shade, as step 30 does.
-// Changed in step 42: the light from the quantised normals' shading table.
+// the values are (step 41's), their normal indices read from the normal volume. Without one
+// (a volume too large for it), the indices computed from the voxels, as step 41 does.
+// Changed in step 42: the corners' normal indices read from the normal volume.
 static inline float slice_light(const Scene& scene, const SliceShift& s, size_t index, int a,
                                 int b, Work& work) {
+    work.gradients += 4;
     if (scene.normals.indices) {
-        work.gradients += 4;
         const uint16_t* n = &scene.normals.indices[index];
         const float* light = scene.shading;
         // On the voxels (along an axis: both fractions 0, the four corners one voxel): its
@@ -776,7 +747,20 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, size_t 
         const float high = lerp(light[n[s.db]], light[n[s.da + s.db]], s.fa);
         return lerp(low, high, s.fb);
     }
-    return slice_light(scene, s, a, b, work);  // no table: step 40's, above
+    const Shear& shear = scene.shear;
+    // On the voxels (along an axis: both fractions 0, the four corners one voxel): its light
+    // alone, the same float as the blend of four equal values.
+    const Voxel at = voxel_of(shear, a, b, s.slice);
+    if ((s.da | s.db) == 0) return scene.shading[voxel_normal(scene.volume, at)];
+    const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
+    float corner[4];  // corner a + 2b: a, b = 0 or 1 along the slice's axes
+    for (int n = 0; n < 4; ++n) {
+        const Voxel voxel =
+            voxel_of(shear, a + (n & 1) * step_a, b + (n >> 1) * step_b, s.slice);
+        corner[n] = scene.shading[voxel_normal(scene.volume, voxel)];
+    }
+    const float low = lerp(corner[0], corner[1], s.fa), high = lerp(corner[2], corner[3], s.fa);
+    return lerp(low, high, s.fb);
 }
 
 //> lesson: composite
@@ -1104,7 +1088,7 @@ int main(int argc, char** argv) {
         // table's opacities for the slices' spacing; for a lit composite, the shading table ---
         Runs runs[3];  // per principal axis
         NormalTable normals;
-        std::vector<Vec3> directions;  // per normal index, made with the first table
+        std::vector<Vec3> directions;  // per normal index, made with the first shading table
         const double table_bytes = double(sizeof(uint16_t)) * volume.voxel_count();
         const bool normal_table = params.mode == "composite" && !params.unlit &&
                                   table_bytes <= max_table_bytes;
@@ -1125,7 +1109,6 @@ int main(int argc, char** argv) {
             auto make = [&] {
                 if (new_runs) runs[shear.c] = find_runs(volume, shear, seen, options.threads);
                 if (new_normals) {
-                    if (directions.empty()) directions = normal_directions();
                     fill_normal_table(volume, shear, runs[shear.c], options.threads, normals);
                 }
             };
@@ -1171,7 +1154,7 @@ int main(int argc, char** argv) {
             Shear shear;
             std::vector<SliceShift> shifts;
             Vec3 to_light;               // unit vector towards the light; unused when unlit
-            std::vector<float> shading;  // lit with normals: the light per normal index
+            std::vector<float> shading;  // lit composite: the light per normal index
         };
         auto frame_for = [&](const View& view) {
             Frame frame;
@@ -1183,7 +1166,8 @@ int main(int argc, char** argv) {
             prepare(frame.shear);
             frame.to_light =
                 params.unlit ? Vec3{} : light_direction(frame.camera, params.light_angle);
-            if (normals.indices && !mip) {
+            if (!params.unlit && !mip) {
+                if (directions.empty()) directions = normal_directions();
                 make_shading_table(directions, frame.to_light, options.threads, frame.shading);
             }
             return frame;
