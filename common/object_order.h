@@ -562,4 +562,27 @@ void slices_or_rays(Renderer& renderer, const Renderer& rays, CameraFor camera_f
     };
 }
 
+// One output pixel alone for a shear by whole voxels (step 37), as axis_pixel_traced() makes
+// it: intermediate pixel (u, v) meets slice m at voxel (u + ia, v + ib) of it (shifts[m], front
+// to back; no sample where the slice does not hold that voxel, up to last_a and last_b).
+template <class Shear, class Shift, class Column, class WarpPixel>
+Rgb shifted_pixel_traced(const Volume& volume, const Shear& shear,
+                         const std::vector<Shift>& shifts, const WarpMap& warp, int x, int y,
+                         Trace* trace, Column column, WarpPixel warp_pixel) {
+    const WarpPoint p = warp_at(warp, x, y);
+    trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
+    auto pixel = [&](int u, int v) {
+        auto at = [&](int m) {  // its voxel in slice m, if the slice holds it
+            const Shift& s = shifts[m];
+            const int a = u + s.ia, b = v + s.ib;
+            if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) return ColumnSample{};
+            const Voxel voxel = voxel_of(shear, a, b, s.slice);
+            return ColumnSample{true, slice_point(volume, shear, a, b, s.slice),
+                                float(volume.at(voxel.i, voxel.j, voxel.k))};
+        };
+        return column(u, v, at);
+    };
+    return warp_traced(p, shear.width, shear.height, trace, pixel, warp_pixel);
+}
+
 }  // namespace ctlab

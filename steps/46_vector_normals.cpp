@@ -421,12 +421,12 @@ static Rgb over_background(const Accumulated& ray) {
 
 // --- Step 38: shear-warp ---
 
-// The view factored into a shear and a warp (Lacroute & Levoy 1994). The slices are the planes
-// of voxels across the principal axis c, the axis the view direction runs most along in
-// voxels; a and b are a slice's two axes, a along its rows (the lower axis, so that a row is
-// contiguous in memory when a is i). The intermediate image has one pixel per voxel column:
-// the ray of its pixel (u, v) meets slice m (counted front to back) at
-// a = u + base_a + m * delta_a, b = v + base_b + m * delta_b. Orthographic: one shear for all.
+// The slices are the planes of voxels across axis c, the principal axis; a and b
+// are a slice's two axes, a along its rows (the lower axis, so that a row is contiguous in
+// memory when a is i). Along an axis every ray runs down one voxel column: the intermediate
+// image has one pixel per column, and pixel (u, v) meets slice c at voxel (a, b) = (u, v).
+// At an angle the slices shift against each other (the shear): the ray of pixel (u, v)
+// meets slice m (front to back) at a = u + base_a + m * delta_a, b = v + base_b + m * delta_b.
 struct Shear {
     int a = 0, b = 1, c = 2;     // the axes: 0 i, 1 j, 2 k
     int na = 1, nb = 1, nc = 1;  // voxels along a, b, c
@@ -555,16 +555,14 @@ struct Scene {
 
 // Given: the cameras the slices do not take, rendered by step 30's rays (composite_ray()
 // and mip_ray(), unchanged): a perspective one (the shear-warp here is orthographic).
-// Changed in step 38: any orthographic view is sheared; only a perspective one is left.
+// Changed in step 37: any orthographic view is sheared; only a perspective one is left.
 static bool by_rays(const Camera& camera) { return camera.perspective; }
 
 //> lesson: shear
-// The factorisation for an orthographic camera. The principal axis is the one along which the
-// view direction crosses most voxels per unit of length: then a ray crosses every slice once,
-// and each slice is shifted by at most one voxel against the one before. Front to back is the
-// direction's sign along it. The intermediate image is wide enough for every slice's shift.
-// Changed in step 38: any direction, not only along an axis; the shift per slice and the
-// intermediate image's size.
+// The slices for any orthographic camera: c is the principal axis (along it the view crosses
+// most voxels per unit length: a slice shifts by at most a voxel); front to back is the
+// sign of the view direction along it. The intermediate image is one pixel per voxel column.
+// Changed in step 37: any direction; the shift per slice, the image wide enough for each.
 static Shear make_shear(const Volume& volume, const Camera& camera) {
     const double spacing[3] = {volume.sx, volume.sy, volume.sz};
     const int counts[3] = {volume.nx, volume.ny, volume.nz};
@@ -597,6 +595,7 @@ static Shear make_shear(const Volume& volume, const Camera& camera) {
 
 // Slice m's shift. Nearest samples (--interpolation nearest) round the position to the
 // nearest voxel of the slice (a half rounds up), so both fractions are 0.
+// Changed in step 38: the fractions kept, for bilinear samples; rounded only when nearest.
 static SliceShift slice_shift(const Shear& shear, int m, bool nearest) {
     SliceShift s;
     s.slice = shear.first_slice + m * shear.slice_step;
@@ -1088,7 +1087,7 @@ static Rgb mix_rgb(const Rgb& p, const Rgb& q, float f) {
 }
 
 // Given: the warp's affine map (common/object_order.h), from the camera's rays.
-// Changed in step 38: the shear's base offsets (0 along an axis).
+// Changed in step 37: the shear's base offsets (0 along an axis).
 static WarpMap make_warp(const Volume& volume, const Shear& shear, const Camera& camera) {
     auto ray = [&](int x, int y) { return camera_ray(camera, x, y); };
     return slice_warp(volume, shear, shear.base_a, shear.base_b, ray);

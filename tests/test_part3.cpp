@@ -5,9 +5,10 @@
 // does not read it counts as leapt: samples + leapt is step 30's samples. Steps 35 on (object
 // order, then shear-warp and its tricks) sample on the slices instead of along the rays: along
 // an axis at one pixel per voxel each renders step 30's pictures within the same tolerance
-// (lit, from step 41 on, within the quantised normals' own), step 38 step 36's bit for bit and
-// step 42 on step 41's; at an angle within the mean and RMS error the manifest states (steps 35
-// and 36 hand an angle to step 30's rays: step 30's picture and counters exactly). And each
+// (lit, from step 41 on, within the quantised normals' own), steps 37 and 38 step 36's bit for
+// bit and step 42 on step 41's; at an angle within the mean and RMS error the manifest states
+// (steps 35 and 36 hand an angle to step 30's rays: step 30's picture and counters exactly;
+// step 37's, nearest samples, is step 38's with --interpolation nearest bit for bit). And each
 // trick's handout quotes its measured gain in a block that make gain fills.
 #include <doctest/doctest.h>
 #include <algorithm>
@@ -25,10 +26,12 @@ namespace {
 constexpr const char* first_part3_step = "30_speed_baseline";
 // The first step that takes slices (the maximum only; step 36 composites them): it and every
 // part-3 step after it are not ray casters (see the top); the steps before the first that
-// turns freely hand a view at an angle to step 30's rays. The first shear-warp step; from the
-// quantised normals' step on, a lit picture rounds its normals.
+// turns freely hand a view at an angle to step 30's rays. The shear, the first to turn freely
+// (nearest samples: each slice shifted by whole voxels); the first shear-warp step (bilinear
+// samples); from the quantised normals' step on, a lit picture rounds its normals.
 constexpr const char* first_slice_step = "35_object_order_mip";  // the maximum only
 constexpr const char* object_order_step = "36_object_order";
+constexpr const char* shear_step = "37_shear";
 constexpr const char* shear_warp_step = "38_shear_warp";
 constexpr const char* first_turning_step = "37";
 constexpr const char* quantised_normals_step = "41_quantised_normals";
@@ -194,7 +197,7 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
             const StepRender fast = render(step, flags);
             INFO(step << " " << flags.back());
             if (step == object_order_step) object_order = fast.image("camera");
-            if (step == shear_warp_step) {
+            if (step == shear_step || step == shear_warp_step) {
                 CHECK(largest_difference(fast.image("camera"), object_order) == 0);
             }
             if (step == quantised_normals_step) quantised = fast.image("camera");
@@ -240,6 +243,13 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
                 }
                 continue;
             }
+            if (step == shear_step) {
+                INFO("step 38 with --interpolation nearest renders step 37's picture bit for bit");
+                const ctlab::Image nearest =
+                    render(shear_warp_step, with(flags, {"--interpolation", "nearest"}))
+                        .image("camera");
+                CHECK(largest_difference(image, nearest) == 0);
+            }
             if (step == shear_warp_step) first = image;
             if (step == quantised_normals_step) quantised = image;
             if (step > quantised_normals_step) {
@@ -264,12 +274,10 @@ TEST_CASE("part 3: the slice steps render step 30's pictures within the manifest
     }
 }
 
-TEST_CASE("part 3: the last slice step renders a perspective camera by step 30's rays") {
-    // A shear-warp is orthographic: a perspective camera is handed to step 30's rays, kept
-    // verbatim. Its picture, counters and trace are step 30's, to the bit (lit composite with
-    // a traced pixel, and the maximum), at --step 0.75 (the rays' spacing, which the slices
-    // ignore).
-    const std::string last = slice_steps().back();
+// A shear-warp is orthographic: a perspective camera is handed to step 30's rays, kept
+// verbatim. Its picture, counters and trace are step 30's, to the bit (lit composite with a
+// traced pixel, and the maximum), at --step 0.75 (the rays' spacing, which the slices ignore).
+static void perspective_by_rays(const std::string& last) {
     std::vector<std::string> camera = {"--projection", "perspective", "--azimuth", "200",
                                        "--elevation", "-25", "--fov", "40", "--zoom", "1.3",
                                        "--size", "48x40", "--step", "0.75"};
@@ -308,6 +316,12 @@ TEST_CASE("part 3: the last slice step renders a perspective camera by step 30's
             CHECK(b.png[2] == a.png[2]);
         }
     }
+}
+
+TEST_CASE("part 3: the shear and the last slice step render a perspective camera by step 30's "
+          "rays") {
+    perspective_by_rays(shear_step);  // the first step that turns freely
+    perspective_by_rays(slice_steps().back());
 }
 
 TEST_CASE("part 3: the slice steps refuse --work-map, whose per-ray counts they do not keep") {

@@ -37,7 +37,7 @@
 // phantom) interleaved with ctlab's candidate steps for each case; a table of ratios peer ms /
 // ctlab ms, first renders, and issue #30's targets met or missed (see peers_section).
 // --peers makes that table alone (with --steps, for those ctlab steps alone). --gain (make gain) times the part-3 steps alone, in CPU
-// time per render on the same cases (see gain_report).
+// time per render on the same cases (see gain_report; with --steps, those steps alone).
 //
 // A full run on the phantom at default settings also writes each step's figures as a section
 // "bench:NN_name" for tools/measured.cpp (make bench copies them into the handouts' blocks).
@@ -1216,12 +1216,14 @@ int peers_report(int cores, bool quick, int runs, int pass_count, const std::str
 // on 2 cores a step measured 10% slower than its next run). Each figure is the median of
 // gain_pairs such pairs, the steps taken in turn for each pair. The report has one section
 // per step, "gain:NN_name", for tools/measured.cpp to copy into the handout's block: the
-// step's figures, its gain over the step before and over the first part-3 step.
+// step's figures, its gain over the step before and over the first part-3 step. `only`
+// (--steps, "" for all): those part-3 steps alone (say 30,36,37,38 for a new step 37's block
+// and the next one's; keep 30 first, the "over step 30" column).
 constexpr int gain_repeat = 11;  // renders in the longer process of a pair
 constexpr int gain_pairs = 5;    // pairs per figure (the median)
 constexpr int gain_side = cthead_nx;  // the top view: one pixel per voxel
 
-int gain_report(const std::string& out_path) {
+int gain_report(const std::string& out_path, const std::string& only) {
     const int dims[3] = {cthead_nx, cthead_ny, cthead_nz};
     const TempFolder folder("bench_gain");
     std::vector<std::string> volume_flags;
@@ -1232,7 +1234,7 @@ int gain_report(const std::string& out_path) {
     }
     std::vector<std::string> steps;
     for (const std::string& step : step_names()) {
-        if (std::stoi(step.substr(0, 2)) < first_part3_step) continue;
+        if (std::stoi(step.substr(0, 2)) < first_part3_step || !selected(step, only)) continue;
         if (!file_exists(step_binary(step))) {
             throw InputError("bench --gain: " + step_binary(step) + " is not built (make all)");
         }
@@ -1407,7 +1409,9 @@ int run(int argc, char** argv) {
     const unsigned hardware = std::thread::hardware_concurrency();
     const int cores = hardware > 0 ? int(hardware) : 1;
     if (peers_only) return peers_report(cores, quick, runs, pass_count, only, out_path);
-    if (gain_only) return gain_report(out_path == "out/bench.md" ? "out/part3_gain.md" : out_path);
+    if (gain_only) {
+        return gain_report(out_path == "out/bench.md" ? "out/part3_gain.md" : out_path, only);
+    }
     // Each volume: its name in the report and the flags that load it.
     std::vector<std::pair<std::string, std::vector<std::string>>> volumes;
     const TempFolder quick_folder("bench_quick");
