@@ -738,6 +738,11 @@ static Rgb warp_pixel(const WarpPoint& p, int width, int height, Pixel pixel) {
 }
 //< lesson: warp
 
+// Given: warp_pixel() as a value, for the loops of common/object_order.h.
+constexpr auto blend = [](const WarpPoint& p, int width, int height, auto pixel) {
+    return warp_pixel(p, width, height, pixel);
+};
+
 // --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
 
 // An intermediate pixel's colour, from the pixel's composite or maximum (as the image's rows
@@ -752,14 +757,13 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 // composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
 // image's pixel to the bit. The trace follows each of the four sample by sample.
 // Changed in step 38: each slice's shift, a bilinear sample and its cell's light.
-static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int y, Work& work,
-                            Trace* trace) {
+static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Shear& shear = scene.shear;
-    const Ray ray = camera_ray(camera, x, y);
+    const Ray ray = camera_ray(scene.camera, x, y);
     const Vec3d high = box_high(volume);
     trace_ray(trace, ray, intersect_box(ray, Vec3d{}, high), high, shear.spacing);
-    const WarpPoint p = warp_at(make_warp(volume, shear, camera), x, y);
+    const WarpPoint p = warp_at(make_warp(volume, shear, scene.camera), x, y);
     trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
     const double stop_below = std::max(scene.params.ert, min_transparency);
     auto column = [&](int u, int v) {  // intermediate pixel (u, v) alone, traced
@@ -786,9 +790,6 @@ static Rgb shear_warp_pixel(const Scene& scene, const Camera& camera, int x, int
         };
         return composite_colour(composite_column<Accumulated>(
             shear.nc, scene.lut.entries.data(), stop_below, ray, work, trace, at, light, add));
-    };
-    auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
-        return warp_pixel(q, width, height, pixel);
     };
     return warp_traced(p, shear.width, shear.height, trace, column, blend);  // with notes
 }
@@ -837,16 +838,8 @@ int main(int argc, char** argv) {
         }
         Lut lut = build_lut(tf, opacity_ratio(params, params.step));
         Lut slice_lut;          // the slices': opacities for their spacing, made once per view
+        std::vector<SliceShift> shifts;  // the slices' shifts, made for each render
         double lut_ratio = -1;  // the ratio slice_lut was made for; -1: none yet
-
-        // --- Once per view: the table's opacities for the slices' spacing ---
-        auto prepare = [&](const Shear& shear) {
-            const double ratio = opacity_ratio(params, shear.spacing);
-            if (ratio != lut_ratio) {
-                slice_lut = build_lut(tf, ratio);
-                lut_ratio = ratio;
-            }
-        };
 
         // --- View: the camera's image (its camera is made for each render: the window turns
         // it, and previews at coarser pixels while it does) ---
@@ -886,58 +879,40 @@ int main(int argc, char** argv) {
                                                           : lut_ratio);
         };
 
-        // --- Object order: the slices into the intermediate image, rows shared
+        // --- Object order, any angle: the slices into the intermediate image, rows shared
         // by the threads, then the warp; every other view is step 30's rays ---
         Renderer rays = renderer;  // step 30's, for the views by_rays() gives it
         auto rays_take = [&](const Camera& c) { return by_rays(c); };
-        const bool mip = params.mode == "mip";
-        struct Frame {  // one view's factorisation, and what its pixels share
-            Camera camera;
-            Shear shear;
-            std::vector<SliceShift> shifts;
-            Vec3 to_light;               // unit vector towards the light; unused when unlit
-        };
-        auto frame_for = [&](const Camera& camera) {
-            Frame frame;
-            frame.camera = camera;
-            frame.shear = make_shear(volume, frame.camera);
-            for (int m = 0; m < frame.shear.nc; ++m) {
-                frame.shifts.push_back(slice_shift(frame.shear, m, params.nearest));
+        auto shear_for = [&](const Camera& camera) { return make_shear(volume, camera); };
+        auto scene_for = [&](const Camera& camera, const Shear& shear) {
+            const double ratio = opacity_ratio(params, shear.spacing);
+            if (ratio != lut_ratio) {
+                slice_lut = build_lut(tf, ratio);
+                lut_ratio = ratio;
             }
-            prepare(frame.shear);
-            frame.to_light =
-                params.unlit ? Vec3{} : light_direction(frame.camera, params.light_angle);
-            return frame;
-        };
-        auto scene_for = [&](const Camera&, const Frame& frame) {
-            return Scene{volume, frame.camera, frame.shear, frame.shifts, slice_lut,
-                         frame.to_light, params};
+            shifts.clear();  // the view's slices' shifts, made with its scene
+            for (int m = 0; m < shear.nc; ++m) {
+                shifts.push_back(slice_shift(shear, m, params.nearest));
+            }
+            return Scene{volume, camera, shear, shifts, slice_lut,
+                         light_towards(camera), params};
         };
         auto slices = [&](const View& view, const Scene& scene, Work& work) {
             const Shear& shear = scene.shear;
-            const Image intermediate =  // common/object_order.h: rows to the threads
-                mip ? intermediate_image(scene, shear.width, shear.height, options.threads,
-                                         work, -std::numeric_limits<float>::infinity(),
-                                         mip_row, [&](float h) { return mip_colour(volume, h); })
-                    : intermediate_image(scene, shear.width, shear.height, options.threads,
-                                         work, Accumulated{}, composite_row, composite_colour);
-            auto blend = [](const WarpPoint& q, int width, int height, auto pixel) {
-                return warp_pixel(q, width, height, pixel);
-            };
+            const Image intermediate =  // rows to the threads
+                params.mode == "mip"
+                    ? intermediate_image(scene, shear.width, shear.height, options.threads, work,
+                                         -std::numeric_limits<float>::infinity(), mip_row,
+                                         [&](float h) { return mip_colour(volume, h); })
+                    : intermediate_image(scene, shear.width, shear.height, options.threads, work,
+                                         Accumulated{}, composite_row, composite_colour);
             auto mix = [](const Rgb& p, const Rgb& q, float f) { return mix_rgb(p, q, f); };
-            return warp_intermediate(view, options.threads, work,  // common/object_order.h
+            return warp_intermediate(view, options.threads, work,
                                      make_warp(volume, shear, scene.camera), intermediate, blend,
                                      mix);
         };
-        auto pixel_alone = [&](const Scene& scene, int x, int y, Work& work, Trace* trace) {
-            return shear_warp_pixel(scene, scene.camera, x, y, work, trace);
-        };
-        auto samples_for = [&](const Camera& camera) {
-            const Shear shear = make_shear(volume, camera);
-            return slice_samples(shear.c, shear.spacing);
-        };
-        slices_or_rays(renderer, rays, camera_for, rays_take, frame_for, scene_for, slices,
-                       pixel_alone, samples_for);  // common/object_order.h
+        slices_or_rays(renderer, rays, camera_for, rays_take, shear_for, scene_for, slices,
+                       shear_warp_pixel);  // common/object_order.h: .image, .ray, .ray_samples
 
         // --- Output: a PNG and a summary line, then the preview window ---
         return run_views(options, volume, renderer);
