@@ -876,8 +876,7 @@ int main(int argc, char** argv) {
     return guarded_main(step_name, [&] {
         // --- Options: the shared flags plus this step's own ---
         Params params;
-        Args args(step_name, "Shear-warp: the slices composited into an intermediate image, "
-                             "then one warp; a perspective camera by step 30's rays.");
+        Args args(step_name, "The shear: the slices, shifted, composited into the image.");
         args.add_choice("--mode", &params.mode, {"composite", "mip"},
                         "composite through the transfer function, or the maximum intensity");
         args.add_string("--tf", &params.tf_path,
@@ -885,15 +884,14 @@ int main(int argc, char** argv) {
         args.add_double("--skin-opacity", &params.skin_opacity, 0, 1,
                         "opacity of the range labelled skin (default: as the file says)");
         args.add_double("--ert", &params.ert, 0, 1,
-                        "stop a pixel once its transparency T is below this (0: never)");
+                        "stop a ray once its transparency T is below this (0: never)");
         args.add_double("--step", &params.step, min_step, max_step,
-                        "perspective (step 30's rays): physical units between two "
-                        "samples along a ray; the slices ignore it");
+                        "physical units between two samples along a ray (slices: one each)");
         args.add_double("--light-angle", &params.light_angle, -180, 180,
                         "light direction, degrees to the right of the camera");
         args.add_switch("--unlit", &params.unlit, "no lighting: L = 1, as in step 08");
         args.add_switch("--no-correction", &params.no_correction,
-                        "use the TF opacities unchanged, whatever the slices' spacing");
+                        "use the TF opacities unchanged, whatever the step");
         args.add_choice("--interpolation", &params.interpolation, {"trilinear", "nearest"},
                         "a sample in its slice: the four voxels around it, or the nearest one");
         add_camera_flags(args, &params);  // common/camera_flags.h
