@@ -535,33 +535,6 @@ void slices_or_rays(Renderer& renderer, const Renderer& rays, CameraFor camera_f
     };
 }
 
-// slices_or_rays() for a step whose shear_for(camera) makes more than the slices (a frame: its
-// shifts, its tables, a first render's precomputation): the trace header's samples come from
-// samples_for(camera) instead, which makes none of that (steps 38 on).
-template <class CameraFor, class ByRays, class FrameFor, class SceneFor, class Slices,
-          class Pixel, class SamplesFor>
-void slices_or_rays(Renderer& renderer, const Renderer& rays, CameraFor camera_for,
-                    ByRays by_rays, FrameFor frame_for, SceneFor scene_for, Slices slices,
-                    Pixel pixel, SamplesFor samples_for) {
-    renderer.image = [=, &rays](const View& view, Work& work) {
-        const auto camera = camera_for(view);
-        if (by_rays(camera)) return rays.image(view, work);
-        const auto frame = frame_for(camera);
-        return slices(view, scene_for(camera, frame), work);
-    };
-    renderer.ray = [=, &rays](const View& view, int x, int y, Work& work, Trace* trace) {
-        const auto camera = camera_for(view);
-        if (by_rays(camera)) return rays.ray(view, x, y, work, trace);
-        const auto frame = frame_for(camera);
-        return pixel(scene_for(camera, frame), x, y, work, trace);
-    };
-    renderer.ray_samples = [=, &rays](const View& view) {
-        const auto camera = camera_for(view);
-        if (by_rays(camera)) return rays.ray_samples(view);
-        return samples_for(camera);
-    };
-}
-
 // One output pixel alone for a shear by whole voxels (step 37), as axis_pixel_traced() makes
 // it: intermediate pixel (u, v) meets slice m at voxel (u + ia, v + ib) of it (shifts[m], front
 // to back; no sample where the slice does not hold that voxel, up to last_a and last_b).
