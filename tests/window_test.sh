@@ -237,6 +237,17 @@ if command -v xdotool > /dev/null 2>&1; then
     xvfb sh "$0" --xdotool "$binary" "$work/real_out" "$work/real.log" $phantom \
         > "$work/real.stdout" 2>&1
     status=$?
+    # A run that fails is run once more, its first failure printed (as tests/panel_test.sh
+    # does): under a loaded make test a virtual display is now and then lost or never found,
+    # and the step's window then ends with status 1. A fault of the window fails both runs.
+    if [ "$status" -ne 0 ]; then
+        echo "window test: the real X input run failed once (status $status:" \
+             "$(cat "$work/real.stdout"); its log ends:" \
+             "$(tail -n 3 "$work/real.log" | tr '\n' ' ')); once more"
+        xvfb sh "$0" --xdotool "$binary" "$work/real_out" "$work/real.log" $phantom \
+            > "$work/real.stdout" 2>&1
+        status=$?
+    fi
     check "real X input: the run completes (status $status; $(cat "$work/real.stdout"))" \
         [ "$status" -eq 0 ]
     check "real X input: a pointer click traces pixel 100,50 of the top view" \
