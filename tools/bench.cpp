@@ -1408,7 +1408,7 @@ int run(int argc, char** argv) {
             std::istringstream words(argv[++n]);
             for (std::string word; words >> word;) extra_flags.push_back(word);
         } else {
-            throw InputError("unknown flag '" + flag + "' (bench --help lists them)");
+            throw InputError("unknown flag '" + flag + "' (see bench --help)");
         }
     }
     if (quick) runs = 1;

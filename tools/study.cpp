@@ -1411,7 +1411,7 @@ int run(int argc, char** argv) {
             only = argv[++n];
             if (only != "shear-warp") throw InputError("--only: the one study is shear-warp");
         } else {
-            throw InputError("unknown flag '" + flag + "' (study --help lists them)");
+            throw InputError("unknown flag '" + flag + "' (see study --help)");
         }
     }
     if (quick) {
