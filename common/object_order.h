@@ -538,6 +538,8 @@ void slices_or_rays(Renderer& renderer, const Renderer& rays, CameraFor camera_f
 
 // A slice shift's fractions past its cell's low corner along a and b, where a sample lies: its
 // fa and fb when it keeps them (bilinear samples, step 38 on), else none (whole voxels, 37).
+// Called as shift_fractions(s, 0): the first overload where s has fa (0 is an int), else the
+// second.
 template <class Shift>
 auto shift_fractions(const Shift& s, int) -> decltype(s.fa, std::pair<double, double>()) {
     return {s.fa, s.fb};

@@ -2,7 +2,7 @@
 //
 // New here:   each slice shifted by the shear's exact amount: a pixel meets it at one bilinear
 //             sample (the same weights for the whole slice), lit from its cell's four corners.
-//             Along an axis step 36's pictures to the bit; at an angle nearer 30's than 37's.
+//             Along an axis step 36's pictures to the bit; at an angle less error than 37's.
 //             A perspective camera: step 30's rays (--step their spacing). --work-map is
 //             refused: the work is counted per row of the intermediate image.
 // Builds on:  37_shear (its shear and warp, each slice shifted by whole voxels).
