@@ -1078,7 +1078,9 @@ int main(int argc, char** argv) {
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
                    camera_settings(params) + " interpolation=" + params.interpolation +
-                   " opacity_ratio=" + summary_number(lut_ratio) +
+                   " opacity_ratio=" + summary_number(by_rays(camera_for(camera_image))
+                                                          ? opacity_ratio(params, params.step)
+                                                          : lut_ratio) +
                    " precompute_ms=" + summary_number(precompute_ms);
         };
 
