@@ -510,8 +510,8 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 static Accumulated composite_front_to_back(const Volume& volume,
                                            const Camera& camera, int x, int y,
                                            const Lut& lut, const EmptySpace& space,
-                                           Vec3 to_light, const Params& params, Work& work,
-                                           Trace* trace) {
+                                           Vec3 to_light, const Params& params,
+                                           Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
