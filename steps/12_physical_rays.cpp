@@ -148,8 +148,7 @@ static Vec3 light_direction(const View& view, double angle) {
 // Step 10's compositing along a ray in physical space, at t_mid + m * step (t_mid: the point
 // of the ray nearest the box's centre) for |m * step| <= half the box's diagonal. Only samples
 // inside the box of voxel centres count, each read from its nearest voxel.
-// Changed in step 12: along a ray in physical space: part 1's ray of pixel (x, y), from its
-// first voxel's centre towards the next (one unit along the view's axis).
+// Changed in step 12: along part 1's ray of pixel (x, y), from its first voxel to the next.
 static Accumulated composite_front_to_back(const Volume& volume, const View& view, int x, int y,
                                            const Lut& lut, Vec3 to_light, const Params& params,
                                            Work& work, Trace* trace) {

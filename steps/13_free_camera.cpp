@@ -2,8 +2,7 @@
 //
 // New here:   an orbit camera around the volume's box (azimuth, elevation, ortho or
 //             perspective): step 12's rays from any angle; the light turns with it.
-// Defaults:   azimuth 30, elevation 20, ortho, 512x512, --fov 30; the light 30 degrees right
-//             of the camera and 20 above it; a black background.
+// Defaults:   azimuth 30, elevation 20, ortho, 512x512, --fov 30; light 30 right, 20 up.
 // Builds on:  12_physical_rays (rays in physical space, tested against the box).
 // Handout:    handouts/13_free_camera.md
 // Run:        make run STEP=13 ARGS="--azimuth 60 --projection perspective"
@@ -229,14 +228,15 @@ static Vec3 light_direction(const Camera& camera, double angle) {
 // of the ray nearest the box's centre) for |m * step| <= half the box's diagonal. Only samples
 // inside the box of voxel centres count, each read from its nearest voxel.
 // Changed in step 13: along the camera's ray; t >= 0 only (an eye inside the box).
-static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
-                                           Trace* trace) {
+static Accumulated composite_front_to_back(const Volume& volume,
+                                           const Camera& camera, int x, int y,
+                                           const Lut& lut, Vec3 to_light, const Params& params,
+                                           Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);
     if (trace) trace->ray(ray.origin, ray.direction);
-    const double t_mid = dot(camera.centre - ray.origin, ray.direction);
+    const double t_mid = dot(0.5 * high - ray.origin, ray.direction);
     const long long half_count = (long long)(std::floor(length(high) / 2 / params.step));
     Accumulated pixel;
     for (long long m = -half_count; m <= half_count; ++m) {

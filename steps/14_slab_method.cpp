@@ -327,9 +327,10 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 //> lesson: front_to_back
 // Step 13's compositing, at t_entry + n * step until t_exit, each sample from its nearest voxel.
 // Changed in step 14: from the box's entry to its exit (the slab method), not a test per sample.
-static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, Vec3 to_light, const Params& params, Work& work,
-                                           Trace* trace) {
+static Accumulated composite_front_to_back(const Volume& volume,
+                                           const Camera& camera, int x, int y,
+                                           const Lut& lut, Vec3 to_light, const Params& params,
+                                           Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);

@@ -568,10 +568,10 @@ static Walk jittered(Walk walk, const Span& span, double step, float u) {
 // lit where it is not transparent, composited front to back; early ray termination as in
 // step 08.
 // Changed in step 16: the samples move by the pixel's jitter.
-static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, Vec3 to_light,
-                                           const Params& params, const Jitter& jitter,
-                                           Work& work, Trace* trace) {
+static Accumulated composite_front_to_back(const Volume& volume,
+                                           const Camera& camera, int x, int y,
+                                           const Lut& lut, Vec3 to_light, const Params& params,
+                                           const Jitter& jitter, Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);

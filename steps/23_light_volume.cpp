@@ -546,8 +546,9 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // light is blocked: shade_blocked() with T_light, the light that reaches it (--shadows),
 // asked for only where it can change the light (faces_light()).
 // Changed in step 23: T_light read from the light volume.
-static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, Vec3 to_light,
+static Accumulated composite_front_to_back(const Volume& volume,
+                                           const Camera& camera, int x, int y,
+                                           const Lut& lut, Vec3 to_light,
                                            const Blocking& blocking,
                                            const Params& params, Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);

@@ -587,8 +587,9 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // light is blocked: shade_blocked() with T_light (a shadow ray, or the light volume, asked for
 // only where it can change the light: faces_light()) and its ambient occlusion.
 // Changed in step 24: a lit sample's ambient light is occluded.
-static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, Vec3 to_light,
+static Accumulated composite_front_to_back(const Volume& volume,
+                                           const Camera& camera, int x, int y,
+                                           const Lut& lut, Vec3 to_light,
                                            const Blocking& blocking,
                                            const Params& params, Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);

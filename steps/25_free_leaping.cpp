@@ -507,10 +507,11 @@ static void trace_ray(Trace* trace, const Ray& ray, const Span& span, const Vec3
 // leaping, along a free ray: a sample in an empty brick leaps past the empty cube around it
 // (leap_past), and every sample leapt over would have been transparent.
 // Changed in step 25: leaps over the empty cube around a sample.
-static Accumulated composite_front_to_back(const Volume& volume, const Camera& camera, int x,
-                                           int y, const Lut& lut, const EmptySpace& space,
-                                           Vec3 to_light, const Params& params, Work& work,
-                                           Trace* trace) {
+static Accumulated composite_front_to_back(const Volume& volume,
+                                           const Camera& camera, int x, int y,
+                                           const Lut& lut, const EmptySpace& space,
+                                           Vec3 to_light, const Params& params,
+                                           Work& work, Trace* trace) {
     const double stop_below = std::max(params.ert, min_transparency);
     const Vec3d high = box_high(volume);
     const Ray ray = camera_ray(camera, x, y);

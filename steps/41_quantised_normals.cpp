@@ -682,8 +682,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
 //< lesson: runs
 
 // Given: a sample's light: its four corners' normal indices from the voxels (voxel_normal()),
-// their light from the shading table, blended as the values are (shaded at the voxels, then
-// interpolated, as VolPack does; step 30 interpolates the gradients, then shades).
+// their light from the shading table, blended (shaded at the voxels, then interpolated).
 // Changed in step 41: the light from the quantised normals' shading table.
 static inline float slice_light(const Scene& scene, const SliceShift& s, int a, int b,
                                 Work& work) {
@@ -1071,7 +1070,9 @@ int main(int argc, char** argv) {
                    " lighting=" + (params.unlit ? "off" : "on") +
                    " correction=" + (params.no_correction ? "off" : "on") +
                    camera_settings(params) + " interpolation=" + params.interpolation +
-                   " opacity_ratio=" + summary_number(lut_ratio) +
+                   " opacity_ratio=" + summary_number(by_rays(camera_for(camera_image))
+                                                          ? opacity_ratio(params, params.step)
+                                                          : lut_ratio) +
                    " precompute_ms=" + summary_number(precompute_ms);
         };
 
