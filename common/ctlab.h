@@ -14,6 +14,7 @@
 #include "camera_flags.h"
 #include "object_order.h"
 #include "error.h"
+#include "huge_pages.h"
 #include "image.h"
 #include "not_done.h"
 #include "phantom.h"
