@@ -19,12 +19,4 @@ bool avx2_vectors() {
 #endif
 }
 
-const char* vector_path() {
-#if defined(__x86_64__) && defined(__GNUC__)
-    return avx2_vectors() ? "avx2" : "sse2";
-#else
-    return "plain";
-#endif
-}
-
 }  // namespace ctlab

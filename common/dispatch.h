@@ -14,9 +14,6 @@ namespace ctlab {
 // does not say CTLAB_VECTORS=sse2. Decided on the first call; the same for the whole run.
 bool avx2_vectors();
 
-// The path with_vectors() takes, for a report: "avx2" or "sse2" (or "plain" elsewhere).
-const char* vector_path();
-
 #if defined(__x86_64__) && defined(__GNUC__)
 // Marks the body a lambda given to with_vectors() (`[&]() CTLAB_VECTOR_BODY { ... }`): it is
 // inlined, so it is compiled again inside the AVX2 copy with that copy's instructions.

@@ -7,8 +7,8 @@
 //             find_runs() tests sixteen cells at once against the table's transparent
 //             ranges (two compares per range, no table read), pack_slice() copies a run's
 //             records sixteen at a time, and slice_normals() computes a contiguous row's
-//             normal indices eight at a time (normal_index() has no branch for that
-//             reason). The same runs, records and numbers: step 45's pictures, to the bit.
+//             normal indices sixteen at a time, also compiled for AVX2 (given dispatch at
+//             run time). The same runs, records and numbers: step 45's pictures, to the bit.
 // Builds on:  45_one_pass_precompute.
 // Handout:    handouts/46_vector_normals.md
 // Run:        make run STEP=46 ARGS="--azimuth 180 --elevation 90 --size 256x256"
