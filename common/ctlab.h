@@ -12,6 +12,7 @@
 #include "args.h"
 #include "bricks.h"
 #include "camera_flags.h"
+#include "dispatch.h"
 #include "object_order.h"
 #include "error.h"
 #include "huge_pages.h"

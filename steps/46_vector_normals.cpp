@@ -7,8 +7,8 @@
 //             find_runs() tests sixteen cells at once against the table's transparent
 //             ranges (two compares per range, no table read), pack_slice() copies a run's
 //             records sixteen at a time, and slice_normals() computes a contiguous row's
-//             normal indices eight at a time (normal_index() has no branch for that
-//             reason). The same runs, records and numbers: step 45's pictures, to the bit.
+//             normal indices sixteen at a time, also compiled for AVX2 (given dispatch at
+//             run time). The same runs, records and numbers: step 45's pictures, to the bit.
 // Builds on:  45_one_pass_precompute.
 // Handout:    handouts/46_vector_normals.md
 // Run:        make run STEP=46 ARGS="--azimuth 180 --elevation 90 --size 256x256"
@@ -643,10 +643,11 @@ static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
 //> lesson: records
 // Slice c's normal indices, at normals[b * na + a], for the voxels needed[] marks (others
 // may be written too: only the needed are read); how many it needed. Changed in step 46:
-// where a row is contiguous (a is i), its inside voxels eight at a time in a loop of fixed
+// where a row is contiguous (a is i), its inside voxels sixteen at a time in a loop of fixed
 // length, which the compiler makes vector instructions (normal_index() has no branch for
 // that reason; __restrict: normals[] is not the volume), the rest voxel by voxel as in step
-// 45: voxel_normal()'s numbers.
+// 45: voxel_normal()'s numbers. Inlined into with_vectors() (pack_slice()): AVX2 too.
+[[gnu::always_inline]] inline
 static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
                             const uint8_t* needed, uint16_t* __restrict normals) {
     const int na = shear.na, nb = shear.nb;
@@ -661,13 +662,13 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
         int a = 0;
         if (shear.stride_a == 1 && slice_inside && b > 0 && b < nb - 1) {
             const int16_t* row = &volume.data[c * shear.stride_c + b * shear.stride_b];
-            for (a = 1; a + 8 <= na - 1; a += 8) {  // a = 0 and the row's end: below
-                uint64_t mask;  // the eight bytes of needed[] at once
-                std::memcpy(&mask, needed_row + a, sizeof mask);
-                if (mask == 0) continue;
-                count += size_t((mask * 0x0101010101010101) >> 56);  // bytes summed
+            for (a = 1; a + 16 <= na - 1; a += 16) {  // a = 0 and the row's end: below
+                uint64_t mask[2];  // the sixteen bytes of needed[] at once
+                std::memcpy(mask, needed_row + a, sizeof mask);
+                if ((mask[0] | mask[1]) == 0) continue;
+                count += size_t(((mask[0] + mask[1]) * 0x0101010101010101) >> 56);  // summed
                 const int16_t* p = row + a;
-                for (int n = 0; n < 8; ++n) {  // a fixed length: vector instructions
+                for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
                     out[a + n] = normal_index({float(p[n + 1] - p[n - 1]) * per_i,
                                                float(p[n + step_j] - p[n - step_j]) * per_j,
                                                float(p[n + step_k] - p[n - step_k]) * per_k});
@@ -713,8 +714,8 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
             }
         }
     }
-    const size_t computed =
-        lit ? slice_normals(volume, shear, c, needed.data(), normals.get()) : 0;
+    const size_t computed = lit ? with_vectors([&]() CTLAB_VECTOR_BODY {  // given: AVX2 too
+        return slice_normals(volume, shear, c, needed.data(), normals.get()); }) : 0;
     const std::vector<uint16_t> none(lit ? 0 : na, 0);  // unlit: every normal index 0
     const size_t sa = shear.stride_a;
     constexpr bool little = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;  // the fields' shifts:
