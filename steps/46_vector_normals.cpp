@@ -15,7 +15,7 @@
 // Reference:  data/reference/46_vector_normals_camera.png: the default run (lit composite,
 //             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
-#include <cstring>  // std::memcpy: a float's bits, a mask's sixteen bytes at once
+#include <cstring>  // std::memcpy: a float's bits
 #include <memory>  // std::unique_ptr: arrays left unset until written
 using namespace ctlab;
 
@@ -693,8 +693,8 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
 // record holds the values at (a, b) and (a, b + 1) and, for a lit composite, their normal
 // indices. The last column and row count again at the slice's edges. Changed in step 45:
 // the normal indices of the voxels the records hold, computed once (slice_normals()); how
-// many. Changed in step 46: a run's records sixteen at a time where its row is contiguous.
-// Not inlined into find_runs() (its cell test would lose its vector instructions).
+// many. Not inlined into find_runs() (its cell test would lose its vector instructions).
+// Changed in step 46: a run's records sixteen at a time where its row is contiguous.
 [[gnu::noinline]] static size_t pack_slice(const Volume& volume, const Shear& shear, int c,
                                            const uint32_t* counts, const int32_t* bounds,
                                            bool lit, Records& records) {
