@@ -15,6 +15,7 @@
 #include "dispatch.h"
 #include "object_order.h"
 #include "error.h"
+#include "huge_pages.h"
 #include "image.h"
 #include "not_done.h"
 #include "phantom.h"

@@ -458,7 +458,7 @@ struct Record {
                         // and column repeated at the slice's edges)
     uint16_t low_normal, high_normal;  // their normal indices; lit composite only, else 0
 };
-using Records = std::unique_ptr<Record[]>;  // one slice's, left unset until packed
+using Records = HugeArray<Record>;  // one slice's, left unset until packed (2 MiB pages)
 
 struct Runs : SliceRuns {  // the runs (common/object_order.h), and their records
     std::vector<Records> records;      // per slice: its runs', in order
@@ -720,7 +720,7 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
     const size_t sa = shear.stride_a;
     constexpr bool little = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;  // the fields' shifts:
     constexpr int field[4] = {little ? 0 : 16, little ? 16 : 0, little ? 0 : 32, little ? 32 : 0};
-    records.reset(new Record[columns]);  // left unset: every record is written below
+    records = Records(columns);  // left unset: every record is written below
     Record* out = records.get();
     run = bounds;
     for (int b = 0; b < nb; ++b) {
@@ -1208,10 +1208,10 @@ int main(int argc, char** argv) {
         }
         const Lut seen = build_lut(tf, 1.0);  // the runs need only which opacities are not 0
         Lut lut = build_lut(tf, opacity_ratio(params, params.step));
-        Lut slice_lut;          // the slices': opacities for their spacing, made once per view
+        Lut slice_lut = seen;   // the slices': opacities for their spacing, made once per view
         std::vector<SliceShift> shifts;  // the slices' shifts, made for each render
         std::vector<float> shading;  // lit composite: the light per normal index
-        double lut_ratio = -1;  // the ratio slice_lut was made for; -1: none yet
+        double lut_ratio = 1;   // the ratio slice_lut was made for: seen's to begin with
 
         // --- Once per transfer function and principal axis, made by the first render that
         // needs it (so the first render's time_ms= includes it, and precompute_ms= says how
