@@ -1,19 +1,17 @@
 // 46_vector_normals.cpp: shear-warp's precomputation in vector instructions: the cell test,
 // the records and the normal indices, several voxels at a time.
 //
-// New here:   step 45's pass over the volume takes one cell, one record, one normal at a
-//             time. Here its inner loops are loops of fixed length over neighbouring voxels,
-//             which the compiler makes vector instructions (SSE2, in every x86-64 processor):
-//             find_runs() tests sixteen cells at once against the table's transparent
-//             ranges (two compares per range, no table read), pack_slice() copies a run's
-//             records sixteen at a time, and slice_normals() computes a contiguous row's
-//             normal indices sixteen at a time, also compiled for AVX2 (given dispatch at
-//             run time). The same runs, records and numbers: step 45's pictures, to the bit.
+// New here:   step 45's pass takes one cell, one record, one normal at a time. Here its inner
+//             loops have a fixed length over neighbouring voxels, which the compiler makes
+//             vector instructions (SSE2; the normals' loop AVX2 too, chosen at run time):
+//             find_runs() tests sixteen cells at once against the table's transparent ranges
+//             (no table read), pack_slice() copies and slice_normals() computes sixteen
+//             records or normal indices at once. Step 45's numbers: its pictures, to the bit.
 // Builds on:  45_one_pass_precompute.
 // Handout:    handouts/46_vector_normals.md
 // Run:        make run STEP=46 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/46_vector_normals_camera.png: the default run (lit composite,
-//             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// Reference:  data/reference/46_vector_normals_camera.png: the default run (lit
+//             composite, azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
 #include <cstring>  // std::memcpy: a float's bits
 #include <memory>  // std::unique_ptr: arrays left unset until written
