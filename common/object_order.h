@@ -334,6 +334,9 @@ Runs join_runs(int axis, int nb, const std::vector<std::vector<uint32_t>>& count
     runs.axis = axis;
     runs.nb = nb;
     runs.first.reserve(counts.size() * nb + 1);
+    size_t bound_count = 0;  // sized once: no copies while it grows, no freed blocks left
+    for (const std::vector<int32_t>& slice : bounds) bound_count += slice.size();
+    runs.bounds.reserve(bound_count);
     uint32_t total = 0;
     for (size_t c = 0; c < counts.size(); ++c) {
         for (uint32_t n : counts[c]) {
@@ -356,6 +359,7 @@ Runs join_runs(int axis, int nb, const std::vector<std::vector<uint32_t>>& count
 template <class Shear, class Runs>
 void find_starts(const Shear& shear, Runs& runs) {
     runs.start.clear();
+    runs.start.reserve(runs.bounds.size() / 2);  // one per run
     for (int c = 0; c < shear.nc; ++c) {
         const auto* next = runs.records[c].get();
         const uint32_t end = runs.first[size_t(c + 1) * shear.nb];  // past its last run

@@ -917,9 +917,9 @@ int main(int argc, char** argv) {
         }
         const Lut seen = build_lut(tf, 1.0);  // the runs need only which opacities are not 0
         Lut lut = build_lut(tf, opacity_ratio(params, params.step));
-        Lut slice_lut;          // the slices': opacities for their spacing, made once per view
+        Lut slice_lut = seen;   // the slices': opacities for their spacing, made once per view
         std::vector<SliceShift> shifts;  // the slices' shifts, made for each render
-        double lut_ratio = -1;  // the ratio slice_lut was made for; -1: none yet
+        double lut_ratio = 1;   // the ratio slice_lut was made for: seen's to begin with
 
         // --- Once per transfer function and principal axis, made by the first render that
         // needs it (so the first render's time_ms= includes it, and precompute_ms= says how

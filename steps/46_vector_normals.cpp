@@ -1,21 +1,20 @@
 // 46_vector_normals.cpp: shear-warp's precomputation in vector instructions: the cell test,
 // the records and the normal indices, several voxels at a time.
 //
-// New here:   step 45's pass over the volume takes one cell, one record, one normal at a
-//             time. Here its inner loops are loops of fixed length over neighbouring voxels,
-//             which the compiler makes vector instructions (SSE2, in every x86-64 processor):
-//             find_runs() tests sixteen cells at once against the table's transparent
-//             ranges (two compares per range, no table read), pack_slice() copies a run's
-//             records sixteen at a time, and slice_normals() computes a contiguous row's
-//             normal indices eight at a time (normal_index() has no branch for that
-//             reason). The same runs, records and numbers: step 45's pictures, to the bit.
+// New here:   step 45's pass takes one cell, one record, one normal at a time. Here its inner
+//             loops have a fixed length over neighbouring voxels, which the compiler makes
+//             vector instructions (SSE2; the normals' loop AVX2 too, chosen at run time):
+//             find_runs() tests sixteen cells at once against the table's transparent ranges
+//             (no table read), pack_slice() copies and slice_normals() computes sixteen
+//             records or normal indices at once. Step 45's numbers: its pictures, to the bit.
+//             The records lie in 2 MiB pages (given: HugeArray): a few page faults, not 3,700.
 // Builds on:  45_one_pass_precompute.
 // Handout:    handouts/46_vector_normals.md
 // Run:        make run STEP=46 ARGS="--azimuth 180 --elevation 90 --size 256x256"
-// Reference:  data/reference/46_vector_normals_camera.png: the default run (lit composite,
-//             azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
+// Reference:  data/reference/46_vector_normals_camera.png: the default run (lit
+//             composite, azimuth 30, elevation 20, orthographic, 512x512), on the phantom.
 #include "common/ctlab.h"
-#include <cstring>  // std::memcpy: a float's bits, a mask's sixteen bytes at once
+#include <cstring>  // std::memcpy: a float's bits
 #include <memory>  // std::unique_ptr: arrays left unset until written
 using namespace ctlab;
 
@@ -455,7 +454,7 @@ struct Record {
                         // and column repeated at the slice's edges)
     uint16_t low_normal, high_normal;  // their normal indices; lit composite only, else 0
 };
-using Records = std::unique_ptr<Record[]>;  // one slice's, left unset until packed
+using Records = HugeArray<Record>;  // one slice's, left unset until packed (2 MiB pages)
 
 struct Runs : SliceRuns {  // the runs (common/object_order.h), and their records
     std::vector<Records> records;      // per slice: its runs', in order
@@ -640,10 +639,11 @@ static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
 //> lesson: records
 // Slice c's normal indices, at normals[b * na + a], for the voxels needed[] marks (others
 // may be written too: only the needed are read); how many it needed. Changed in step 46:
-// where a row is contiguous (a is i), its inside voxels eight at a time in a loop of fixed
+// where a row is contiguous (a is i), its inside voxels sixteen at a time in a loop of fixed
 // length, which the compiler makes vector instructions (normal_index() has no branch for
 // that reason; __restrict: normals[] is not the volume), the rest voxel by voxel as in step
-// 45: voxel_normal()'s numbers.
+// 45: voxel_normal()'s numbers. Inlined into with_vectors() (pack_slice()): AVX2 too.
+[[gnu::always_inline]] inline
 static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
                             const uint8_t* needed, uint16_t* __restrict normals) {
     const int na = shear.na, nb = shear.nb;
@@ -658,13 +658,13 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
         int a = 0;
         if (shear.stride_a == 1 && slice_inside && b > 0 && b < nb - 1) {
             const int16_t* row = &volume.data[c * shear.stride_c + b * shear.stride_b];
-            for (a = 1; a + 8 <= na - 1; a += 8) {  // a = 0 and the row's end: below
-                uint64_t mask;  // the eight bytes of needed[] at once
-                std::memcpy(&mask, needed_row + a, sizeof mask);
-                if (mask == 0) continue;
-                count += size_t((mask * 0x0101010101010101) >> 56);  // bytes summed
+            for (a = 1; a + 16 <= na - 1; a += 16) {  // a = 0 and the row's end: below
+                uint64_t mask[2];  // the sixteen bytes of needed[] at once
+                std::memcpy(mask, needed_row + a, sizeof mask);
+                if ((mask[0] | mask[1]) == 0) continue;
+                count += size_t(((mask[0] + mask[1]) * 0x0101010101010101) >> 56);  // summed
                 const int16_t* p = row + a;
-                for (int n = 0; n < 8; ++n) {  // a fixed length: vector instructions
+                for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
                     out[a + n] = normal_index({float(p[n + 1] - p[n - 1]) * per_i,
                                                float(p[n + step_j] - p[n - step_j]) * per_j,
                                                float(p[n + step_k] - p[n - step_k]) * per_k});
@@ -689,8 +689,8 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
 // record holds the values at (a, b) and (a, b + 1) and, for a lit composite, their normal
 // indices. The last column and row count again at the slice's edges. Changed in step 45:
 // the normal indices of the voxels the records hold, computed once (slice_normals()); how
-// many. Changed in step 46: a run's records sixteen at a time where its row is contiguous.
-// Not inlined into find_runs() (its cell test would lose its vector instructions).
+// many. Not inlined into find_runs() (its cell test would lose its vector instructions).
+// Changed in step 46: a run's records sixteen at a time where its row is contiguous.
 [[gnu::noinline]] static size_t pack_slice(const Volume& volume, const Shear& shear, int c,
                                            const uint32_t* counts, const int32_t* bounds,
                                            bool lit, Records& records) {
@@ -710,13 +710,13 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
             }
         }
     }
-    const size_t computed =
-        lit ? slice_normals(volume, shear, c, needed.data(), normals.get()) : 0;
+    const size_t computed = lit ? with_vectors([&]() CTLAB_VECTOR_BODY {  // given: AVX2 too
+        return slice_normals(volume, shear, c, needed.data(), normals.get()); }) : 0;
     const std::vector<uint16_t> none(lit ? 0 : na, 0);  // unlit: every normal index 0
     const size_t sa = shear.stride_a;
     constexpr bool little = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;  // the fields' shifts:
     constexpr int field[4] = {little ? 0 : 16, little ? 16 : 0, little ? 0 : 32, little ? 32 : 0};
-    records.reset(new Record[columns]);  // left unset: every record is written below
+    records = Records(columns);  // left unset: every record is written below
     Record* out = records.get();
     run = bounds;
     for (int b = 0; b < nb; ++b) {
@@ -1189,10 +1189,10 @@ int main(int argc, char** argv) {
         }
         const Lut seen = build_lut(tf, 1.0);  // the runs need only which opacities are not 0
         Lut lut = build_lut(tf, opacity_ratio(params, params.step));
-        Lut slice_lut;          // the slices': opacities for their spacing, made once per view
+        Lut slice_lut = seen;   // the slices': opacities for their spacing, made once per view
         std::vector<SliceShift> shifts;  // the slices' shifts, made for each render
         std::vector<float> shading;  // lit composite: the light per normal index
-        double lut_ratio = -1;  // the ratio slice_lut was made for; -1: none yet
+        double lut_ratio = 1;   // the ratio slice_lut was made for: seen's to begin with
 
         // --- Once per transfer function and principal axis, made by the first render that
         // needs it (so the first render's time_ms= includes it, and precompute_ms= says how

@@ -13,6 +13,7 @@
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -339,6 +340,55 @@ TEST_CASE("part 3: the slice steps refuse --work-map, whose per-ray counts they 
         CHECK(run.err.find("intermediate image") != std::string::npos);
         CHECK(std::count(run.err.begin(), run.err.end(), '\n') == 1);  // one line
         CHECK(std::filesystem::is_empty(folder.path()));  // nothing written
+    }
+}
+
+// The value of `key` in the "precompute ..." line a slice step prints; "" when it has none.
+static std::string precompute_value(const std::string& out, const std::string& key) {
+    std::istringstream lines(out);
+    for (std::string line; std::getline(lines, line);) {
+        if (line.rfind("precompute ", 0) != 0) continue;
+        const ctlab::Summary values = ctlab::parse_summary(line);
+        const auto found = values.find(key);
+        return found == values.end() ? "" : found->second;
+    }
+    return "";
+}
+
+TEST_CASE("part 3: step 46's normal indices are the same in its SSE2 copy and the chosen one") {
+    // common/dispatch.h compiles slice_normals() twice, for SSE2 and AVX2, and the processor
+    // picks; CTLAB_VECTORS=sse2 forces the SSE2 copy, the one a processor without AVX2 runs.
+    // Neither uses FMA, so the pictures, counters and precomputation must be the same, to the
+    // bit. (On a processor without AVX2 both runs take the SSE2 copy, and this compares it
+    // with itself.)
+    constexpr const char* step = "46_vector_normals";
+    const std::vector<std::string> oblique = {"--azimuth", "30", "--elevation", "20",
+                                              "--size",    "96x96"};
+    std::vector<std::vector<std::string>> runs = {cases()[1].flags, phantom_flags()};
+    runs[1].insert(runs[1].end(), oblique.begin(), oblique.end());  // spacing 1,1,2
+    for (const std::vector<std::string>& flags : runs) {
+        const StepRender chosen = render(step, flags);
+        REQUIRE(setenv("CTLAB_VECTORS", "sse2", 1) == 0);
+        const StepRender forced = render(step, flags);
+        REQUIRE(unsetenv("CTLAB_VECTORS") == 0);
+        const ctlab::Image &a = chosen.image("camera"), &b = forced.image("camera");
+        REQUIRE(a.pixels.size() == b.pixels.size());
+        size_t different = 0;
+        for (size_t n = 0; n < a.pixels.size(); ++n) {
+            const ctlab::Rgb p = a.pixels[n], q = b.pixels[n];
+            different += p.r != q.r || p.g != q.g || p.b != q.b;
+        }
+        CHECK(different == 0);
+        for (const char* key : {"samples", "skipped", "leapt", "gradients", "terminated"}) {
+            INFO(key);
+            CHECK(ctlab::summary_count(chosen.summary("camera"), key) ==
+                  ctlab::summary_count(forced.summary("camera"), key));
+        }
+        const std::string normals = precompute_value(chosen.run.out, "normal_voxels");
+        CHECK(std::stoull(normals) > 0);  // a lit render: the indices were computed
+        CHECK(normals == precompute_value(forced.run.out, "normal_voxels"));
+        CHECK(precompute_value(chosen.run.out, "records") ==
+              precompute_value(forced.run.out, "records"));
     }
 }
 
