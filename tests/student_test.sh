@@ -187,6 +187,13 @@ done
 for source in steps/[0-9][0-9]_*.cpp; do
     step=$(basename "$source" .cpp)
     expect "$student/README.md lists $step" grep -q "(handouts/$step.md)" "$student/README.md"
+    # What the step teaches: its header's whole title, also when it goes on to a second comment
+    # line (a title cut after its first line ended the row in the middle of a sentence).
+    title=$(awk 'NR == 1 { sub(/^\/\/ [0-9][0-9]_[a-z0-9_]*\.cpp: /, ""); t = $0; next }
+                 /^\/\/ *$/ || !/^\/\/ / { exit }
+                 { sub(/^\/\/ +/, ""); t = t " " $0 } END { print t }' "$source")
+    expect "$student/README.md gives $step's whole title" \
+        grep -qF "(handouts/$step.md) | $title |" "$student/README.md"
 done
 expect "the lab's README.md is $student/LAB.md" cmp -s README.md "$student/LAB.md"
 expect "$student/.ctlab/carry.txt carries first_hit from 02 into 03" \
