@@ -369,5 +369,32 @@ DIMS=64,80 sh tools/make_reference.sh "$build" "$work/sphere.raw" "$work/ref_bad
     [ ! -e "$work/ref_bad" ]
 check $? "make reference DIMS=64,80: $(cat "$work/bad_dims.err")"
 
+# A folder of pictures is graded on each step's default run: a variant's picture handed in
+# too is an extra row that says it is a variant of the reference folder (it is there), not
+# "not in the reference folder"; a picture the folder lacks still says that.
+variant=$(sed -n 's/^\([0-9][0-9]_[a-z0-9_]*\)_\([a-z0-9]*\): .*/\1 \2/p' data/reference/manifest.txt |
+    while read -r step name; do
+        for view in top camera; do
+            [ -f "data/reference/${step}_${view}.png" ] &&
+                [ -f "data/reference/${step}_${view}_$name.png" ] &&
+                { echo "${step}_$view ${step}_${view}_$name"; break; }
+        done
+    done | head -n 1)
+if [ -n "$variant" ]; then
+    set -- $variant
+    mkdir "$work/ref_variant" "$work/variant"
+    cp "data/reference/$1.png" "data/reference/$2.png" data/reference/manifest.txt "$work/ref_variant/"
+    cp "data/reference/$1.png" "data/reference/$2.png" "$work/variant/"
+    cp "data/reference/$1.png" "$work/variant/$1_mine.png"
+    "$checker" --submission "$work/variant" --reference "$work/ref_variant" \
+        --report "$work/variant_report" > /dev/null 2>&1
+    csv="$work/variant_report/report.csv"
+    expect "$1.png" pass ""
+    expect "$2.png" extra "a variant of the reference folder, not graded"
+    expect "$1_mine.png" extra "not in the reference folder"
+else
+    check 1 "no manifest variant with a default picture beside it in data/reference"
+fi
+
 echo "grade test: $passed passed, $failed failed"
 [ $failed -eq 0 ]
