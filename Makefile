@@ -516,6 +516,10 @@ ifneq ($(BUILD_FLAGS),$(shell cat $(FLAGS_STAMP) 2>/dev/null))
 $(shell mkdir -p $(BUILD) && printf '%s\n' '$(BUILD_FLAGS)' > $(FLAGS_STAMP))
 endif
 endif
+# A goal left out above that builds (`make carry` as the first command in a fresh student kit:
+# its tool) finds no stamp: one is written, as it would have been. An existing stamp is kept.
+$(FLAGS_STAMP):
+	@mkdir -p $(@D) && printf '%s\n' '$(BUILD_FLAGS)' > $@
 
 # Every object is kept, also those make would delete as intermediate (a step's, a tool's): the
 # student kit and grade_test reuse the lab's objects, and a deleted one was compiled again there.
