@@ -335,6 +335,12 @@ progress_is() {
     printf 'volume: %s\n' "$work/phantom.raw" > "$student/data/reference/volume.txt" ||
     bad "cannot write the phantom to $work/phantom.raw"
 progress_is none "a fresh kit"
+# A step's stubs of functions it takes unchanged from an earlier step come after its own, with
+# the command that brings them (a part-3 step takes 20 or more: in a fresh kit its first TODO
+# lines were all of them, with no word of make carry).
+expect "a fresh kit's make check says which stubs make carry brings: $(grep -c 'TODO' "$work/progress_first.log") TODO lines" \
+    grep -q "are your earlier steps' functions: \`make carry STEP=[0-9][0-9]\` copies them in" \
+    "$work/progress_first.log"
 
 # --- make carry: a function written once serves the later steps -------------------------
 # Inside the test only: step 02's first_hit filled in from the solution.
