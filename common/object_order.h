@@ -14,6 +14,7 @@
 #include <ctime>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 #include "error.h"
 #include "image.h"
@@ -535,23 +536,49 @@ void slices_or_rays(Renderer& renderer, const Renderer& rays, CameraFor camera_f
     };
 }
 
-// One output pixel alone for a shear by whole voxels (step 37), as axis_pixel_traced() makes
-// it: intermediate pixel (u, v) meets slice m at voxel (u + ia, v + ib) of it (shifts[m], front
-// to back; no sample where the slice does not hold that voxel, up to last_a and last_b).
-template <class Shear, class Shift, class Column, class WarpPixel>
+// A slice shift's fractions past its cell's low corner along a and b, where a sample lies: its
+// fa and fb when it keeps them (bilinear samples, step 38 on), else none (whole voxels, 37).
+// Called as shift_fractions(s, 0): the first overload where s has fa (0 is an int), else the
+// second.
+template <class Shift>
+auto shift_fractions(const Shift& s, int) -> decltype(s.fa, std::pair<double, double>()) {
+    return {s.fa, s.fb};
+}
+template <class Shift>
+std::pair<double, double> shift_fractions(const Shift&, long) {
+    return {0, 0};
+}
+
+// The sample of a whole voxel (step 37): the voxel itself (p: the voxel in the volume's data).
+struct WholeVoxel {
+    template <class Shift>
+    float operator()(const int16_t* p, const Shift&) const { return *p; }
+};
+
+// One output pixel alone for the slices shifted by the shear (steps 37 on), as
+// axis_pixel_traced() makes it: intermediate pixel (u, v) meets slice m (shifts[m], front to
+// back) in the cell whose low corner is voxel (u + ia, v + ib) of the slice (no sample where
+// the slice does not hold it, up to last_a and last_b). Its value is sample(p, shifts[m]), p
+// that voxel in the volume's data: the step's own (step 38's slice_value()), by default the
+// voxel itself; its place the corner plus the shift's fractions (shift_fractions()).
+template <class Shear, class Shift, class Column, class WarpPixel, class Sample = WholeVoxel>
 Rgb shifted_pixel_traced(const Volume& volume, const Shear& shear,
                          const std::vector<Shift>& shifts, const WarpMap& warp, int x, int y,
-                         Trace* trace, Column column, WarpPixel warp_pixel) {
+                         Trace* trace, Column column, WarpPixel warp_pixel,
+                         Sample sample = WholeVoxel{}) {
     const WarpPoint p = warp_at(warp, x, y);
     trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
     auto pixel = [&](int u, int v) {
-        auto at = [&](int m) {  // its voxel in slice m, if the slice holds it
+        auto at = [&](int m) {  // its cell in slice m, if the slice holds it
             const Shift& s = shifts[m];
             const int a = u + s.ia, b = v + s.ib;
             if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) return ColumnSample{};
-            const Voxel voxel = voxel_of(shear, a, b, s.slice);
-            return ColumnSample{true, slice_point(volume, shear, a, b, s.slice),
-                                float(volume.at(voxel.i, voxel.j, voxel.k))};
+            const size_t index =
+                s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
+            const std::pair<double, double> past = shift_fractions(s, 0);
+            return ColumnSample{
+                true, slice_point(volume, shear, a + past.first, b + past.second, s.slice),
+                sample(&volume.data[index], s)};
         };
         return column(u, v, at);
     };

@@ -718,7 +718,7 @@ int main(int argc, char** argv) {
         const Options options = args.parse(argc, argv);
         params.nearest = params.interpolation == "nearest";
         const View camera_image = camera_view(options, params);  // --size; no --view
-        refuse_object_order_flags(options, params);  // --work-map, perspective
+        refuse_object_order_flags(options, params);  // --work-map
 
         // --- Volume ---
         const Volume volume = load_volume(options);

@@ -25,6 +25,7 @@ constexpr double unit_length = 1;     // physical length the TF opacities hold f
                                       // at spacing 1
 constexpr double default_step = 1;    // physical units between two samples along a ray
 constexpr double min_step = 0.25, max_step = 4;  // --step limits, physical units
+constexpr double step_key_factor = 2;            // Up doubles the step, Down halves it
 constexpr const char* skin_label = "skin";  // the range --skin-opacity changes
 constexpr double default_light_angle = 30;  // degrees to the right of the viewer
 constexpr double light_elevation = 20;      // degrees above the viewer, fixed
@@ -39,10 +40,10 @@ struct Params : CameraFlags {  // --azimuth, --elevation, --zoom, --projection, 
     std::string tf_path;       // "": data/tf/classic.tf when present, else the built-in copy
     double skin_opacity = -1;  // 0..1; -1: as the transfer function file says
     double ert = default_ert;  // early ray termination threshold for T
-    double step = default_step;  // physical units between samples (step 30's rays)
+    double step = default_step;  // physical units between samples
     double light_angle = default_light_angle;
     bool unlit = false;          // L = 1 everywhere, no gradients (as step 08)
-    bool no_correction = false;  // use the TF opacities as they are, whatever the spacing
+    bool no_correction = false;  // use the TF opacities as they are, whatever the step
     std::string interpolation = "trilinear";  // how a sample is read: or "nearest"
     bool nearest = false;                     // interpolation == "nearest"
 };
@@ -213,7 +214,6 @@ static double opacity_ratio(const Params& params, double spacing) {
 }
 //< lesson: opacity_correction
 
-
 // Step 10's lookup table, unchanged: one RGBA per CT value, opacities corrected for the step.
 struct Lut {
     std::vector<Rgba> entries = std::vector<Rgba>(ct_value_end - lowest_ct_value);
@@ -322,7 +322,6 @@ static float sample_value(const Volume& volume, const Cell& c, bool nearest) {
 // Given: lerp() for gradients.
 static Vec3 lerp_vector(Vec3 a, Vec3 b, float f) { return a + f * (b - a); }
 
-
 //> lesson: gradient
 // Step 10's derivative and gradient at a voxel, unchanged.
 template <class Sample>
@@ -417,14 +416,13 @@ static Rgb over_background(const Accumulated& ray) {
 }
 //< lesson: ray_output
 
-// --- Step 38: shear-warp ---
+// --- Object order from any orthographic camera: the shear (step 37) ---
 
-// The slices are the planes of voxels across axis c, the principal axis; a and b
-// are a slice's two axes, a along its rows (the lower axis, so that a row is contiguous in
-// memory when a is i). Along an axis every ray runs down one voxel column: the intermediate
-// image has one pixel per column, and pixel (u, v) meets slice c at voxel (a, b) = (u, v).
-// At an angle the slices shift against each other (the shear): the ray of pixel (u, v)
-// meets slice m (front to back) at a = u + base_a + m * delta_a, b = v + base_b + m * delta_b.
+// The slices: the planes of voxels across axis c, the axis the camera looks along; a, b a
+// slice's axes (a the lower: a row is contiguous in memory when a is i). Along an axis each
+// ray runs down one voxel column: intermediate pixel (u, v) meets slice c at voxel (u, v).
+// At an angle c is the principal axis and the slices shift (the shear): the ray of pixel
+// (u, v) meets slice m (front to back) at a = u + base_a + m * delta_a, b = v + base_b + ....
 struct Shear {
     int a = 0, b = 1, c = 2;     // the axes: 0 i, 1 j, 2 k
     int na = 1, nb = 1, nc = 1;  // voxels along a, b, c
@@ -436,9 +434,8 @@ struct Shear {
     double spacing = 1;  // physical length along a ray from one slice to the next
 };
 
-// Where the intermediate image meets slice m: pixel (u, v) samples the cell whose low corner
-// is voxel (u + ia, v + ib) of the slice, fa and fb of the way past it. The shear only moves a
-// slice, so the fractions (the bilinear weights) are the same for every pixel of the slice.
+// Slice m's shift: pixel (u, v) samples the cell whose low corner is voxel (u + ia, v + ib)
+// of the slice, fa and fb of the way past it: the same bilinear weights for every pixel.
 struct SliceShift {
     int slice = 0;          // its c
     int ia = 0, ib = 0;     // from pixel to cell, voxels
@@ -461,12 +458,12 @@ struct Scene {
     const Params& params;
 };
 
-// Given: the cameras the slices do not take, rendered by step 30's rays (composite_ray()
-// and mip_ray(), unchanged): a perspective one (the shear-warp here is orthographic).
-// Changed in step 37: any orthographic view is sheared; only a perspective one is left.
-static bool by_rays(const Camera& camera) { return camera.perspective; }
+// Given: the views the slices do not take (changed in step 37: perspective) are step 30's rays.
+static bool by_rays(const Camera& camera) {
+    return camera.perspective;
+}
 
-//> lesson: shear
+//> lesson: slices
 // The slices for any orthographic camera: c is the principal axis (along it the view crosses
 // most voxels per unit length: a slice shifts by at most a voxel); front to back is the
 // sign of the view direction along it. The intermediate image is one pixel per voxel column.
@@ -529,7 +526,7 @@ static SliceShift slice_shift(const Shear& shear, int m, bool nearest) {
 static inline float slice_value(const int16_t* p, const SliceShift& s) {
     return lerp(lerp(p[0], p[s.da], s.fa), lerp(p[s.db], p[s.da + s.db], s.fa), s.fb);
 }
-//< lesson: shear
+//< lesson: slices
 
 //> lesson: runs
 // Classification, once per transfer function and principal axis: the cells of every slice row
@@ -842,19 +839,16 @@ constexpr auto blend = [](const WarpPoint& p, int width, int height, auto pixel)
     return warp_pixel(p, width, height, pixel);
 };
 
-// --- One pixel alone: the trace (--debug-pixel) and the window's ray panel ---
-
-// An intermediate pixel's colour, from the pixel's composite or maximum (as the image's rows
-// give it): over the background, or the maximum's grey (no sample: the background).
+// An intermediate pixel's colour: its composite over the background, or its maximum's grey
+// (no sample: the background).
 static Rgb composite_colour(const Accumulated& pixel) { return over_background(pixel); }
 static Rgb mip_colour(const Volume& volume, float highest) {
     if (highest == -std::numeric_limits<float>::infinity()) return background;
     return grey(display_grey(volume, highest));
 }
 
-// Output pixel (x, y) alone: its warp point, the (up to) four intermediate pixels around it
-// composited alone (common/object_order.h, as the rows do), and the warp's blend of them, the
-// image's pixel to the bit. The trace follows each of the four sample by sample.
+// Output pixel (x, y) alone (the trace, the ray panel): the four intermediate pixels around its
+// warp point, each alone as the rows take it, blended by the warp: the image's pixel exactly.
 // Changed in step 38: each slice's shift, a bilinear sample and its cell's light.
 static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
@@ -862,35 +856,25 @@ static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace*
     const Ray ray = camera_ray(scene.camera, x, y);
     const Vec3d high = box_high(volume);
     trace_ray(trace, ray, intersect_box(ray, Vec3d{}, high), high, shear.spacing);
-    const WarpPoint p = warp_at(make_warp(volume, shear, scene.camera), x, y);
-    trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
     const double stop_below = std::max(scene.params.ert, min_transparency);
-    auto column = [&](int u, int v) {  // intermediate pixel (u, v) alone, traced
-        auto at = [&](int m) {  // its cell in slice m, if the slice holds it
-            const SliceShift& s = scene.shifts[m];
-            const int a = u + s.ia, b = v + s.ib;
-            if (a < 0 || a > s.last_a || b < 0 || b > s.last_b) return ColumnSample{};
-            const size_t index = s.slice * shear.stride_c + b * shear.stride_b + a * shear.stride_a;
-            return ColumnSample{true,
-                                slice_point(volume, shear, a + double(s.fa), b + double(s.fb),
-                                            s.slice),
-                                slice_value(&volume.data[index], s)};
-        };
+    auto column = [&](int u, int v, auto at) {  // intermediate pixel (u, v) alone, traced
+        if (scene.params.mode == "mip") {
+            return mip_colour(volume, maximum_column(shear.nc, ray, work, trace, at));
+        }
         auto light = [&](int m) {
             const SliceShift& s = scene.shifts[m];
             const int a = u + s.ia, b = v + s.ib;
             return scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
         };
-        if (scene.params.mode == "mip") {
-            return mip_colour(volume, maximum_column(shear.nc, ray, work, trace, at));
-        }
         auto add = [](Accumulated& pixel, const Rgba& sample, double light_of_sample) {
             add_sample(pixel, sample, light_of_sample);
         };
         return composite_colour(composite_column<Accumulated>(
             shear.nc, scene.lut.entries.data(), stop_below, ray, work, trace, at, light, add));
     };
-    return warp_traced(p, shear.width, shear.height, trace, column, blend);  // with notes
+    const WarpMap warp = make_warp(volume, shear, scene.camera);
+    return shifted_pixel_traced(volume, shear, scene.shifts, warp, x, y, trace, column, blend,
+                                slice_value);  // common/object_order.h
 }
 
 int main(int argc, char** argv) {
@@ -924,9 +908,7 @@ int main(int argc, char** argv) {
         // --- Volume ---
         const Volume volume = load_volume(options);
         const std::string refused = too_many_samples_along_box(volume, params.step);
-        if (!refused.empty() && params.projection == "perspective") {
-            throw InputError(refused);
-        }
+        if (!refused.empty()) throw InputError(refused);
 
         // --- Transfer function: the file (in the file's units), its table for this step size ---
         TransferFunction tf = load_transfer_function(params.tf_path, volume.map);
@@ -941,7 +923,8 @@ int main(int argc, char** argv) {
 
         // --- Once per transfer function and principal axis, made by the first render that
         // needs it (so the first render's time_ms= includes it, and precompute_ms= says how
-        // much): the runs. Once per view: the table's opacities for the slices' spacing ---
+        // much): the runs. Per view, in scene_for() below: the table's opacities for the
+        // slices' spacing ---
         Runs runs[3];  // per principal axis
         double precompute_ms = 0;  // wall clock, this process
         auto prepare = [&](const Shear& shear) {
@@ -976,6 +959,16 @@ int main(int argc, char** argv) {
         auto camera_for = [&](const View& view) { return make_camera(volume, params, view); };
         cast_camera_rays(renderer, options.threads, params.step, camera_for, light_towards,
                          pixel);  // common/camera_flags.h: renderer.image, .ray, .ray_samples
+        renderer.knob = {"step",
+                         [&](const View&, int steps) {
+                             const double step = std::clamp(
+                                 params.step * std::pow(step_key_factor, steps), min_step,
+                                 max_step);
+                             if (!too_many_samples_along_box(volume, step).empty()) return;
+                             params.step = step;
+                             lut = build_lut(tf, opacity_ratio(params, params.step));
+                         },
+                         [&] { return summary_number(params.step); }};
         renderer.orbit = camera_orbit(&params);  // the window's drag and wheel
 
         renderer.settings = [&] {

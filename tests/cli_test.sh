@@ -235,5 +235,24 @@ for step in 02_threshold 03_depth_shading 04_gradient_lighting 05_interpolated_h
     check $? "$step on a ray of 16777220 voxels: status $status: $(cat "$work/stdout" "$work/stderr")"
 done
 
+# The instructor's and the Makefile's tools: --help prints a usage line on stdout, status 0,
+# nothing on stderr; an unknown flag is a one-line error, status 2.
+for tool in bench study measured pack_png grade check carry make_student find_answers \
+    make_phantom handout_listings; do
+    [ -x "$build/$tool" ] || continue  # built by a target this run does not need
+    "$build/$tool" --help > "$work/stdout" 2> "$work/stderr"
+    status=$?
+    [ $status -eq 0 ] && grep -q "^usage: " "$work/stdout" && [ ! -s "$work/stderr" ]
+    check $? "$tool --help: status $status, or no 'usage:' line on stdout, or stderr output"
+done
+for tool in bench study; do
+    [ -x "$build/$tool" ] || continue
+    "$build/$tool" --no-such-flag > "$work/stdout" 2> "$work/stderr"
+    status=$?
+    [ $status -eq 2 ] && [ "$(wc -l < "$work/stderr")" -eq 1 ] &&
+        grep -q "no-such-flag" "$work/stderr"
+    check $? "$tool --no-such-flag: status $status (2 expected), stderr: $(cat "$work/stderr")"
+done
+
 echo "cli test: $passed passed, $failed failed"
 [ $failed -eq 0 ]

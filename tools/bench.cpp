@@ -1371,6 +1371,12 @@ int gain_report(const std::string& out_path, const std::string& only) {
     return 0;
 }
 
+constexpr const char* bench_usage =
+    "usage: bench [--volume phantom|PATH] [--runs N>=10] [--out FILE] [--steps NN,NN]\n"
+    "             [--flags \"FLAGS\"] [--quick] [--peers] [--gain]\n"
+    "Times every step's renders (make bench); --peers: part 3 against VolPack and VTK;\n"
+    "--gain: part 3's CPU time per render (make gain). Writes out/bench.md unless --out.\n";
+
 int run(int argc, char** argv) {
     std::string volume_name = "phantom", out_path = "out/bench.md", only;
     std::vector<std::string> extra_flags;  // --flags: given to every step, after its defaults
@@ -1381,7 +1387,10 @@ int run(int argc, char** argv) {
     for (int n = 1; n < argc; ++n) {
         const std::string flag = argv[n];
         const bool has_value = n + 1 < argc;
-        if (flag == "--quick") {
+        if (flag == "--help" || flag == "-h") {
+            std::printf("%s", bench_usage);
+            return 0;
+        } else if (flag == "--quick") {
             quick = true;
         } else if (flag == "--peers") {
             peers_only = true;
@@ -1399,9 +1408,7 @@ int run(int argc, char** argv) {
             std::istringstream words(argv[++n]);
             for (std::string word; words >> word;) extra_flags.push_back(word);
         } else {
-            throw InputError("usage: bench [--volume phantom|PATH] [--runs N>=10] [--out FILE]"
-                             " [--steps NN,NN] [--flags \"FLAGS\"] [--quick] [--peers] [--gain], got '" + flag +
-                             "'");
+            throw InputError("unknown flag '" + flag + "' (see bench --help)");
         }
     }
     if (quick) runs = 1;

@@ -117,6 +117,13 @@ int run(int argc, char** argv) {
     std::vector<std::string> handouts;
     for (int n = 1; n < argc; ++n) {
         const std::string arg = argv[n];
+        if (arg == "--help" || arg == "-h") {
+            std::printf("usage: measured [--check] SOURCE.md [HANDOUT.md ...]\n"
+                        "Copies SOURCE.md's measured sections into the handouts' blocks of the "
+                        "same name\n(default: every handouts/*.md); --check only reports "
+                        "blocks that differ (exit 1).\n");
+            return 0;
+        }
         if (arg == "--check") check = true;
         else if (source.empty()) source = arg;
         else handouts.push_back(arg);

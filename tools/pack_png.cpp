@@ -16,6 +16,11 @@
 #include "tools/image_read.h"
 
 int main(int argc, char** argv) {
+    if (argc == 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h")) {
+        std::printf("usage: pack_png FILE...\nRewrites each PNG at the default compression, "
+                    "its pixels unchanged (make reference runs it).\n");
+        return 0;
+    }
     if (argc < 2) {
         std::fprintf(stderr, "usage: pack_png FILE...\n");
         return ctlab::exit_bad_input;

@@ -1387,12 +1387,21 @@ int shear_warp_only(const std::string& out, const std::string& started,
     return 0;
 }
 
+constexpr const char* study_usage =
+    "usage: study [--out DIR] [--runs N] [--quick] [--only shear-warp]\n"
+    "What each method costs and what it buys (make study): time against error for depth,\n"
+    "step, ert, jitter, shadows, shear-warp, precision, numerics; writes DIR/*.md (default\n"
+    "out/study). --only shear-warp: that study alone.\n";
+
 int run(int argc, char** argv) {
     std::string out = "out/study";
     std::string only;  // --only shear-warp: that study alone, into its own table
     for (int n = 1; n < argc; ++n) {
         const std::string flag = argv[n];
-        if (flag == "--out" && n + 1 < argc) {
+        if (flag == "--help" || flag == "-h") {
+            std::printf("%s", study_usage);
+            return 0;
+        } else if (flag == "--out" && n + 1 < argc) {
             out = argv[++n];
         } else if (flag == "--runs" && n + 1 < argc) {
             runs = parse_int("--runs", argv[++n], 1, 1000);
@@ -1402,8 +1411,7 @@ int run(int argc, char** argv) {
             only = argv[++n];
             if (only != "shear-warp") throw InputError("--only: the one study is shear-warp");
         } else {
-            throw InputError("usage: study [--out DIR] [--runs N] [--quick] [--only shear-warp], "
-                             "got '" + flag + "'");
+            throw InputError("unknown flag '" + flag + "' (see study --help)");
         }
     }
     if (quick) {
