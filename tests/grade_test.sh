@@ -255,6 +255,17 @@ check $? "side-by-side pictures: $(ls -R "$work/class_report/students" | tr '\n'
 [ $? -eq 2 ] && [ ! -e "$class/reports" ]
 check $? "--report inside the class folder was not refused"
 
+# build/check --build refuses a library older than any file of common/ ("make, so students
+# are built against the library as it is"): make must then archive it again, also for a
+# header no object of the library includes (a pulled common/object_order.h left the refusal
+# standing). make -q -W: what make would do were that header new, touching nothing.
+if [ "$build" = build ] && [ -f common/object_order.h ]; then
+    env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -q -W common/object_order.h "$build/libctlab.a" \
+        > /dev/null 2>&1
+    [ $? -eq 1 ]
+    check $? "make does not rebuild $build/libctlab.a when common/object_order.h is newer"
+fi
+
 # --- A class of student trees, graded by building and running their programs --------------
 # build/check --build (beside the checker) builds each tree's steps/ from source against the
 # lab's common/ in the sandbox and runs them on the phantom (never its out/ pictures, never its
