@@ -516,6 +516,10 @@ ifneq ($(BUILD_FLAGS),$(shell cat $(FLAGS_STAMP) 2>/dev/null))
 $(shell mkdir -p $(BUILD) && printf '%s\n' '$(BUILD_FLAGS)' > $(FLAGS_STAMP))
 endif
 endif
+# A goal left out above that builds (`make carry` as the first command in a fresh student kit:
+# its tool) finds no stamp: one is written, as it would have been. An existing stamp is kept.
+$(FLAGS_STAMP):
+	@mkdir -p $(@D) && printf '%s\n' '$(BUILD_FLAGS)' > $@
 
 # Every object is kept, also those make would delete as intermediate (a step's, a tool's): the
 # student kit and grade_test reuse the lab's objects, and a deleted one was compiled again there.
@@ -577,7 +581,10 @@ $(BUILD)/tests/unit_%.o: tests/unity_source.sh $(FLAGS_STAMP)
 	$(CXX) $(CPPFLAGS) -fmacro-prefix-map=./= $(CXXFLAGS) -c $(@:.o=.cpp) -o $@
 	@sed -i '1s| $(@:.o=.cpp)||' $(@:.o=.d)
 
-$(LIBCTLAB): $(COMMON_OBJECTS)
+# Every file of common/ too: build/check --build refuses a library older than any of them (it
+# builds strangers' steps against it), and a header only the steps include (object_order.h)
+# rebuilt no object of it, so `make` left the refusal standing. Archiving again is cheap.
+$(LIBCTLAB): $(COMMON_OBJECTS) $(wildcard common/*)
 	rm -f $@
 	$(AR) rcs $@ $(filter %.o,$^)
 

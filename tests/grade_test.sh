@@ -255,6 +255,17 @@ check $? "side-by-side pictures: $(ls -R "$work/class_report/students" | tr '\n'
 [ $? -eq 2 ] && [ ! -e "$class/reports" ]
 check $? "--report inside the class folder was not refused"
 
+# build/check --build refuses a library older than any file of common/ ("make, so students
+# are built against the library as it is"): make must then archive it again, also for a
+# header no object of the library includes (a pulled common/object_order.h left the refusal
+# standing). make -q -W: what make would do were that header new, touching nothing.
+if [ "$build" = build ] && [ -f common/object_order.h ]; then
+    env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -q -W common/object_order.h "$build/libctlab.a" \
+        > /dev/null 2>&1
+    [ $? -eq 1 ]
+    check $? "make does not rebuild $build/libctlab.a when common/object_order.h is newer"
+fi
+
 # --- A class of student trees, graded by building and running their programs --------------
 # build/check --build (beside the checker) builds each tree's steps/ from source against the
 # lab's common/ in the sandbox and runs them on the phantom (never its out/ pictures, never its
@@ -368,6 +379,33 @@ DIMS=64,80 sh tools/make_reference.sh "$build" "$work/sphere.raw" "$work/ref_bad
 [ $? -eq 2 ] && grep -q 'DIMS=64,80: expected three whole numbers' "$work/bad_dims.err" &&
     [ ! -e "$work/ref_bad" ]
 check $? "make reference DIMS=64,80: $(cat "$work/bad_dims.err")"
+
+# A folder of pictures is graded on each step's default run: a variant's picture handed in
+# too is an extra row that says it is a variant of the reference folder (it is there), not
+# "not in the reference folder"; a picture the folder lacks still says that.
+variant=$(sed -n 's/^\([0-9][0-9]_[a-z0-9_]*\)_\([a-z0-9]*\): .*/\1 \2/p' data/reference/manifest.txt |
+    while read -r step name; do
+        for view in top camera; do
+            [ -f "data/reference/${step}_${view}.png" ] &&
+                [ -f "data/reference/${step}_${view}_$name.png" ] &&
+                { echo "${step}_$view ${step}_${view}_$name"; break; }
+        done
+    done | head -n 1)
+if [ -n "$variant" ]; then
+    set -- $variant
+    mkdir "$work/ref_variant" "$work/variant"
+    cp "data/reference/$1.png" "data/reference/$2.png" data/reference/manifest.txt "$work/ref_variant/"
+    cp "data/reference/$1.png" "data/reference/$2.png" "$work/variant/"
+    cp "data/reference/$1.png" "$work/variant/$1_mine.png"
+    "$checker" --submission "$work/variant" --reference "$work/ref_variant" \
+        --report "$work/variant_report" > /dev/null 2>&1
+    csv="$work/variant_report/report.csv"
+    expect "$1.png" pass ""
+    expect "$2.png" extra "a variant of the reference folder, not graded"
+    expect "$1_mine.png" extra "not in the reference folder"
+else
+    check 1 "no manifest variant with a default picture beside it in data/reference"
+fi
 
 echo "grade test: $passed passed, $failed failed"
 [ $failed -eq 0 ]

@@ -88,5 +88,26 @@ else
           run_printed slab_parallel "$work/s.log"; }
 fi
 
+# Part 3, object order (a view made of slices and a warp, no ray of its own): step 35's
+# maximum along i read as if slice rows were contiguous (a failing --mode mip run), and step
+# 37's shift rounded down (the default run's picture and counters).
+if [ -f steps/35_object_order_mip.cpp ] && [ -f steps/37_shear.cpp ]; then
+    mutant mip_row_stride steps/35_object_order_mip.cpp \
+        's/float(slice_row\[u \* shear.stride_a\])/float(slice_row[u])/' &&
+        { "$build/check" --bin "$work/bin/mip_row_stride" --step 35 --out "$work/out/m" \
+              > "$work/m.log" 2>&1
+          [ $? -eq 1 ] || { bad "mip_row_stride: grade did not fail"; sed 's/^/    /' "$work/m.log"; }
+          grep -q -- "--mode mip" "$work/m.log" ||
+              bad "mip_row_stride: no printed command traces the --mode mip run"
+          run_printed mip_row_stride "$work/m.log"; }
+    mutant shift_truncated steps/37_shear.cpp '/if (position - \*low >= 0.5) ++\*low;/d' &&
+        { "$build/check" --bin "$work/bin/shift_truncated" --step 37 --out "$work/out/h" \
+              > "$work/h.log" 2>&1
+          [ $? -eq 1 ] || { bad "shift_truncated: grade did not fail"; sed 's/^/    /' "$work/h.log"; }
+          run_printed shift_truncated "$work/h.log"; }
+else
+    echo "printed_commands test: skipped: no steps 35 and 37"
+fi
+
 echo "printed_commands test: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -72,6 +72,14 @@ expect "the student tree holds no lesson body of the solution (find_answers exit
     [ $? -eq 0 ]
 grep "^$student" "$work/answers.txt" | sed "s|^$student/|  student/|" | head -n 40
 
+# The kit's README has the student run `make carry` before anything is built: in a kit with no
+# build/ yet, make knows how to make all it needs (it once found no rule for build/flags.txt).
+env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -n -C "$student" carry STEP=03 \
+    > "$work/carry_first.log" 2>&1
+expect "make carry is the first command of a fresh kit (make -n: every prerequisite has a rule)" \
+    [ $? -eq 0 ]
+grep 'No rule' "$work/carry_first.log"
+
 # --- The student tree builds every target on its own -------------------------------------
 # common/, tools/ and tests/ are copied unchanged: reuse the lab's compiled objects for them
 # (not for a file that includes a step: the student's steps are stubs), with the lab's
@@ -187,8 +195,27 @@ done
 for source in steps/[0-9][0-9]_*.cpp; do
     step=$(basename "$source" .cpp)
     expect "$student/README.md lists $step" grep -q "(handouts/$step.md)" "$student/README.md"
+    # What the step teaches: its header's whole title, also when it goes on to a second comment
+    # line (a title cut after its first line ended the row in the middle of a sentence).
+    title=$(awk 'NR == 1 { sub(/^\/\/ [0-9][0-9]_[a-z0-9_]*\.cpp: /, ""); t = $0; next }
+                 /^\/\/ *$/ || !/^\/\/ / { exit }
+                 { sub(/^\/\/ +/, ""); t = t " " $0 } END { print t }' "$source")
+    expect "$student/README.md gives $step's whole title" \
+        grep -qF "(handouts/$step.md) | $title |" "$student/README.md"
 done
 expect "the lab's README.md is $student/LAB.md" cmp -s README.md "$student/LAB.md"
+# Every `make run STEP=NN ARGS="..."` of the start-here README runs as printed (its step's own
+# flags: `--view front` is refused from step 13 on), here headless on the phantom.
+sed -n 's/.*make run STEP=\([0-9][0-9]\) ARGS="\([^"]*\)".*/\1 \2/p' "$student/README.md" |
+    while read -r number arguments; do
+        program=$(ls "$build/${number}_"* 2>/dev/null | head -n 1)
+        # shellcheck disable=SC2086
+        [ -n "$program" ] && "$program" --volume phantom --no-window --out "$work/run_out" \
+            $arguments > "$work/run.log" 2>&1 ||
+            echo "make run STEP=$number ARGS=\"$arguments\" fails: $(tail -n 1 "$work/run.log")"
+    done > "$work/runs_printed.txt"
+expect "every make run of $student/README.md runs as printed: $(cat "$work/runs_printed.txt")" \
+    [ ! -s "$work/runs_printed.txt" ]
 expect "$student/.ctlab/carry.txt carries first_hit from 02 into 03" \
     grep -q "^03_[a-z_]* first_hit 02_[a-z_]* [0-9a-f]*\$" "$student/.ctlab/carry.txt"
 # A step carries from the step it builds on: step 12's corrected_opacity() from step 10 (not
@@ -308,6 +335,12 @@ progress_is() {
     printf 'volume: %s\n' "$work/phantom.raw" > "$student/data/reference/volume.txt" ||
     bad "cannot write the phantom to $work/phantom.raw"
 progress_is none "a fresh kit"
+# A step's stubs of functions it takes unchanged from an earlier step come after its own, with
+# the command that brings them (a part-3 step takes 20 or more: in a fresh kit its first TODO
+# lines were all of them, with no word of make carry).
+expect "a fresh kit's make check says which stubs make carry brings: $(grep -c 'TODO' "$work/progress_first.log") TODO lines" \
+    grep -q "are your earlier steps' functions: \`make carry STEP=[0-9][0-9]\` copies them in" \
+    "$work/progress_first.log"
 
 # --- make carry: a function written once serves the later steps -------------------------
 # Inside the test only: step 02's first_hit filled in from the solution.

@@ -619,6 +619,21 @@ struct StepResult {
     std::vector<std::string> problems;  // everything, for report.txt
 };
 
+// In a student kit: the functions of `step` that it takes unchanged from an earlier step,
+// which `make carry` copies in while they are stubs (.ctlab/carry.txt, written by make_student:
+// "TO_STEP FUNCTION FROM_STEP HASH"). Empty in the lab, and for a stranger's tree (--build).
+std::set<std::string> carried_functions(const fs::path& tree, const std::string& step) {
+    std::set<std::string> names;
+    std::ifstream carry(tree / ".ctlab" / "carry.txt");
+    for (std::string line; std::getline(carry, line);) {
+        std::istringstream fields(line);
+        std::string to, function;
+        if (line.empty() || line[0] == '#' || !(fields >> to >> function)) continue;
+        if (to == step) names.insert(function);
+    }
+    return names;
+}
+
 std::string relative_to(const fs::path& path, const fs::path& base) {
     std::error_code error;
     const fs::path relative = fs::relative(path, base, error);
@@ -1952,12 +1967,27 @@ int Grader::run() {
                                   std::to_string(result.counters) : "-";
         std::printf("%-*s %-*s %9s %9s\n", name_width, step.name.c_str(), status_width,
                     status_text(result.status), pictures.c_str(), counters.c_str());
-        // A step still holding stubs: what to write is all there is to look at.
-        std::vector<std::string> look_at;
+        // A step still holding stubs: what to write is all there is to look at. In a kit, the
+        // step's own functions first, then those `make carry` brings (a part-3 step takes 20
+        // or more from an earlier step: its own were left out of the lines shown).
+        std::vector<std::string> look_at, to_carry;
+        const std::set<std::string> carried =
+            result.status == Status::not_started && !settings_.build
+                ? carried_functions(settings_.tree, step.name) : std::set<std::string>{};
+        const std::string todo = "TODO: " + step.name + ": ";
         for (const std::string& line : result.look_at) {
             if (result.status != Status::not_started || line.rfind("TODO: ", 0) == 0) {
-                look_at.push_back(line);
+                const size_t end = line.find("()", todo.size());
+                const bool brought = line.rfind(todo, 0) == 0 && end != std::string::npos &&
+                                     carried.count(line.substr(todo.size(), end - todo.size()));
+                (brought ? to_carry : look_at).push_back(line);
             }
+        }
+        if (!to_carry.empty()) {
+            look_at.push_back("the " + std::to_string(to_carry.size()) + " below are your " +
+                              "earlier steps' functions: `make carry STEP=" +
+                              step.name.substr(0, 2) + "` copies them in");
+            look_at.insert(look_at.end(), to_carry.begin(), to_carry.end());
         }
         int shown = 0;
         for (const std::string& line : look_at) {

@@ -68,6 +68,8 @@ const char* const graded_mark = "graded.txt";    // students/NAME/graded.txt: fi
 // anything else in the reference folder are not expected from the student.
 // Part 2's steps (13 on) write one picture, NN_name_camera.png.
 const std::regex expected_name("^([0-9]{2}_[a-z0-9_]+)_(top|front|side|camera)\\.png$");
+// A variant's picture: a view and a variant's name after it (NN_name_camera_mip.png).
+const std::regex variant_name("^[0-9]{2}_[a-z0-9_]+_(top|front|side|camera)_[a-z0-9_]+\\.png$");
 
 const char* const usage_text =
     "usage: grade STUDENT.png REFERENCE.png [--tol N] [--diff OUT.png]\n"
@@ -83,8 +85,8 @@ const char* const usage_text =
     "  --diff OUT.png      one pair: write a heat map of the differences (black = equal,\n"
     "                      blue = within the tolerance, magenta, yellow, white = largest);\n"
     "                      OUT's folder must exist; an input or a reference is never replaced\n"
-    "  --submission DIR    one student's folder: every NN_name_top|front|side.png of the\n"
-    "                      reference folder is expected in DIR (names match in any case;\n"
+    "  --submission DIR    one student's folder: every NN_name_top|front|side|camera.png of\n"
+    "                      the reference folder is expected in DIR (names match in any case;\n"
     "                      pictures in one subfolder such as DIR/out/ are found and said so)\n"
     "  --class DIR         a class: one subfolder per student, each a folder of pictures or a\n"
     "                      student tree (has .ctlab-student or steps/). A tree's steps/ are\n"
@@ -604,9 +606,17 @@ Graded grade_folder(const Folder& submission, const References& references, doub
     }
     for (const Entry& entry : entries) {
         if (used.count(entry.name) || !has_png_extension(entry.name)) continue;
+        // A variant's picture (NN_name_camera_mip.png) is in the reference folder, but a
+        // folder of pictures is graded on each step's default run only: say so, not "not in".
+        std::error_code error;
+        const bool variant = std::regex_match(lower(entry.name), variant_name) &&
+                             fs::is_regular_file(join(references.folder, lower(entry.name)), error);
         graded.rows.push_back({printable(entry.name), "extra", false, {},
                                entry.kind == Kind::link ? "a symbolic link, not in the reference folder"
-                                                        : "not in the reference folder",
+                               : variant ? "a variant of the reference folder, not graded: a "
+                                           "folder of pictures is graded on each step's "
+                                           "default run (a student tree on every run)"
+                                         : "not in the reference folder",
                                "extra", entry.name, 0, 0});
         ++graded.counts["extra"];
     }

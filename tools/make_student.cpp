@@ -203,10 +203,23 @@ StepFunctions step_functions(const std::string& step, const std::string& solutio
         functions.code[name] = lesson::code_only(text);
     }
     functions.stub = function_texts(stubbed, path);
-    // The title: what follows "NN_name.cpp: " on the first line.
-    const std::string first_line = solution.substr(0, solution.find('\n'));
+    // The title: what follows "NN_name.cpp: " on the first line, and the comment lines that
+    // continue its sentence up to the header's first empty "//" line (a title of two lines
+    // was cut in the middle of a sentence).
+    size_t end = solution.find('\n');
+    const std::string first_line = solution.substr(0, end);
     const size_t colon = first_line.find(".cpp: ");
-    if (colon != std::string::npos) functions.title = lesson::trim(first_line.substr(colon + 6));
+    if (colon != std::string::npos) {
+        std::string title = lesson::trim(first_line.substr(colon + 6));
+        while (end != std::string::npos) {
+            const size_t next = solution.find('\n', end + 1);
+            const std::string line = solution.substr(end + 1, next - end - 1);
+            if (line.compare(0, 3, "// ") != 0 || lesson::trim(line.substr(2)).empty()) break;
+            title += " " + lesson::trim(line.substr(2));
+            end = next;
+        }
+        functions.title = title;
+    }
     return functions;
 }
 
