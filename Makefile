@@ -162,7 +162,8 @@ all: $(STEP_BINARIES) $(TOOL_BINARIES) $(MODULES) $(PEER_BINARIES)
 
 help:
 	@echo "make            build every step into $(BUILD)/NN_name, and the tools"
-	@echo "make demo       install missing packages, build, render every step on the phantom"
+	@echo "make demo       install missing packages, build (the tests too), render every step on"
+	@echo "                the phantom"
 	@echo "make test       build and run every test (SAN=1: with ASan and UBSan); TEST_JOBS=N"
 	@echo "                suites at once, TEST_NICE=0 all at one priority (see the Makefile)"
 	@echo "make NN_name    build one step, e.g. make 03_depth_shading"
@@ -204,9 +205,12 @@ help:
 deps:
 	@sh tools/install-deps.sh
 
-# Render every step and every view on the phantom into out/, headless.
+# Render every step and every view on the phantom into out/, headless. The doctest binary
+# (build/ctlab_tests: tests/ compiled and linked) is built with the programs, so that the
+# README's second command, make test, starts every suite at once: built inside make test, it
+# was the compile and link that the student suite and every doctest file waited for.
 demo: deps
-	@$(MAKE) --no-print-directory $(PARALLEL) all
+	@$(MAKE) --no-print-directory $(PARALLEL) all $(BUILD)/ctlab_tests
 	@for step in $(STEP_NAMES); do \
 	    $(BUILD)/$$step --volume phantom --view all --no-window --out out || exit 1; \
 	done
