@@ -221,10 +221,10 @@ demo: deps
 # test cases in $(BUILD)/ctlab_tests) and each script tests/NAME_test.sh is one suite, its
 # output in $(BUILD)/test-logs/NAME.log, printed whole when it ends (tests/run_suite.sh). The
 # last line adds them all up: "test: N passed, M failed" (tests/test_summary.sh).
-# The programs are built first (after `make demo`: nothing to do); then every suite is a goal
-# of one make -j, needing only what it runs: a script suite the programs, a doctest file the
-# test binary too (and the student kit, which copies it). So the scripts start while tests/
-# compiles. The slowest suites start first, so that the last one to finish is a short one
+# The programs are built first (after `make demo`, which builds the test binary too: nothing
+# to do); then every suite is a goal of one make -j, needing only what it runs: a script suite
+# the programs, a doctest file the test binary too (and the student kit, which copies it). So
+# without make demo first (CI) the scripts start while tests/ compiles. The slowest suites start first, so that the last one to finish is a short one
 # (make -j takes the goals in order): by their CPU time in a whole make test on an idle
 # machine (build/test-logs/NAME.cpu), check and student (~80 and ~60 s) first. The suites
 # that spend most of their time waiting for a time limit in the sandbox (WAITING_SUITES:
