@@ -224,8 +224,8 @@ demo: deps
 # The programs are built first (after `make demo`, which builds the test binary too: nothing
 # to do); then every suite is a goal of one make -j, needing only what it runs: a script suite
 # the programs, a doctest file the test binary too (and the student kit, which copies it). So
-# without make demo first (CI) the scripts start while tests/ compiles. The slowest suites start first, so that the last one to finish is a short one
-# (make -j takes the goals in order): by their CPU time in a whole make test on an idle
+# without make demo first (CI) the scripts start while tests/ compiles. The slowest suites
+# start first, so that the last one to finish is a short one (make -j takes the goals in order): by their CPU time in a whole make test on an idle
 # machine (build/test-logs/NAME.cpu), check and student (~80 and ~60 s) first. The suites
 # that spend most of their time waiting for a time limit in the sandbox (WAITING_SUITES:
 # class and sandbox, ~40 s of wall time each for 3-5 s of CPU) run beside the job slots,
