@@ -225,8 +225,9 @@ demo: deps
 # to do); then every suite is a goal of one make -j, needing only what it runs: a script suite
 # the programs, a doctest file the test binary too (and the student kit, which copies it). So
 # without make demo first (CI) the scripts start while tests/ compiles. The slowest suites
-# start first, so that the last one to finish is a short one (make -j takes the goals in order): by their CPU time in a whole make test on an idle
-# machine (build/test-logs/NAME.cpu), check and student (~80 and ~60 s) first. The suites
+# start first, so that the last one to finish is a short one (make -j takes the goals in
+# order): by their CPU time in a whole make test on an idle machine
+# (build/test-logs/NAME.cpu), check and student (~80 and ~60 s) first. The suites
 # that spend most of their time waiting for a time limit in the sandbox (WAITING_SUITES:
 # class and sandbox, ~40 s of wall time each for 3-5 s of CPU) run beside the job slots,
 # started first, so that no core idles while they wait (build/test-logs/NAME.time: when each
