@@ -162,7 +162,8 @@ all: $(STEP_BINARIES) $(TOOL_BINARIES) $(MODULES) $(PEER_BINARIES)
 
 help:
 	@echo "make            build every step into $(BUILD)/NN_name, and the tools"
-	@echo "make demo       install missing packages, build, render every step on the phantom"
+	@echo "make demo       install missing packages, build (the tests too), render every step on"
+	@echo "                the phantom"
 	@echo "make test       build and run every test (SAN=1: with ASan and UBSan); TEST_JOBS=N"
 	@echo "                suites at once, TEST_NICE=0 all at one priority (see the Makefile)"
 	@echo "make NN_name    build one step, e.g. make 03_depth_shading"
@@ -204,9 +205,12 @@ help:
 deps:
 	@sh tools/install-deps.sh
 
-# Render every step and every view on the phantom into out/, headless.
+# Render every step and every view on the phantom into out/, headless. The doctest binary
+# (build/ctlab_tests: tests/ compiled and linked) is built with the programs, so that the
+# README's second command, make test, starts every suite at once: built inside make test, it
+# was the compile and link that the student suite and every doctest file waited for.
 demo: deps
-	@$(MAKE) --no-print-directory $(PARALLEL) all
+	@$(MAKE) --no-print-directory $(PARALLEL) all $(BUILD)/ctlab_tests
 	@for step in $(STEP_NAMES); do \
 	    $(BUILD)/$$step --volume phantom --view all --no-window --out out || exit 1; \
 	done
@@ -217,12 +221,13 @@ demo: deps
 # test cases in $(BUILD)/ctlab_tests) and each script tests/NAME_test.sh is one suite, its
 # output in $(BUILD)/test-logs/NAME.log, printed whole when it ends (tests/run_suite.sh). The
 # last line adds them all up: "test: N passed, M failed" (tests/test_summary.sh).
-# The programs are built first (after `make demo`: nothing to do); then every suite is a goal
-# of one make -j, needing only what it runs: a script suite the programs, a doctest file the
-# test binary too (and the student kit, which copies it). So the scripts start while tests/
-# compiles. The slowest suites start first, so that the last one to finish is a short one
-# (make -j takes the goals in order): by their CPU time in a whole make test on an idle
-# machine (build/test-logs/NAME.cpu), check and student (~80 and ~60 s) first. The suites
+# The programs are built first (after `make demo`, which builds the test binary too: nothing
+# to do); then every suite is a goal of one make -j, needing only what it runs: a script suite
+# the programs, a doctest file the test binary too (and the student kit, which copies it). So
+# without make demo first (CI) the scripts start while tests/ compiles. The slowest suites
+# start first, so that the last one to finish is a short one (make -j takes the goals in
+# order): by their CPU time in a whole make test on an idle machine
+# (build/test-logs/NAME.cpu), check and student (~80 and ~60 s) first. The suites
 # that spend most of their time waiting for a time limit in the sandbox (WAITING_SUITES:
 # class and sandbox, ~40 s of wall time each for 3-5 s of CPU) run beside the job slots,
 # started first, so that no core idles while they wait (build/test-logs/NAME.time: when each
