@@ -1456,10 +1456,10 @@ int check_class(const Settings& settings) {
                     same_programs;
     out.write("summary.md", md);
 
-    std::printf("%s: %d pass, %d do%s not\n",
+    const int not_passing = static_cast<int>(students.size()) - passing;
+    std::printf("%s: %d %s, %d %s not\n",
                 counted(students.size(), "student", "students").c_str(), passing,
-                static_cast<int>(students.size()) - passing,
-                static_cast<int>(students.size()) - passing == 1 ? "es" : "");
+                passing == 1 ? "passes" : "pass", not_passing, not_passing == 1 ? "does" : "do");
     if (!hints.empty()) std::printf("hint: byte-identical failing pictures, see summary.md\n");
     if (!same_programs.empty()) {
         std::printf("hint: byte-identical step sources in several trees, see summary.md\n");
