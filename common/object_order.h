@@ -514,7 +514,8 @@ Rgb axis_pixel_traced(const Volume& volume, const Shear& shear, const WarpMap& w
 // `rays` (a Renderer that cast_camera_rays() filled; kept by reference: it must outlive
 // renderer). For the others, with shear_for(camera) the view's slices and scene_for(camera,
 // shear) what its pixels share: slices(view, scene, work) is its image, pixel(scene, x, y,
-// work, trace) one output pixel alone, and the trace header says slice_samples().
+// work, trace) one output pixel alone (its trace told first: Trace::pixel_from_warp()), and
+// the trace header says slice_samples().
 template <class CameraFor, class ByRays, class ShearFor, class SceneFor, class Slices,
           class Pixel>
 void slices_or_rays(Renderer& renderer, const Renderer& rays, CameraFor camera_for,
@@ -529,6 +530,7 @@ void slices_or_rays(Renderer& renderer, const Renderer& rays, CameraFor camera_f
     renderer.ray = [=, &rays](const View& view, int x, int y, Work& work, Trace* trace) {
         const auto camera = camera_for(view);
         if (by_rays(camera)) return rays.ray(view, x, y, work, trace);
+        if (trace) trace->pixel_from_warp();  // its camera ray's miss is not the verdict
         const auto shear = shear_for(camera);
         return pixel(scene_for(camera, shear), x, y, work, trace);
     };

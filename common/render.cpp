@@ -291,8 +291,11 @@ void Trace::ray(const Vec3d& origin, const Vec3d& direction) {
 
 void Trace::box_missed(const Vec3d& high) {
     RecordWriter line(TraceKind::box);
-    line.print("box (0, 0, 0)..(%g, %g, %g): missed, the pixel shows the background", high.i,
-               high.j, high.k);
+    // In object order the pixel is the warp's blend of intermediate pixels traced below it.
+    line.print("box (0, 0, 0)..(%g, %g, %g): missed, %s", high.i, high.j, high.k,
+               pixel_from_warp_ ? "but the pixel is the warp's blend of the intermediate "
+                                  "pixels traced below"
+                                : "the pixel shows the background");
     line.vector("box", high.i, high.j, high.k);
     line.record().missed = true;
     keep(std::move(line.record()));

@@ -155,6 +155,11 @@ public:
     void stop(double transparency, double threshold, long long not_visited);
     void ray(const Vec3d& origin, const Vec3d& direction);          // part 2's camera ray
     void box_missed(const Vec3d& high);                              // box (0,0,0)..high
+    // Object order (steps 35 on, before the camera ray's records): the pixel is not that
+    // ray's but the warp's blend of the (up to four) intermediate pixels around where the ray
+    // meets the first slice, each traced after it. The ray's records then say where it lies,
+    // never what the pixel shows (a ray that misses the box does not make it background).
+    void pixel_from_warp() { pixel_from_warp_ = true; }
     // Where the ray enters (through face entry_axis: 0 i, 1 j, 2 k, -1 it starts inside)
     // and leaves the box (0,0,0)..high, and the step along it.
     void box(const Vec3d& high, double t_entry, const Vec3d& entry, int entry_axis,
@@ -197,6 +202,7 @@ private:
     uint64_t added_ = 0;
     // The last sample's place, for a stop: "at n=50" or "at t=44.00" as its samples print.
     TraceRecord last_place_;
+    bool pixel_from_warp_ = false;  // pixel_from_warp(): the pixel is the warp's blend
 };
 
 // Prints once per process "note: only STARTED of WANTED render threads could be started ...".

@@ -251,6 +251,23 @@ side="$work/class_report/students/ben/pictures/02_threshold_front.png"
     [ -f "$work/class_report/students/ben/report.md" ] &&
     [ ! -e "$work/class_report/students/ann/pictures/02_threshold_front.png" ]
 check $? "side-by-side pictures: $(ls -R "$work/class_report/students" | tr '\n' ' ')"
+# The counts read as English: "5 students: 2 pass, 3 do not"; a class of one is "1 student"
+# (never "1 students"), one student "passes" and one failing "does not".
+grep -qx '5 students: 2 pass, 3 do not' "$work/class_report.out"
+check $? "the class's count line: $(grep ' pass, ' "$work/class_report.out")"
+mkdir -p "$work/one/ann" "$work/two/ann" "$work/two/ben"
+cp "$ref"/0*.png "$work/one/ann/"
+cp "$class"/ann/*.png "$work/two/ann/"
+cp "$class"/ben/*.png "$work/two/ben/"
+"$checker" --class "$work/one" --reference "$ref" --report "$work/one_report" \
+    > "$work/one.out" 2>&1
+status=$?
+[ $status -eq 0 ] && grep -qx '1 student: 1 passes, 0 do not' "$work/one.out"
+check $? "a class of one (status $status): $(cat "$work/one.out")"
+"$checker" --class "$work/two" --reference "$ref" --report "$work/two_report" \
+    > "$work/two.out" 2>&1
+grep -qx '2 students: 1 passes, 1 does not' "$work/two.out"
+check $? "a class of two, one failing: $(grep ' pass, ' "$work/two.out")"
 "$checker" --class "$class" --reference "$ref" --report "$class/reports" > /dev/null 2>&1
 [ $? -eq 2 ] && [ ! -e "$class/reports" ]
 check $? "--report inside the class folder was not refused"

@@ -328,6 +328,45 @@ TEST_CASE("part 3: the shear and the last slice step render a perspective camera
     perspective_by_rays(slice_steps().back());
 }
 
+// A slice step's output pixel is the warp's blend of up to four intermediate pixels, each
+// traced: its camera ray missing the box is not the pixel's verdict. Looking along i at
+// 256x256, pixel 137,241's ray passes just below the box (its warp point, v = 112.75, lies past
+// the last intermediate row's centre), yet the warp blends in intermediate pixel 137,112 at
+// weight 0.25: the pixel is not the background, and no line of its trace may say it is.
+TEST_CASE("part 3: a slice step's trace never calls a blended pixel the background") {
+    std::vector<std::string> flags = phantom_flags();
+    for (const char* flag : {"--mode", "mip", "--azimuth", "90", "--elevation", "0", "--size",
+                             "256x256", "--debug-pixel", "137,241"}) {
+        flags.push_back(flag);
+    }
+    for (const std::string& step : slice_steps()) {
+        INFO(step);
+        const StepRender run = render(step, flags);
+        REQUIRE(run.run.traces.size() == 1);
+        const ctlab::PixelTrace& trace = run.run.traces[0];
+        const ctlab::Rgb pixel = run.image("camera").at(137, 241);
+        CHECK(pixel.g > 0.1f);  // not the background (black): the blend of its neighbours
+        CHECK(trace.png[1] == int(std::lround(pixel.g * 255)));
+        bool missed = false;    // the case at hand: the camera ray misses the box
+        double weights = 0;     // the intermediate pixels' weights in the warp
+        std::string claims;     // every record and printed line that speaks of the background
+        for (const ctlab::TraceRecord& record : trace.records) {
+            if (record.kind == ctlab::TraceKind::box && record.missed) missed = true;
+            if (record.kind == ctlab::TraceKind::note && record.has("weight")) {
+                weights += record.number("weight", 0);
+            }
+            if (record.text.find("background") != std::string::npos) claims += record.text + "\n";
+        }
+        for (const std::string& line : trace.lines) {
+            if (line.find("background") != std::string::npos) claims += line + "\n";
+        }
+        CHECK(missed);
+        CHECK(weights == doctest::Approx(0.25));  // 137,112 and 138,112 (the others lie outside)
+        CHECK(!trace.records.empty());
+        CHECK(claims == "");
+    }
+}
+
 TEST_CASE("part 3: the slice steps refuse --work-map, whose per-ray counts they do not keep") {
     // Their counters are per slice row of the intermediate image; an output pixel blends four
     // intermediate pixels, so a map of per-pixel counts would not sum to the summary line's.

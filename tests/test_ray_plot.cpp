@@ -144,6 +144,26 @@ TEST_CASE("trace records: typed events, their numbers at full precision, their l
     CHECK(plot.marks[3].from == 37.25);
 }
 
+// A ray caster's ray that misses the box leaves the background; in object order the pixel
+// is the warp's blend of intermediate pixels (traced after it), whatever its camera ray does.
+TEST_CASE("a missed box says the pixel is the background only when the ray makes the pixel") {
+    Trace by_ray, by_warp;
+    by_warp.pixel_from_warp();
+    by_ray.box_missed(Vec3d{255, 255, 224});
+    by_warp.box_missed(Vec3d{255, 255, 224});
+    for (const Trace* trace : {&by_ray, &by_warp}) {
+        REQUIRE(trace->records().size() == 1);
+        const TraceRecord box = trace->records()[0];  // records(): a copy
+        CHECK(box.kind == TraceKind::box);
+        CHECK(box.missed);  // the camera ray misses the box either way
+        CHECK(box.number("box.k", 0) == 224);
+    }
+    CHECK(by_ray.lines()[0] ==
+          "box (0, 0, 0)..(255, 255, 224): missed, the pixel shows the background");
+    CHECK(by_warp.lines()[0] == "box (0, 0, 0)..(255, 255, 224): missed, but the pixel is the "
+                                "warp's blend of the intermediate pixels traced below");
+}
+
 TEST_CASE("the sidecar's records read back: kinds, flags, numbers; the text never parsed") {
     Trace trace;
     trace.sample(TraceSample(0, Voxel{3, 4, 0}, 500).threshold_hit(true));

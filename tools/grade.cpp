@@ -53,6 +53,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// "1 student", "0 students", "3 students": a count and its noun, singular for exactly one.
+std::string counted(size_t count, const char* one, const char* many) {
+    return std::to_string(count) + " " + (count == 1 ? one : many);
+}
+
 constexpr double default_tolerance = 2;  // 8-bit units: rounding differences pass
 constexpr double max_tolerance = 255;    // 8-bit units: above this every picture passes
 constexpr int exit_pass = 0, exit_fail = 1;
@@ -234,7 +239,8 @@ Settings parse_arguments(int argc, char** argv) {
     }
     if (settings.files.size() != 2) {
         throw InputError("expected STUDENT.png REFERENCE.png or --submission DIR, got " +
-                         std::to_string(settings.files.size()) + " file names (see --help)");
+                         counted(settings.files.size(), "file name", "file names") +
+                         " (see --help)");
     }
     return settings;
 }
@@ -1278,14 +1284,15 @@ int check_class(const Settings& settings) {
             finished += student.note != "not finished: the check was interrupted" &&
                         !student.result.empty();
         }
-        std::printf("grade: interrupted; %zu of %zu students graded, their reports kept: "
-                    "run the same command again to grade the rest\n", finished,
-                    students.size());
+        std::printf("grade: interrupted; %zu of %s graded, their reports kept: run the same "
+                    "command again to grade the rest\n", finished,
+                    counted(students.size(), "student", "students").c_str());
         return exit_fail;
     }
     if (kept > 0) {
-        std::printf("grade: %d students graded by an earlier run were kept (--regrade grades "
-                    "them again)\n", kept);
+        std::printf("grade: %s graded by an earlier run %s kept (--regrade grades %s "
+                    "again)\n", counted(size_t(kept), "student", "students").c_str(),
+                    kept == 1 ? "was" : "were", kept == 1 ? "it" : "them");
     }
     if (students.empty()) {
         throw InputError("class folder '" + printable(settings.class_folder) +
@@ -1339,8 +1346,9 @@ int check_class(const Settings& settings) {
         runs += student.runs, runs_reused += student.runs_reused;
     }
     const std::string cache_text = std::to_string(builds_reused) + " of " +
-        std::to_string(builds) + " step builds and " + std::to_string(runs_reused) + " of " +
-        std::to_string(runs) + " runs taken from another tree's byte-identical source";
+        counted(size_t(builds), "step build", "step builds") + " and " +
+        std::to_string(runs_reused) + " of " + counted(size_t(runs), "run", "runs") +
+        " taken from another tree's byte-identical source";
     if (cache) md += "- class cache: " + cache_text + " (tools/class_cache.h)\n";
     md += "- per student: `students/NAME/report.md`, failing pictures side by side (student | "
           "reference | heat map) in `students/NAME/pictures/`; for a student tree whose "
@@ -1394,8 +1402,8 @@ int check_class(const Settings& settings) {
               " |\n";
     }
     if (sorted.size() > shown_failures) {
-        md += "\n(" + std::to_string(sorted.size() - shown_failures) +
-              " rarer failures: see each student's report.)\n";
+        md += "\n(" + counted(sorted.size() - shown_failures, "rarer failure", "rarer failures") +
+              ": see each student's report.)\n";
     }
     // Byte-identical failing pictures from different students: grouped by size and hash,
     // then compared byte for byte.
@@ -1448,8 +1456,10 @@ int check_class(const Settings& settings) {
                     same_programs;
     out.write("summary.md", md);
 
-    std::printf("%d students: %d pass, %d do not\n", static_cast<int>(students.size()), passing,
-                static_cast<int>(students.size()) - passing);
+    const int not_passing = static_cast<int>(students.size()) - passing;
+    std::printf("%s: %d %s, %d %s not\n",
+                counted(students.size(), "student", "students").c_str(), passing,
+                passing == 1 ? "passes" : "pass", not_passing, not_passing == 1 ? "does" : "do");
     if (!hints.empty()) std::printf("hint: byte-identical failing pictures, see summary.md\n");
     if (!same_programs.empty()) {
         std::printf("hint: byte-identical step sources in several trees, see summary.md\n");
