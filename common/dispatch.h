@@ -18,6 +18,8 @@ bool avx2_vectors();
 // Marks the body a lambda given to with_vectors() (`[&]() CTLAB_VECTOR_BODY { ... }`): it is
 // inlined, so it is compiled again inside the AVX2 copy with that copy's instructions.
 #define CTLAB_VECTOR_BODY __attribute__((always_inline))
+// Marks a function that such a body calls the same way (inlined, so in both copies).
+#define CTLAB_VECTOR_CODE __attribute__((always_inline)) inline
 
 template <class Body>
 __attribute__((target("avx2"))) auto avx2_copy(const Body& body) {
@@ -29,12 +31,27 @@ template <class Body>
 auto with_vectors(const Body& body) {
     return avx2_vectors() ? avx2_copy(body) : body();
 }
+
+// A function that calls body(arguments...) through with_vectors(): for a loop's body given
+// to another function (parallel_rows()), which then runs each call's AVX2 or SSE2 copy.
+template <class Body>
+auto vectorized(const Body& body) {
+    return [body](auto&&... arguments) {
+        return with_vectors([&]() CTLAB_VECTOR_BODY { return body(arguments...); });
+    };
+}
 #else
 #define CTLAB_VECTOR_BODY
+#define CTLAB_VECTOR_CODE inline
 
 template <class Body>
 auto with_vectors(const Body& body) {
     return body();
+}
+
+template <class Body>
+auto vectorized(const Body& body) {
+    return body;
 }
 #endif
 

@@ -406,13 +406,14 @@ inline void stretch_rows(const int16_t* low_row, const int16_t* high_row, size_t
     *q = copies[1];
 }
 
-// Given (step 46): whether all cell_stretch masks (each 0 or -1) are `value`, read as 64-bit
-// words at once.
-inline bool all_masks(const int8_t (&mask)[cell_stretch], int8_t value) {
-    static_assert(cell_stretch == 16, "two words");
-    uint64_t w[2];
+// Given (step 46): whether all cell_stretch masks (each 0 or -1, 16 bits) are `value`, read as
+// 64-bit words at once.
+inline bool all_masks(const int16_t (&mask)[cell_stretch], int16_t value) {
+    static_assert(cell_stretch == 16, "four words");
+    uint64_t w[4];
     std::memcpy(w, mask, sizeof w);
-    return value ? (w[0] & w[1]) == ~uint64_t(0) : (w[0] | w[1]) == 0;
+    return value ? (w[0] & w[1] & w[2] & w[3]) == ~uint64_t(0)
+                 : (w[0] | w[1] | w[2] | w[3]) == 0;
 }
 
 // A table made once per transfer function and principal axis, and its cost, on a line of its

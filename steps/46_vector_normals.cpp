@@ -1,13 +1,11 @@
 // 46_vector_normals.cpp: shear-warp's precomputation in vector instructions: the cell test,
 // the records and the normal indices, several voxels at a time.
 //
-// New here:   step 45's pass takes one cell, one record, one normal at a time. Here its inner
-//             loops have a fixed length over neighbouring voxels, which the compiler makes
-//             vector instructions (SSE2; the normals' loop AVX2 too, chosen at run time):
-//             find_runs() tests sixteen cells at once against the table's transparent ranges
-//             (no table read), pack_slice() copies and slice_normals() computes sixteen
-//             records or normal indices at once. Step 45's numbers: its pictures, to the bit.
-//             The records lie in 2 MiB pages (given: HugeArray): a few page faults, not 3,700.
+// New here:   step 45's pass, its inner loops of fixed length over neighbouring voxels, which
+//             the compiler makes vector instructions (AVX2 where the processor has it, else
+//             SSE2): sixteen cells tested against the table's transparent ranges, sixteen
+//             records packed, sixteen normal indices at once. Step 45's pictures, to the bit.
+//             Its records in 2 MiB pages (given: HugeArray): a few page faults, not 3,700.
 // Builds on:  45_one_pass_precompute.
 // Handout:    handouts/46_vector_normals.md
 // Run:        make run STEP=46 ARGS="--azimuth 180 --elevation 90 --size 256x256"
@@ -689,9 +687,9 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
 // record holds the values at (a, b) and (a, b + 1) and, for a lit composite, their normal
 // indices. The last column and row count again at the slice's edges. Changed in step 45:
 // the normal indices of the voxels the records hold, computed once (slice_normals()); how
-// many. Not inlined into find_runs() (its cell test would lose its vector instructions).
-// Changed in step 46: a run's records sixteen at a time where its row is contiguous.
-[[gnu::noinline]] static size_t pack_slice(const Volume& volume, const Shear& shear, int c,
+// many. Changed in step 46: a run's records sixteen at a time where its row is contiguous,
+// inlined into find_runs()'s vector copies (AVX2 too; its cell test keeps its vectors).
+CTLAB_VECTOR_CODE static size_t pack_slice(const Volume& volume, const Shear& shear, int c,
                                            const uint32_t* counts, const int32_t* bounds,
                                            bool lit, Records& records) {
     const int na = shear.na, nb = shear.nb;
@@ -756,7 +754,7 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
 // stretch of transparent table entries is transparent wherever a sample falls in it: it is
 // left out. Slices are shared among the threads. Changed in step 45: each slice's records are
 // packed (pack_slice()) as soon as its runs are found, while its voxels are in the cache.
-// Changed in step 46: the cell test sixteen cells at a time, in vector instructions.
+// Changed in step 46: the cell test sixteen cells at a time, in vector instructions (AVX2 too).
 static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, bool lit,
                       int threads) {
     std::vector<int32_t> stretch(lut.entries.size());  // per table entry
@@ -774,11 +772,9 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
         const int32_t first = stretch[low - lowest_ct_value];
         return first >= 0 && first == stretch[high - lowest_ct_value];
     };
-    // Changed in step 46: the table's stretches of transparent entries as ranges of values
-    // [first[r], last[r]] (the classic table's two: below -300, and 50 to 299; a slot left
-    // over holds no value): a cell is clear when a range holds its lowest and its highest
-    // corner, a test sixteen cells take at once in vector instructions. A table with more
-    // ranges than slots: clear(), cell by cell.
+    // Changed in step 46: the table's transparent stretches as ranges of values [first[r],
+    // last[r]] (classic table: below -300, and 50 to 299; a slot left over holds none): a cell
+    // is clear when a range holds its lowest and highest corner. More ranges: clear().
     constexpr int slots = 2;
     alignas(16) int16_t first[slots][16], last[slots][16];  // each 16 times: a vector's worth
     std::fill(&first[0][0], &first[0][0] + slots * 16, int16_t(32767));
@@ -800,7 +796,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
     std::vector<Records> records(shear.nc);               // per slice, its runs' records
     std::vector<size_t> normals(shear.nc, 0);             // per slice, indices computed
     Work unused;
-    parallel_rows(shear.nc, threads, unused, [&](int c, Work&) {
+    parallel_rows(shear.nc, threads, unused, vectorized([&](int c, Work&) CTLAB_VECTOR_BODY {
         counts[c].assign(nb, 0);
         for (int b = 0; b < nb; ++b) {
             const int16_t* low = &volume.data[c * shear.stride_c + b * shear.stride_b];
@@ -818,8 +814,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
                 const int16_t *p, *q;  // given: the rows, or copies at the end or strided
                 int16_t copies[2][cell_stretch + 1];
                 stretch_rows(low, high, sa, na, from, copies, &p, &q);
-                int16_t lowest[16], highest[16];
-                int8_t cleared[16];  // -1: clear, 0: the table may see the cell
+                int16_t lowest[16], highest[16], cleared[16];  // cleared: -1, or 0: seen
                 for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
                     lowest[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
                     highest[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
@@ -828,10 +823,10 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
                         outside &= int16_t(-((first[r][n] > lowest[n]) |
                                              (highest[n] > last[r][n])));
                     }
-                    cleared[n] = int8_t(~outside);
+                    cleared[n] = int16_t(~outside);
                 }
                 for (int n = 0; ranges > slots && n < 16; ++n) {
-                    cleared[n] = int8_t(-clear(lowest[n], highest[n]));
+                    cleared[n] = int16_t(-clear(lowest[n], highest[n]));
                 }
                 if (all_masks(cleared, -1)) {  // given: the sixteen at once
                     run_ends(from);
@@ -850,7 +845,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
         }
         normals[c] = pack_slice(volume, shear, c, counts[c].data(), bounds[c].data(), lit,
                                 records[c]);
-    });
+    }));
     Runs runs = join_runs<Runs>(shear.c, nb, counts, bounds);  // given: common/object_order.h
     runs.records = std::move(records);
     find_starts(shear, runs);

@@ -397,18 +397,23 @@ static std::string precompute_value(const std::string& out, const std::string& k
     return "";
 }
 
-TEST_CASE("part 3: step 46's normal indices are the same in its SSE2 copy and the chosen one") {
-    // common/dispatch.h compiles slice_normals() twice, for SSE2 and AVX2, and the processor
-    // picks; CTLAB_VECTORS=sse2 forces the SSE2 copy, the one a processor without AVX2 runs.
+TEST_CASE("part 3: step 46's cell test, records and normals are its SSE2 copy's") {
+    // common/dispatch.h compiles find_runs()'s slice loop (the cell test, pack_slice()'s
+    // records) and slice_normals() twice, for SSE2 and AVX2, and the processor picks;
+    // CTLAB_VECTORS=sse2 forces the SSE2 copy, the one a processor without AVX2 runs.
     // Neither uses FMA, so the pictures, counters and precomputation must be the same, to the
-    // bit. (On a processor without AVX2 both runs take the SSE2 copy, and this compares it
-    // with itself.)
+    // bit: lit and unlit (the runs and records without normals), along an axis (contiguous
+    // rows) and at an angle. (On a processor without AVX2 both runs take the SSE2 copy, and
+    // this compares it with itself.)
     constexpr const char* step = "46_vector_normals";
     const std::vector<std::string> oblique = {"--azimuth", "30", "--elevation", "20",
                                               "--size",    "96x96"};
-    std::vector<std::vector<std::string>> runs = {cases()[1].flags, phantom_flags()};
+    std::vector<std::vector<std::string>> runs = {cases()[1].flags, phantom_flags(),
+                                                  cases()[0].flags, cases()[2].flags};
     runs[1].insert(runs[1].end(), oblique.begin(), oblique.end());  // spacing 1,1,2
     for (const std::vector<std::string>& flags : runs) {
+        const bool lit = std::find(flags.begin(), flags.end(), "--unlit") == flags.end();
+        INFO((lit ? "lit" : "unlit"));
         const StepRender chosen = render(step, flags);
         REQUIRE(setenv("CTLAB_VECTORS", "sse2", 1) == 0);
         const StepRender forced = render(step, flags);
@@ -427,7 +432,7 @@ TEST_CASE("part 3: step 46's normal indices are the same in its SSE2 copy and th
                   ctlab::summary_count(forced.summary("camera"), key));
         }
         const std::string normals = precompute_value(chosen.run.out, "normal_voxels");
-        CHECK(std::stoull(normals) > 0);  // a lit render: the indices were computed
+        CHECK((std::stoull(normals) > 0) == lit);  // lit: the indices were computed
         CHECK(normals == precompute_value(forced.run.out, "normal_voxels"));
         CHECK(precompute_value(chosen.run.out, "records") ==
               precompute_value(forced.run.out, "records"));
