@@ -236,7 +236,7 @@ grade $w/a_folder $w/one.ppm
 grade /dev/zero $w/one.ppm
   says: '/dev/zero': is not an ordinary file
 grade $w/one.ppm
-  says: expected STUDENT.png REFERENCE.png or --submission DIR, got 1 file names
+  says: expected STUDENT.png REFERENCE.png or --submission DIR, got 1 file name (see --help)
 grade $w/one.ppm $w/one.ppm --tol two
   says: --tol: expected a number, got 'two'
 grade $w/one.ppm $w/one.ppm --tol 300
