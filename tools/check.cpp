@@ -1315,12 +1315,14 @@ bool Grader::grade_counters(const Run& run, const std::string& view, const Summa
     } else {
         // What the first counter that differs usually points at.
         static const std::map<std::string, std::string> hints = {
-            {"samples", "a loop's range, or where a ray stops"},
+            {"samples", "a loop's range, or where a ray stops (object order, steps 35 on: "
+                        "which slices, rows and voxels a row of the intermediate image reads)"},
             {"skipped", "which samples count as transparent (opacity 0) and are skipped"},
             {"leapt", "the samples leapt over: where the ray's samples begin and end, the "
                       "bricks, how far each leap goes"},
             {"gradients", "where a gradient is computed: only where the picture needs one"},
-            {"terminated", "where a ray stops early: the test against --ert (default 0.01)"},
+            {"terminated", "where a ray (object order: an intermediate pixel) stops early: "
+                           "the test against --ert (default 0.01)"},
             {"hits", "the hit test: the threshold, > or >=, the loop's range"}};
         const std::string first = differ[0].substr(0, differ[0].find('='));
         const auto hint = hints.find(first);
