@@ -228,8 +228,12 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
         if (record.has("n") && !view.camera) return *t = record.number("n", 0) * plot.spacing, true;
         return false;
     };
+    // Object order: each intermediate pixel the warp blends is traced after a note of its
+    // weight; its samples are a line of their own, not joined to the pixel's before.
+    bool starts_line = false;
     for (const TraceRecord& record : records) {
         double t = 0;
+        if (record.kind == TraceKind::note && record.has("weight")) starts_line = true;
         switch (record.kind) {
             case TraceKind::ray:
                 plot.has_ray = true;
@@ -306,6 +310,8 @@ RayPlot ray_plot_from_trace(const std::vector<TraceRecord>& records, const View&
         }
         if (record.has("max")) sample.has_max = true, sample.max = record.number("max", 0);
         sample.hit = record.hit;
+        sample.starts_line = starts_line;
+        starts_line = false;
         if (sample.hit) plot.marks.push_back({RayMark::hit, t, t});
         plot.samples.push_back(sample);
         plot.t_end = std::max(plot.t_end, t);
@@ -635,7 +641,7 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
             }
             for (size_t n = 0; n < plot.samples.size(); ++n) {
                 const RaySample& s = plot.samples[n];
-                if (n > 0) {
+                if (n > 0 && !s.starts_line) {
                     const RaySample& p = plot.samples[n - 1];
                     plot::draw_line(picture, px(p.t), py(p.value), px(s.t), py(s.value),
                                     value_colour, 1);
@@ -644,7 +650,8 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
                     plot::fill_rect(picture, int(px(s.t)) - 1, int(py(s.value)) - 1, 3, 3,
                                     s.hit ? hit_colour : value_colour);
                 }
-                if (n > 0 && s.has_max && plot.samples[n - 1].has_max) {  // step 01: the MIP
+                // Step 01: the MIP
+                if (n > 0 && !s.starts_line && s.has_max && plot.samples[n - 1].has_max) {
                     const RaySample& p = plot.samples[n - 1];
                     plot::draw_line(picture, px(p.t), py(p.max), px(s.t), py(s.max),
                                     transparency_colour, 1);
@@ -662,6 +669,7 @@ Image draw_ray_plot(const RayPlot& plot, const std::vector<RayPlotView>& views, 
             bool has_previous = false;
             double previous_x = 0, previous_y = 0;
             for (const RaySample& s : plot.samples) {
+                if (s.starts_line) has_previous = false;
                 if (panel.name == "opacity" && s.has_alpha) {
                     plot::draw_line(picture, px(s.t), py(0), px(s.t), py(s.alpha), alpha_colour, 2);
                 }

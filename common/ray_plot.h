@@ -50,6 +50,8 @@ struct RaySample {
     bool has_max = false;  // step 01's maximum intensity so far
     double max = 0;
     bool hit = false;
+    bool starts_line = false;  // object order: the first sample of the next intermediate
+                               // pixel's samples (no line from the one before)
 };
 
 struct RayMark {

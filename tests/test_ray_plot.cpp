@@ -164,6 +164,50 @@ TEST_CASE("a missed box says the pixel is the background only when the ray makes
                                 "warp's blend of the intermediate pixels traced below");
 }
 
+// Object order: the pixel is the warp's blend of up to four intermediate pixels, each traced
+// after a note of its weight. Each one's samples are a line of their own: the value line does
+// not run back from one pixel's last sample to the next one's first.
+TEST_CASE("the intermediate pixels of a warp are drawn as lines of their own") {
+    Trace trace;
+    trace.pixel_from_warp();
+    // Pixel A rises from -1000 to 1000 over t = 10..30, pixel B falls: joined, the line would
+    // run back from (30, 1000) to (10, 1000), level along the top of the value panel.
+    const double values[2][3] = {{-1000, 0, 1000}, {1000, 0, -1000}};
+    for (int pixel = 0; pixel < 2; ++pixel) {
+        trace.note({{"u", double(pixel)}, {"v", 0}, {"weight", 0.5}},
+                   "intermediate pixel %d,0, weight 0.5000 in the warp: its ray", pixel);
+        for (int n = 0; n < 3; ++n) {
+            trace.sample(TraceSample(10.0 + 10 * n, Vec3d{0, 0, 2.0 * n}, values[pixel][n]));
+        }
+    }
+    const RayPlot plot =
+        ray_plot_from_trace(trace.records(), make_camera_view(64, 64), {}, Rgb{}, "warp");
+    REQUIRE(plot.samples.size() == 6);
+    for (size_t n = 0; n < plot.samples.size(); ++n) {
+        CHECK(plot.samples[n].starts_line == (n % 3 == 0));
+    }
+    // Rows of the picture holding a level run of at least 60 pixels of the value line's colour
+    // (ray_plot.cpp's value_colour): the line joined, not otherwise.
+    auto level_runs = [](const Image& picture) {
+        const Rgb line = {0.1f, 0.1f, 0.1f};
+        int rows = 0;
+        for (int y = 0; y < picture.height; ++y) {
+            int run = 0, longest = 0;
+            for (int x = 0; x < picture.width; ++x) {
+                const Rgb c = picture.at(x, y);
+                run = c.r == line.r && c.g == line.g && c.b == line.b ? run + 1 : 0;
+                longest = std::max(longest, run);
+            }
+            rows += longest >= 60;
+        }
+        return rows;
+    };
+    RayPlot joined = plot;
+    for (RaySample& sample : joined.samples) sample.starts_line = false;
+    CHECK(level_runs(draw_ray_plot(joined, {}, 0, 0)) > 0);
+    CHECK(level_runs(draw_ray_plot(plot, {}, 0, 0)) == 0);
+}
+
 TEST_CASE("the sidecar's records read back: kinds, flags, numbers; the text never parsed") {
     Trace trace;
     trace.sample(TraceSample(0, Voxel{3, 4, 0}, 500).threshold_hit(true));
