@@ -165,6 +165,8 @@ struct ColumnSample {
     bool inside = false;  // the pixel's cell lies in the slice (else no sample there)
     Vec3d point;          // the sample's place, physical units (its trace record's)
     float value = 0;      // its value
+    bool read = true;     // false: the cell lies outside its slice row's runs (steps 39 on),
+                          // which the rows never read: leapt over
 };
 
 // Intermediate pixel alone, slices 0 .. slices - 1 front to back, as the step's row function
@@ -172,14 +174,27 @@ struct ColumnSample {
 // lut[value - lowest_ct_value] its RGBA; light(m) the light of a sample that is not
 // transparent; add(pixel, rgba, light) composites it. It stops once pixel.transparency is
 // below stop_below. Each sample is traced (when `trace`) at its distance along `ray` (the
-// output pixel's ray).
+// output pixel's ray); a stretch of cells outside the runs (not read) as one leap.
 template <class Pixel, class Ray, class At, class Light, class Add>
 Pixel composite_column(int slices, const Rgba* lut, double stop_below, const Ray& ray,
                        Work& work, Trace* trace, At at, Light light, Add add) {
     Pixel pixel;
+    long long unread = 0;  // the stretch of cells not read so far, from t = unread_from
+    double unread_from = 0, unread_to = 0;
+    auto end_unread = [&] {
+        if (trace && unread > 0) trace->leap_runs(unread_from, unread_to, unread);
+        unread = 0;
+    };
     for (int m = 0; m < slices; ++m) {
         const ColumnSample s = at(m);
         if (!s.inside) continue;
+        if (!s.read) {
+            ++work.leapt;
+            unread_to = dot(s.point - ray.origin, ray.direction);
+            if (unread++ == 0) unread_from = unread_to;
+            continue;
+        }
+        end_unread();
         const Rgba& sample = lut[int(double(s.value) - lowest_ct_value)];
         ++work.samples;
         TraceSample record(dot(s.point - ray.origin, ray.direction), s.point, s.value);
@@ -202,9 +217,10 @@ Pixel composite_column(int slices, const Rgba* lut, double stop_below, const Ray
                 for (int later = m + 1; later < slices; ++later) left += at(later).inside;
                 trace->stop(pixel.transparency, stop_below, left);
             }
-            break;
+            return pixel;
         }
     }
+    end_unread();
     return pixel;
 }
 
@@ -321,6 +337,15 @@ struct SliceRuns {
         const size_t r = size_t(c) * nb + b;
         *count = r + 1 < first.size() ? int(first[r + 1] - first[r]) : 0;
         return *count > 0 ? &bounds[2 * size_t(first[r])] : nullptr;
+    }
+    // Whether cell a of slice c's row b lies in one of its runs.
+    bool holds(int c, int b, int a) const {
+        int count = 0;
+        const int32_t* run = row(c, b, &count);
+        for (int r = 0; r < count; ++r) {
+            if (a >= run[2 * r] && a < run[2 * r + 1]) return true;
+        }
+        return false;
     }
 };
 
@@ -567,12 +592,13 @@ struct WholeVoxel {
 // back) in the cell whose low corner is voxel (u + ia, v + ib) of the slice (no sample where
 // the slice does not hold it, up to last_a and last_b). Its value is sample(p, shifts[m]), p
 // that voxel in the volume's data: the step's own (step 38's slice_value()), by default the
-// voxel itself; its place the corner plus the shift's fractions (shift_fractions()).
+// voxel itself; its place the corner plus the shift's fractions (shift_fractions()). Given
+// `runs` (steps 39 on, the composite), a cell outside them is not read (ColumnSample::read).
 template <class Shear, class Shift, class Column, class WarpPixel, class Sample = WholeVoxel>
 Rgb shifted_pixel_traced(const Volume& volume, const Shear& shear,
                          const std::vector<Shift>& shifts, const WarpMap& warp, int x, int y,
                          Trace* trace, Column column, WarpPixel warp_pixel,
-                         Sample sample = WholeVoxel{}) {
+                         Sample sample = WholeVoxel{}, const SliceRuns* runs = nullptr) {
     const WarpPoint p = warp_at(warp, x, y);
     trace_warp_point(trace, p, shear.c, shear.first_slice, shear.spacing);
     auto pixel = [&](int u, int v) {
@@ -585,7 +611,7 @@ Rgb shifted_pixel_traced(const Volume& volume, const Shear& shear,
             const std::pair<double, double> past = shift_fractions(s, 0);
             return ColumnSample{
                 true, slice_point(volume, shear, a + past.first, b + past.second, s.slice),
-                sample(&volume.data[index], s)};
+                sample(&volume.data[index], s), !runs || runs->holds(s.slice, b, a)};
         };
         return column(u, v, at);
     };

@@ -262,6 +262,15 @@ void Trace::leap(double from, double to, long long samples, int reach, bool belo
     keep(std::move(line.record()));
 }
 
+void Trace::leap_runs(double from, double to, long long cells) {
+    RecordWriter line(TraceKind::leap);
+    line.print("t=%9.4f..%.4f outside the runs: %lld cells never read", from, to, cells);
+    line.field("t", from);
+    line.field("t_end", to);
+    line.field("leapt", double(cells));
+    keep(std::move(line.record()));
+}
+
 void Trace::stop(double transparency, double threshold, long long not_visited) {
     RecordWriter line(TraceKind::stop);
     line.print("T=%.3g < %.3g: early ray termination at ", transparency, threshold);

@@ -151,6 +151,9 @@ public:
     // Part 2: samples from t = from to t = to leapt over, empty bricks of reach `reach`
     // (below_iso: step 17's bricks whose values are all at or below the iso value).
     void leap(double from, double to, long long samples, int reach, bool below_iso = false);
+    // Object order, steps 39 on: the cells an intermediate pixel meets from t = from to t = to
+    // lie outside their slice rows' runs (cells the table may see): never read.
+    void leap_runs(double from, double to, long long cells);
     // Early ray termination at the last sample recorded: T fell below `threshold`.
     void stop(double transparency, double threshold, long long not_visited);
     void ray(const Vec3d& origin, const Vec3d& direction);          // part 2's camera ray

@@ -936,7 +936,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 
 // Output pixel (x, y) alone (the trace, the ray panel): the four intermediate pixels around its
 // warp point, each alone as the rows take it, blended by the warp: the image's pixel exactly.
-// Changed in step 38: each slice's shift, a bilinear sample and its cell's light.
+// Changed in step 39: a cell outside the runs is not read (leapt over, as the rows leave it).
 static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Shear& shear = scene.shear;
@@ -961,7 +961,7 @@ static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace*
     };
     const WarpMap warp = make_warp(volume, shear, scene.camera);
     return shifted_pixel_traced(volume, shear, scene.shifts, warp, x, y, trace, column, blend,
-                                slice_value);  // common/object_order.h
+                                slice_value, &scene.runs);  // common/object_order.h
 }
 
 int main(int argc, char** argv) {

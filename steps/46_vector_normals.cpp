@@ -1141,7 +1141,7 @@ static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace*
     };
     const WarpMap warp = make_warp(volume, shear, scene.camera);
     return shifted_pixel_traced(volume, shear, scene.shifts, warp, x, y, trace, column, blend,
-                                slice_value);  // common/object_order.h
+                                slice_value, &scene.runs);  // common/object_order.h
 }
 
 int main(int argc, char** argv) {

@@ -367,6 +367,63 @@ TEST_CASE("part 3: a slice step's trace never calls a blended pixel the backgrou
     }
 }
 
+// From step 39 on the rows read only the cells in their runs; a traced pixel's cells outside
+// them are leaps ("outside the runs: N cells never read"), not samples. The pixel and the
+// samples that give it colour are step 38's; each cell step 38 reads is read or leapt here.
+// Looking along j at 64x64 (a quarter of the default run), pixel 32,29's four intermediate
+// pixels cross the face: air and soft tissue outside the runs, then skin and bone.
+TEST_CASE("part 3: from the runs on, a traced pixel's cells outside them are leapt, not read") {
+    std::vector<std::string> flags = phantom_flags();
+    for (const char* flag : {"--size", "64x64", "--debug-pixel", "32,29", "--trace-only",
+                             "--no-ray-picture"}) {
+        flags.push_back(flag);
+    }
+    auto run = [&](const std::string& step) {
+        ctlab::TempFolder out("part3_runs_trace");
+        std::vector<std::string> with = flags;
+        with.insert(with.end(), {"--out", out.path()});
+        const ctlab::RunResult result = ctlab::run_step(step, with);
+        REQUIRE(result.status == 0);
+        REQUIRE(result.traces.size() == 1);
+        return result.traces[0];
+    };
+    // The records that give the pixel its colour (samples with rgba=), in order.
+    auto coloured = [](const ctlab::PixelTrace& trace) {
+        std::vector<std::string> lines;
+        for (const ctlab::TraceRecord& record : trace.records) {
+            if (record.kind == ctlab::TraceKind::sample && record.has("rgba.a")) {
+                lines.push_back(record.text);
+            }
+        }
+        return lines;
+    };
+    const ctlab::PixelTrace every_cell = run(shear_warp_step);
+    REQUIRE(every_cell.complete);
+    REQUIRE(!coloured(every_cell).empty());
+    for (const std::string& step : slice_steps()) {
+        if (step <= shear_warp_step) continue;
+        INFO(step);
+        const ctlab::PixelTrace trace = run(step);
+        REQUIRE(trace.complete);
+        double leapt = 0;
+        int leaps = 0;
+        for (const ctlab::TraceRecord& record : trace.records) {
+            if (record.kind != ctlab::TraceKind::leap) continue;
+            ++leaps;
+            leapt += record.number("leapt", 0);
+            CHECK(record.text.find("outside the runs") != std::string::npos);
+            CHECK(record.number("t_end", 0) >= record.number("t", 0));
+        }
+        CHECK(leaps >= 4);  // each intermediate pixel crosses air before the face
+        CHECK(trace.samples + leapt == every_cell.samples);
+        CHECK(trace.samples < every_cell.samples / 2);
+        if (step < quantised_normals_step) {  // its light is its own from step 41 on
+            CHECK(coloured(trace) == coloured(every_cell));
+            for (int c = 0; c < 3; ++c) CHECK(trace.png[c] == every_cell.png[c]);
+        }
+    }
+}
+
 TEST_CASE("part 3: the slice steps refuse --work-map, whose per-ray counts they do not keep") {
     // Their counters are per slice row of the intermediate image; an output pixel blends four
     // intermediate pixels, so a map of per-pixel counts would not sum to the summary line's.
