@@ -13,6 +13,7 @@
 #include <cstring>
 #include <ctime>
 #include <limits>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -553,11 +554,16 @@ void slices_or_rays(Renderer& renderer, const Renderer& rays, CameraFor camera_f
         const auto shear = shear_for(camera);
         return slices(view, scene_for(camera, shear), work);
     };
+    // scene_for() remakes what a view's pixels share in the step's own variables (the slices'
+    // shifts, the table for their spacing, the runs the first time): one output pixel at a
+    // time, since a ray picture's pixels are cast on several threads (--trace-only).
+    static std::mutex one_pixel;
     renderer.ray = [=, &rays](const View& view, int x, int y, Work& work, Trace* trace) {
         const auto camera = camera_for(view);
         if (by_rays(camera)) return rays.ray(view, x, y, work, trace);
         if (trace) trace->pixel_from_warp();  // its camera ray's miss is not the verdict
         const auto shear = shear_for(camera);
+        const std::lock_guard<std::mutex> alone(one_pixel);
         return pixel(scene_for(camera, shear), x, y, work, trace);
     };
     renderer.ray_samples = [=, &rays](const View& view) {
