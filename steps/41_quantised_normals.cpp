@@ -703,6 +703,28 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, int a, 
     return lerp(low, high, s.fb);
 }
 
+// Given: the one-pixel path's note of what slice_light() blends for a lit sample (before the
+// sample's own line): its cell's four corners' normal indices (voxel_normal()) and their light
+// in the shading table, corner a + 2b as in slice_light().
+static void trace_normals(const Scene& scene, const SliceShift& s, int a, int b, Trace* trace) {
+    if (!trace) return;
+    const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
+    unsigned index[4];
+    float light[4];
+    std::vector<TraceField> fields;
+    for (int n = 0; n < 4; ++n) {
+        const Voxel voxel =
+            voxel_of(scene.shear, a + (n & 1) * step_a, b + (n >> 1) * step_b, s.slice);
+        index[n] = voxel_normal(scene.volume, voxel);
+        light[n] = scene.shading[index[n]];
+        fields.push_back({"index." + std::to_string(n), double(index[n])});
+        fields.push_back({"light." + std::to_string(n), double(light[n])});
+    }
+    trace->note(fields, "normals: the corners' indices %u %u %u %u, the table's light %.4f %.4f "
+                "%.4f %.4f", index[0], index[1], index[2], index[3], light[0], light[1],
+                light[2], light[3]);
+}
+
 //> lesson: composite
 // Step 10's compositing along the camera's ray: samples at t_entry + n * step until t_exit,
 // each read by trilinear interpolation, classified by the table, lit where it is not
@@ -936,7 +958,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 
 // Output pixel (x, y) alone (the trace, the ray panel): the four intermediate pixels around its
 // warp point, each alone as the rows take it, blended by the warp: the image's pixel exactly.
-// Changed in step 39: a cell outside the runs is not read (leapt over, as the rows leave it).
+// Changed in step 41: a lit sample's corners' normal indices and their light, traced.
 static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Shear& shear = scene.shear;
@@ -951,7 +973,9 @@ static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace*
         auto light = [&](int m) {
             const SliceShift& s = scene.shifts[m];
             const int a = u + s.ia, b = v + s.ib;
-            return scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
+            if (scene.params.unlit) return 1.0;
+            trace_normals(scene, s, a, b, trace);
+            return double(slice_light(scene, s, a, b, work));
         };
         auto add = [](Accumulated& pixel, const Rgba& sample, double light_of_sample) {
             add_sample(pixel, sample, light_of_sample);
