@@ -16,8 +16,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <atomic>
+#include <chrono>
 #include <sstream>
+#include <thread>
 #include "common/camera_flags.h"
+#include "common/object_order.h"
 #include "harness.h"
 
 using namespace ctlab_test;
@@ -422,6 +426,95 @@ TEST_CASE("part 3: from the runs on, a traced pixel's cells outside them are lea
             for (int c = 0; c < 3; ++c) CHECK(trace.png[c] == every_cell.png[c]);
         }
     }
+}
+
+// Step 41's lit samples are four table reads: its trace notes each one's corners' normal
+// indices and their light in the table just before the sample, and the sample's L is their
+// blend (between the lowest and the highest of the four; along an axis the four corners are
+// one voxel, and L is its light).
+TEST_CASE("part 3: step 41 traces a lit sample's corners' normal indices and their light") {
+    for (const char* angle : {"oblique", "along k"}) {
+        INFO(angle);
+        std::vector<std::string> flags = phantom_flags();
+        flags.insert(flags.end(), {"--size", "64x64", "--debug-pixel", "32,29", "--trace-only",
+                                   "--no-ray-picture"});
+        if (std::string(angle) == "along k") {
+            flags.insert(flags.end(), {"--azimuth", "180", "--elevation", "90", "--debug-pixel",
+                                       "25,32"});
+        }
+        ctlab::TempFolder out("part3_normals_trace");
+        flags.insert(flags.end(), {"--out", out.path()});
+        const ctlab::RunResult result = ctlab::run_step(quantised_normals_step, flags);
+        REQUIRE(result.status == 0);
+        REQUIRE(!result.traces.empty());
+        const std::vector<ctlab::TraceRecord>& records = result.traces.back().records;
+        int lit = 0;
+        for (size_t n = 1; n < records.size(); ++n) {
+            if (records[n].kind != ctlab::TraceKind::sample || !records[n].has("L")) continue;
+            ++lit;
+            const ctlab::TraceRecord& note = records[n - 1];
+            REQUIRE(note.kind == ctlab::TraceKind::note);
+            REQUIRE(note.has("index.3"));
+            double lowest = 1, highest = 0;
+            for (int c = 0; c < 4; ++c) {
+                const std::string corner = std::to_string(c);
+                const double index = note.number("index." + corner, -1);
+                CHECK(index >= 0);
+                CHECK(index <= 129 * 129);
+                const double light = note.number("light." + corner, -1);
+                lowest = std::min(lowest, light);
+                highest = std::max(highest, light);
+            }
+            CHECK(lowest >= 0.1 - 1e-6);  // at least the ambient
+            const double blended = records[n].number("L", -1);
+            CHECK(blended >= lowest - 1e-6);
+            CHECK(blended <= highest + 1e-6);
+            if (std::string(angle) == "along k") {
+                CHECK(note.number("index.1", -1) == note.number("index.0", -2));
+                CHECK(blended == doctest::Approx(note.number("light.0", -1)).epsilon(1e-6));
+            }
+        }
+        CHECK(lit >= 3);
+    }
+}
+
+// An object-order step's scene_for() remakes what a view's pixels share in the step's own
+// variables (the slices' shifts, the table for their spacing, the runs), and its one-pixel
+// path reads them: a ray picture casts its pixels on several threads (--trace-only), which
+// corrupted the heap now and then (steps 38 and 40: 3 of 40 probe runs aborted). The wiring
+// takes one output pixel at a time, from scene_for() to the pixel.
+TEST_CASE("part 3: the slices' one-pixel path takes one pixel at a time on any thread") {
+    struct Shear {
+        int c = 2;
+        double spacing = 1;
+    };
+    std::atomic<int> inside{0}, most{0};
+    auto scene_for = [&](int, const Shear&) {
+        const int now = ++inside;
+        for (int seen = most.load(); now > seen && !most.compare_exchange_weak(seen, now);) {
+        }
+        return now;
+    };
+    auto pixel = [&](int, int, int, ctlab::Work&, ctlab::Trace*) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));  // overlap, if allowed
+        --inside;
+        return ctlab::Rgb{};
+    };
+    ctlab::Renderer rays, renderer;
+    ctlab::slices_or_rays(
+        renderer, rays, [](const ctlab::View&) { return 0; }, [](int) { return false; },
+        [](int) { return Shear{}; }, scene_for,
+        [](const ctlab::View&, int, ctlab::Work&) { return ctlab::Image(1, 1); }, pixel);
+    std::vector<std::thread> threads;
+    for (int n = 0; n < 4; ++n) {
+        threads.emplace_back([&renderer, n] {
+            ctlab::Work work;
+            for (int y = 0; y < 5; ++y) renderer.ray(ctlab::View{}, n, y, work, nullptr);
+        });
+    }
+    for (std::thread& thread : threads) thread.join();
+    CHECK(inside == 0);
+    CHECK(most == 1);
 }
 
 TEST_CASE("part 3: the slice steps refuse --work-map, whose per-ray counts they do not keep") {
