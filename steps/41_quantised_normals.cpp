@@ -720,9 +720,10 @@ static void trace_normals(const Scene& scene, const SliceShift& s, int a, int b,
         fields.push_back({"index." + std::to_string(n), double(index[n])});
         fields.push_back({"light." + std::to_string(n), double(light[n])});
     }
-    trace->note(fields, "normals: the corners' indices %u %u %u %u, the table's light %.4f %.4f "
-                "%.4f %.4f", index[0], index[1], index[2], index[3], light[0], light[1],
-                light[2], light[3]);
+    trace->note(fields,
+                "normals: the corners' indices %u %u %u %u, the table's light %.4f %.4f %.4f "
+                "%.4f", index[0], index[1], index[2], index[3], light[0], light[1], light[2],
+                light[3]);
 }
 
 //> lesson: composite
