@@ -480,6 +480,31 @@ Voxel voxel_of(const Axes& axes, int a, int b, int c) {
     return Voxel{ijk[0], ijk[1], ijk[2]};
 }
 
+// The one-pixel path's note of what a lit sample's light blends (steps 41 on, before the
+// sample's own line): its cell's four corners' normal indices (`normal_of(volume, voxel)`) and
+// their light in the render's shading table, corner a + 2b as slice_light() takes them.
+template <class Scene, class Shift, class NormalOf>
+void trace_normals(const Scene& scene, const Shift& s, int a, int b, NormalOf normal_of,
+                   Trace* trace) {
+    if (!trace) return;
+    const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
+    unsigned index[4];
+    float light[4];
+    std::vector<TraceField> fields;
+    for (int n = 0; n < 4; ++n) {
+        const Voxel voxel =
+            voxel_of(scene.shear, a + (n & 1) * step_a, b + (n >> 1) * step_b, s.slice);
+        index[n] = normal_of(scene.volume, voxel);
+        light[n] = scene.shading[index[n]];
+        fields.push_back({"index." + std::to_string(n), double(index[n])});
+        fields.push_back({"light." + std::to_string(n), double(light[n])});
+    }
+    trace->note(fields,
+                "normals: the corners' indices %u %u %u %u, the table's light %.4f %.4f %.4f "
+                "%.4f", index[0], index[1], index[2], index[3], light[0], light[1], light[2],
+                light[3]);
+}
+
 // The physical point at (a, b, c) along the slices' axes, in voxels: a trace record's place.
 template <class Axes>
 Vec3d slice_point(const Volume& volume, const Axes& axes, double a, double b, double c) {

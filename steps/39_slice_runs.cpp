@@ -717,9 +717,7 @@ static void composite_row(const Scene& scene, int v, Accumulated* row, Work& wor
                     continue;
                 }
                 double light = 1.0;  // unlit
-                if (!unlit) {
-                    light = slice_light(scene, s, u + s.ia, b, counted);
-                }
+                if (!unlit) light = slice_light(scene, s, u + s.ia, b, counted);
                 add_sample(row[u], sample, light);
                 if (row[u].transparency < stop_below) ++counted.terminated;
             }
@@ -828,7 +826,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 
 // Output pixel (x, y) alone (the trace, the ray panel): the four intermediate pixels around its
 // warp point, each alone as the rows take it, blended by the warp: the image's pixel exactly.
-// Changed in step 39: a cell outside the runs is not read (leapt over, as the rows leave it).
+// Changed in step 39: the runs passed on (cells outside them traced as leapt over, unread).
 static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Shear& shear = scene.shear;

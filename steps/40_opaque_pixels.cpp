@@ -849,7 +849,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 
 // Output pixel (x, y) alone (the trace, the ray panel): the four intermediate pixels around its
 // warp point, each alone as the rows take it, blended by the warp: the image's pixel exactly.
-// Changed in step 39: a cell outside the runs is not read (leapt over, as the rows leave it).
+// Changed in step 38: each slice's shift, a bilinear sample and its cell's light.
 static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Shear& shear = scene.shear;

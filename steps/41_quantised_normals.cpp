@@ -688,8 +688,7 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, int a, 
                                 Work& work) {
     work.gradients += 4;
     const Shear& shear = scene.shear;
-    // On the voxels (along an axis: both fractions 0, the four corners one voxel): its light
-    // alone, the same float as the blend of four equal values.
+    // On the voxels (both fractions 0: along an axis): its light alone, the blend's float.
     const Voxel at = voxel_of(shear, a, b, s.slice);
     if ((s.da | s.db) == 0) return scene.shading[voxel_normal(scene.volume, at)];
     const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
@@ -701,29 +700,6 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, int a, 
     }
     const float low = lerp(corner[0], corner[1], s.fa), high = lerp(corner[2], corner[3], s.fa);
     return lerp(low, high, s.fb);
-}
-
-// Given: the one-pixel path's note of what slice_light() blends for a lit sample (before the
-// sample's own line): its cell's four corners' normal indices (voxel_normal()) and their light
-// in the shading table, corner a + 2b as in slice_light().
-static void trace_normals(const Scene& scene, const SliceShift& s, int a, int b, Trace* trace) {
-    if (!trace) return;
-    const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
-    unsigned index[4];
-    float light[4];
-    std::vector<TraceField> fields;
-    for (int n = 0; n < 4; ++n) {
-        const Voxel voxel =
-            voxel_of(scene.shear, a + (n & 1) * step_a, b + (n >> 1) * step_b, s.slice);
-        index[n] = voxel_normal(scene.volume, voxel);
-        light[n] = scene.shading[index[n]];
-        fields.push_back({"index." + std::to_string(n), double(index[n])});
-        fields.push_back({"light." + std::to_string(n), double(light[n])});
-    }
-    trace->note(fields,
-                "normals: the corners' indices %u %u %u %u, the table's light %.4f %.4f %.4f "
-                "%.4f", index[0], index[1], index[2], index[3], light[0], light[1], light[2],
-                light[3]);
 }
 
 //> lesson: composite
@@ -959,7 +935,7 @@ static Rgb mip_colour(const Volume& volume, float highest) {
 
 // Output pixel (x, y) alone (the trace, the ray panel): the four intermediate pixels around its
 // warp point, each alone as the rows take it, blended by the warp: the image's pixel exactly.
-// Changed in step 41: a lit sample's corners' normal indices and their light, traced.
+// Changed in step 41: a lit sample's four corners' normals traced (trace_normals()) first.
 static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace* trace) {
     const Volume& volume = scene.volume;
     const Shear& shear = scene.shear;
@@ -974,9 +950,8 @@ static Rgb shear_warp_pixel(const Scene& scene, int x, int y, Work& work, Trace*
         auto light = [&](int m) {
             const SliceShift& s = scene.shifts[m];
             const int a = u + s.ia, b = v + s.ib;
-            if (scene.params.unlit) return 1.0;
-            trace_normals(scene, s, a, b, trace);
-            return double(slice_light(scene, s, a, b, work));
+            if (!scene.params.unlit) trace_normals(scene, s, a, b, voxel_normal, trace);  // given
+            return scene.params.unlit ? 1.0 : slice_light(scene, s, a, b, work);
         };
         auto add = [](Accumulated& pixel, const Rgba& sample, double light_of_sample) {
             add_sample(pixel, sample, light_of_sample);
@@ -1037,8 +1012,7 @@ int main(int argc, char** argv) {
         // --- Once per transfer function and principal axis, made by the first render that
         // needs it (so the first render's time_ms= includes it, and precompute_ms= says how
         // much): the runs. Per view, in scene_for() below: the table's opacities for the
-        // slices' spacing; for a lit composite, the shading table (the directions' set once
-        // per process) ---
+        // slices' spacing; lit: the shading table (its directions made once per process) ---
         Runs runs[3];  // per principal axis
         std::vector<Vec3> directions;  // per normal index, made with the first shading table
         double precompute_ms = 0;  // wall clock, this process

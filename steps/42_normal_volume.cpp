@@ -745,8 +745,7 @@ static inline float slice_light(const Scene& scene, const SliceShift& s, size_t 
         return lerp(low, high, s.fb);
     }
     const Shear& shear = scene.shear;
-    // On the voxels (along an axis: both fractions 0, the four corners one voxel): its light
-    // alone, the same float as the blend of four equal values.
+    // On the voxels (both fractions 0: along an axis): its light alone, the blend's float.
     const Voxel at = voxel_of(shear, a, b, s.slice);
     if ((s.da | s.db) == 0) return scene.shading[voxel_normal(scene.volume, at)];
     const int step_a = s.da ? 1 : 0, step_b = s.db ? 1 : 0;  // the high corner's offset
