@@ -416,6 +416,42 @@ inline bool all_masks(const int16_t (&mask)[cell_stretch], int16_t value) {
                  : (w[0] | w[1] | w[2] | w[3]) == 0;
 }
 
+// Given (step 47): bit scans on 64-bit words of bits (bit n of word w: item 64 * w + n).
+// The lowest set bit's position in a word that is not 0 (count trailing zeros).
+inline int first_bit(uint64_t word) {
+#if defined(__GNUC__)
+    return __builtin_ctzll(word);
+#else
+    int n = 0;
+    for (; !(word & 1); word >>= 1) ++n;
+    return n;
+#endif
+}
+
+// How many bits of a word are set.
+inline int bit_count(uint64_t word) {
+#if defined(__GNUC__)
+    return __builtin_popcountll(word);
+#else
+    int n = 0;
+    for (; word; word &= word - 1) ++n;
+    return n;
+#endif
+}
+
+// Item n's bit.
+inline bool bit_at(const uint64_t* words, int n) {
+    return (words[n / 64] >> (n % 64)) & 1;
+}
+
+// Items n .. n + 15's bits, item n's lowest (the next word must exist when they cross one).
+inline uint32_t sixteen_bits_at(const uint64_t* words, int n) {
+    const int shift = n % 64;
+    uint64_t bits = words[n / 64] >> shift;
+    if (shift > 64 - 16) bits |= words[n / 64 + 1] << (64 - shift);
+    return uint32_t(bits & 0xffff);
+}
+
 // A table made once per transfer function and principal axis, and its cost, on a line of its
 // own (the summary lines are the renders'): make() makes it, what() says what it holds, and
 // the line adds the time it took, wall clock and CPU (the machine may be shared):
