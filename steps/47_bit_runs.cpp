@@ -696,7 +696,7 @@ CTLAB_VECTOR_CODE static size_t pack_slice(const Volume& volume, const Shear& sh
     size_t columns = 0;  // the records it writes
     const int32_t* run = bounds;
     for (int b = 0; b < nb; ++b) {
-        for (uint32_t r = 0; r < counts[b]; ++r, run += 2) columns += size_t(run[1] - run[0]) + 1;
+        for (uint32_t r = 0; r < counts[b]; ++r, run += 2) columns += run[1] - run[0] + 1;
     }
     // Changed in step 47: the voxels the records hold, a bit each: row b holds the low
     // corners of its cells and the high ones of row b - 1's, each cell's column and the next.
@@ -798,46 +798,53 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
     std::vector<size_t> normals(shear.nc, 0);             // per slice, indices computed
     Work unused;
     const int words = na / 64 + 1;  // a slice row's bits: na cells, then always a 0
-    parallel_rows(shear.nc, threads, unused, vectorized([&](int c, Work&) CTLAB_VECTOR_BODY {
+    const bool more_ranges = ranges > slots;  // then clear() decides
+    // Copies of na, sa and more_ranges: kept in registers, not read again after each store.
+    parallel_rows(shear.nc, threads, unused, vectorized([&, na, sa, more_ranges](int c, Work&)
+                                                            CTLAB_VECTOR_BODY {
         counts[c].assign(nb, 0);
-        std::vector<uint64_t> cells(size_t(nb) * words, 0);  // bit a of row b: cell a seen
+        std::vector<uint64_t> cells(size_t(nb) * words);  // bit a of row b: cell a seen
         for (int b = 0; b < nb; ++b) {
             const int16_t* low = &volume.data[c * shear.stride_c + b * shear.stride_b];
             const int16_t* high = &volume.data[c * shear.stride_c +
                                                std::min(b + 1, nb - 1) * shear.stride_b];
-            uint64_t* row = &cells[size_t(b) * words];
-            // Sixteen cells at a time: their lowest and highest corners, then the ranges.
-            for (int from = 0; from < na; from += cell_stretch) {
-                const int16_t *p, *q;  // given: the rows, or copies at the end or strided
-                int16_t copies[2][cell_stretch + 1];
-                stretch_rows(low, high, sa, na, from, copies, &p, &q);
-                int16_t lowest[16], highest[16];
-                uint16_t seen = 0;  // bit n: cell from + n is seen (changed in step 47)
-                for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
-                    lowest[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
-                    highest[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
-                    int16_t outside = -1;  // -1 while no range holds the cell
-                    _Pragma("GCC unroll 2") for (int r = 0; r < slots; ++r) {  // unrolled
-                        outside &= int16_t(-((first[r][n] > lowest[n]) |
-                                             (highest[n] > last[r][n])));
-                    }
-                    seen |= uint16_t(outside) & uint16_t(1u << n);  // a bit each, ORed
-                }
-                for (int n = 0; ranges > slots && n < 16; ++n) {
-                    seen = uint16_t(clear(lowest[n], highest[n]) ? seen & ~(1u << n) : seen);
-                }
-                const int count = std::min(16, na - from);  // past the row's end: 0
-                row[from / 64] |= uint64_t(seen & ((1u << count) - 1)) << (from % 64);
-            }
-            // The runs: a run begins where a bit goes from 0 to 1, ends where it goes back.
             const size_t before = bounds[c].size();
             uint64_t carry = 0;  // the previous word's last bit
-            for (int w = 0; w < words; ++w) {
-                const uint64_t changes = row[w] ^ (row[w] << 1 | carry);
-                for (uint64_t left = changes; left != 0; left &= left - 1) {
-                    bounds[c].push_back(64 * w + first_bit(left));  // given: trailing zeros
+            for (int w = 0; w < words; ++w) {  // changed in step 47: a word of cells at a time
+                uint64_t word = 0;  // bit n: cell 64 * w + n is seen
+                // Sixteen cells at a time: their lowest and highest corners, then the ranges.
+                for (int from = 64 * w; from < std::min(na, 64 * (w + 1)); from += 16) {
+                    const int16_t *p, *q;  // given: the rows, or copies at the end or strided
+                    int16_t copies[2][cell_stretch + 1];
+                    stretch_rows(low, high, sa, na, from, copies, &p, &q);
+                    int16_t lowest[16], highest[16], seen[16];  // seen: -1, or 0: clear
+                    for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
+                        lowest[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
+                        highest[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
+                        int16_t outside = -1;  // -1 while no range holds the cell
+                        _Pragma("GCC unroll 2") for (int r = 0; r < slots; ++r) {  // unrolled
+                            outside &= int16_t(-((first[r][n] > lowest[n]) |
+                                                 (highest[n] > last[r][n])));
+                        }
+                        seen[n] = outside;
+                    }
+                    for (int n = 0; more_ranges && n < 16; ++n) {
+                        seen[n] = int16_t(-!clear(lowest[n], highest[n]));
+                    }
+                    // The sixteen answers as sixteen bits (given: mask_bits()), cell from + n's
+                    // bit n; none past the row's end.
+                    uint64_t bits = mask_bits(seen);
+                    if (from + 16 > na) bits &= (uint64_t(1) << (na - from)) - 1;
+                    word |= bits << (from % 64);
                 }
-                carry = row[w] >> 63;
+                // The runs: a run begins where a bit goes from 0 to 1, ends where it goes back
+                // (given: first_bit(), the lowest set bit's position).
+                uint64_t changes = word ^ (word << 1 | carry);  // bit n: cell n's differs
+                for (; changes != 0; changes &= changes - 1) {     // from cell n - 1's
+                    bounds[c].push_back(64 * w + first_bit(changes));
+                }
+                carry = word >> 63;
+                cells[size_t(b) * words + w] = word;
             }
             counts[c][b] = uint32_t((bounds[c].size() - before) / 2);  // begin, end each
         }
