@@ -641,7 +641,7 @@ static uint16_t voxel_normal(const Volume& volume, const Voxel& voxel) {
 // length, which the compiler makes vector instructions (normal_index() has no branch for
 // that reason; __restrict: normals[] is not the volume), the rest voxel by voxel as in step
 // 45: voxel_normal()'s numbers. Inlined into with_vectors() (pack_slice()): AVX2 too.
-// Changed in step 47: needed[] is bits, a row's in na / 64 + 1 words (given: bit_at(),
+// Changed in step 47: needed[] is bits, a row's in (na + 63) / 64 words (given: bit_at(),
 // sixteen_bits_at()): sixteen voxels skipped when their sixteen bits are 0.
 [[gnu::always_inline]] inline
 static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
@@ -691,7 +691,7 @@ static size_t slice_normals(const Volume& volume, const Shear& shear, int c,
 // many. Changed in step 46: a run's records sixteen at a time where its row is contiguous,
 // inlined into find_runs()'s vector copies (AVX2 too; its cell test keeps its vectors).
 // Changed in step 47: the voxels the records hold made from the cells' bits (cells: a row's
-// bits in na / 64 + 1 words, as find_runs() keeps them), no byte per voxel.
+// bits in (na + 63) / 64 words, as find_runs() keeps them), no byte per voxel.
 CTLAB_VECTOR_CODE static size_t pack_slice(const Volume& volume, const Shear& shear, int c,
                                            const uint32_t* counts, const int32_t* bounds,
                                            const uint64_t* cells, bool lit, Records& records) {
@@ -814,42 +814,38 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
             const int16_t* high = &volume.data[c * shear.stride_c +
                                                std::min(b + 1, nb - 1) * shear.stride_b];
             const size_t before = bounds[c].size();
-            uint64_t word = 0, carry = 0;  // bit n: cell from / 64 * 64 + n; the last word's
-                                           // last bit
-            // Sixteen cells at a time: their lowest and highest corners, then the ranges.
-            for (int from = 0; from < na; from += cell_stretch) {
+            uint64_t carry = 0;  // the last word's last bit
+            // Changed in step 47: 64 cells at a time (a word of bits), in four vectors of 16.
+            for (int from = 0; from < na; from += 64) {
                 const int16_t *p, *q;  // given: the rows, or copies at the end or strided
-                int16_t copies[2][cell_stretch + 1];
-                stretch_rows(low, high, sa, na, from, copies, &p, &q);
-                int16_t lowest[16], highest[16], seen[16];  // seen: -1, or 0: clear
-                for (int n = 0; n < 16; ++n) {  // a fixed length: vector instructions
+                int16_t copies[2][64 + 1];
+                stretch_rows<64>(low, high, sa, na, from, copies, &p, &q);
+                int16_t lowest[64], highest[64], seen[64];  // seen: -1, or 0: clear
+                for (int n = 0; n < 64; ++n) {  // a fixed length: vector instructions
                     lowest[n] = std::min(std::min(p[n], p[n + 1]), std::min(q[n], q[n + 1]));
                     highest[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
                     int16_t outside = -1;  // -1 while no range holds the cell
                     _Pragma("GCC unroll 2") for (int r = 0; r < slots; ++r) {  // unrolled
-                        outside &= int16_t(-((first[r][n] > lowest[n]) |
-                                             (highest[n] > last[r][n])));
+                        outside &= int16_t(-((first[r][0] > lowest[n]) |
+                                             (highest[n] > last[r][0])));
                     }
                     seen[n] = outside;
                 }
-                for (int n = 0; more_ranges && n < 16; ++n) {
+                for (int n = 0; more_ranges && n < 64; ++n) {
                     seen[n] = int16_t(-!clear(lowest[n], highest[n]));
                 }
-                // The sixteen answers as sixteen bits of the word (given: mask_bits()), cell
-                // from + n's bit from % 64 + n; none past the row's end.
-                uint64_t bits = mask_bits(seen);
-                if (from + 16 > na) bits &= (uint64_t(1) << (na - from)) - 1;
-                word |= bits << (from % 64);
-                if (from % 64 < 48 && from + 16 < na) continue;  // the word is not full yet
+                // The answers as the word's bits (given: mask_bits()), cell from + n's bit n;
+                // none past the row's end.
+                uint64_t word = mask_bits(seen);
+                if (from + 64 > na) word &= (uint64_t(1) << (na - from)) - 1;
                 // The runs: a run begins where a bit goes from 0 to 1, ends where it goes back
                 // (given: first_bit(), the lowest set bit's position).
                 uint64_t changes = word ^ (word << 1 | carry);  // bit n: cell n's differs
                 for (; changes != 0; changes &= changes - 1) {     // from cell n - 1's
-                    bounds[c].push_back(from / 64 * 64 + first_bit(changes));
+                    bounds[c].push_back(from + first_bit(changes));
                 }
                 carry = word >> 63;
                 cells[size_t(b) * words + from / 64] = word;
-                word = 0;
             }
             if ((bounds[c].size() - before) % 2) bounds[c].push_back(na);  // runs to the end
             counts[c][b] = uint32_t((bounds[c].size() - before) / 2);  // begin, end each

@@ -493,16 +493,19 @@ TEST_CASE("part 3: step 47's given bit helpers: mask_bits() is its plain loop's,
     // (mask_bits_portable()) is what other processors run: the same bits for any masks.
     uint32_t state = 12345;  // a small generator: any masks, including all 0 and all -1
     for (int trial = 0; trial < 2000; ++trial) {
-        int16_t mask[ctlab::cell_stretch];
-        uint32_t expected = 0;
-        for (int n = 0; n < ctlab::cell_stretch; ++n) {
+        int16_t sixteen[16], word[64];  // step 46's stretch, step 47's word
+        uint64_t expected = 0;
+        for (int n = 0; n < 64; ++n) {
             state = state * 1664525u + 1013904223u;
             const bool set = trial == 0 ? false : trial == 1 ? true : (state >> 28) & 1;
-            mask[n] = set ? int16_t(-1) : int16_t(0);
-            expected |= uint32_t(set) << n;
+            word[n] = set ? int16_t(-1) : int16_t(0);
+            if (n < 16) sixteen[n] = word[n];
+            expected |= uint64_t(set) << n;
         }
-        CHECK(ctlab::mask_bits_portable(mask) == expected);
-        CHECK(ctlab::mask_bits(mask) == expected);
+        CHECK(ctlab::mask_bits_portable(sixteen) == (expected & 0xffff));
+        CHECK(ctlab::mask_bits(sixteen) == (expected & 0xffff));
+        CHECK(ctlab::mask_bits_portable(word) == expected);
+        CHECK(ctlab::mask_bits(word) == expected);
     }
     // The scans on known words: bit 0, 63, and a word of alternating bits.
     CHECK(ctlab::first_bit(1) == 0);
