@@ -1,11 +1,11 @@
 // 47_bit_runs.cpp: shear-warp's precomputation reading its runs off bits: the cell test's
-// sixteen answers become sixteen bits of a 64-bit word, the runs where the bits change.
+// answers become the bits of 64-bit words, the runs where the bits change.
 //
-// New here:   step 46's cell test, its sixteen answers kept as bits (a slice row's cells in
-//             64-bit words); the runs begin and end where a bit changes, found by counting
-//             trailing zeros: no cell one by one. The same bits say which voxels the records
-//             hold (lit composite): no byte per voxel to clear and fill. Step 46's pictures,
-//             counters and records, to the bit.
+// New here:   step 46's cell test 64 cells at a time, its answers kept as the 64 bits of a
+//             word (a slice row's cells in words); the runs begin and end where a bit
+//             changes, found by counting trailing zeros: no cell one by one. The same bits
+//             say which voxels the records hold (lit composite): no byte per voxel to clear
+//             and fill. Step 46's pictures, counters and records, to the bit.
 // Builds on:  46_vector_normals.
 // Handout:    handouts/47_bit_runs.md
 // Run:        make run STEP=47 ARGS="--azimuth 180 --elevation 90 --size 256x256"
@@ -760,8 +760,8 @@ CTLAB_VECTOR_CODE static size_t pack_slice(const Volume& volume, const Shear& sh
 // left out. Slices are shared among the threads. Changed in step 45: each slice's records are
 // packed (pack_slice()) as soon as its runs are found, while its voxels are in the cache.
 // Changed in step 46: the cell test sixteen cells at a time, in vector instructions (AVX2 too).
-// Changed in step 47: the sixteen answers as sixteen bits, a row's cells in 64-bit words, and
-// its runs read off where a bit changes: no cell one by one.
+// Changed in step 47: 64 cells at a time, their answers the 64 bits of a word, and a row's
+// runs read off where a bit changes: no cell one by one.
 static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, bool lit,
                       int threads) {
     std::vector<int32_t> stretch(lut.entries.size());  // per table entry
@@ -804,9 +804,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
     std::vector<size_t> normals(shear.nc, 0);             // per slice, indices computed
     Work unused;
     const int words = (na + 63) / 64;  // a slice row's bits, 64 cells a word
-    const bool more_ranges = ranges > slots;  // copied as na and sa: registers, not reloaded
-    parallel_rows(shear.nc, threads, unused, vectorized([&, na, sa, more_ranges](int c, Work&)
-                                                            CTLAB_VECTOR_BODY {
+    parallel_rows(shear.nc, threads, unused, vectorized([&](int c, Work&) CTLAB_VECTOR_BODY {
         counts[c].assign(nb, 0);
         std::vector<uint64_t> cells(size_t(nb) * words);  // bit a of row b: cell a seen
         for (int b = 0; b < nb; ++b) {
@@ -831,7 +829,7 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
                     }
                     seen[n] = outside;
                 }
-                for (int n = 0; more_ranges && n < 64; ++n) {
+                for (int n = 0; ranges > slots && n < 64; ++n) {
                     seen[n] = int16_t(-!clear(lowest[n], highest[n]));
                 }
                 // The answers as the word's bits (given: mask_bits()), cell from + n's bit n;
