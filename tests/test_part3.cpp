@@ -19,6 +19,7 @@
 #include <sstream>
 #include "common/camera_flags.h"
 #include "common/object_order.h"  // step 47's given bit helpers
+#include "common/phantom.h"       // make_phantom_sized(): rows that are not whole words
 #include "harness.h"
 
 using namespace ctlab_test;
@@ -446,7 +447,8 @@ TEST_CASE("part 3: step 47's runs read off bits are step 46's runs, records and 
     // a record holds are marked (bits again), not what is found: the same runs, records and
     // normal indices as step 46, so the same pictures and counters, to the bit. Lit and
     // unlit, along k (contiguous rows), along i and j (strided rows, copied), at an angle,
-    // and a table with three transparent stretches (more than the cell test's two ranges).
+    // a table with three transparent stretches (more than the cell test's two ranges), and
+    // the phantom resized.
     const TempFolder folder("bit_runs_tf");
     const std::string three = folder.text_file("three.tf",
                                                "-300 50 constant 1.0 0.79 0.6 0.12 skin\n"
@@ -459,14 +461,21 @@ TEST_CASE("part 3: step 47's runs read off bits are step 46's runs, records and 
         {"--azimuth", "30", "--elevation", "20", "--size", "96x96", "--unlit"},
         {"--azimuth", "200", "--elevation", "-60", "--size", "80x80", "--tf", three},
         {"--azimuth", "90", "--elevation", "0", "--size", "64x64", "--tf", three}};
-    for (const std::vector<std::string>& view : views) {
-        std::vector<std::string> flags = phantom_flags();
+    // The phantom resized so that no row is a whole number of words (or of sixteens): 200,
+    // 77 and 45 cells, the last word of a row partly past its end.
+    const ctlab::Volume odd = ctlab::make_phantom_sized(200, 77, 45);
+    for (size_t v = 0; v < 2 * views.size(); ++v) {
+        const bool resized = v >= views.size();
+        const std::vector<std::string>& view = views[v % views.size()];
+        std::vector<std::string> flags = resized ? std::vector<std::string>{} : phantom_flags();
         flags.insert(flags.end(), view.begin(), view.end());
-        std::string named;  // the flags, for a failure's message
+        std::string named = resized ? "200x77x45: " : "";  // for a failure's message
         for (const std::string& flag : flags) named += flag + " ";
         INFO(named);
-        const StepRender base = render("46_vector_normals", flags);
-        const StepRender bits = render("47_bit_runs", flags);
+        const StepRender base = resized ? render("46_vector_normals", flags, odd)
+                                        : render("46_vector_normals", flags);
+        const StepRender bits = resized ? render("47_bit_runs", flags, odd)
+                                        : render("47_bit_runs", flags);
         const ctlab::Image &a = base.image("camera"), &b = bits.image("camera");
         REQUIRE(a.pixels.size() == b.pixels.size());
         size_t different = 0;
