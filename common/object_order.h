@@ -25,6 +25,9 @@
 #include "vec3.h"
 #include "view.h"
 #include "volume.h"
+#if defined(__SSE2__)
+#include <emmintrin.h>  // mask_bits(): SSE2, in every x86-64 processor
+#endif
 
 namespace ctlab {
 
@@ -412,19 +415,20 @@ inline float record_light(const float* light, const Record* p, const Shift& s) {
 // Given (step 46): the voxels of a stretch's two slice rows (low_row and high_row from
 // `from`, one more than its cells) at p and q, contiguous: the rows themselves where they
 // are, else copied into `copies` (strided rows, or at a row's end with the last voxel
-// repeated, as CellStretch::read() does).
+// repeated, as CellStretch::read() does). Step 47 takes 64 cells at a time (cells = 64).
+template <int cells = cell_stretch>
 inline void stretch_rows(const int16_t* low_row, const int16_t* high_row, size_t sa, int na,
-                         int from, int16_t (&copies)[2][cell_stretch + 1], const int16_t** p,
+                         int from, int16_t (&copies)[2][cells + 1], const int16_t** p,
                          const int16_t** q) {
     *p = low_row + from;
     *q = high_row + from;
-    if (sa == 1 && from + cell_stretch <= na - 1) return;
-    const int inside = std::min(cell_stretch + 1, na - from);  // voxels in the row
+    if (sa == 1 && from + cells <= na - 1) return;
+    const int inside = std::min(cells + 1, na - from);  // voxels in the row
     if (sa == 1) {  // the row's end: copied at once (most rows' last stretch)
         std::memcpy(copies[0], *p, size_t(inside) * sizeof(int16_t));
         std::memcpy(copies[1], *q, size_t(inside) * sizeof(int16_t));
     }
-    for (int n = sa == 1 ? inside : 0; n <= cell_stretch; ++n) {
+    for (int n = sa == 1 ? inside : 0; n <= cells; ++n) {
         copies[0][n] = low_row[size_t(from + std::min(n, inside - 1)) * sa];
         copies[1][n] = high_row[size_t(from + std::min(n, inside - 1)) * sa];
     }
@@ -440,6 +444,70 @@ inline bool all_masks(const int16_t (&mask)[cell_stretch], int16_t value) {
     std::memcpy(w, mask, sizeof w);
     return value ? (w[0] & w[1] & w[2] & w[3]) == ~uint64_t(0)
                  : (w[0] | w[1] | w[2] | w[3]) == 0;
+}
+
+// Given (step 47): masks (each 0 or -1, 16 bits; 16 or 64 of them) as bits, mask n's as bit
+// n. The same in a plain loop, for a processor without SSE2 (tests compare the two).
+template <int count>
+inline uint64_t mask_bits_portable(const int16_t (&mask)[count]) {
+    static_assert(count <= 64, "a word");
+    uint64_t bits = 0;
+    for (int n = 0; n < count; ++n) bits |= uint64_t(mask[n] & 1) << n;
+    return bits;
+}
+
+// On x86, two instructions per sixteen: the masks packed to bytes, then each byte's top bit
+// gathered (movemask). GCC makes no such instruction of the loop above.
+template <int count>
+inline uint64_t mask_bits(const int16_t (&mask)[count]) {
+    static_assert(count % 16 == 0 && count <= 64, "sixteen at a time, a word");
+#if defined(__SSE2__)
+    uint64_t bits = 0;
+    for (int n = 0; n < count; n += 16) {
+        const __m128i low = _mm_loadu_si128(reinterpret_cast<const __m128i*>(mask + n));
+        const __m128i high = _mm_loadu_si128(reinterpret_cast<const __m128i*>(mask + n + 8));
+        bits |= uint64_t(uint32_t(_mm_movemask_epi8(_mm_packs_epi16(low, high)))) << n;
+    }
+    return bits;
+#else
+    return mask_bits_portable(mask);
+#endif
+}
+
+// Given (step 47): bit scans on 64-bit words of bits (bit n of word w: item 64 * w + n).
+// The lowest set bit's position in a word that is not 0 (count trailing zeros).
+inline int first_bit(uint64_t word) {
+#if defined(__GNUC__)
+    return __builtin_ctzll(word);
+#else
+    int n = 0;
+    for (; !(word & 1); word >>= 1) ++n;
+    return n;
+#endif
+}
+
+// How many bits of a word are set.
+inline int bit_count(uint64_t word) {
+#if defined(__GNUC__)
+    return __builtin_popcountll(word);
+#else
+    int n = 0;
+    for (; word; word &= word - 1) ++n;
+    return n;
+#endif
+}
+
+// Item n's bit.
+inline bool bit_at(const uint64_t* words, int n) {
+    return (words[n / 64] >> (n % 64)) & 1;
+}
+
+// Items n .. n + 15's bits, item n's lowest (the next word must exist when they cross one).
+inline uint32_t sixteen_bits_at(const uint64_t* words, int n) {
+    const int shift = n % 64;
+    uint64_t bits = words[n / 64] >> shift;
+    if (shift > 64 - 16) bits |= words[n / 64 + 1] << (64 - shift);
+    return uint32_t(bits & 0xffff);
 }
 
 // A table made once per transfer function and principal axis, and its cost, on a line of its

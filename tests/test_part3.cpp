@@ -21,7 +21,8 @@
 #include <sstream>
 #include <thread>
 #include "common/camera_flags.h"
-#include "common/object_order.h"
+#include "common/object_order.h"  // step 47's given bit helpers
+#include "common/phantom.h"       // make_phantom_sized(): rows that are not whole words
 #include "harness.h"
 
 using namespace ctlab_test;
@@ -547,21 +548,22 @@ static std::string precompute_value(const std::string& out, const std::string& k
     return "";
 }
 
-TEST_CASE("part 3: step 46's cell test, records and normals are its SSE2 copy's") {
+TEST_CASE("part 3: steps 46 and 47's cell test, records and normals are their SSE2 copy's") {
     // common/dispatch.h compiles find_runs()'s slice loop (the cell test, pack_slice()'s
     // records) and slice_normals() twice, for SSE2 and AVX2, and the processor picks;
     // CTLAB_VECTORS=sse2 forces the SSE2 copy, the one a processor without AVX2 runs.
     // Neither uses FMA, so the pictures, counters and precomputation must be the same, to the
     // bit: lit and unlit (the runs and records without normals), along an axis (contiguous
     // rows) and at an angle. (On a processor without AVX2 both runs take the SSE2 copy, and
-    // this compares it with itself.)
-    constexpr const char* step = "46_vector_normals";
+    // this compares it with itself.) Step 47 reads its runs off bits (mask_bits()).
     const std::vector<std::string> oblique = {"--azimuth", "30", "--elevation", "20",
                                               "--size",    "96x96"};
     std::vector<std::vector<std::string>> runs = {cases()[1].flags, phantom_flags(),
                                                   cases()[0].flags, cases()[2].flags};
     runs[1].insert(runs[1].end(), oblique.begin(), oblique.end());  // spacing 1,1,2
+    for (const char* step : {"46_vector_normals", "47_bit_runs"})
     for (const std::vector<std::string>& flags : runs) {
+        INFO(step);
         const bool lit = std::find(flags.begin(), flags.end(), "--unlit") == flags.end();
         INFO((lit ? "lit" : "unlit"));
         const StepRender chosen = render(step, flags);
@@ -587,6 +589,98 @@ TEST_CASE("part 3: step 46's cell test, records and normals are its SSE2 copy's"
         CHECK(precompute_value(chosen.run.out, "records") ==
               precompute_value(forced.run.out, "records"));
     }
+}
+
+TEST_CASE("part 3: step 47's runs read off bits are step 46's runs, records and normals") {
+    // Step 47 changes how the runs are found (bits, and where they change) and how the voxels
+    // a record holds are marked (bits again), not what is found: the same runs, records and
+    // normal indices as step 46, so the same pictures and counters, to the bit. Lit and
+    // unlit, along k (contiguous rows), along i and j (strided rows, copied), at an angle,
+    // a table with three transparent stretches (more than the cell test's two ranges), and
+    // the phantom resized.
+    const TempFolder folder("bit_runs_tf");
+    const std::string three = folder.text_file("three.tf",
+                                               "-300 50 constant 1.0 0.79 0.6 0.12 skin\n"
+                                               "120 130 constant 0.5 1.0 0.5 0.3\n"
+                                               "300 900 constant 1.0 1.0 1.0 0.8 bone\n");
+    const std::vector<std::vector<std::string>> views = {
+        {"--azimuth", "0", "--elevation", "90", "--size", "96x96"},
+        {"--azimuth", "90", "--elevation", "0", "--size", "96x64"},
+        {"--azimuth", "0", "--elevation", "0", "--size", "96x64", "--unlit"},
+        {"--azimuth", "30", "--elevation", "20", "--size", "96x96", "--unlit"},
+        {"--azimuth", "200", "--elevation", "-60", "--size", "80x80", "--tf", three},
+        {"--azimuth", "90", "--elevation", "0", "--size", "64x64", "--tf", three}};
+    // The phantom resized so that no row is a whole number of words (or of sixteens): 200,
+    // 77 and 45 cells, the last word of a row partly past its end.
+    const ctlab::Volume odd = ctlab::make_phantom_sized(200, 77, 45);
+    for (size_t v = 0; v < 2 * views.size(); ++v) {
+        const bool resized = v >= views.size();
+        const std::vector<std::string>& view = views[v % views.size()];
+        std::vector<std::string> flags = resized ? std::vector<std::string>{} : phantom_flags();
+        flags.insert(flags.end(), view.begin(), view.end());
+        std::string named = resized ? "200x77x45: " : "";  // for a failure's message
+        for (const std::string& flag : flags) named += flag + " ";
+        INFO(named);
+        const StepRender base = resized ? render("46_vector_normals", flags, odd)
+                                        : render("46_vector_normals", flags);
+        const StepRender bits = resized ? render("47_bit_runs", flags, odd)
+                                        : render("47_bit_runs", flags);
+        const ctlab::Image &a = base.image("camera"), &b = bits.image("camera");
+        REQUIRE(a.pixels.size() == b.pixels.size());
+        size_t different = 0;
+        for (size_t n = 0; n < a.pixels.size(); ++n) {
+            const ctlab::Rgb p = a.pixels[n], q = b.pixels[n];
+            different += p.r != q.r || p.g != q.g || p.b != q.b;
+        }
+        CHECK(different == 0);
+        for (const char* key : {"samples", "skipped", "leapt", "gradients", "terminated"}) {
+            INFO(key);
+            CHECK(ctlab::summary_count(base.summary("camera"), key) ==
+                  ctlab::summary_count(bits.summary("camera"), key));
+        }
+        for (const char* key : {"run_cells", "runs", "normal_voxels", "records"}) {
+            INFO(key);
+            CHECK(!precompute_value(bits.run.out, key).empty());
+            CHECK(precompute_value(base.run.out, key) == precompute_value(bits.run.out, key));
+        }
+    }
+}
+
+TEST_CASE("part 3: step 47's given bit helpers: mask_bits() is its plain loop's, the scans") {
+    // mask_bits() packs and gathers with SSE2 instructions where there are some; its plain loop
+    // (mask_bits_portable()) is what other processors run: the same bits for any masks.
+    uint32_t state = 12345;  // a small generator: any masks, including all 0 and all -1
+    for (int trial = 0; trial < 2000; ++trial) {
+        int16_t sixteen[16], word[64];  // step 46's stretch, step 47's word
+        uint64_t expected = 0;
+        for (int n = 0; n < 64; ++n) {
+            state = state * 1664525u + 1013904223u;
+            const bool set = trial == 0 ? false : trial == 1 ? true : (state >> 28) & 1;
+            word[n] = set ? int16_t(-1) : int16_t(0);
+            if (n < 16) sixteen[n] = word[n];
+            expected |= uint64_t(set) << n;
+        }
+        CHECK(ctlab::mask_bits_portable(sixteen) == (expected & 0xffff));
+        CHECK(ctlab::mask_bits(sixteen) == (expected & 0xffff));
+        CHECK(ctlab::mask_bits_portable(word) == expected);
+        CHECK(ctlab::mask_bits(word) == expected);
+    }
+    // The scans on known words: bit 0, 63, and a word of alternating bits.
+    CHECK(ctlab::first_bit(1) == 0);
+    CHECK(ctlab::first_bit(uint64_t(1) << 63) == 63);
+    CHECK(ctlab::first_bit(0xa0) == 5);
+    CHECK(ctlab::bit_count(0) == 0);
+    CHECK(ctlab::bit_count(~uint64_t(0)) == 64);
+    CHECK(ctlab::bit_count(0xaaaaaaaaaaaaaaaa) == 32);
+    const uint64_t words[2] = {0xf000000000000001, 0x5};  // items 0, 60..63, 64 and 66
+    CHECK(ctlab::bit_at(words, 0));
+    CHECK(!ctlab::bit_at(words, 1));
+    CHECK(ctlab::bit_at(words, 63));
+    CHECK(ctlab::bit_at(words, 66));
+    CHECK(!ctlab::bit_at(words, 65));
+    CHECK(ctlab::sixteen_bits_at(words, 0) == 0x1);
+    CHECK(ctlab::sixteen_bits_at(words, 56) == 0x5f0);  // 60..63 then 64, 66: crossing words
+    CHECK(ctlab::sixteen_bits_at(words, 64) == 0x5);
 }
 
 TEST_CASE("part 3: a camera with a turn_step takes the nearest multiple as the drag adds up") {
