@@ -779,7 +779,9 @@ bool file_exists(const std::string& path) {
 // fresh process rendering `runs` times: its first render is the cold figure, the median of
 // the others the warm one. Odd passes run the case's programs in the other order, so that
 // a drift of the machine's speed hits ctlab and the peers alike; every figure is the median
-// over the passes. Ratios are peer ms / ctlab ms (above 1: ctlab is faster).
+// over the passes. Ratios are peer ms / ctlab ms (above 1: ctlab is faster). The targets'
+// step renders once in cold_processes - 1 more fresh processes per case, thread count and
+// pass: its first render is the median of them all (why: at peer_cold_ratio_target).
 struct PeerCase {
     char id;           // 'a'..'d'
     const char* what;  // for the tables
@@ -798,6 +800,19 @@ constexpr double volpack_target[peer_case_count] = {2, 1.5, 1, 0};
 constexpr double vtk_target[peer_case_count] = {8, 6, 6, 5};
 constexpr double volpack_one_thread_goal = 1;   // cases a and b, ctlab on 1 thread
 constexpr double peer_cold_ratio_target = 3;    // first render (fresh process) / warm
+// A first render writes memory its process has never touched (step 46: 15 MiB of records),
+// and the kernel clears each new page as it hands it over. On the lab's VM (its balloon
+// reports free memory to the host) that clearing took about 0.1 ms per MiB of 2 MiB pages in
+// most processes and 0.7-2.6 ms per MiB in others, with nothing in the process to tell them
+// apart: step 46's case b on one thread, the same command alone at load 0.1, precomputed its
+// tables in 11-18 ms in 8 runs of 10 and 31-47 ms in 2; its user-space instructions do not
+// vary (callgrind: 294,006,199 and 294,006,195), nor its minor faults (5,567-5,570), and every
+// huge page was granted; perf: the slow runs' extra time is the kernel's clear_page. Which
+// runs are slow followed no rest (5 s before a run or none) and no order that we tried. So
+// one first render per pass, three in all, let a median fall in the slow mode (one idle run:
+// 45.6 ms for case b on one thread, 8.9 on two); the targets' step's first render is the
+// median of cold_processes fresh processes per pass, and the table gives every first
+// render's lowest and highest.
 
 // ctlab's candidates for each case, by step name (the number may change): the flags that
 // make it render the case ("" when it cannot). Part-3 steps (number >= first_part3_step)
@@ -932,6 +947,20 @@ void add_ctlab_run(PeerFigure& figure, const std::string& step,
     figure.rss_kib = std::max(figure.rss_kib, run.max_rss_kib);
 }
 
+// More fresh processes of `step`, one render each: their first renders join figure.cold.
+void add_first_renders(PeerFigure& figure, const std::string& step,
+                       const std::vector<std::string>& flags, int processes) {
+    for (int process = 0; process < processes && figure.error.empty(); ++process) {
+        const RunResult run = run_step(step, flags, run_timeout_s);
+        if (run.status != 0 || run.summaries.empty()) {
+            const std::string why = run.err.substr(0, run.err.find('\n'));
+            figure.error = text_of("status %d: %s", run.status, why.c_str());
+            return;
+        }
+        figure.cold.push_back(summary_number(run.summaries.front(), "time_ms"));
+    }
+}
+
 void add_peer_run(PeerFigure& figure, const std::string& program,
                   const std::vector<std::string>& args) {
     const RunResult run = run_program(program, args, run_timeout_s);
@@ -1055,27 +1084,57 @@ std::string peers_section(const std::string& raw, const int dims[3], int runs, i
                    "vtkFixedPointVolumeRayCastMapper, %d threads): %s. Each program ran "
                    "afresh per case and pass, rendering %s times: *warm* is the median of all "
                    "but the first render, *first* the first (VolPack's includes its "
-                   "classification, VTK's its normals). Medians over %d pass%s, the programs "
+                   "classification, VTK's its normals, ctlab's its precomputation and the "
+                   "fresh memory it writes, which the kernel clears, on this kind of machine "
+                   "some runs several times slower than others). Medians over %d pass%s "
+                   "(first renders: with their lowest and highest%s), the programs "
                    "of a case interleaved (reversed every other pass). Ratios: peer ms / "
                    "ctlab ms, above 1 when ctlab is faster. The volume: %dx%dx%d, spacing "
                    "1,1,1.\n\n",
                    have_volpack ? "installed" : "**not installed** (make bench PEERS=1)", cores,
                    have_vtk ? "installed" : "**not installed** (make bench PEERS=1)",
-                   peer_runs.c_str(), pass_count, pass_count == 1 ? "" : "es", dims[0],
+                   peer_runs.c_str(), pass_count, pass_count == 1 ? "" : "es",
+                   quick ? ""
+                         : text_of("; the targets' step's over %d fresh processes per pass",
+                                   cold_processes).c_str(),
+                   dims[0],
                    dims[1], dims[2]);
     const Candidate* target_step = nullptr;
     for (const Candidate& candidate : candidates) {
         if (std::stoi(candidate.step.substr(0, 2)) >= first_part3_step) target_step = &candidate;
     }
+    // The targets' step's first render: cold_processes - 1 more fresh processes per case,
+    // thread count and pass (one render each), so that its median is not one of three.
+    for (Candidate& candidate : candidates) {
+        if (&candidate != target_step || quick) continue;
+        for (int pass = 0; pass < pass_count; ++pass) {
+            for (int c = 0; c < peer_case_count; ++c) {
+                if (candidate.flags[c].empty()) continue;
+                for (int threads : {1, cores}) {
+                    std::vector<std::string> flags = volume_flags;
+                    flags.insert(flags.end(), candidate.flags[c].begin(),
+                                 candidate.flags[c].end());
+                    flags.insert(flags.end(), {"--threads", std::to_string(threads)});
+                    add_first_renders(threads == 1 ? candidate.one[c] : candidate.all[c],
+                                      candidate.step, flags, cold_processes - 1);
+                    if (cores == 1) break;
+                }
+            }
+        }
+    }
     // Every candidate, every case: what ctlab's choice is made from.
-    out << "| case | ctlab step | 1 thread warm (first) ms | " << cores
-        << " threads warm (first) ms |\n|---|---|---:|---:|\n";
+    out << "| case | ctlab step | 1 thread warm (first; lowest-highest) ms | " << cores
+        << " threads warm (first; lowest-highest) ms |\n|---|---|---:|---:|\n";
     for (int c = 0; c < peer_case_count; ++c) {
         for (const Candidate& candidate : candidates) {
             if (candidate.flags[c].empty()) continue;
+            // The first renders' lowest and highest too: a median hides a split.
             auto cell = [](const PeerFigure& f) {
-                return f.ran() ? text_of("%.2f (%.2f)", f.warm_ms(), f.cold_ms())
-                               : "failed: " + f.error;
+                if (!f.ran()) return "failed: " + f.error;
+                const auto [low, high] = std::minmax_element(f.cold.begin(), f.cold.end());
+                return f.cold.size() > 1 ? text_of("%.2f (%.2f; %.2f-%.2f)", f.warm_ms(),
+                                                   f.cold_ms(), *low, *high)
+                                         : text_of("%.2f (%.2f)", f.warm_ms(), f.cold_ms());
             };
             std::string flags;
             for (const std::string& w : candidate.flags[c]) flags += " " + w;
