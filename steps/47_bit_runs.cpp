@@ -783,18 +783,16 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
     // last[r]] (classic table: below -300, and 50 to 299; a slot left over holds none): a cell
     // is clear when a range holds its lowest and highest corner. More ranges: clear().
     constexpr int slots = 2;
-    alignas(16) int16_t first[slots][16], last[slots][16];  // each 16 times: a vector's worth
-    std::fill(&first[0][0], &first[0][0] + slots * 16, int16_t(32767));
-    std::fill(&last[0][0], &last[0][0] + slots * 16, int16_t(-32768));
+    int16_t first[slots] = {32767, 32767}, last[slots] = {-32768, -32768};  // one value each
     int ranges = 0;
     for (size_t n = 0; n < stretch.size(); ++n) {
         if (stretch[n] < 0) continue;
         const int16_t value = int16_t(int(n) + lowest_ct_value);
         if (n == 0 || stretch[n - 1] != stretch[n]) {
             if (++ranges > slots) break;
-            std::fill(first[ranges - 1], first[ranges - 1] + 16, value);
+            first[ranges - 1] = value;
         }
-        std::fill(last[ranges - 1], last[ranges - 1] + 16, value);
+        last[ranges - 1] = value;
     }
     const int na = shear.na, nb = shear.nb;
     const size_t sa = shear.stride_a;
@@ -824,8 +822,8 @@ static Runs find_runs(const Volume& volume, const Shear& shear, const Lut& lut, 
                     highest[n] = std::max(std::max(p[n], p[n + 1]), std::max(q[n], q[n + 1]));
                     int16_t outside = -1;  // -1 while no range holds the cell
                     _Pragma("GCC unroll 2") for (int r = 0; r < slots; ++r) {  // unrolled
-                        outside &= int16_t(-((first[r][0] > lowest[n]) |
-                                             (highest[n] > last[r][0])));
+                        outside &= int16_t(-((first[r] > lowest[n]) |
+                                             (highest[n] > last[r])));
                     }
                     seen[n] = outside;
                 }
