@@ -914,14 +914,21 @@ std::vector<Candidate> ctlab_candidates(int side, int oblique, const int dims[3]
 }
 
 // Adds one run's figures (or its failure) to `figure`.
+// One fresh process of `step`; false (and figure.error: its status and first error line)
+// when it failed or printed no summary line.
+bool step_ran(PeerFigure& figure, const std::string& step,
+              const std::vector<std::string>& flags, RunResult& run) {
+    run = run_step(step, flags, run_timeout_s);
+    if (run.status == 0 && !run.summaries.empty()) return true;
+    const std::string why = run.err.substr(0, run.err.find('\n'));
+    figure.error = text_of("status %d: %s", run.status, why.c_str());
+    return false;
+}
+
 void add_ctlab_run(PeerFigure& figure, const std::string& step,
                    const std::vector<std::string>& flags) {
-    const RunResult run = run_step(step, flags, run_timeout_s);
-    if (run.status != 0 || run.summaries.empty()) {
-        const std::string why = run.err.substr(0, run.err.find('\n'));
-        figure.error = text_of("status %d: %s", run.status, why.c_str());
-        return;
-    }
+    RunResult run;
+    if (!step_ran(figure, step, flags, run)) return;
     const Summary& line = run.summaries.front();
     figure.cold.push_back(summary_number(line, "time_ms"));
     figure.warm.push_back(line.count("warm_ms") ? summary_number(line, "warm_ms")
@@ -950,13 +957,9 @@ void add_ctlab_run(PeerFigure& figure, const std::string& step,
 // More fresh processes of `step`, one render each: their first renders join figure.cold.
 void add_first_renders(PeerFigure& figure, const std::string& step,
                        const std::vector<std::string>& flags, int processes) {
+    RunResult run;
     for (int process = 0; process < processes && figure.error.empty(); ++process) {
-        const RunResult run = run_step(step, flags, run_timeout_s);
-        if (run.status != 0 || run.summaries.empty()) {
-            const std::string why = run.err.substr(0, run.err.find('\n'));
-            figure.error = text_of("status %d: %s", run.status, why.c_str());
-            return;
-        }
+        if (!step_ran(figure, step, flags, run)) return;
         figure.cold.push_back(summary_number(run.summaries.front(), "time_ms"));
     }
 }
