@@ -13,6 +13,7 @@
 #include <doctest/doctest.h>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -548,20 +549,21 @@ static std::string precompute_value(const std::string& out, const std::string& k
     return "";
 }
 
-TEST_CASE("part 3: steps 46 and 47's cell test, records and normals are their SSE2 copy's") {
+TEST_CASE("part 3: steps 46 to 48's cell test, records and normals are their SSE2 copy's") {
     // common/dispatch.h compiles find_runs()'s slice loop (the cell test, pack_slice()'s
     // records) and slice_normals() twice, for SSE2 and AVX2, and the processor picks;
     // CTLAB_VECTORS=sse2 forces the SSE2 copy, the one a processor without AVX2 runs.
     // Neither uses FMA, so the pictures, counters and precomputation must be the same, to the
     // bit: lit and unlit (the runs and records without normals), along an axis (contiguous
     // rows) and at an angle. (On a processor without AVX2 both runs take the SSE2 copy, and
-    // this compares it with itself.) Step 47 reads its runs off bits (mask_bits()).
+    // this compares it with itself.) Step 47 reads its runs off bits (mask_bits()); step 48
+    // writes a lit composite's normal indices beside the records, sixteen at a time.
     const std::vector<std::string> oblique = {"--azimuth", "30", "--elevation", "20",
                                               "--size",    "96x96"};
     std::vector<std::vector<std::string>> runs = {cases()[1].flags, phantom_flags(),
                                                   cases()[0].flags, cases()[2].flags};
     runs[1].insert(runs[1].end(), oblique.begin(), oblique.end());  // spacing 1,1,2
-    for (const char* step : {"46_vector_normals", "47_bit_runs"})
+    for (const char* step : {"46_vector_normals", "47_bit_runs", "48_split_records"})
     for (const std::vector<std::string>& flags : runs) {
         INFO(step);
         const bool lit = std::find(flags.begin(), flags.end(), "--unlit") == flags.end();
@@ -591,6 +593,46 @@ TEST_CASE("part 3: steps 46 and 47's cell test, records and normals are their SS
     }
 }
 
+// Step `step` renders step `base`'s pictures and counters, to the bit, from the same runs and
+// records (the precomputation's counts), on each view: the phantom's, then the same views of
+// `resized`. `check` looks further at the two runs' output.
+template <class Check>
+static void same_as_base(const char* base, const char* step,
+                         const std::vector<std::vector<std::string>>& views,
+                         const ctlab::Volume& resized, Check check) {
+    for (size_t v = 0; v < 2 * views.size(); ++v) {
+        const bool is_resized = v >= views.size();
+        const std::vector<std::string>& view = views[v % views.size()];
+        std::vector<std::string> flags =
+            is_resized ? std::vector<std::string>{} : phantom_flags();
+        flags.insert(flags.end(), view.begin(), view.end());
+        std::string named = is_resized ? "resized: " : "";  // for a failure's message
+        for (const std::string& flag : flags) named += flag + " ";
+        INFO(base << " against " << step << ", " << named);
+        const StepRender before = is_resized ? render(base, flags, resized) : render(base, flags);
+        const StepRender after = is_resized ? render(step, flags, resized) : render(step, flags);
+        const ctlab::Image &a = before.image("camera"), &b = after.image("camera");
+        REQUIRE(a.pixels.size() == b.pixels.size());
+        size_t different = 0;
+        for (size_t n = 0; n < a.pixels.size(); ++n) {
+            const ctlab::Rgb p = a.pixels[n], q = b.pixels[n];
+            different += p.r != q.r || p.g != q.g || p.b != q.b;
+        }
+        CHECK(different == 0);
+        for (const char* key : {"samples", "skipped", "leapt", "gradients", "terminated"}) {
+            INFO(key);
+            CHECK(ctlab::summary_count(before.summary("camera"), key) ==
+                  ctlab::summary_count(after.summary("camera"), key));
+        }
+        for (const char* key : {"run_cells", "runs", "normal_voxels", "records"}) {
+            INFO(key);
+            CHECK(!precompute_value(after.run.out, key).empty());
+            CHECK(precompute_value(before.run.out, key) == precompute_value(after.run.out, key));
+        }
+        check(flags, before, after);
+    }
+}
+
 TEST_CASE("part 3: step 47's runs read off bits are step 46's runs, records and normals") {
     // Step 47 changes how the runs are found (bits, and where they change) and how the voxels
     // a record holds are marked (bits again), not what is found: the same runs, records and
@@ -613,37 +655,48 @@ TEST_CASE("part 3: step 47's runs read off bits are step 46's runs, records and 
     // The phantom resized so that no row is a whole number of words (or of sixteens): 200,
     // 77 and 45 cells, the last word of a row partly past its end.
     const ctlab::Volume odd = ctlab::make_phantom_sized(200, 77, 45);
-    for (size_t v = 0; v < 2 * views.size(); ++v) {
-        const bool resized = v >= views.size();
-        const std::vector<std::string>& view = views[v % views.size()];
-        std::vector<std::string> flags = resized ? std::vector<std::string>{} : phantom_flags();
-        flags.insert(flags.end(), view.begin(), view.end());
-        std::string named = resized ? "200x77x45: " : "";  // for a failure's message
-        for (const std::string& flag : flags) named += flag + " ";
-        INFO(named);
-        const StepRender base = resized ? render("46_vector_normals", flags, odd)
-                                        : render("46_vector_normals", flags);
-        const StepRender bits = resized ? render("47_bit_runs", flags, odd)
-                                        : render("47_bit_runs", flags);
-        const ctlab::Image &a = base.image("camera"), &b = bits.image("camera");
-        REQUIRE(a.pixels.size() == b.pixels.size());
-        size_t different = 0;
-        for (size_t n = 0; n < a.pixels.size(); ++n) {
-            const ctlab::Rgb p = a.pixels[n], q = b.pixels[n];
-            different += p.r != q.r || p.g != q.g || p.b != q.b;
-        }
-        CHECK(different == 0);
-        for (const char* key : {"samples", "skipped", "leapt", "gradients", "terminated"}) {
-            INFO(key);
-            CHECK(ctlab::summary_count(base.summary("camera"), key) ==
-                  ctlab::summary_count(bits.summary("camera"), key));
-        }
-        for (const char* key : {"run_cells", "runs", "normal_voxels", "records"}) {
-            INFO(key);
-            CHECK(!precompute_value(bits.run.out, key).empty());
-            CHECK(precompute_value(base.run.out, key) == precompute_value(bits.run.out, key));
-        }
-    }
+    same_as_base("46_vector_normals", "47_bit_runs", views, odd,
+                 [](const std::vector<std::string>&, const StepRender&, const StepRender&) {});
+}
+
+TEST_CASE("part 3: step 48's records and the normal indices beside them are step 47's") {
+    // Step 48 moves a lit composite's normal indices out of the records into an array beside
+    // them (record n's at n): the same values and indices, read from two places. A lit sample
+    // blends its cell's four corners' light (one voxel's along an axis), so a value or an index
+    // written or read at the wrong place changes the picture; with --ert 0 and the skin's
+    // opacity lowered the rays go on through every run, and the pictures hold every record
+    // the table sees. Lit and unlit, along k, i and j, at an angle, on the phantom and on it
+    // resized so that no row is a whole number of words or of the pack's sixteens (step 47's
+    // views and these). And the records' memory: 4 bytes a record unlit (step 47's 8), the
+    // same 8 lit (the values, and the indices beside them).
+    const std::vector<std::vector<std::string>> views = {
+        {"--azimuth", "180", "--elevation", "90", "--size", "96x96"},
+        {"--azimuth", "180", "--elevation", "90", "--size", "96x96", "--unlit"},
+        {"--azimuth", "90", "--elevation", "0", "--size", "96x64", "--ert", "0",
+         "--skin-opacity", "0.02"},
+        {"--azimuth", "0", "--elevation", "0", "--size", "96x64", "--unlit", "--ert", "0"},
+        {"--azimuth", "30", "--elevation", "20", "--size", "96x96", "--ert", "0",
+         "--skin-opacity", "0.02"},
+        {"--azimuth", "200", "--elevation", "-60", "--size", "80x80", "--unlit"}};
+    const ctlab::Volume odd = ctlab::make_phantom_sized(200, 77, 45);
+    same_as_base(
+        "47_bit_runs", "48_split_records", views, odd,
+        [](const std::vector<std::string>& flags, const StepRender& before,
+           const StepRender& after) {
+            const bool lit = std::find(flags.begin(), flags.end(), "--unlit") == flags.end();
+            INFO((lit ? "lit" : "unlit"));
+            const unsigned long long records =
+                std::stoull(precompute_value(after.run.out, "records"));
+            CHECK(records > 0);
+            CHECK((std::stoull(precompute_value(after.run.out, "normal_voxels")) > 0) == lit);
+            auto megabytes = [records](int bytes) {  // as the precompute line prints them
+                char text[32];
+                std::snprintf(text, sizeof text, "%.2f", double(records) * bytes / 1048576.0);
+                return std::string(text);
+            };
+            CHECK(precompute_value(before.run.out, "records_mb") == megabytes(8));
+            CHECK(precompute_value(after.run.out, "records_mb") == megabytes(lit ? 8 : 4));
+        });
 }
 
 TEST_CASE("part 3: step 47's given bit helpers: mask_bits() is its plain loop's, the scans") {
