@@ -13,18 +13,31 @@ namespace {
 
 constexpr size_t huge_page_bytes = size_t(2) << 20;  // x86-64's and arm64's (4 KiB base pages)
 constexpr size_t line_bytes = 64;                      // a cache line: each array starts on one
+constexpr size_t page_bytes = size_t(4) << 10;         // a plain page
 
 size_t round_up(size_t n, size_t unit) { return (n + unit - 1) / unit * unit; }
 
 // A block of whole huge pages: mapped on a 2 MiB boundary and advised, so that the kernel can
-// back it with huge pages; else (no mmap, or it failed) from the heap, plain pages.
+// back it with huge pages; else (no mmap, or it failed) from the heap, plain pages. huge
+// false: a mapping of plain 4 KiB pages (a table's: take_table_pages()), each page faulted
+// in only where it is written.
 struct Block {
     char* base = nullptr;
     size_t bytes = 0;
     bool mapped = false;
 
-    explicit Block(size_t size) : bytes(size) {
+    explicit Block(size_t size, bool huge = true) : bytes(size) {
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
+        if (!huge) {
+            void* start = mmap(nullptr, size, PROT_READ | PROT_WRITE,
+                               MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+            if (start != MAP_FAILED) {
+                base = static_cast<char*>(start);
+                madvise(base, size, MADV_NOHUGEPAGE);  // THP "always": still plain pages
+                mapped = true;
+                return;
+            }
+        }
         const size_t span = size + huge_page_bytes;  // room to move the start to a boundary
         void* start = mmap(nullptr, span, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS,
                            -1, 0);
@@ -70,6 +83,14 @@ void* take_huge_pages(size_t bytes, std::shared_ptr<const void>* owner) {
     used += bytes;
     *owner = current;
     return data;
+}
+
+void* take_table_pages(size_t bytes, std::shared_ptr<const void>* owner) {
+    bytes = round_up(bytes == 0 ? 1 : bytes, line_bytes);
+    if (current && used + bytes <= current->bytes) return take_huge_pages(bytes, owner);
+    auto block = std::make_shared<Block>(round_up(bytes, page_bytes), false);
+    *owner = block;
+    return block->base;
 }
 
 }  // namespace ctlab

@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 #include "error.h"
+#include "huge_pages.h"
 #include "image.h"
 #include "render.h"
 #include "step.h"
@@ -331,8 +332,9 @@ struct CellStretch {
 struct SliceRuns {
     int axis = -1;                // the principal axis they are for; -1: not made
     int nb = 0;                   // cell rows per slice
-    std::vector<uint32_t> first;  // per slice row c * nb + b: its first run; one past the end
-    std::vector<int32_t> bounds;  // begin, end of every run, in cells along a
+    TableVector<uint32_t> first;  // per slice row c * nb + b: its first run; one past the end
+    TableVector<int32_t> bounds;  // begin, end of every run, in cells along a (tables:
+                                  // common/huge_pages.h says where and why)
     size_t cells = 0;             // cells in runs, all slices
 
     // Slice c's row b: its runs, and how many (none for a row it does not hold: runs not

@@ -74,9 +74,10 @@ double warm_up(const std::vector<View>& views, int threads, const Volume* volume
     for (const View& view : views) {
         image_bytes = std::max(image_bytes, size_t(view.width) * view.height * sizeof(Rgb));
     }
-    // A render keeps its image while the next is made (--repeat, step 08's two orders):
-    // room for two images, rounded up to whole pages.
-    const size_t kept = std::min(2 * image_bytes + page_bytes, max_kept_bytes / 2);
+    // A render keeps its image while the next is made (--repeat, step 08's two orders), and
+    // an object-order render makes an intermediate image beside its own (as large, for a
+    // view along an axis): room for three images, rounded up to whole pages.
+    const size_t kept = std::min(3 * image_bytes + page_bytes, max_kept_bytes / 2);
 #ifdef __GLIBC__
     // Blocks below 2 * kept come from the heap (the threshold must exceed the block touched
     // below, or glibc maps that block apart and unmaps it on free), and a free hands memory

@@ -21,10 +21,12 @@
 namespace ctlab {
 
 // Keeps freed image memory in the process (glibc) and maps enough of it for the largest of
-// `views`' images twice over; starts the pool of render threads (`threads` in all, this one
+// `views`' images three times over (a render's intermediate image and picture, while the
+// picture before it is kept); starts the pool of render threads (`threads` in all, this one
 // included: common/render.h); and, given a volume, has each of `threads` threads read one
-// value per cache line of it (a pass over the volume per thread). Returns the milliseconds it took: warmup_ms= 2.1-2.8 on the phantom at
-// 1 thread, 3-12 at 2 threads (07-09 top, machine load ~4.5 on 2 cores).
+// value per cache line of it (a pass over the volume per thread). Returns the milliseconds it
+// took: warmup_ms= 2.1-2.8 on the phantom at 1 thread, 3-12 at 2 threads (07-09 top, machine
+// load ~4.5 on 2 cores).
 double warm_up(const std::vector<View>& views, int threads, const Volume* volume = nullptr);
 
 }  // namespace ctlab

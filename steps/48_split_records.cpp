@@ -460,7 +460,7 @@ using Records = HugeArray<Record>;  // one slice's, left unset until packed (2 M
 struct Runs : SliceRuns {  // the runs (common/object_order.h), and their records
     std::vector<Records> records;      // per slice: its runs', in order
     std::vector<HugeArray<RecordNormals>> normals_beside;  // per slice, lit composite only
-    std::vector<const Record*> start;  // per run: its first record; empty: not packed
+    TableVector<const Record*> start;  // per run: its first record; empty: not packed
     size_t record_count = 0;           // records, all slices
     size_t normals = 0;                // normal indices computed while packing (0: unlit)
 

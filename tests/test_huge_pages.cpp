@@ -1,6 +1,7 @@
 // test_huge_pages.cpp: HugeArray (common/huge_pages.h), the memory of step 46's records: each
 // array its own bytes, aligned, kept while it lives (also after the thread that made it ends),
-// and on a kernel that offers transparent huge pages, far fewer page faults than 4 KiB pages.
+// and on a kernel that offers transparent huge pages, far fewer page faults than 4 KiB pages;
+// and TableVector, the precomputation's other tables: a std::vector off the heap.
 #include <doctest/doctest.h>
 #include <sys/resource.h>
 #include <cstdint>
@@ -102,4 +103,34 @@ TEST_CASE("HugeArray: 8 MiB written in a few page faults where huge pages are of
     // kernel short of free 2 MiB pages may hand out some 4 KiB ones, hence the margin.
     MESSAGE("8 MiB in HugeArray: " << faults << " page faults (4 KiB pages: 2048)");
     CHECK(faults < 2048 / 4);
+}
+
+TEST_CASE("TableVector: a std::vector off the heap, aligned, kept while it lives, grown and freed") {
+    TableVector<int32_t> bounds;
+    bounds.reserve(1000);
+    for (int n = 0; n < 1000; ++n) bounds.push_back(7 * n - 3);
+    TableVector<uint64_t> starts(5000, 3);
+    CHECK(reinterpret_cast<uintptr_t>(bounds.data()) % 64 == 0);
+    CHECK(reinterpret_cast<uintptr_t>(starts.data()) % 64 == 0);
+    // Two tables of one thread: their elements must not overlap.
+    const char* b0 = reinterpret_cast<const char*>(bounds.data());
+    const char* s0 = reinterpret_cast<const char*>(starts.data());
+    CHECK((b0 + 1000 * sizeof(int32_t) <= s0 || s0 + 5000 * sizeof(uint64_t) <= b0));
+    // Grown past its reservation (copied into a new allocation: larger than any block's rest,
+    // so on plain pages of its own, the old one freed), copied, moved, and freed on another
+    // thread: the values stay.
+    for (int n = 1000; n < 300000; ++n) bounds.push_back(7 * n - 3);
+    TableVector<int32_t> copy = bounds;
+    std::thread other([moved = std::move(copy)]() mutable {
+        TableVector<int32_t> mine = std::move(moved);
+        bool same = mine.size() == 300000;
+        for (size_t n = 0; n < mine.size(); n += 997) same = same && mine[n] == 7 * int(n) - 3;
+        CHECK(same);
+    });
+    other.join();
+    bool kept = bounds.size() == 300000;
+    for (int n = 0; n < 300000; ++n) kept = kept && bounds[size_t(n)] == 7 * n - 3;
+    CHECK(kept);
+    for (uint64_t value : starts) kept = kept && value == 3;
+    CHECK(kept);
 }
